@@ -1,0 +1,43 @@
+/* CIE L*a*b* conversion and the input colour models labsegment reads. */
+#pragma once
+
+#include <cstdint>
+
+namespace landmark {
+
+struct Lab {
+  double L, a, b;
+};
+
+/* sRGB (gamma-encoded, components in [0, 1]) to CIE L*a*b* (D65).
+ * Uses the constants of OpenCV's float conversion (cv::COLOR_RGB2Lab), the
+ * reference our Python oracle uses, so the two agree to rounding. */
+Lab srgb_to_lab (double r, double g, double b);
+
+/* Inverse of srgb_to_lab, clipped to [0, 1]: display colours of classes. */
+void lab_to_srgb (const Lab & lab, double rgb[3]);
+
+/* How the three 8-bit components of an input pixel map to sRGB.
+ * RGB: (R, G, B). YUV: (Y, U, V) with a Y'CbCr matrix and range. */
+struct InputModel {
+  enum class Kind { RGB, YUV };
+  Kind kind = Kind::RGB;
+  double kr = 0.299, kb = 0.114;        /* luma coefficients (BT.601) */
+  double y_offset = 16, y_scale = 219;  /* limited range by default */
+  double c_offset = 128, c_scale = 224;
+
+  static InputModel rgb ();
+  static InputModel yuv (double kr, double kb, bool full_range);
+
+  /* components (may be fractional, for cell centres) to sRGB in [0, 1] */
+  void to_srgb (double c0, double c1, double c2, double rgb[3]) const;
+  /* sRGB in [0, 1] to the nearest 8-bit components (for drawing) */
+  void from_srgb (const double rgb[3], uint8_t out[3]) const;
+
+  bool operator== (const InputModel & o) const;
+  bool operator!= (const InputModel & o) const { return !(*this == o); }
+};
+
+Lab input_to_lab (const InputModel & model, double c0, double c1, double c2);
+
+}  // namespace landmark

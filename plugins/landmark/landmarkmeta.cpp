@@ -1,0 +1,273 @@
+#include "landmarkmeta.h"
+
+#include <cstring>
+
+namespace {
+
+gboolean
+copy_field (GQuark field, const GValue * value, gpointer user_data)
+{
+  gst_structure_id_set_value ((GstStructure *) user_data, field, value);
+  return TRUE;
+}
+
+void
+copy_fields (const GstStructure * from, GstStructure * to)
+{
+  gst_structure_foreach (from, copy_field, to);
+}
+
+/* Nearest-neighbour resampling of a label plane: class labels must not be
+ * blended, and each output pixel takes the class under its centre. */
+GstBuffer *
+resample_plane (GstBuffer * plane, guint w, guint h, guint stride,
+    guint out_w, guint out_h)
+{
+  GstBuffer *out = gst_buffer_new_allocate (nullptr, (gsize) out_w * out_h,
+      nullptr);
+  GstMapInfo in_map, out_map;
+  if (!gst_buffer_map (plane, &in_map, GST_MAP_READ)) {
+    gst_buffer_unref (out);
+    return nullptr;
+  }
+  gst_buffer_map (out, &out_map, GST_MAP_WRITE);
+  for (guint y = 0; y < out_h; y++) {
+    const guint sy = (guint) (((guint64) y * 2 + 1) * h / (2 * (guint64) out_h));
+    const guint8 *src = in_map.data + (gsize) sy * stride;
+    guint8 *dst = out_map.data + (gsize) y * out_w;
+    for (guint x = 0; x < out_w; x++)
+      dst[x] = src[((guint64) x * 2 + 1) * w / (2 * (guint64) out_w)];
+  }
+  gst_buffer_unmap (out, &out_map);
+  gst_buffer_unmap (plane, &in_map);
+  return out;
+}
+
+gboolean
+labels_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
+    GstBuffer * src, GQuark type, gpointer data, gpointer)
+{
+  (void) src;
+  const GstStructure *in = gst_custom_meta_get_structure (meta);
+  /* Some transforms call us twice for one buffer (scale, then copy):
+   * the first result stands. */
+  if (gst_buffer_get_custom_meta (dst, GST_LANDMARK_LABELS_META_NAME))
+    return TRUE;
+
+  if (GST_META_TRANSFORM_IS_COPY (type)) {
+    auto copy = (GstMetaTransformCopy *) data;
+    if (copy->region)
+      return FALSE;  /* a part of the buffer: the plane would not match */
+    copy_fields (in, landmark_labels_meta_add (dst));
+    return TRUE;
+  }
+
+  if (GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
+    auto t = (GstVideoMetaTransform *) data;
+    const guint out_w = GST_VIDEO_INFO_WIDTH (t->out_info);
+    const guint out_h = GST_VIDEO_INFO_HEIGHT (t->out_info);
+    GstBuffer *plane;
+    guint w, h, stride;
+    if (!landmark_labels_get_plane (in, &plane, &w, &h, &stride))
+      return FALSE;
+    GstStructure *out = landmark_labels_meta_add (dst);
+    copy_fields (in, out);
+    if (out_w == w && out_h == h)
+      return TRUE;
+    GstBuffer *scaled = resample_plane (plane, w, h, stride, out_w, out_h);
+    gst_buffer_unref (plane);
+    if (!scaled)
+      return FALSE;
+    gst_structure_set (out,
+        LANDMARK_LABELS_PLANE, GST_TYPE_BUFFER, scaled,
+        LANDMARK_LABELS_WIDTH, G_TYPE_UINT, out_w,
+        LANDMARK_LABELS_HEIGHT, G_TYPE_UINT, out_h,
+        LANDMARK_LABELS_STRIDE, G_TYPE_UINT, out_w, nullptr);
+    gst_buffer_unref (scaled);
+    return TRUE;
+  }
+  return FALSE;  /* unknown transform: drop rather than carry stale labels */
+}
+
+gboolean
+pose_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
+    GstBuffer * src, GQuark type, gpointer data, gpointer)
+{
+  (void) src;
+  (void) data;
+  if (gst_buffer_get_custom_meta (dst, GST_LANDMARK_POSE_META_NAME))
+    return TRUE;
+  /* The pose is a property of the frame, not of its pixels: it survives
+   * copies and scaling alike. */
+  if (GST_META_TRANSFORM_IS_COPY (type) ||
+      GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
+    copy_fields (gst_custom_meta_get_structure (meta),
+        landmark_pose_meta_add (dst));
+    return TRUE;
+  }
+  return FALSE;
+}
+
+const GstStructure *
+custom_structure (GstBuffer * buffer, const char *name)
+{
+  GstCustomMeta *meta = gst_buffer_get_custom_meta (buffer, name);
+  return meta ? gst_custom_meta_get_structure (meta) : nullptr;
+}
+
+const GValue *
+array_element (const GstStructure * s, const char *field, guint index)
+{
+  const GValue *array = gst_structure_get_value (s, field);
+  if (!array || !GST_VALUE_HOLDS_ARRAY (array) ||
+      index >= gst_value_array_get_size (array))
+    return nullptr;
+  return gst_value_array_get_value (array, index);
+}
+
+}  // namespace
+
+const GstMetaInfo *
+gst_landmark_labels_meta_get_info (void)
+{
+  /* coordinates: tagged video + size so scalers call the transform */
+  static const gchar *tags[] = { GST_META_TAG_VIDEO_STR,
+    GST_META_TAG_VIDEO_SIZE_STR, nullptr
+  };
+  static const GstMetaInfo *info = gst_meta_register_custom (
+      GST_LANDMARK_LABELS_META_NAME, tags, labels_meta_transform, nullptr,
+      nullptr);
+  return info;
+}
+
+const GstMetaInfo *
+gst_landmark_pose_meta_get_info (void)
+{
+  static const gchar *tags[] = { nullptr };
+  static const GstMetaInfo *info = gst_meta_register_custom (
+      GST_LANDMARK_POSE_META_NAME, tags, pose_meta_transform, nullptr,
+      nullptr);
+  return info;
+}
+
+void
+landmark_meta_register (void)
+{
+  gst_landmark_labels_meta_get_info ();
+  gst_landmark_pose_meta_get_info ();
+}
+
+GstStructure *
+landmark_labels_meta_add (GstBuffer * buffer)
+{
+  gst_landmark_labels_meta_get_info ();
+  GstCustomMeta *meta = gst_buffer_add_custom_meta (buffer,
+      GST_LANDMARK_LABELS_META_NAME);
+  return meta ? gst_custom_meta_get_structure (meta) : nullptr;
+}
+
+const GstStructure *
+landmark_labels_meta_get (GstBuffer * buffer)
+{
+  return custom_structure (buffer, GST_LANDMARK_LABELS_META_NAME);
+}
+
+gboolean
+landmark_labels_get_plane (const GstStructure * labels, GstBuffer ** plane,
+    guint * width, guint * height, guint * stride)
+{
+  GstBuffer *buf = nullptr;
+  guint w, h, s;
+  if (!gst_structure_get (labels,
+          LANDMARK_LABELS_PLANE, GST_TYPE_BUFFER, &buf,
+          LANDMARK_LABELS_WIDTH, G_TYPE_UINT, &w,
+          LANDMARK_LABELS_HEIGHT, G_TYPE_UINT, &h,
+          LANDMARK_LABELS_STRIDE, G_TYPE_UINT, &s, nullptr))
+    return FALSE;
+  if (s < w || gst_buffer_get_size (buf) < (gsize) s * h) {
+    gst_buffer_unref (buf);
+    return FALSE;
+  }
+  *plane = buf;
+  *width = w;
+  *height = h;
+  *stride = s;
+  return TRUE;
+}
+
+guint
+landmark_labels_n_classes (const GstStructure * labels)
+{
+  const GValue *names = gst_structure_get_value (labels,
+      LANDMARK_LABELS_CLASS_NAMES);
+  return names && GST_VALUE_HOLDS_ARRAY (names) ?
+      gst_value_array_get_size (names) : 0;
+}
+
+const gchar *
+landmark_labels_class_name (const GstStructure * labels, guint index)
+{
+  const GValue *v = array_element (labels, LANDMARK_LABELS_CLASS_NAMES, index);
+  return v && G_VALUE_HOLDS_STRING (v) ? g_value_get_string (v) : nullptr;
+}
+
+gboolean
+landmark_labels_class_is_marker (const GstStructure * labels, guint index)
+{
+  const GValue *v = array_element (labels, LANDMARK_LABELS_CLASS_MARKERS,
+      index);
+  return v && G_VALUE_HOLDS_BOOLEAN (v) && g_value_get_boolean (v);
+}
+
+guint
+landmark_labels_class_count (const GstStructure * labels, guint index)
+{
+  const GValue *v = array_element (labels, LANDMARK_LABELS_CLASS_COUNTS,
+      index);
+  return v && G_VALUE_HOLDS_UINT (v) ? g_value_get_uint (v) : 0;
+}
+
+GstVideoRegionOfInterestMeta *
+landmark_detection_add (GstBuffer * buffer, const gchar * class_name,
+    guint x, guint y, guint w, guint h)
+{
+  const guint id = landmark_detection_count (buffer);
+  GstVideoRegionOfInterestMeta *roi =
+      gst_buffer_add_video_region_of_interest_meta (buffer, class_name, x, y,
+      w, h);
+  if (roi)
+    roi->id = (gint) id;
+  return roi;
+}
+
+GstVideoRegionOfInterestMeta *
+landmark_detection_get (GstBuffer * buffer, gint id)
+{
+  return gst_buffer_get_video_region_of_interest_meta_id (buffer, id);
+}
+
+guint
+landmark_detection_count (GstBuffer * buffer)
+{
+  guint n = 0;
+  gpointer state = nullptr;
+  while (gst_buffer_iterate_meta_filtered (buffer, &state,
+          GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE))
+    n++;
+  return n;
+}
+
+GstStructure *
+landmark_pose_meta_add (GstBuffer * buffer)
+{
+  gst_landmark_pose_meta_get_info ();
+  GstCustomMeta *meta = gst_buffer_add_custom_meta (buffer,
+      GST_LANDMARK_POSE_META_NAME);
+  return meta ? gst_custom_meta_get_structure (meta) : nullptr;
+}
+
+const GstStructure *
+landmark_pose_meta_get (GstBuffer * buffer)
+{
+  return custom_structure (buffer, GST_LANDMARK_POSE_META_NAME);
+}

@@ -1,0 +1,78 @@
+/* The metadata contract of gst-landmark (docs/metadata.md).
+ *
+ * Labels: GstCustomMeta "GstLandmarkLabelsMeta", the per-frame class plane.
+ * Detections: GstVideoRegionOfInterestMeta, one per blob, with parameter
+ *   structures "landmark-blob", "landmark-range", "landmark-match".
+ * Pose: GstCustomMeta "GstLandmarkPoseMeta".
+ *
+ * Every element reads and writes metadata through this module only. */
+#pragma once
+
+#include <gst/gst.h>
+#include <gst/video/video.h>
+
+G_BEGIN_DECLS
+
+#define GST_LANDMARK_LABELS_META_NAME "GstLandmarkLabelsMeta"
+#define GST_LANDMARK_POSE_META_NAME "GstLandmarkPoseMeta"
+
+#define LANDMARK_BLOB_PARAMS "landmark-blob"
+#define LANDMARK_RANGE_PARAMS "landmark-range"
+#define LANDMARK_MATCH_PARAMS "landmark-match"
+
+/* Labels meta fields (all in the structure of the custom meta). */
+#define LANDMARK_LABELS_PLANE "labels"                 /* GstBuffer, uint8 */
+#define LANDMARK_LABELS_WIDTH "width"                  /* guint, pixels */
+#define LANDMARK_LABELS_HEIGHT "height"                /* guint, pixels */
+#define LANDMARK_LABELS_STRIDE "stride"                /* guint, bytes */
+#define LANDMARK_LABELS_ANALYSIS_WIDTH "analysis-width"
+#define LANDMARK_LABELS_ANALYSIS_HEIGHT "analysis-height"
+#define LANDMARK_LABELS_CLASS_NAMES "class-names"      /* array of strings */
+#define LANDMARK_LABELS_CLASS_MARKERS "class-markers"  /* array of booleans */
+#define LANDMARK_LABELS_CLASS_RGB "class-rgb"          /* array of 0xRRGGBB */
+#define LANDMARK_LABELS_CLASS_COUNTS "class-counts"    /* array of guint */
+#define LANDMARK_LABELS_CLASS_ACTIVE "class-active"    /* array of booleans */
+#define LANDMARK_LABELS_LABEL_COUNTS "label-counts"    /* array of guint */
+#define LANDMARK_LABELS_UNCLASSIFIED "unclassified"    /* guint */
+#define LANDMARK_LABELS_MIN_CLASS_PIXELS "min-class-pixels"  /* guint */
+#define LANDMARK_LABELS_MAX_DISTANCE "max-distance"    /* gdouble */
+#define LANDMARK_LABELS_USE_LIGHTNESS "use-lightness"  /* gboolean */
+
+const GstMetaInfo *gst_landmark_labels_meta_get_info (void);
+const GstMetaInfo *gst_landmark_pose_meta_get_info (void);
+
+/* Registers every meta of the contract; called from plugin_init. */
+void landmark_meta_register (void);
+
+/* Adds an empty labels meta and returns its structure to fill. */
+GstStructure *landmark_labels_meta_add (GstBuffer * buffer);
+
+/* The labels meta's structure, or NULL. */
+const GstStructure *landmark_labels_meta_get (GstBuffer * buffer);
+
+/* Reads the plane fields; FALSE when they are missing or inconsistent
+ * (plane smaller than stride * height). */
+gboolean landmark_labels_get_plane (const GstStructure * labels,
+    GstBuffer ** plane, guint * width, guint * height, guint * stride);
+
+/* Number of classes, and per-class fields (index 0 is label 1). */
+guint landmark_labels_n_classes (const GstStructure * labels);
+const gchar *landmark_labels_class_name (const GstStructure * labels,
+    guint index);
+gboolean landmark_labels_class_is_marker (const GstStructure * labels,
+    guint index);
+guint landmark_labels_class_count (const GstStructure * labels, guint index);
+
+/* Detections: one region-of-interest meta per blob. roi_type is the class
+ * name; id is the detection's index in the buffer (0, 1, 2, ...). */
+GstVideoRegionOfInterestMeta *landmark_detection_add (GstBuffer * buffer,
+    const gchar * class_name, guint x, guint y, guint w, guint h);
+GstVideoRegionOfInterestMeta *landmark_detection_get (GstBuffer * buffer,
+    gint id);
+guint landmark_detection_count (GstBuffer * buffer);
+
+/* Pose: adds an empty pose meta and returns its structure to fill. */
+GstStructure *landmark_pose_meta_add (GstBuffer * buffer);
+const GstStructure *landmark_pose_meta_get (GstBuffer * buffer);
+
+G_END_DECLS

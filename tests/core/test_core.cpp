@@ -1,0 +1,238 @@
+/* Tests of the algorithm code without GStreamer: L*a*b* conversion, the
+ * exactness of the class table over every 8-bit colour, palette parsing. */
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <string>
+
+#include "classtable.h"
+#include "labcolour.h"
+#include "palette.h"
+
+using namespace landmark;
+
+static int failures = 0;
+static int checks = 0;
+
+#define CHECK(cond, ...) do { \
+    checks++; \
+    if (!(cond)) { \
+      failures++; \
+      fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
+      fprintf (stderr, __VA_ARGS__); \
+      fprintf (stderr, "\n"); \
+    } \
+  } while (0)
+
+/* CIE 1976 values of sRGB primaries and greys (D65), from the published
+ * formulas; 0.05 covers the 6-digit matrix. */
+static void
+test_lab_known_values ()
+{
+  struct { int r, g, b; double L, a, bb; } known[] = {
+    {255, 255, 255, 100.0, 0.0, 0.0},
+    {0, 0, 0, 0.0, 0.0, 0.0},
+    {255, 0, 0, 53.24, 80.09, 67.20},
+    {0, 255, 0, 87.73, -86.18, 83.18},
+    {0, 0, 255, 32.30, 79.19, -107.86},
+    {128, 128, 128, 53.59, 0.0, 0.0},
+  };
+  for (const auto & k : known) {
+    Lab lab = srgb_to_lab (k.r / 255.0, k.g / 255.0, k.b / 255.0);
+    CHECK (std::fabs (lab.L - k.L) < 0.05 && std::fabs (lab.a - k.a) < 0.1 &&
+        std::fabs (lab.b - k.bb) < 0.1, "(%d,%d,%d) -> %.3f %.3f %.3f",
+        k.r, k.g, k.b, lab.L, lab.a, lab.b);
+  }
+}
+
+static void
+test_lab_round_trip ()
+{
+  std::mt19937 rng (7);
+  std::uniform_real_distribution<double> u (0.0, 1.0);
+  double worst = 0;
+  for (int i = 0; i < 10000; i++) {
+    double rgb[3] = { u (rng), u (rng), u (rng) }, back[3];
+    lab_to_srgb (srgb_to_lab (rgb[0], rgb[1], rgb[2]), back);
+    for (int c = 0; c < 3; c++)
+      worst = std::fmax (worst, std::fabs (rgb[c] - back[c]));
+  }
+  CHECK (worst < 1e-4, "worst round-trip error %g", worst);
+}
+
+static void
+test_yuv_model ()
+{
+  /* BT.601 limited range: Y=235, U=V=128 is white, Y=16 black; the model
+   * and its inverse agree on random colours */
+  InputModel m = InputModel::yuv (0.299, 0.114, false);
+  double rgb[3];
+  m.to_srgb (235, 128, 128, rgb);
+  CHECK (std::fabs (rgb[0] - 1) < 1e-9 && std::fabs (rgb[2] - 1) < 1e-9,
+      "white is %g %g %g", rgb[0], rgb[1], rgb[2]);
+  m.to_srgb (16, 128, 128, rgb);
+  CHECK (std::fabs (rgb[1]) < 1e-9, "black is %g %g %g", rgb[0], rgb[1],
+      rgb[2]);
+  std::mt19937 rng (3);
+  std::uniform_real_distribution<double> u (0.05, 0.95);
+  for (int i = 0; i < 1000; i++) {
+    double in[3] = { u (rng), u (rng), u (rng) }, out[3];
+    uint8_t c[3];
+    m.from_srgb (in, c);
+    m.to_srgb (c[0], c[1], c[2], out);
+    for (int k = 0; k < 3; k++)
+      CHECK (std::fabs (in[k] - out[k]) < 0.02, "component %d: %g vs %g", k,
+          in[k], out[k]);
+  }
+}
+
+/* The table must give, for every one of the 2^24 input colours, exactly
+ * what the direct computation gives. */
+static void
+check_table_exact (const char *what, const ClassifierConfig & cfg)
+{
+  ClassTable table;
+  const auto t0 = std::chrono::steady_clock::now ();
+  table.build (cfg);
+  const double build_ms = std::chrono::duration<double, std::milli> (
+      std::chrono::steady_clock::now () - t0).count ();
+  long mismatches = 0;
+  for (int c0 = 0; c0 < 256; c0++)
+    for (int c1 = 0; c1 < 256; c1++)
+      for (int c2 = 0; c2 < 256; c2++)
+        if (table.lookup (c0, c1, c2) != table.classify_exact (c0, c1, c2))
+          mismatches++;
+  CHECK (mismatches == 0, "%s: %ld of 16777216 colours differ", what,
+      mismatches);
+  printf ("table %-28s exact over 2^24 colours; build %.1f ms, %zu boundary "
+      "cells of 32768\n", what, build_ms, table.fine_cells ());
+}
+
+static void
+test_table_exact ()
+{
+  const Palette & def = palette_default ();
+  ClassifierConfig cfg;
+  for (const auto & c : def.classes)
+    cfg.refs.push_back (c.lab);
+  check_table_exact ("default rgb", cfg);
+
+  ClassifierConfig tight = cfg;
+  tight.max_distance = 12.0;
+  check_table_exact ("default rgb max-distance=12", tight);
+
+  ClassifierConfig ab = cfg;
+  ab.use_lightness = false;
+  check_table_exact ("default rgb a*b* only", ab);
+
+  ClassifierConfig yuv = cfg;
+  yuv.model = InputModel::yuv (0.2126, 0.0722, true);
+  check_table_exact ("default bt709 full range", yuv);
+
+  std::mt19937 rng (11);
+  std::uniform_real_distribution<double> L (0, 100), ab_ (-100, 100);
+  ClassifierConfig random;
+  for (int i = 0; i < 24; i++)
+    random.refs.push_back (Lab { L (rng), ab_ (rng), ab_ (rng) });
+  random.max_distance = 25.0;
+  random.model = InputModel::yuv (0.299, 0.114, false);
+  check_table_exact ("24 random bt601 limited", random);
+}
+
+static void
+test_subset_classification ()
+{
+  /* classify_exact over a subset equals the nearest among that subset */
+  ClassifierConfig cfg;
+  cfg.refs = { Lab { 50, 60, 40 }, Lab { 50, 0, 0 }, Lab { 90, 0, 0 } };
+  ClassTable table;
+  table.build (cfg);
+  CHECK (table.classify_exact (200, 40, 40) == 1, "reddish is class 1");
+  const uint8_t no_red[3] = { 0, 1, 1 };
+  CHECK (table.classify_exact (200, 40, 40, no_red) == 2,
+      "without red, reddish goes to grey");
+  const uint8_t none[3] = { 0, 0, 0 };
+  CHECK (table.classify_exact (200, 40, 40, none) == 0, "no class: 0");
+}
+
+static void
+expect_palette_error (const char *json, const char *fragment)
+{
+  Palette p;
+  std::string err;
+  bool ok = palette_parse (json, "test.json", &p, &err);
+  CHECK (!ok, "accepted %s", json);
+  CHECK (err.find ("test.json") == 0 && err.find (fragment) != std::string::npos,
+      "error \"%s\" lacks \"%s\"", err.c_str (), fragment);
+}
+
+static void
+test_palette_parsing ()
+{
+  const Palette & def = palette_default ();
+  CHECK (def.classes.size () == 7, "default has %zu classes",
+      def.classes.size ());
+  const char *markers[] = { "red", "green", "yellow", "pink", "blue" };
+  for (int i = 0; i < 5; i++)
+    CHECK (def.classes[i].name == markers[i] && def.classes[i].marker,
+        "class %d is %s", i, def.classes[i].name.c_str ());
+  CHECK (!def.classes[5].marker && !def.classes[6].marker,
+      "white and grey are background");
+
+  Palette p;
+  std::string err;
+  CHECK (palette_parse ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 1, 2]},"
+          " {\"name\": \"b\", \"lab\": [60, -3, 4.5], \"marker\": false}],"
+          " \"description\": \"x\"}", "t", &p, &err), "%s", err.c_str ());
+  CHECK (p.classes.size () == 2 && p.classes[0].marker && !p.classes[1].marker
+      && p.classes[1].lab.b == 4.5, "parsed values");
+
+  expect_palette_error ("{\"classes\": [", "not valid JSON");
+  expect_palette_error ("[1, 2]", "top level");
+  expect_palette_error ("{\"colours\": []}", "\"classes\" must be an array");
+  expect_palette_error ("{\"classes\": []}", "empty");
+  expect_palette_error ("{\"classes\": [{\"lab\": [1, 2, 3]}]}",
+      "classes[0]: \"name\" must be a string");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a b\", \"lab\": [1,2,3]}]}",
+      "\"name\" must be 1 to 32");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [1, 2]}]}",
+      "classes[0] (\"a\"): \"lab\" must be an array of 3");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [1, true, 2]}]}",
+      "\"lab\" must be an array of 3");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [120, 0, 0]}]}",
+      "L* must be within 0..100");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 0, -200]}]}",
+      "b* must be within -128..128");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 0, 0],"
+      " \"markr\": true}]}", "unknown key \"markr\"");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 0, 0],"
+      " \"marker\": 1}]}", "\"marker\" must be true or false");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 0, 0]},"
+      " {\"name\": \"a\", \"lab\": [40, 0, 0]}]}",
+      "classes[1] (\"a\"): duplicate class name");
+  std::string many = "{\"classes\": [";
+  for (int i = 0; i < 65; i++)
+    many += std::string (i ? "," : "") + "{\"name\": \"c" + std::to_string (i) +
+        "\", \"lab\": [50, 0, 0]}";
+  many += "]}";
+  expect_palette_error (many.c_str (), "at most 64");
+
+  CHECK (!palette_load_file ("/nonexistent/palette.json", &p, &err) &&
+      err.find ("/nonexistent/palette.json: cannot read") == 0, "%s",
+      err.c_str ());
+}
+
+int
+main ()
+{
+  test_lab_known_values ();
+  test_lab_round_trip ();
+  test_yuv_model ();
+  test_subset_classification ();
+  test_palette_parsing ();
+  test_table_exact ();
+  printf ("%d passed, %d failed\n", checks - failures, failures);
+  return failures ? 1 : 0;
+}

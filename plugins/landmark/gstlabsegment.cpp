@@ -421,6 +421,8 @@ gst_lab_segment_init (GstLabSegment * self)
   self->settings = new Settings ();
   self->state = new State ();
   gst_base_transform_set_in_place (GST_BASE_TRANSFORM (self), TRUE);
+  /* a measuring element never drops late frames */
+  gst_base_transform_set_qos_enabled (GST_BASE_TRANSFORM (self), FALSE);
 }
 
 static void
@@ -782,8 +784,24 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
       final_counts[k + 1] = 0;
 
   /* pass 2: pixels of classes too rare to count go to the nearest active
-   * class; there are fewer than n * min-class-pixels of them */
+   * class; there are fewer than n * min-class-pixels of them. They are
+   * converted in batches, like the table's own boundary cells. */
   if (any_demoted) {
+    guint8 comps[3 * landmark::ClassTable::kBatch];
+    guint8 *where[landmark::ClassTable::kBatch];
+    guint8 relabel[landmark::ClassTable::kBatch];
+    int pending = 0;
+    auto flush = [&]() {
+      if (any_active)
+        st.table.classify_exact (comps, pending, active, relabel);
+      else
+        memset (relabel, 0, pending);
+      for (int i = 0; i < pending; i++) {
+        *where[i] = relabel[i];
+        final_counts[relabel[i]]++;
+      }
+      pending = 0;
+    };
     for (guint y = 0; y < h; y++) {
       guint8 *row = labels + (gsize) y * w;
       bool row_set = false;
@@ -794,14 +812,13 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
           reader.set_row (y);
           row_set = true;
         }
-        guint8 c[3] = { 0, 0, 0 };
-        reader.get (x, c);
-        const guint8 l = any_active ?
-            st.table.classify_exact (c[0], c[1], c[2], active) : 0;
-        row[x] = l;
-        final_counts[l]++;
+        reader.get (x, comps + 3 * pending);
+        where[pending++] = row + x;
+        if (pending == landmark::ClassTable::kBatch)
+          flush ();
       }
     }
+    flush ();
   }
   guint32 classified = 0;
   for (guint k = 1; k <= n; k++)

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "classtable.h"
 #include "labcolour.h"
@@ -39,12 +40,48 @@ test_lab_known_values ()
     {0, 0, 255, 32.30, 79.19, -107.86},
     {128, 128, 128, 53.59, 0.0, 0.0},
   };
+  LabConverter converter;
   for (const auto & k : known) {
     Lab lab = srgb_to_lab (k.r / 255.0, k.g / 255.0, k.b / 255.0);
     CHECK (std::fabs (lab.L - k.L) < 0.05 && std::fabs (lab.a - k.a) < 0.1 &&
         std::fabs (lab.b - k.bb) < 0.1, "(%d,%d,%d) -> %.3f %.3f %.3f",
         k.r, k.g, k.b, lab.L, lab.a, lab.b);
+    /* OpenCV's table-based conversion, which classification uses */
+    const float comps[3] = { (float) k.r, (float) k.g, (float) k.b };
+    float cv[3];
+    converter.convert (InputModel::rgb (), comps, 1, cv);
+    CHECK (std::fabs (cv[0] - k.L) < 0.1 && std::fabs (cv[1] - k.a) < 0.1 &&
+        std::fabs (cv[2] - k.bb) < 0.1, "OpenCV (%d,%d,%d) -> %.3f %.3f %.3f",
+        k.r, k.g, k.b, cv[0], cv[1], cv[2]);
   }
+}
+
+/* OpenCV's conversion stays within 0.75 Delta E of the formulas (the class
+ * table's cell bound relies on it) */
+static void
+test_opencv_conversion_error ()
+{
+  LabConverter converter;
+  std::vector<float> comps, lab;
+  double worst = 0;
+  for (int r = 0; r < 256; r += 3)
+    for (int g = 0; g < 256; g += 3)
+      for (int b = 0; b < 256; b += 3) {
+        comps.insert (comps.end (), { (float) r, (float) g, (float) b });
+      }
+  const int n = comps.size () / 3;
+  lab.resize (comps.size ());
+  converter.convert (InputModel::rgb (), comps.data (), n, lab.data ());
+  for (int i = 0; i < n; i++) {
+    Lab f = srgb_to_lab (comps[3 * i] / 255.0, comps[3 * i + 1] / 255.0,
+        comps[3 * i + 2] / 255.0);
+    const double dl = f.L - lab[3 * i], da = f.a - lab[3 * i + 1],
+        db = f.b - lab[3 * i + 2];
+    worst = std::fmax (worst, std::sqrt (dl * dl + da * da + db * db));
+  }
+  CHECK (worst < 0.75, "OpenCV differs from the formulas by %.3f", worst);
+  printf ("OpenCV float L*a*b*: within %.3f Delta E of the CIE formulas\n",
+      worst);
 }
 
 static void
@@ -99,11 +136,19 @@ check_table_exact (const char *what, const ClassifierConfig & cfg)
   const double build_ms = std::chrono::duration<double, std::milli> (
       std::chrono::steady_clock::now () - t0).count ();
   long mismatches = 0;
+  std::vector<uint8_t> comps (3 * 256), exact (256);
   for (int c0 = 0; c0 < 256; c0++)
-    for (int c1 = 0; c1 < 256; c1++)
+    for (int c1 = 0; c1 < 256; c1++) {
+      for (int c2 = 0; c2 < 256; c2++) {
+        comps[3 * c2] = c0;
+        comps[3 * c2 + 1] = c1;
+        comps[3 * c2 + 2] = c2;
+      }
+      table.classify_exact (comps.data (), 256, nullptr, exact.data ());
       for (int c2 = 0; c2 < 256; c2++)
-        if (table.lookup (c0, c1, c2) != table.classify_exact (c0, c1, c2))
+        if (table.lookup (c0, c1, c2) != exact[c2])
           mismatches++;
+    }
   CHECK (mismatches == 0, "%s: %ld of 16777216 colours differ", what,
       mismatches);
   printf ("table %-28s exact over 2^24 colours; build %.1f ms, %zu boundary "
@@ -149,12 +194,16 @@ test_subset_classification ()
   cfg.refs = { Lab { 50, 60, 40 }, Lab { 50, 0, 0 }, Lab { 90, 0, 0 } };
   ClassTable table;
   table.build (cfg);
-  CHECK (table.classify_exact (200, 40, 40) == 1, "reddish is class 1");
+  const uint8_t reddish[3] = { 200, 40, 40 };
+  uint8_t label = 255;
+  table.classify_exact (reddish, 1, nullptr, &label);
+  CHECK (label == 1, "reddish is class 1, not %d", label);
   const uint8_t no_red[3] = { 0, 1, 1 };
-  CHECK (table.classify_exact (200, 40, 40, no_red) == 2,
-      "without red, reddish goes to grey");
+  table.classify_exact (reddish, 1, no_red, &label);
+  CHECK (label == 2, "without red, reddish goes to grey, not %d", label);
   const uint8_t none[3] = { 0, 0, 0 };
-  CHECK (table.classify_exact (200, 40, 40, none) == 0, "no class: 0");
+  table.classify_exact (reddish, 1, none, &label);
+  CHECK (label == 0, "no class: 0, not %d", label);
 }
 
 static void
@@ -229,6 +278,7 @@ main ()
 {
   test_lab_known_values ();
   test_lab_round_trip ();
+  test_opencv_conversion_error ();
   test_yuv_model ();
   test_subset_classification ();
   test_palette_parsing ();

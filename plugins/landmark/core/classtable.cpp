@@ -9,37 +9,28 @@ namespace landmark {
 namespace {
 
 double
-distance2 (const Lab & p, const Lab & r, bool use_lightness)
+distance2 (const float *p, const Lab & r, bool use_lightness)
 {
-  const double dl = use_lightness ? p.L - r.L : 0.0;
-  const double da = p.a - r.a, db = p.b - r.b;
+  const double dl = use_lightness ? p[0] - r.L : 0.0;
+  const double da = p[1] - r.a, db = p[2] - r.b;
   return dl * dl + da * da + db * db;
 }
 
 double
-lab_distance (const Lab & p, const Lab & q)
+lab_distance (const float *p, const float *q)
 {
-  return std::sqrt (distance2 (p, q, true));
+  const double dl = p[0] - q[0], da = p[1] - q[1], db = p[2] - q[2];
+  return std::sqrt (dl * dl + da * da + db * db);
 }
+
+/* OpenCV's table-based conversion stays within this of the CIE formulas
+ * (0.55 measured by the core test, which fails above this bound). */
+constexpr double kConversionError = 0.75;
 
 }  // namespace
 
-bool
-ClassifierConfig::operator== (const ClassifierConfig & o) const
-{
-  if (refs.size () != o.refs.size () || use_lightness != o.use_lightness ||
-      max_distance != o.max_distance || model != o.model)
-    return false;
-  for (size_t i = 0; i < refs.size (); i++) {
-    if (refs[i].L != o.refs[i].L || refs[i].a != o.refs[i].a ||
-        refs[i].b != o.refs[i].b)
-      return false;
-  }
-  return true;
-}
-
 uint8_t
-ClassTable::nearest (const Lab & lab, const uint8_t * active) const
+ClassTable::nearest (const float *lab, const uint8_t * active) const
 {
   /* strict '<' keeps the lowest index on ties, as numpy's argmin does */
   double best = std::numeric_limits<double>::infinity ();
@@ -58,21 +49,36 @@ ClassTable::nearest (const Lab & lab, const uint8_t * active) const
   return (uint8_t) (best_k + 1);
 }
 
-uint8_t
-ClassTable::classify_exact (uint8_t c0, uint8_t c1, uint8_t c2,
-    const uint8_t * active) const
+void
+ClassTable::classify_exact (const uint8_t * comps, int n,
+    const uint8_t * active, uint8_t * labels)
 {
-  return nearest (input_to_lab (cfg_.model, c0, c1, c2), active);
+  for (int start = 0; start < n; start += kBatch) {
+    const int m = std::min (kBatch, n - start);
+    for (int i = 0; i < 3 * m; i++)
+      comps_[i] = comps[3 * start + i];
+    converter_.convert (cfg_.model, comps_, m, lab_);
+    for (int i = 0; i < m; i++)
+      labels[start + i] = nearest (lab_ + 3 * i, active);
+  }
 }
 
 void
 ClassTable::fill_block (size_t block, int b0, int b1, int b2)
 {
-  uint8_t *out = &fine_[block << 9];
+  static_assert (kBatch >= 512, "one block per conversion");
   for (int u = 0; u < 8; u++)
     for (int v = 0; v < 8; v++)
-      for (int w = 0; w < 8; w++)
-        out[(u << 6) | (v << 3) | w] = classify_exact (b0 + u, b1 + v, b2 + w);
+      for (int w = 0; w < 8; w++) {
+        float *c = comps_ + 3 * ((u << 6) | (v << 3) | w);
+        c[0] = b0 + u;
+        c[1] = b1 + v;
+        c[2] = b2 + w;
+      }
+  converter_.convert (cfg_.model, comps_, 512, lab_);
+  uint8_t *out = &fine_[block << 9];
+  for (int i = 0; i < 512; i++)
+    out[i] = nearest (lab_ + 3 * i, nullptr);
   fine_ready_[block] = 1;
   filled_++;
 }
@@ -87,47 +93,64 @@ ClassTable::build (const ClassifierConfig & cfg)
   filled_ = 0;
 
   /* L*a*b* at the cell corners 0, 8, ..., 256 of each component (cell i
-   * covers [8i, 8i + 8)), shared between neighbouring cells */
-  std::vector<Lab> grid (33 * 33 * 33);
+   * covers [8i, 8i + 8)), shared between neighbouring cells, and at the
+   * cell centres */
+  const int n_grid = 33 * 33 * 33, n_cells = 32 * 32 * 32;
+  std::vector<float> comps (3 * (n_grid + n_cells));
+  float *g = comps.data (), *c = g + 3 * n_grid;
   for (int i = 0; i <= 32; i++)
     for (int j = 0; j <= 32; j++)
-      for (int k = 0; k <= 32; k++)
-        grid[(i * 33 + j) * 33 + k] = input_to_lab (cfg.model, i * 8, j * 8,
-            k * 8);
+      for (int k = 0; k <= 32; k++, g += 3) {
+        g[0] = i * 8;
+        g[1] = j * 8;
+        g[2] = k * 8;
+      }
+  for (int i = 0; i < 32; i++)
+    for (int j = 0; j < 32; j++)
+      for (int k = 0; k < 32; k++, c += 3) {
+        c[0] = i * 8 + 4;
+        c[1] = j * 8 + 4;
+        c[2] = k * 8 + 4;
+      }
+  std::vector<float> lab (comps.size ());
+  LabConverter converter;
+  converter.convert (cfg.model, comps.data (), n_grid + n_cells, lab.data ());
+  const float *grid = lab.data (), *centres = grid + 3 * n_grid;
 
   const size_t n = cfg.refs.size ();
   size_t blocks = 0;
   for (int i = 0; i < 32; i++) {
     for (int j = 0; j < 32; j++) {
       for (int k = 0; k < 32; k++) {
-        const Lab centre = input_to_lab (cfg.model, i * 8 + 4, j * 8 + 4,
-            k * 8 + 4);
-        /* How far L*a*b* moves inside the cell, from its corners; the
-         * factor covers the curvature of the conversion between them
-         * (the core test checks every 8-bit colour against the direct
-         * computation). No distance to a reference moves more. */
-        double radius = 0;
+        const size_t cell = ((size_t) i << 10) | (j << 5) | k;
+        const float *centre = centres + 3 * cell;
+        /* How far L*a*b* moves inside the cell, from its corners: the
+         * factor covers the curvature of the CIE curves between corners,
+         * the margins OpenCV's approximation of them (the core test checks
+         * every 8-bit colour against the direct computation). No distance
+         * to a reference moves more than that. */
+        double spread = 0;
         for (int corner = 0; corner < 8; corner++) {
-          const Lab & c = grid[((i + (corner & 1)) * 33 +
-                  (j + ((corner >> 1) & 1))) * 33 + k + ((corner >> 2) & 1)];
-          radius = std::max (radius, lab_distance (c, centre));
+          const int gi = ((i + (corner & 1)) * 33 + (j + ((corner >> 1) & 1)))
+              * 33 + k + ((corner >> 2) & 1);
+          spread = std::max (spread, lab_distance (grid + 3 * gi, centre));
         }
-        radius = radius * 1.5 + 1e-3;
+        const double radius = 1.5 * (spread + 2 * kConversionError) +
+            2 * kConversionError;
 
         double d1 = std::numeric_limits<double>::infinity (), d2 = d1;
         int k1 = -1;
-        for (size_t c = 0; c < n; c++) {
-          const double dc = std::sqrt (distance2 (centre, cfg.refs[c],
+        for (size_t r = 0; r < n; r++) {
+          const double dr = std::sqrt (distance2 (centre, cfg.refs[r],
                   cfg.use_lightness));
-          if (dc < d1) {
+          if (dr < d1) {
             d2 = d1;
-            d1 = dc;
-            k1 = (int) c;
-          } else if (dc < d2) {
-            d2 = dc;
+            d1 = dr;
+            k1 = (int) r;
+          } else if (dr < d2) {
+            d2 = dr;
           }
         }
-        const size_t cell = ((size_t) i << 10) | (j << 5) | k;
         if (k1 < 0 || d1 - radius > cfg.max_distance)
           coarse_[cell] = 0;  /* every colour of the cell is beyond reach */
         else if (d2 - d1 > 2.0 * radius && d1 + radius < cfg.max_distance)

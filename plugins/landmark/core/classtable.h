@@ -1,6 +1,7 @@
 /* Nearest-reference-colour classification of 8-bit pixels, through a lookup
- * table that is exact: it returns for every input colour what the direct
- * computation (convert to L*a*b*, take the nearest reference) returns. */
+ * table that is exact: for every input colour it returns what the direct
+ * computation (OpenCV's float L*a*b* conversion, then the nearest
+ * reference) returns. */
 #pragma once
 
 #include <cstddef>
@@ -19,8 +20,6 @@ struct ClassifierConfig {
   bool use_lightness = true;
   double max_distance = 1000.0;
   InputModel model;
-
-  bool operator== (const ClassifierConfig & o) const;
 };
 
 /* Two levels: 32x32x32 cells of 8x8x8 colours hold the label when the whole
@@ -34,7 +33,6 @@ public:
   void build (const ClassifierConfig & cfg);
 
   const ClassifierConfig & config () const { return cfg_; }
-  bool empty () const { return coarse_.empty (); }
 
   /* Nearest class over all classes for one pixel. */
   inline uint8_t lookup (uint8_t c0, uint8_t c1, uint8_t c2)
@@ -48,20 +46,23 @@ public:
     return fine_[(block << 9) | ((c0 & 7) << 6) | ((c1 & 7) << 3) | (c2 & 7)];
   }
 
-  /* The direct computation, optionally over a subset of classes
-   * (active[k] != 0 for class label k + 1). */
-  uint8_t classify_exact (uint8_t c0, uint8_t c1, uint8_t c2,
-      const uint8_t * active = nullptr) const;
+  /* The direct computation for n pixels (3 components each), optionally
+   * over a subset of classes (active[k] != 0 for label k + 1). */
+  void classify_exact (const uint8_t * comps, int n, const uint8_t * active,
+      uint8_t * labels);
 
   /* Cells of 8x8x8 colours that straddle a decision boundary, and how many
    * of them have been filled so far. */
   size_t fine_cells () const { return fine_ready_.size (); }
   size_t fine_cells_filled () const { return filled_; }
 
+  /* Pixels classify_exact handles per conversion call. */
+  static constexpr int kBatch = 512;
+
 private:
   static constexpr uint16_t kFineBase = 256;
 
-  uint8_t nearest (const Lab & lab, const uint8_t * active) const;
+  uint8_t nearest (const float *lab, const uint8_t * active) const;
   void fill_block (size_t block, int b0, int b1, int b2);
 
   ClassifierConfig cfg_;
@@ -70,6 +71,10 @@ private:
   std::vector<uint8_t> fine_;     /* 512 exact labels per boundary cell */
   std::vector<uint8_t> fine_ready_;
   size_t filled_ = 0;
+
+  LabConverter converter_;
+  float comps_[3 * kBatch];
+  float lab_[3 * kBatch];
 };
 
 }  // namespace landmark

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+
+#include <opencv2/imgproc.hpp>
 
 namespace landmark {
 
@@ -148,12 +151,34 @@ InputModel::operator== (const InputModel & o) const
       c_offset == o.c_offset && c_scale == o.c_scale;
 }
 
-Lab
-input_to_lab (const InputModel & model, double c0, double c1, double c2)
+void
+LabConverter::convert (const InputModel & model, const float *comps, int n,
+    float *lab)
 {
-  double rgb[3];
-  model.to_srgb (c0, c1, c2, rgb);
-  return srgb_to_lab (rgb[0], rgb[1], rgb[2]);
+  if (n <= 0)
+    return;
+  if (rgb_.cols < n) {
+    rgb_.create (1, n, CV_32FC3);
+    lab_.create (1, n, CV_32FC3);
+  }
+  float *rgb = rgb_.ptr<float> ();
+  for (int i = 0; i < n; i++) {
+    const float *c = comps + 3 * i;
+    if (model.kind == InputModel::Kind::RGB) {
+      /* as numpy's uint8.astype(float32) / 255.0 */
+      for (int k = 0; k < 3; k++)
+        rgb[3 * i + k] = c[k] / 255.0f;
+    } else {
+      double v[3];
+      model.to_srgb (c[0], c[1], c[2], v);
+      for (int k = 0; k < 3; k++)
+        rgb[3 * i + k] = (float) v[k];
+    }
+  }
+  /* column ranges of the scratch rows: headers only, no allocation */
+  cv::Mat out = lab_.colRange (0, n);
+  cv::cvtColor (rgb_.colRange (0, n), out, cv::COLOR_RGB2Lab);
+  memcpy (lab, lab_.ptr<float> (), sizeof (float) * 3 * n);
 }
 
 }  // namespace landmark

@@ -3,15 +3,16 @@
 
 #include <cstdint>
 
+#include <opencv2/core.hpp>
+
 namespace landmark {
 
 struct Lab {
   double L, a, b;
 };
 
-/* sRGB (gamma-encoded, components in [0, 1]) to CIE L*a*b* (D65).
- * Uses the constants of OpenCV's float conversion (cv::COLOR_RGB2Lab), the
- * reference our Python oracle uses, so the two agree to rounding. */
+/* sRGB (gamma-encoded, components in [0, 1]) to CIE L*a*b* (D65) by the
+ * CIE formulas, with the constants of OpenCV's conversion. */
 Lab srgb_to_lab (double r, double g, double b);
 
 /* Inverse of srgb_to_lab, clipped to [0, 1]: display colours of classes. */
@@ -38,6 +39,19 @@ struct InputModel {
   bool operator!= (const InputModel & o) const { return !(*this == o); }
 };
 
-Lab input_to_lab (const InputModel & model, double c0, double c1, double c2);
+/* Converts n pixels, given as 8-bit-scale components (3 floats each, may be
+ * fractional), to L*a*b* (3 floats each) through sRGB float32 and OpenCV's
+ * float conversion (cv::COLOR_RGB2Lab): bit for bit what the Python
+ * reference computes. OpenCV approximates the CIE curves by tables (within
+ * 0.75 Delta E). The caller's scratch matrices are reused, so steady-state
+ * calls allocate nothing once they are large enough. */
+class LabConverter {
+public:
+  void convert (const InputModel & model, const float *comps, int n,
+      float *lab);
+
+private:
+  cv::Mat rgb_, lab_;
+};
 
 }  // namespace landmark

@@ -1,0 +1,254 @@
+"""The ``gst-landmark`` command.
+
+Each top-level command is added by an ``add_<name>_parser(subparsers)``
+function listed in ``COMMANDS``.  That function creates its parser(s) and
+calls ``set_defaults(handler=...)``; a handler takes the parsed arguments
+and returns the exit status.  Handlers report bad input by raising
+``CliError`` (or ``PaletteError``); ``main`` prints it and returns 1.
+Usage errors exit with status 2, as argparse does.
+"""
+
+import argparse
+import os
+import sys
+
+import cv2
+import numpy as np
+
+from gstlandmark import __version__
+from gstlandmark import reference
+from gstlandmark.palette import (PaletteError, default_palette,
+                                 default_palette_text, learn_from_mask,
+                                 learn_from_rects, load_palette,
+                                 save_palette)
+
+PROG = "gst-landmark"
+
+
+class CliError(Exception):
+    """Bad input found while running a command (exit status 1)."""
+
+    def __init__(self, message, status=1):
+        super().__init__(message)
+        self.status = status
+
+
+class _Parser(argparse.ArgumentParser):
+    # Every usage error reads "gst-landmark: error: ...", whichever
+    # subcommand's parser found it.
+    def error(self, message):
+        self.print_usage(sys.stderr)
+        self.exit(2, f"{PROG}: error: {message}\n")
+
+
+# ---------------------------------------------------------------------------
+# Shared helpers
+
+
+def _split_list(text):
+    """"red, green" -> ["red", "green"]; None stays None."""
+    if text is None:
+        return None
+    return [item.strip() for item in text.split(",")]
+
+
+def _read_image(path):
+    """Read an 8-bit BGR image or raise CliError."""
+    if not os.path.isfile(path):
+        raise CliError(f"{path}: no such file")
+    image = cv2.imread(path, cv2.IMREAD_COLOR)
+    if image is None:
+        raise CliError(f"{path}: cannot read as an image")
+    return image
+
+
+def _read_mask(path):
+    """Read a class-index mask as a single-channel integer image."""
+    if not os.path.isfile(path):
+        raise CliError(f"{path}: no such file")
+    mask = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if mask is None:
+        raise CliError(f"{path}: cannot read as an image")
+    if mask.ndim == 3:
+        colour = mask[:, :, :3]
+        # A grey mask saved as RGB is fine; real colours are not indices.
+        if mask.shape[2] == 4 or not (
+                np.array_equal(colour[:, :, 0], colour[:, :, 1])
+                and np.array_equal(colour[:, :, 0], colour[:, :, 2])):
+            raise CliError(
+                f"{path}: the mask must be a single-channel image of class "
+                f"indices (0 = ignore, 1..K); save it as 8-bit greyscale "
+                f"(indexed-colour PNGs are read as colours)")
+        mask = colour[:, :, 0]
+    if not np.issubdtype(mask.dtype, np.integer):
+        raise CliError(f"{path}: the mask must hold integer class "
+                       f"indices, got {mask.dtype}")
+    return mask
+
+
+def format_palette_table(palette):
+    """The classes as a text table: name, L*, a*, b*, marker, sRGB hex."""
+    srgb = reference.lab_to_srgb8(palette.lab_array())
+    width = max([4] + [len(name) for name in palette.names])
+    lines = [f"{'name':<{width}}  {'L*':>7}  {'a*':>7}  {'b*':>7}  "
+             f"marker  sRGB"]
+    for cls, rgb in zip(palette.classes, srgb):
+        lightness, a_star, b_star = cls.lab
+        hex_colour = "#{:02X}{:02X}{:02X}".format(*rgb)
+        lines.append(f"{cls.name:<{width}}  {lightness:7.2f}  "
+                     f"{a_star:7.2f}  {b_star:7.2f}  "
+                     f"{'yes' if cls.marker else 'no':<6}  {hex_colour}")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------
+# gst-landmark palette ...
+
+
+def _parse_rect(text):
+    """argparse type for --rect NAME:X,Y,W,H."""
+    name, sep, numbers = text.rpartition(":")
+    parts = numbers.split(",")
+    try:
+        if not sep or not name or len(parts) != 4:
+            raise ValueError
+        x, y, w, h = (int(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected NAME:X,Y,W,H, got {text!r}") from None
+    if w <= 0 or h <= 0:
+        raise argparse.ArgumentTypeError(
+            f"width and height must be positive in {text!r}")
+    return (name, x, y, w, h)
+
+
+def _palette_learn(args):
+    if args.mask is not None:
+        if args.background is not None:
+            args.parser.error("--background goes with --rect; with --mask "
+                              "use --markers")
+        image = _read_image(args.image)
+        mask = _read_mask(args.mask)
+        palette = learn_from_mask(image, mask, names=_split_list(args.names),
+                                  markers=_split_list(args.markers))
+        description = (f"Learned by '{PROG} palette learn' from the class "
+                       f"mask {args.mask}.")
+    else:
+        if args.names is not None or args.markers is not None:
+            args.parser.error("--names and --markers go with --mask; with "
+                              "--rect use --background")
+        image = _read_image(args.image)
+        palette = learn_from_rects(image, args.rect,
+                                   background=_split_list(args.background))
+        description = (f"Learned by '{PROG} palette learn' from "
+                       f"{len(args.rect)} rectangle(s).")
+    try:
+        save_palette(palette, args.output, description=description,
+                     **{"learned-from": args.image})
+    except OSError as err:
+        raise CliError(f"{args.output}: cannot write: "
+                       f"{err.strerror or err}") from None
+    print(format_palette_table(palette))
+    print(f"wrote {args.output}")
+    return 0
+
+
+def _palette_check(args):
+    palette = load_palette(args.file)
+    print(f"{args.file}: valid, {len(palette)} classes "
+          f"({len(palette.markers)} markers)")
+    print(format_palette_table(palette))
+    return 0
+
+
+def _palette_show_default(args):
+    default_palette()  # validate before showing it
+    sys.stdout.write(default_palette_text())
+    return 0
+
+
+def add_palette_parser(subparsers):
+    parser = subparsers.add_parser(
+        "palette", help="learn, check and show colour palettes",
+        description="Learn, check and show colour palettes.")
+    actions = parser.add_subparsers(dest="action", metavar="ACTION",
+                                    required=True)
+
+    learn = actions.add_parser(
+        "learn", help="learn a palette from an image",
+        description="Learn a palette: each class gets the mean L*a*b* of "
+                    "its pixels, marked either by a class-index mask or by "
+                    "rectangles.")
+    learn.add_argument("image", metavar="IMAGE", help="the example image")
+    source = learn.add_mutually_exclusive_group(required=True)
+    source.add_argument("--mask", metavar="MASK",
+                        help="greyscale image of class indices: 0 = ignore, "
+                             "k = class k (1..K)")
+    source.add_argument("--rect", metavar="NAME:X,Y,W,H", action="append",
+                        type=_parse_rect,
+                        help="pixels of class NAME (repeatable; rectangles "
+                             "of one name are pooled)")
+    learn.add_argument("--names", metavar="N1,N2,...",
+                       help="with --mask: class names in index order "
+                            "(default class1..classK)")
+    learn.add_argument("--markers", metavar="N1,N2,...",
+                       help="with --mask: the marker classes (default all)")
+    learn.add_argument("--background", metavar="N1,N2,...",
+                       help="with --rect: the non-marker classes")
+    learn.add_argument("-o", "--output", metavar="OUT.json", required=True,
+                       help="palette file to write")
+    learn.set_defaults(handler=_palette_learn, parser=learn)
+
+    check = actions.add_parser(
+        "check", help="validate a palette file and list its classes",
+        description="Validate a palette file and list its classes.")
+    check.add_argument("file", metavar="FILE")
+    check.set_defaults(handler=_palette_check, parser=check)
+
+    show = actions.add_parser(
+        "show-default", help="print the built-in default palette",
+        description="Print the built-in default palette as JSON.")
+    show.set_defaults(handler=_palette_show_default, parser=show)
+
+
+# ---------------------------------------------------------------------------
+# Command registry and entry point
+
+# To add a command, write add_<name>_parser(subparsers) and list it here.
+COMMANDS = [
+    add_palette_parser,
+]
+
+
+def build_parser():
+    parser = _Parser(prog=PROG,
+                     description="Colour landmark localisation tools.")
+    parser.add_argument("--version", action="version",
+                        version=f"%(prog)s {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND",
+                                       required=True)
+    for add_parser in COMMANDS:
+        add_parser(subparsers)
+    return parser
+
+
+def main(argv=None):
+    """Run the command line ``argv`` (default sys.argv[1:]); return the
+    exit status."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        return args.handler(args)
+    except SystemExit as exc:
+        # argparse exits for --help and usage errors; report its status.
+        if exc.code is None or isinstance(exc.code, int):
+            return exc.code or 0
+        print(exc.code, file=sys.stderr)
+        return 1
+    except (CliError, PaletteError) as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return getattr(err, "status", 1)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,429 @@
+"""Colour palettes: load, validate, save and learn them.
+
+A palette file is JSON::
+
+    {"classes": [{"name": "red", "lab": [41.25, 43.0, 32.0],
+                  "marker": true}, ...]}
+
+with CIE L*a*b* values (L* 0..100).  The C++ labsegment element applies
+exactly the same validation rules as ``parse_palette``; keep them in step.
+"""
+
+from dataclasses import dataclass
+import importlib.resources
+import json
+import math
+import re
+
+import numpy as np
+
+from gstlandmark import reference
+
+MAX_CLASSES = 64
+MAX_NAME_LENGTH = 32
+CLASS_KEYS = ("name", "lab", "marker")
+_NAME_RE = re.compile(r"[A-Za-z0-9_.-]+")
+# Decimals written for L*a*b* values: far below any visible difference.
+LAB_DECIMALS = 4
+
+
+class PaletteError(ValueError):
+    """A palette that cannot be read, is invalid or cannot be learned."""
+
+
+@dataclass(frozen=True)
+class PaletteClass:
+    name: str
+    lab: tuple[float, float, float]
+    marker: bool = True
+
+
+@dataclass
+class Palette:
+    classes: list[PaletteClass]
+
+    def __len__(self):
+        return len(self.classes)
+
+    @property
+    def names(self):
+        """Class names in label order (label k + 1 is names[k])."""
+        return [c.name for c in self.classes]
+
+    @property
+    def markers(self):
+        """Names of the marker classes (the others are background)."""
+        return [c.name for c in self.classes if c.marker]
+
+    @property
+    def background(self):
+        """Names of the non-marker (background) classes."""
+        return [c.name for c in self.classes if not c.marker]
+
+    def marker_mask(self):
+        """bool (K,): True where the class is a marker."""
+        return np.array([c.marker for c in self.classes], dtype=bool)
+
+    def lab_array(self):
+        """float64 (K, 3) reference colours in label order."""
+        return np.array([c.lab for c in self.classes],
+                        dtype=np.float64).reshape(-1, 3)
+
+    def index(self, name):
+        """Class index of ``name`` (its label is index + 1)."""
+        return self.names.index(name)
+
+
+def _json_type(value):
+    """The JSON name of a Python value's type, for messages."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, (int, float)):
+        return "number"
+    if isinstance(value, str):
+        return "string"
+    if isinstance(value, (list, tuple)):
+        return "array"
+    if isinstance(value, dict):
+        return "object"
+    return type(value).__name__
+
+
+def _show(value):
+    """Format a bad value for a message: 120.0 as 120, strings quoted."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and math.isfinite(value) \
+            and value.is_integer():
+        return str(int(value))
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    return _json_type(value)
+
+
+def _is_number(value):
+    # JSON true/false arrive as bool, which is an int subclass.
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _valid_name(name):
+    return (isinstance(name, str) and 0 < len(name) <= MAX_NAME_LENGTH
+            and _NAME_RE.fullmatch(name) is not None)
+
+
+def _parse_class(entry, index, source):
+    where = f"{source}: classes[{index}]"
+    if not isinstance(entry, dict):
+        raise PaletteError(f"{where}: must be an object, got "
+                           f"{_json_type(entry)}")
+    name = entry.get("name")
+    if _valid_name(name):
+        where += f" ({json.dumps(name)})"
+
+    for key in entry:
+        if key not in CLASS_KEYS:
+            raise PaletteError(f"{where}: unknown key {json.dumps(key)} "
+                               f"(allowed: \"name\", \"lab\", \"marker\")")
+
+    if "name" not in entry:
+        raise PaletteError(f"{where}: missing \"name\"")
+    if not isinstance(name, str):
+        raise PaletteError(f"{where}: \"name\" must be a string, got "
+                           f"{_json_type(name)}")
+    if not name:
+        raise PaletteError(f"{where}: \"name\" must not be empty")
+    if len(name) > MAX_NAME_LENGTH:
+        raise PaletteError(f"{where}: \"name\" must be at most "
+                           f"{MAX_NAME_LENGTH} characters, got {len(name)}")
+    if not _valid_name(name):
+        raise PaletteError(f"{where}: \"name\" {json.dumps(name)} may only "
+                           f"contain A-Z a-z 0-9 _ . -")
+
+    if "lab" not in entry:
+        raise PaletteError(f"{where}: missing \"lab\"")
+    lab = entry["lab"]
+    if not isinstance(lab, (list, tuple)) or len(lab) != 3:
+        got = (f"{len(lab)} values" if isinstance(lab, (list, tuple))
+               else _json_type(lab))
+        raise PaletteError(f"{where}: \"lab\" must be an array of 3 numbers "
+                           f"[L*, a*, b*], got {got}")
+    for i, value in enumerate(lab):
+        if not _is_number(value):
+            raise PaletteError(f"{where}: \"lab\"[{i}] must be a number, "
+                               f"got {_json_type(value)}")
+        # A huge JSON integer is finite but does not fit a float.
+        if isinstance(value, float) and not math.isfinite(value):
+            raise PaletteError(f"{where}: \"lab\"[{i}] must be finite, got "
+                               f"{_show(value)}")
+    lightness, a_star, b_star = lab
+    if not 0 <= lightness <= 100:
+        raise PaletteError(f"{where}: \"lab\" L* must be within 0..100, "
+                           f"got {_show(lightness)}")
+    for label, value in (("a*", a_star), ("b*", b_star)):
+        if not -128 <= value <= 128:
+            raise PaletteError(f"{where}: \"lab\" {label} must be within "
+                               f"-128..128, got {_show(value)}")
+
+    marker = entry.get("marker", True)
+    if not isinstance(marker, bool):
+        raise PaletteError(f"{where}: \"marker\" must be true or false, "
+                           f"got {_show(marker)}")
+
+    return PaletteClass(name=name,
+                        lab=(float(lightness), float(a_star), float(b_star)),
+                        marker=marker)
+
+
+def parse_palette(obj, source="<palette>"):
+    """Validate a decoded JSON object and return a ``Palette``.
+
+    ``source`` starts every error message (a file name, usually).
+    """
+    if not isinstance(obj, dict):
+        raise PaletteError(f"{source}: top level must be an object with a "
+                           f"\"classes\" array, got {_json_type(obj)}")
+    if "classes" not in obj:
+        raise PaletteError(f"{source}: missing \"classes\"")
+    entries = obj["classes"]
+    if not isinstance(entries, (list, tuple)):
+        raise PaletteError(f"{source}: \"classes\" must be an array, got "
+                           f"{_json_type(entries)}")
+    if not entries:
+        raise PaletteError(f"{source}: \"classes\" is empty: a palette "
+                           f"needs at least one class")
+    if len(entries) > MAX_CLASSES:
+        raise PaletteError(f"{source}: \"classes\" has {len(entries)} "
+                           f"entries, at most {MAX_CLASSES} are allowed")
+
+    classes = []
+    first_index = {}
+    for index, entry in enumerate(entries):
+        cls = _parse_class(entry, index, source)
+        if cls.name in first_index:
+            raise PaletteError(
+                f"{source}: classes[{index}] ({json.dumps(cls.name)}): "
+                f"duplicate name, already used by "
+                f"classes[{first_index[cls.name]}]")
+        first_index[cls.name] = index
+        classes.append(cls)
+    return Palette(classes)
+
+
+def parse_palette_text(text, source="<palette>"):
+    """Decode JSON text and validate it as a palette."""
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise PaletteError(f"{source}: not valid JSON: {err.msg} at line "
+                           f"{err.lineno}, column {err.colno}") from None
+    return parse_palette(obj, source)
+
+
+def load_palette(path):
+    """Read and validate a palette file."""
+    source = str(path)
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except FileNotFoundError:
+        raise PaletteError(f"{source}: no such file") from None
+    except IsADirectoryError:
+        raise PaletteError(f"{source}: is a directory, not a palette "
+                           f"file") from None
+    except OSError as err:
+        raise PaletteError(f"{source}: cannot read: "
+                           f"{err.strerror or err}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise PaletteError(f"{source}: not valid UTF-8 (byte "
+                           f"{err.start})") from None
+    return parse_palette_text(text, source)
+
+
+def default_palette_text():
+    """The built-in default palette file, as text."""
+    files = importlib.resources.files("gstlandmark")
+    return (files / "data" / "default-palette.json").read_text("utf-8")
+
+
+def default_palette():
+    """The built-in default palette (the one the element embeds)."""
+    return parse_palette_text(default_palette_text(),
+                              "<default palette>")
+
+
+def palette_to_json(palette, **extra_top_level):
+    """A JSON-ready dict: the extra top-level keys first, then "classes".
+
+    Keys that are not Python identifiers (such as "learned-from") can be
+    passed as ``**{"learned-from": path}``.
+    """
+    if "classes" in extra_top_level:
+        raise ValueError("\"classes\" is written from the palette itself")
+    obj = dict(extra_top_level)
+    obj["classes"] = [
+        {"name": c.name,
+         "lab": [round(float(v), LAB_DECIMALS) for v in c.lab],
+         "marker": bool(c.marker)}
+        for c in palette.classes
+    ]
+    return obj
+
+
+def _format_json(obj):
+    """Indented JSON with one class per line, like the shipped palette."""
+    lines = ["{"]
+    items = list(obj.items())
+    for i, (key, value) in enumerate(items):
+        comma = "," if i < len(items) - 1 else ""
+        if key == "classes":
+            lines.append(f"  {json.dumps(key)}: [")
+            for j, entry in enumerate(value):
+                sep = "," if j < len(value) - 1 else ""
+                lines.append(f"    {json.dumps(entry)}{sep}")
+            lines.append(f"  ]{comma}")
+        else:
+            lines.append(f"  {json.dumps(key)}: {json.dumps(value)}{comma}")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def save_palette(palette, path, **extra):
+    """Validate ``palette`` and write it to ``path`` as JSON."""
+    obj = palette_to_json(palette, **extra)
+    # Never write a file the loader (or the element) would refuse.
+    parse_palette(obj, str(path))
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(_format_json(obj))
+
+
+def _check_image(image):
+    image = np.asarray(image)
+    if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
+        raise PaletteError(f"expected an 8-bit 3-channel BGR image, got "
+                           f"{image.dtype} {image.shape}")
+    return image
+
+
+def _image_lab(image_bgr):
+    """Lab of a BGR image, computed exactly as the reference does."""
+    rgb = np.ascontiguousarray(image_bgr[:, :, ::-1])
+    return reference.rgb_to_lab(rgb)
+
+
+def _marker_flags(names, markers, background):
+    """Marker flag per name, from a list of markers or of backgrounds."""
+    if markers is not None and background is not None:
+        raise PaletteError("give either markers or background, not both")
+    listed = markers if markers is not None else background
+    if listed is None:
+        return [True] * len(names)
+    listed = list(listed)
+    for name in listed:
+        if name not in names:
+            raise PaletteError(f"{json.dumps(name)} is not one of the "
+                               f"classes ({', '.join(names)})")
+    if markers is not None:
+        return [name in listed for name in names]
+    return [name not in listed for name in names]
+
+
+def _palette_from_masks(lab, names, masks, flags):
+    """Mean Lab of each class's pixels -> validated Palette."""
+    entries = []
+    for name, mask, marker in zip(names, masks, flags):
+        if not mask.any():
+            raise PaletteError(f"class {json.dumps(name)} has no pixels")
+        # Mean in float64 over the float32 Lab pixels; clip L* so float
+        # rounding at pure white or black cannot fail validation.
+        mean = lab[mask].astype(np.float64).mean(axis=0)
+        mean[0] = min(max(mean[0], 0.0), 100.0)
+        entries.append({"name": name, "lab": [float(v) for v in mean],
+                        "marker": marker})
+    return parse_palette({"classes": entries}, "<learned palette>")
+
+
+def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None):
+    """Learn a palette from an image and a mask of class indices.
+
+    Mask value 0 is ignored, value k (1..K) marks pixels of class k.  Names
+    default to "class1".."classK" (K = largest mask value) or are given;
+    ``markers`` lists the names of the marker classes (default: all).
+    Each class gets the mean L*a*b* of its pixels.
+    """
+    image = _check_image(image_bgr_uint8)
+    mask = np.asarray(mask_uint8)
+    if mask.ndim == 3 and mask.shape[2] == 1:
+        mask = mask[:, :, 0]
+    if mask.ndim != 2 or not np.issubdtype(mask.dtype, np.integer):
+        raise PaletteError(f"the mask must be a single-channel integer "
+                           f"image, got {mask.dtype} {mask.shape}")
+    if mask.shape != image.shape[:2]:
+        raise PaletteError(
+            f"the mask is {mask.shape[1]}x{mask.shape[0]} but the image is "
+            f"{image.shape[1]}x{image.shape[0]}")
+    if mask.size and mask.min() < 0:
+        raise PaletteError("the mask has negative values")
+
+    top = int(mask.max()) if mask.size else 0
+    if names is None:
+        if top == 0:
+            raise PaletteError("the mask has no class pixels (all 0)")
+        names = [f"class{k}" for k in range(1, top + 1)]
+    else:
+        names = list(names)
+        if top > len(names):
+            raise PaletteError(f"the mask has class index {top} but "
+                               f"there are only {len(names)} class names")
+    if len(names) > MAX_CLASSES:
+        raise PaletteError(f"{len(names)} classes, at most {MAX_CLASSES} "
+                           f"are allowed")
+    flags = _marker_flags(names, markers, None)
+    masks = [mask == k for k in range(1, len(names) + 1)]
+    return _palette_from_masks(_image_lab(image), names, masks, flags)
+
+
+def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None):
+    """Learn a palette from rectangles ``[(name, x, y, w, h), ...]``.
+
+    Several rectangles may share a name; their pixels are pooled.  Classes
+    are in order of first appearance.  ``markers`` or ``background`` lists
+    which names are markers or background (default: all markers).
+    """
+    image = _check_image(image_bgr_uint8)
+    height, width = image.shape[:2]
+    names = []
+    class_masks = {}
+    owner = np.full((height, width), -1, dtype=np.int64)
+    for name, x, y, w, h in rects:
+        what = f"rectangle {name}:{x},{y},{w},{h}"
+        if w <= 0 or h <= 0:
+            raise PaletteError(f"{what}: width and height must be positive")
+        if x < 0 or y < 0 or x + w > width or y + h > height:
+            raise PaletteError(f"{what} does not fit inside the "
+                               f"{width}x{height} image")
+        if name not in class_masks:
+            names.append(name)
+            class_masks[name] = np.zeros((height, width), dtype=bool)
+        index = names.index(name)
+        # A pixel claimed by two classes has no defined colour.
+        clash = owner[y:y + h, x:x + w]
+        others = np.unique(clash[(clash >= 0) & (clash != index)])
+        if others.size:
+            raise PaletteError(f"{what} overlaps a rectangle of "
+                               f"{json.dumps(names[others[0]])}")
+        clash[...] = index
+        class_masks[name][y:y + h, x:x + w] = True
+    if not names:
+        raise PaletteError("no rectangles given")
+    if len(names) > MAX_CLASSES:
+        raise PaletteError(f"{len(names)} classes, at most {MAX_CLASSES} "
+                           f"are allowed")
+    flags = _marker_flags(names, markers, background)
+    masks = [class_masks[name] for name in names]
+    return _palette_from_masks(_image_lab(image), names, masks, flags)

@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Installs what gst-landmark needs on Debian 12 (system packages, the Python
+# virtual environment) and builds it. Safe to run again: it only does what
+# is missing. Sourced by scripts/demo.sh and scripts/test.sh.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+BUILD=${LANDMARK_BUILD_DIR:-$ROOT/build}
+VENV=${LANDMARK_VENV:-$ROOT/.venv}
+
+APT_PACKAGES=(
+  ca-certificates meson ninja-build pkg-config g++ util-linux
+  libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev libjson-glib-dev
+  libopencv-core-dev libopencv-imgproc-dev
+  gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good
+  python3 python3-venv python3-gi python3-gst-1.0
+  gir1.2-gstreamer-1.0 gir1.2-gst-plugins-base-1.0
+)
+
+log() { printf '[setup] %s\n' "$*" >&2; }
+
+missing=()
+for p in "${APT_PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" -ne 0 ]; then
+    log "missing Debian packages: ${missing[*]}"
+    log "run as root, or: sudo apt-get install ${missing[*]}"
+    exit 1
+  fi
+  log "installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -q >/dev/null
+  apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# Debian's python3 has the GStreamer bindings (gi); the venv sees them
+# through --system-site-packages and adds numpy, OpenCV and pytest.
+if [ ! -x "$VENV/bin/python" ]; then
+  log "creating $VENV"
+  /usr/bin/python3 -m venv --system-site-packages "$VENV"
+fi
+stamp="$VENV/.gstlandmark-installed"
+if [ ! -f "$stamp" ] || [ "$ROOT/python/pyproject.toml" -nt "$stamp" ]; then
+  log "installing the gstlandmark package into $VENV"
+  "$VENV/bin/python" -m pip install -q --disable-pip-version-check -e "$ROOT/python[test]"
+  touch "$stamp"
+fi
+
+export PATH="$VENV/bin:$PATH"
+if [ ! -f "$BUILD/build.ninja" ]; then
+  log "configuring $BUILD"
+  meson setup "$BUILD" "$ROOT" >/dev/null
+fi
+log "building"
+ninja -C "$BUILD" >/dev/null
+
+export GST_PLUGIN_PATH="$BUILD/plugins${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"

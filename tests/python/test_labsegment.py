@@ -1,0 +1,206 @@
+"""labsegment against the Python reference (numpy + OpenCV float L*a*b*)
+on random and natural-looking frames in every accepted format."""
+
+import numpy as np
+import pytest
+
+from gstlandmark import meta, palette, pipeline, reference
+
+import frames as F
+
+SIZES = [(64, 48), (63, 47), (1, 1), (5, 3)]
+
+
+def run(element, payloads, caps):
+    return pipeline.process_frames(element, payloads, caps)
+
+
+def agreement(got, want, what):
+    """Fraction of equal labels; prints where they differ."""
+    equal = got == want
+    frac = equal.mean() if equal.size else 1.0
+    if not equal.all():
+        ys, xs = np.nonzero(~equal)
+        print(f"{what}: {len(ys)} of {equal.size} labels differ, e.g. at "
+              f"{list(zip(ys[:5].tolist(), xs[:5].tolist()))}: element "
+              f"{got[ys[:5], xs[:5]].tolist()} reference "
+              f"{want[ys[:5], xs[:5]].tolist()}")
+    return frac
+
+
+def check_meta(lm, seg, pal, width, height, min_class_pixels):
+    assert (lm.width, lm.height, lm.stride) == (width, height, width)
+    assert lm.class_names == pal.names
+    assert [c.marker for c in lm.classes] == [c.marker for c in pal.classes]
+    assert lm.min_class_pixels == min_class_pixels
+    got_counts = np.array([c.count for c in lm.classes])
+    # counts come from the same per-pixel decisions, so they agree as well
+    # as the labels do
+    assert np.abs(got_counts - seg.counts).sum() <= max(
+        2, 0.001 * width * height)
+    labelled = np.array([c.labelled for c in lm.classes])
+    assert labelled.tolist() == [int((lm.plane == k + 1).sum())
+                                 for k in range(len(pal.names))]
+    assert lm.unclassified == int((lm.plane == 0).sum())
+
+
+@pytest.mark.parametrize("fmt", list(F.PACKED_ORDER))
+@pytest.mark.parametrize("kind", ["random", "natural"])
+def test_packed_rgb_agrees_with_reference(gst, fmt, kind):
+    rng = np.random.default_rng(hash((fmt, kind)) & 0xffff)
+    pal = palette.default_palette()
+    total = equal = 0
+    for width, height in SIZES:
+        caps = F.caps_string(fmt, width, height)
+        info = F.video_info(caps)
+        make = F.random_rgb if kind == "random" else F.natural_rgb
+        images = [make(rng, height, width) for _ in range(2)]
+        payloads = [F.pack_rgb(img, fmt, info, rng) for img in images]
+        for mcp in (0, 40):
+            out = run(f"labsegment min-class-pixels={mcp}", payloads, caps)
+            assert len(out) == len(images)
+            for img, buf, payload in zip(images, out, payloads):
+                # video passes through untouched
+                with buf.map(pipeline.Gst.MapFlags.READ) as m:
+                    assert bytes(m.data) == payload
+                lm = meta.labels(buf)
+                seg = reference.segment_rgb(img, pal, min_class_pixels=mcp)
+                frac = agreement(lm.plane, seg.labels, f"{fmt} {width}x"
+                                 f"{height} mcp={mcp}")
+                total += lm.plane.size
+                equal += frac * lm.plane.size
+                check_meta(lm, seg, pal, width, height, mcp)
+    assert equal / total >= 0.999
+
+
+@pytest.mark.parametrize("fmt", F.YUV_FORMATS)
+@pytest.mark.parametrize("colorimetry", list(F.COLORIMETRY))
+@pytest.mark.parametrize("kind", ["random", "natural"])
+def test_yuv_agrees_with_reference(gst, fmt, colorimetry, kind):
+    rng = np.random.default_rng(hash((fmt, colorimetry, kind)) & 0xffff)
+    pal = palette.default_palette()
+    matrix, full_range = F.COLORIMETRY[colorimetry]
+    total = equal = 0
+    for width, height in SIZES:
+        caps = F.caps_string(fmt, width, height, colorimetry)
+        info = F.video_info(caps)
+        payloads = []
+        for _ in range(2):
+            if kind == "random":
+                payloads.append(F.random_yuv(rng, fmt, info)[0])
+            else:
+                payloads.append(F.rgb_to_yuv_bytes(
+                    F.natural_rgb(rng, height, width), fmt, info))
+        out = run("labsegment min-class-pixels=20", payloads, caps)
+        for payload, buf in zip(payloads, out):
+            comps = F.yuv_components(np.frombuffer(payload, np.uint8), fmt,
+                                     info)
+            rgb = F.yuv_to_rgb_float(comps, matrix, full_range)
+            seg = reference.classify(reference.rgb_to_lab(rgb),
+                                     pal.lab_array(), min_class_pixels=20)
+            lm = meta.labels(buf)
+            frac = agreement(lm.plane, seg.labels,
+                             f"{fmt} {colorimetry} {width}x{height}")
+            total += lm.plane.size
+            equal += frac * lm.plane.size
+            check_meta(lm, seg, pal, width, height, 20)
+    assert equal / total >= 0.999
+
+
+@pytest.mark.parametrize("use_lightness", [True, False])
+@pytest.mark.parametrize("max_distance", [1000.0, 15.0])
+def test_settings_agree_with_reference(gst, use_lightness, max_distance):
+    rng = np.random.default_rng(5)
+    pal = palette.default_palette()
+    images = [F.natural_rgb(rng, 120, 160), F.random_rgb(rng, 120, 160)]
+    caps = F.caps_string("RGB", 160, 120)
+    element = (f"labsegment use-lightness={str(use_lightness).lower()} "
+               f"max-distance={max_distance}")
+    out = run(element, images, caps)
+    for img, buf in zip(images, out):
+        seg = reference.segment_rgb(img, pal, use_lightness=use_lightness,
+                                    max_distance=max_distance)
+        lm = meta.labels(buf)
+        assert agreement(lm.plane, seg.labels, element) >= 0.999
+        assert lm.use_lightness == use_lightness
+        assert lm.max_distance == max_distance
+
+
+def test_dominant_rule_changes_labels(gst):
+    """A few pink-ish pixels in a red/grey frame: present with the rule
+    off, handed to their nearest dominant class with it on."""
+    img = np.zeros((100, 100, 3), np.uint8)
+    img[:, :50] = (200, 40, 40)
+    img[:, 50:] = (128, 128, 128)
+    img[10:15, 60:65] = (240, 100, 170)           # 25 pink pixels
+    caps = F.caps_string("RGB", 100, 100)
+    off, on = (run(f"labsegment min-class-pixels={m}", [img], caps)[0]
+               for m in (0, 26))
+    pink = palette.default_palette().index("pink") + 1
+    lm_off, lm_on = meta.labels(off), meta.labels(on)
+    assert (lm_off.plane[10:15, 60:65] == pink).all()
+    assert not (lm_on.plane == pink).any()
+    assert lm_on.class_by_name("pink").count == 25
+    assert not lm_on.class_by_name("pink").active
+    seg = reference.segment_rgb(img, palette.default_palette(),
+                                min_class_pixels=26)
+    assert (lm_on.plane == seg.labels).all()
+
+
+def test_plane_outlives_buffer_and_pool(gst):
+    """The numpy plane is a view of the label buffer: it stays valid and
+    unchanged after its video buffer is gone and later frames reuse the
+    element's pool."""
+    colours = [(200, 40, 40), (128, 128, 128), (235, 235, 235)]
+    imgs = [np.full((30, 40, 3), colours[i % 3], np.uint8)
+            for i in range(12)]
+    caps = F.caps_string("RGB", 40, 30)
+    out = run("labsegment min-class-pixels=0", imgs, caps)
+    planes = [meta.labels(b).plane for b in out]
+    del out
+    run("labsegment min-class-pixels=0", imgs[::-1], caps)
+    expect = [1, 7, 6] * 4
+    assert [int(p[0, 0]) for p in planes] == expect
+    assert all((p == p[0, 0]).all() for p in planes)
+    assert not planes[0].flags.writeable
+
+
+def test_histogram_messages(gst):
+    img = F.natural_rgb(np.random.default_rng(3), 48, 64)
+    caps = F.caps_string("RGB", 64, 48)
+    Gst = pipeline.Gst
+    pipe = Gst.parse_launch(
+        f"appsrc name=src format=time caps={caps} ! labsegment "
+        "post-messages=true min-class-pixels=100 ! fakesink")
+    src = pipe.get_by_name("src")
+    bus = pipe.get_bus()
+    pipe.set_state(Gst.State.PLAYING)
+    try:
+        for i in range(3):
+            buf = Gst.Buffer.new_wrapped(img.tobytes())
+            buf.pts = i * Gst.SECOND
+            src.emit("push-buffer", buf)
+        src.emit("end-of-stream")
+        msgs = []
+        while True:
+            msg = bus.timed_pop_filtered(
+                10 * Gst.SECOND, Gst.MessageType.ELEMENT |
+                Gst.MessageType.EOS | Gst.MessageType.ERROR)
+            assert msg is not None and msg.type != Gst.MessageType.ERROR
+            if msg.type == Gst.MessageType.EOS:
+                break
+            msgs.append(msg.get_structure())
+    finally:
+        pipe.set_state(Gst.State.NULL)
+    seg = reference.segment_rgb(img, palette.default_palette(),
+                                min_class_pixels=100)
+    assert [m.get_name() for m in msgs] == ["landmark-histogram"] * 3
+    assert [m.get_value("timestamp") for m in msgs] == [
+        i * Gst.SECOND for i in range(3)]
+    for m in msgs:
+        counts = m.get_value("class-counts")
+        assert [counts[i] for i in range(len(counts))] == seg.counts.tolist()
+        active = m.get_value("class-active")
+        assert [bool(active[i]) for i in range(len(active))] == \
+            seg.active.tolist()
+        assert m.get_value("min-class-pixels") == 100

@@ -1,0 +1,519 @@
+"""Tests of gstlandmark.palette and the ``gst-landmark palette`` command."""
+
+import json
+import os
+
+import cv2
+import numpy as np
+import pytest
+
+from gstlandmark import cli, reference
+from gstlandmark.palette import (Palette, PaletteClass, PaletteError,
+                                 default_palette, learn_from_mask,
+                                 learn_from_rects, load_palette,
+                                 palette_to_json, parse_palette,
+                                 save_palette)
+
+# Published L*a*b* (D65) of some sRGB colours, keyed by BGR (OpenCV order).
+KNOWN_LAB = {
+    (0, 0, 255): (53.24, 80.09, 67.20),        # red
+    (0, 255, 0): (87.73, -86.18, 83.18),       # green
+    (255, 0, 0): (32.30, 79.19, -107.86),      # blue
+    (255, 255, 255): (100.0, 0.0, 0.0),        # white
+    (128, 128, 128): (53.59, 0.0, 0.0),        # grey
+}
+RED, GREEN, BLUE, WHITE, GREY = KNOWN_LAB
+
+
+def good_class(name="red", lab=(50.0, 40.0, 30.0), **extra):
+    entry = {"name": name, "lab": list(lab)}
+    entry.update(extra)
+    return entry
+
+
+def write_json(path, obj):
+    path.write_text(json.dumps(obj), encoding="utf-8")
+    return path
+
+
+# ---------------------------------------------------------------------------
+# The default palette
+
+
+def test_default_palette_classes():
+    palette = default_palette()
+    assert palette.names == ["red", "green", "yellow", "pink", "blue",
+                             "white", "grey"]
+    assert palette.markers == ["red", "green", "yellow", "pink", "blue"]
+    assert palette.background == ["white", "grey"]
+    assert palette.marker_mask().tolist() == [True] * 5 + [False] * 2
+    lab = palette.lab_array()
+    assert lab.dtype == np.float64 and lab.shape == (7, 3)
+    np.testing.assert_allclose(lab[0], [41.25, 43.0, 32.0])
+    assert palette.index("grey") == 6
+
+
+def test_default_palette_matches_the_package_file():
+    from importlib.resources import files
+    text = (files("gstlandmark") / "data" / "default-palette.json") \
+        .read_text("utf-8")
+    obj = json.loads(text)
+    assert [c["name"] for c in obj["classes"]] == default_palette().names
+
+
+# ---------------------------------------------------------------------------
+# Validation: one failing case per rule, loaded from "palette.json".
+
+FIVE = ["red", "green", "yellow", "pink", "blue"]
+
+
+def five_with(index, entry):
+    """Five good classes with classes[index] replaced by ``entry``."""
+    classes = [good_class(n) for n in FIVE]
+    classes[index] = entry
+    return {"classes": classes}
+
+
+BAD_PALETTES = [
+    ([good_class()], "top level must be an object"),
+    ({"colours": [good_class()]}, 'missing "classes"'),
+    ({"classes": {"red": [1, 2, 3]}}, '"classes" must be an array'),
+    ({"classes": []}, '"classes" is empty'),
+    ({"classes": [good_class(f"c{i}") for i in range(65)]},
+     '"classes" has 65 entries, at most 64'),
+    (five_with(1, "green"), "classes[1]: must be an object"),
+    (five_with(2, good_class("yellow", colour="y")),
+     'classes[2] ("yellow"): unknown key "colour"'),
+    (five_with(2, good_class("yellow", Marker=True)),
+     'classes[2] ("yellow"): unknown key "Marker"'),
+    (five_with(3, {"lab": [50, 0, 0]}), 'classes[3]: missing "name"'),
+    (five_with(3, good_class(7)), 'classes[3]: "name" must be a string'),
+    (five_with(3, good_class("")), '"name" must not be empty'),
+    (five_with(3, good_class("x" * 33)),
+     '"name" must be at most 32 characters, got 33'),
+    (five_with(3, good_class("light red")), "may only contain"),
+    (five_with(3, good_class("r\u00f8d")), "may only contain"),
+    (five_with(3, good_class("red/2")), "may only contain"),
+    (five_with(4, good_class("red")),
+     'classes[4] ("red"): duplicate name, already used by classes[0]'),
+    (five_with(2, {"name": "yellow"}), 'classes[2] ("yellow"): missing "lab"'),
+    (five_with(2, good_class("yellow", lab=[50, 0])),
+     '"lab" must be an array of 3 numbers [L*, a*, b*], got 2 values'),
+    (five_with(2, good_class("yellow", lab=[50, 0, 0, 1])), "got 4 values"),
+    (five_with(2, {"name": "yellow", "lab": "50 0 0"}),
+     '"lab" must be an array of 3 numbers [L*, a*, b*], got string'),
+    (five_with(2, good_class("yellow", lab=[50, True, 0])),
+     '"lab"[1] must be a number, got boolean'),
+    (five_with(2, good_class("yellow", lab=[50, 0, "0"])),
+     '"lab"[2] must be a number, got string'),
+    (five_with(2, good_class("yellow", lab=[50, None, 0])),
+     '"lab"[1] must be a number, got null'),
+    (five_with(2, good_class("yellow", lab=[float("nan"), 0, 0])),
+     '"lab"[0] must be finite, got nan'),
+    (five_with(2, good_class("yellow", lab=[50, float("inf"), 0])),
+     '"lab"[1] must be finite, got inf'),
+    (five_with(3, good_class("pink", lab=[120, 0, 0])),
+     'classes[3] ("pink"): "lab" L* must be within 0..100, got 120'),
+    (five_with(3, good_class("pink", lab=[-0.5, 0, 0])),
+     '"lab" L* must be within 0..100, got -0.5'),
+    (five_with(3, good_class("pink", lab=[100.5, 0, 0])),
+     '"lab" L* must be within 0..100, got 100.5'),
+    (five_with(3, good_class("pink", lab=[50, -128.5, 0])),
+     '"lab" a* must be within -128..128, got -128.5'),
+    (five_with(3, good_class("pink", lab=[50, 128.5, 0])),
+     '"lab" a* must be within -128..128, got 128.5'),
+    (five_with(3, good_class("pink", lab=[50, 0, -129])),
+     '"lab" b* must be within -128..128, got -129'),
+    (five_with(3, good_class("pink", lab=[50, 0, 10 ** 400])),
+     '"lab" b* must be within -128..128'),
+    (five_with(0, good_class("red", marker="yes")),
+     'classes[0] ("red"): "marker" must be true or false, got "yes"'),
+    (five_with(0, good_class("red", marker=1)),
+     '"marker" must be true or false, got 1'),
+]
+
+
+@pytest.mark.parametrize("obj, fragment", BAD_PALETTES)
+def test_invalid_palette_file(tmp_path, obj, fragment):
+    path = write_json(tmp_path / "palette.json", obj)
+    with pytest.raises(PaletteError) as info:
+        load_palette(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: ")
+    assert fragment in message
+
+
+def test_brief_example_message_exactly(tmp_path):
+    path = write_json(tmp_path / "palette.json",
+                      five_with(2, good_class("pink", lab=[120, 0, 0])))
+    with pytest.raises(PaletteError) as info:
+        load_palette(path)
+    assert str(info.value) == (f'{path}: classes[2] ("pink"): "lab" L* must '
+                               f'be within 0..100, got 120')
+
+
+def test_parse_palette_names_its_source():
+    with pytest.raises(PaletteError, match=r'^<palette>: "classes" is empty'):
+        parse_palette({"classes": []})
+    with pytest.raises(PaletteError, match=r"^mine: "):
+        parse_palette({"classes": []}, source="mine")
+
+
+def test_palette_error_is_a_value_error():
+    assert issubclass(PaletteError, ValueError)
+
+
+def test_valid_edge_cases(tmp_path):
+    classes = [
+        good_class("a" * 32, lab=(0, -128, 128)),
+        good_class("B.b-b_9", lab=(100, 128, -128), marker=False),
+        {"name": "c", "lab": [50, 1, 2]},
+    ]
+    classes += [good_class(f"x{i}") for i in range(61)]
+    path = write_json(tmp_path / "palette.json",
+                      {"description": "ignored", "learned-from": "x.png",
+                       "version": 3, "classes": classes})
+    palette = load_palette(path)
+    assert len(palette) == 64
+    first, second, third = palette.classes[:3]
+    assert first == PaletteClass("a" * 32, (0.0, -128.0, 128.0), True)
+    assert second.marker is False
+    assert third.marker is True   # default
+    assert all(isinstance(v, float) for v in third.lab)
+
+
+def test_missing_file(tmp_path):
+    path = tmp_path / "nope.json"
+    with pytest.raises(PaletteError, match="nope.json: no such file"):
+        load_palette(path)
+
+
+def test_directory_is_not_a_palette(tmp_path):
+    with pytest.raises(PaletteError, match="is a directory"):
+        load_palette(tmp_path)
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root can read any file")
+def test_unreadable_file(tmp_path):
+    path = write_json(tmp_path / "palette.json",
+                      {"classes": [good_class()]})
+    path.chmod(0)
+    with pytest.raises(PaletteError, match="palette.json: cannot read"):
+        load_palette(path)
+
+
+def test_malformed_json_gives_line_and_column(tmp_path):
+    path = tmp_path / "palette.json"
+    path.write_text('{\n  "classes": [\n    {"name": "red",}\n  ]\n}\n')
+    with pytest.raises(PaletteError) as info:
+        load_palette(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: not valid JSON")
+    assert "line 3, column 20" in message
+
+
+def test_invalid_utf8(tmp_path):
+    path = tmp_path / "palette.json"
+    path.write_bytes(b'{"classes": [{"name": "r\xff"}]}')
+    with pytest.raises(PaletteError, match="palette.json: not valid UTF-8"):
+        load_palette(path)
+
+
+# ---------------------------------------------------------------------------
+# Saving
+
+
+def test_save_and_load_round_trip(tmp_path):
+    palette = Palette([PaletteClass("red", (41.25, 43.0, 32.0), True),
+                       PaletteClass("floor", (60.123456, -1.5, 2.0), False)])
+    path = tmp_path / "out.json"
+    save_palette(palette, path, description="test",
+                 **{"learned-from": "img.png"})
+    obj = json.loads(path.read_text())
+    assert list(obj) == ["description", "learned-from", "classes"]
+    assert obj["learned-from"] == "img.png"
+    assert obj["classes"][1] == {"name": "floor",
+                                 "lab": [60.1235, -1.5, 2.0],
+                                 "marker": False}
+    loaded = load_palette(path)
+    assert loaded.names == palette.names
+    assert loaded.markers == ["red"]
+    np.testing.assert_allclose(loaded.lab_array(), palette.lab_array(),
+                               atol=1e-4)
+
+
+def test_palette_to_json_keeps_extra_keys():
+    palette = default_palette()
+    obj = palette_to_json(palette, description="d")
+    assert obj["description"] == "d"
+    assert parse_palette(obj).names == palette.names
+    with pytest.raises(ValueError):
+        palette_to_json(palette, classes=[])
+
+
+def test_save_refuses_an_invalid_palette(tmp_path):
+    palette = Palette([PaletteClass("red", (150.0, 0.0, 0.0), True)])
+    path = tmp_path / "bad.json"
+    with pytest.raises(PaletteError, match="L\\* must be within"):
+        save_palette(palette, path)
+    assert not path.exists()
+
+
+# ---------------------------------------------------------------------------
+# Learning
+
+
+def synthetic_scene():
+    """A 60x80 BGR image with known colours and a class-index mask.
+
+    Class 1 (red) is an irregular blob, class 2 mixes blue and white
+    pixels half and half, class 3 is grey.  Unmasked pixels include more
+    red and green, which must not count.
+    """
+    image = np.zeros((60, 80, 3), np.uint8)
+    image[:] = GREEN
+    image[:, 60:] = RED
+    mask = np.zeros((60, 80), np.uint8)
+    yy, xx = np.mgrid[:60, :80]
+    blob = (yy - 20) ** 2 + (xx - 20) ** 2 < 12 ** 2
+    image[blob] = RED
+    mask[blob] = 1
+    image[40:50, 5:45:2] = BLUE
+    image[40:50, 6:46:2] = WHITE
+    mask[40:50, 5:45] = 2
+    image[5:15, 40:55] = GREY
+    mask[5:15, 40:55] = 3
+    return image, mask
+
+
+def test_learn_from_mask_recovers_known_colours():
+    image, mask = synthetic_scene()
+    palette = learn_from_mask(image, mask, names=["red", "mix", "grey"],
+                              markers=["red", "mix"])
+    assert palette.names == ["red", "mix", "grey"]
+    assert palette.markers == ["red", "mix"]
+    lab = palette.lab_array()
+    np.testing.assert_allclose(lab[0], KNOWN_LAB[RED], atol=0.1)
+    mix = (np.array(KNOWN_LAB[BLUE]) + np.array(KNOWN_LAB[WHITE])) / 2
+    np.testing.assert_allclose(lab[1], mix, atol=0.1)
+    np.testing.assert_allclose(lab[2], KNOWN_LAB[GREY], atol=0.1)
+
+
+def test_learn_from_mask_uses_the_reference_conversion():
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (20, 30, 3)).astype(np.uint8)
+    mask = rng.integers(0, 3, (20, 30)).astype(np.uint8)
+    palette = learn_from_mask(image, mask)
+    lab = reference.rgb_to_lab(image[:, :, ::-1].copy()).astype(np.float64)
+    for k in (1, 2):
+        np.testing.assert_allclose(palette.lab_array()[k - 1],
+                                   lab[mask == k].mean(axis=0), atol=1e-9)
+
+
+def test_learn_from_mask_default_names_and_markers():
+    image, mask = synthetic_scene()
+    palette = learn_from_mask(image, mask)
+    assert palette.names == ["class1", "class2", "class3"]
+    assert palette.markers == palette.names
+
+
+def test_learn_from_mask_errors():
+    image, mask = synthetic_scene()
+    with pytest.raises(PaletteError, match='class "b" has no pixels'):
+        learn_from_mask(image, np.where(mask == 2, 0, mask),
+                        names=["a", "b", "c"])
+    with pytest.raises(PaletteError, match="mask is 80x59 but the image "
+                                           "is 80x60"):
+        learn_from_mask(image, mask[:59])
+    with pytest.raises(PaletteError, match="class index 3 but there are "
+                                           "only 2 class names"):
+        learn_from_mask(image, mask, names=["a", "b"])
+    with pytest.raises(PaletteError, match='"pink" is not one of'):
+        learn_from_mask(image, mask, markers=["pink"])
+    with pytest.raises(PaletteError, match="no class pixels"):
+        learn_from_mask(image, np.zeros_like(mask))
+    with pytest.raises(PaletteError, match="may only contain"):
+        learn_from_mask(image, mask, names=["a", "b b", "c"])
+
+
+def test_learn_from_rects_pools_rectangles():
+    image, _ = synthetic_scene()
+    palette = learn_from_rects(
+        image,
+        [("grey", 40, 5, 15, 10), ("red", 60, 0, 20, 10),
+         ("red", 15, 15, 10, 10), ("green", 0, 55, 50, 5)],
+        background=["grey"])
+    assert palette.names == ["grey", "red", "green"]
+    assert palette.markers == ["red", "green"]
+    assert palette.background == ["grey"]
+    lab = palette.lab_array()
+    np.testing.assert_allclose(lab[0], KNOWN_LAB[GREY], atol=0.1)
+    np.testing.assert_allclose(lab[1], KNOWN_LAB[RED], atol=0.1)
+    np.testing.assert_allclose(lab[2], KNOWN_LAB[GREEN], atol=0.1)
+
+
+def test_learn_from_rects_counts_each_pixel_once():
+    image = np.zeros((10, 10, 3), np.uint8)
+    image[:, :5] = WHITE
+    # Two overlapping rectangles of one class: the overlap (white) must not
+    # weigh double, or the mean would lean towards white.
+    palette = learn_from_rects(image, [("c", 0, 0, 10, 10),
+                                       ("c", 0, 0, 5, 10)])
+    np.testing.assert_allclose(palette.lab_array()[0], [50.0, 0.0, 0.0],
+                               atol=0.01)
+
+
+def test_learn_from_rects_errors():
+    image, _ = synthetic_scene()
+    with pytest.raises(PaletteError, match="does not fit inside the 80x60"):
+        learn_from_rects(image, [("red", 70, 0, 20, 10)])
+    with pytest.raises(PaletteError, match='overlaps a rectangle of "red"'):
+        learn_from_rects(image, [("red", 0, 0, 10, 10),
+                                 ("grey", 5, 5, 10, 10)])
+    with pytest.raises(PaletteError, match="must be positive"):
+        learn_from_rects(image, [("red", 0, 0, 0, 10)])
+    with pytest.raises(PaletteError, match='"white" is not one of'):
+        learn_from_rects(image, [("red", 0, 0, 5, 5)], background=["white"])
+    with pytest.raises(PaletteError, match="no rectangles"):
+        learn_from_rects(image, [])
+
+
+# ---------------------------------------------------------------------------
+# The command line, end to end
+
+
+@pytest.fixture
+def scene_files(tmp_path):
+    image, mask = synthetic_scene()
+    image_path = tmp_path / "scene.png"
+    mask_path = tmp_path / "mask.png"
+    assert cv2.imwrite(str(image_path), image)
+    assert cv2.imwrite(str(mask_path), mask)
+    return image_path, mask_path
+
+
+def test_cli_learn_mask_check_load(tmp_path, scene_files, capsys):
+    image_path, mask_path = scene_files
+    out = tmp_path / "learned.json"
+    status = cli.main(["palette", "learn", str(image_path), "--mask",
+                       str(mask_path), "--names", "red,mix,grey",
+                       "--markers", "red", "-o", str(out)])
+    assert status == 0
+    obj = json.loads(out.read_text())
+    assert obj["learned-from"] == str(image_path)
+    assert obj["description"]
+
+    capsys.readouterr()
+    assert cli.main(["palette", "check", str(out)]) == 0
+    table = capsys.readouterr().out
+    assert "3 classes" in table
+    red_row = next(line for line in table.splitlines()
+                   if line.startswith("red "))
+    assert red_row.split() == ["red", "53.24", "80.09", "67.20", "yes",
+                               "#FF0000"]
+    grey_row = next(line for line in table.splitlines()
+                    if line.startswith("grey "))
+    assert grey_row.split()[4:] == ["no", "#808080"]
+
+    palette = load_palette(out)
+    assert palette.names == ["red", "mix", "grey"]
+    assert palette.markers == ["red"]
+    np.testing.assert_allclose(palette.lab_array()[2], KNOWN_LAB[GREY],
+                               atol=0.1)
+
+
+def test_cli_learn_rects(tmp_path, scene_files):
+    image_path, _ = scene_files
+    out = tmp_path / "rects.json"
+    status = cli.main(["palette", "learn", str(image_path),
+                       "--rect", "red:60,0,20,10", "--rect", "grey:40,5,15,10",
+                       "--rect", "green:0,55,50,5", "--background", "grey",
+                       "-o", str(out)])
+    assert status == 0
+    palette = load_palette(out)
+    assert palette.names == ["red", "grey", "green"]
+    assert palette.markers == ["red", "green"]
+    np.testing.assert_allclose(palette.lab_array()[1], KNOWN_LAB[GREY],
+                               atol=0.1)
+
+
+def test_cli_show_default(capsys):
+    assert cli.main(["palette", "show-default"]) == 0
+    shown = parse_palette(json.loads(capsys.readouterr().out))
+    assert shown == default_palette()
+
+
+def test_cli_check_bad_file(tmp_path, capsys):
+    path = write_json(tmp_path / "palette.json",
+                      five_with(3, good_class("pink", lab=[120, 0, 0])))
+    assert cli.main(["palette", "check", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("gst-landmark: error: ")
+    assert f'{path}: classes[3] ("pink"): "lab" L*' in err
+
+
+@pytest.mark.parametrize("args", [
+    [],
+    ["palette"],
+    ["palette", "frobnicate"],
+    ["palette", "learn", "x.png", "-o", "o.json"],                # no source
+    ["palette", "learn", "x.png", "--mask", "m.png"],             # no -o
+    ["palette", "learn", "x.png", "--rect", "red:1,2,3", "-o", "o.json"],
+    ["palette", "learn", "x.png", "--rect", "red:1,2,0,4", "-o", "o.json"],
+    ["palette", "learn", "x.png", "--mask", "m.png", "--rect", "r:0,0,1,1",
+     "-o", "o.json"],
+])
+def test_cli_usage_errors_exit_2(args, capsys):
+    assert cli.main(args) == 2
+    assert "gst-landmark: error:" in capsys.readouterr().err
+
+
+def test_cli_option_mixups_exit_2(tmp_path, scene_files, capsys):
+    image_path, mask_path = scene_files
+    out = str(tmp_path / "o.json")
+    assert cli.main(["palette", "learn", str(image_path), "--rect",
+                     "red:0,0,5,5", "--names", "red", "-o", out]) == 2
+    assert cli.main(["palette", "learn", str(image_path), "--mask",
+                     str(mask_path), "--background", "grey", "-o",
+                     out]) == 2
+    assert not os.path.exists(out)
+
+
+def test_cli_bad_input_exits_1(tmp_path, scene_files, capsys):
+    image_path, mask_path = scene_files
+    out = tmp_path / "o.json"
+
+    def run(*args):
+        capsys.readouterr()
+        status = cli.main(["palette", "learn", *map(str, args), "-o",
+                           str(out)])
+        return status, capsys.readouterr().err
+
+    status, err = run(tmp_path / "missing.png", "--mask", mask_path)
+    assert status == 1 and "missing.png: no such file" in err
+
+    garbage = tmp_path / "garbage.png"
+    garbage.write_text("not an image")
+    status, err = run(garbage, "--mask", mask_path)
+    assert status == 1 and "cannot read as an image" in err
+
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.zeros((10, 10), np.uint8))
+    status, err = run(image_path, "--mask", small)
+    assert status == 1 and "mask is 10x10 but the image is 80x60" in err
+
+    empty = tmp_path / "empty.png"
+    _, mask = synthetic_scene()
+    cv2.imwrite(str(empty), np.where(mask == 2, 0, mask).astype(np.uint8))
+    status, err = run(image_path, "--mask", empty, "--names", "a,b,c")
+    assert status == 1 and 'class "b" has no pixels' in err
+
+    colour_mask = tmp_path / "colour.png"
+    cv2.imwrite(str(colour_mask), synthetic_scene()[0])
+    status, err = run(image_path, "--mask", colour_mask)
+    assert status == 1 and "single-channel" in err
+
+    status, err = run(image_path, "--rect", "red:70,0,20,10")
+    assert status == 1 and "does not fit" in err
+    assert err.startswith("gst-landmark: error: ")
+    assert not out.exists()

@@ -214,9 +214,21 @@ def add_palette_parser(subparsers):
 # ---------------------------------------------------------------------------
 # Command registry and entry point
 
+def _lazy(module, function):
+    """A command from another module, imported when the parser is built
+    (keeps ``import gstlandmark.cli`` free of GStreamer)."""
+    def add(subparsers):
+        import importlib
+        getattr(importlib.import_module(f"gstlandmark.{module}"),
+                function)(subparsers)
+    return add
+
+
 # To add a command, write add_<name>_parser(subparsers) and list it here.
 COMMANDS = [
     add_palette_parser,
+    _lazy("demo", "add_demo_parser"),
+    _lazy("bench", "add_bench_parser"),
 ]
 
 

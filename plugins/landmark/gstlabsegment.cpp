@@ -41,6 +41,10 @@
 #include <gst/base/gstbasetransform.h>
 #include <gst/video/video.h>
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
 #include <array>
 #include <chrono>
 #include <cstring>
@@ -106,6 +110,8 @@ enum class Layout { PACKED3, PACKED4, YUV420, YUY2 };
 struct FrameLayout {
   Layout layout = Layout::PACKED4;
   int offset[3] = { 0, 1, 2 };  /* R,G,B byte offsets for packed RGB */
+  int key_shift = 0;            /* bits to drop from a 4-byte pixel */
+  landmark::KeyOrder order = landmark::KeyOrder::C0_LOW;
 };
 
 /* Built in start() and set_info(), used by the streaming thread only. */
@@ -169,16 +175,58 @@ gst_lab_segment_output_get_type (void)
 
 namespace {
 
-/* Counts go to four banks so consecutive equal labels do not wait on each
- * other's increments. */
-struct Histogram {
-  guint32 bank[4][kMaxClasses + 1];
-  void clear () { memset (bank, 0, sizeof (bank)); }
-  void total (guint32 out[kMaxClasses + 1]) const {
-    for (int k = 0; k <= kMaxClasses; k++)
-      out[k] = bank[0][k] + bank[1][k] + bank[2][k] + bank[3][k];
+/* counts[v] = pixels of the plane with label v, for v in 1..n and
+ * kPending (other entries are left 0). One pass per value: compares of 16
+ * labels at a time beat a scalar histogram on any palette up to 16 classes;
+ * larger palettes use four interleaved scalar histograms. */
+void
+count_labels (const guint8 * plane, gsize size, guint n, guint32 counts[256])
+{
+  memset (counts, 0, sizeof (guint32) * 256);
+#ifdef __SSE2__
+  if (n <= 16) {
+    guint8 values[kMaxClasses + 2];
+    for (guint k = 0; k < n; k++)
+      values[k] = k + 1;
+    values[n] = landmark::ClassTable::kPending;
+    const gsize vec_end = size & ~(gsize) 15;
+    for (guint i = 0; i <= n; i++) {
+      const __m128i v = _mm_set1_epi8 ((char) values[i]);
+      guint64 total = 0;
+      gsize pos = 0;
+      while (pos < vec_end) {
+        /* 8-bit per-lane counters, summed before they can overflow */
+        const gsize stop = MIN (vec_end, pos + 255 * 16);
+        __m128i acc = _mm_setzero_si128 ();
+        for (; pos < stop; pos += 16) {
+          const __m128i x = _mm_loadu_si128 ((const __m128i *) (plane + pos));
+          acc = _mm_sub_epi8 (acc, _mm_cmpeq_epi8 (x, v));
+        }
+        const __m128i sums = _mm_sad_epu8 (acc, _mm_setzero_si128 ());
+        total += (guint64) _mm_cvtsi128_si32 (sums) +
+            (guint64) _mm_extract_epi16 (sums, 4);
+      }
+      for (gsize j = vec_end; j < size; j++)
+        total += plane[j] == values[i];
+      counts[values[i]] = (guint32) total;
+    }
+    return;
   }
-};
+#endif
+  (void) n;
+  guint32 bank[4][256] = { {0} };
+  gsize j = 0;
+  for (; j + 4 <= size; j += 4) {
+    bank[0][plane[j]]++;
+    bank[1][plane[j + 1]]++;
+    bank[2][plane[j + 2]]++;
+    bank[3][plane[j + 3]]++;
+  }
+  for (; j < size; j++)
+    bank[0][plane[j]]++;
+  for (int k = 0; k < 256; k++)
+    counts[k] = bank[0][k] + bank[1][k] + bank[2][k] + bank[3][k];
+}
 
 /* Reads the components of pixel x of the current row, whatever the
  * layout; the classify and remap passes share it. */
@@ -236,62 +284,62 @@ struct PixelReader {
   }
 };
 
-template <int PSTRIDE>
-void
-classify_packed (landmark::ClassTable & table, const guint8 * row,
-    const int *off, guint width, guint8 * labels, Histogram & hist)
+using landmark::ClassTable;
+using landmark::KeyOrder;
+
+/* The key of a packed RGB pixel is its three colour bytes as one
+ * little-endian number: a 4-byte pixel needs one load, one shift and one
+ * mask (the table is built in the format's own byte order). */
+static inline guint32
+load32 (const guint8 * p)
 {
-  const int o0 = off[0], o1 = off[1], o2 = off[2];
-  guint x = 0;
-  for (; x + 4 <= width; x += 4) {
-    for (int i = 0; i < 4; i++) {
-      const guint8 *p = row + (x + i) * PSTRIDE;
-      const guint8 l = table.lookup (p[o0], p[o1], p[o2]);
-      labels[x + i] = l;
-      hist.bank[i][l]++;
-    }
-  }
-  for (; x < width; x++) {
-    const guint8 *p = row + x * PSTRIDE;
-    const guint8 l = table.lookup (p[o0], p[o1], p[o2]);
-    labels[x] = l;
-    hist.bank[0][l]++;
-  }
+  guint32 w;
+  memcpy (&w, p, 4);
+  return GUINT32_FROM_LE (w);
 }
 
 void
-classify_frame (landmark::ClassTable & table, PixelReader & reader,
-    guint width, guint height, guint8 * labels, Histogram & hist)
+classify_packed4 (const guint8 * table, const guint8 * row, int shift,
+    guint width, guint8 * labels)
 {
-  const GstVideoFrame *f = reader.frame;
+  for (guint x = 0; x < width; x++)
+    labels[x] = table[(load32 (row + x * 4) >> shift) & 0xffffff];
+}
+
+void
+classify_packed3 (const guint8 * table, const guint8 * row, guint width,
+    guint8 * labels)
+{
+  for (guint x = 0; x < width; x++) {
+    const guint8 *p = row + x * 3;
+    labels[x] = table[p[0] | (p[1] << 8) | ((guint32) p[2] << 16)];
+  }
+}
+
+/* YUV keys are Y | U << 8 | V << 16; two pixels share one chroma pair. */
+void
+classify_frame (const ClassTable & table, PixelReader & reader,
+    guint width, guint height, guint8 * labels)
+{
+  const guint8 *t = table.labels ();
+  const FrameLayout & layout = reader.layout;
   for (guint y = 0; y < height; y++) {
     reader.set_row (y);
     guint8 *out = labels + (gsize) y * width;
-    switch (reader.layout.layout) {
+    switch (layout.layout) {
       case Layout::PACKED3:
-        classify_packed<3> (table, reader.row0, reader.layout.offset, width,
-            out, hist);
+        classify_packed3 (t, reader.row0, width, out);
         break;
       case Layout::PACKED4:
-        classify_packed<4> (table, reader.row0, reader.layout.offset, width,
-            out, hist);
+        classify_packed4 (t, reader.row0, layout.key_shift, width, out);
         break;
       case Layout::YUV420:{
         const guint8 *yr = reader.row0, *ur = reader.row1, *vr = reader.row2;
         const int ps = reader.upstride;
-        guint x = 0;
-        for (; x + 2 <= width; x += 2) {
-          const guint8 u = ur[(x >> 1) * ps], v = vr[(x >> 1) * ps];
-          const guint8 l0 = table.lookup (yr[x], u, v);
-          const guint8 l1 = table.lookup (yr[x + 1], u, v);
-          out[x] = l0;
-          out[x + 1] = l1;
-          hist.bank[x & 2][l0]++;
-          hist.bank[(x & 2) + 1][l1]++;
-        }
-        if (x < width) {
-          out[x] = table.lookup (yr[x], ur[(x >> 1) * ps], vr[(x >> 1) * ps]);
-          hist.bank[0][out[x]]++;
+        for (guint x = 0; x < width; x++) {
+          const guint32 uv = (ur[(x >> 1) * ps] << 8) |
+              ((guint32) vr[(x >> 1) * ps] << 16);
+          out[x] = t[yr[x] | uv];
         }
         break;
       }
@@ -299,24 +347,19 @@ classify_frame (landmark::ClassTable & table, PixelReader & reader,
         const guint8 *r = reader.row0;
         guint x = 0;
         for (; x + 2 <= width; x += 2) {
-          const guint8 *p = r + x * 2;
-          const guint8 l0 = table.lookup (p[0], p[1], p[3]);
-          const guint8 l1 = table.lookup (p[2], p[1], p[3]);
-          out[x] = l0;
-          out[x + 1] = l1;
-          hist.bank[x & 2][l0]++;
-          hist.bank[(x & 2) + 1][l1]++;
+          const guint32 w = load32 (r + x * 2);   /* Y0 U Y1 V */
+          const guint32 uv = (w & 0xff00) | ((w >> 8) & 0xff0000);
+          out[x] = t[(w & 0xff) | uv];
+          out[x + 1] = t[((w >> 16) & 0xff) | uv];
         }
         if (x < width) {
           const guint8 *p = r + x * 2;
-          out[x] = table.lookup (p[0], p[1], p[3]);
-          hist.bank[0][out[x]]++;
+          out[x] = t[p[0] | (p[1] << 8) | ((guint32) p[3] << 16)];
         }
         break;
       }
     }
   }
-  (void) f;
 }
 
 /* Writes each pixel's class colour into the frame (output=labels). */
@@ -569,7 +612,7 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
   cfg.model = st.model;
 
   const auto t0 = std::chrono::steady_clock::now ();
-  st.table.build (cfg);
+  st.table.build (cfg, st.layout.order);
   const double ms = std::chrono::duration<double, std::milli> (
       std::chrono::steady_clock::now () - t0).count ();
   st.table_valid = true;
@@ -587,7 +630,7 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
   const double black[3] = { 0, 0, 0 };
   st.model.from_srgb (black, st.black.data ());
   GST_INFO_OBJECT (self, "class table built in %.1f ms (%zu boundary cells)",
-      ms, st.table.fine_cells ());
+      ms, st.table.boundary_cells ());
 }
 
 static gboolean
@@ -645,6 +688,11 @@ gst_lab_segment_set_info (GstVideoFilter * filter, GstCaps * incaps,
           Layout::PACKED3 : Layout::PACKED4;
       for (int c = 0; c < 3; c++)
         layout.offset[c] = GST_VIDEO_FORMAT_INFO_POFFSET (finfo, c);
+      /* G is always between R and B: the key is the three bytes from the
+       * first of R and B, R low in RGB order and high in BGR order */
+      layout.key_shift = 8 * MIN (layout.offset[0], layout.offset[2]);
+      layout.order = layout.offset[0] < layout.offset[2] ?
+          landmark::KeyOrder::C0_LOW : landmark::KeyOrder::C0_HIGH;
       break;
     case GST_VIDEO_FORMAT_I420:
     case GST_VIDEO_FORMAT_NV12:
@@ -667,7 +715,7 @@ gst_lab_segment_set_info (GstVideoFilter * filter, GstCaps * incaps,
       return FALSE;
   }
 
-  if (model != st.model)
+  if (model != st.model || layout.order != st.layout.order)
     st.table_valid = false;
   st.layout = layout;
   st.model = model;
@@ -759,15 +807,32 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
   guint8 *labels = pmap.data;
 
   /* pass 1: nearest class over the whole palette, and its histogram */
-  Histogram hist;
-  hist.clear ();
   PixelReader reader { &frame, st.layout };
-  classify_frame (st.table, reader, w, h, labels, hist);
-  guint32 counts[kMaxClasses + 1];
-  hist.total (counts);
+  classify_frame (st.table, reader, w, h, labels);
+  const guint n = st.palette.classes.size ();
+  guint32 counts[256];
+  count_labels (labels, (gsize) w * h, n, counts);
+
+  /* pixels in boundary cells not met before: fill those cells now */
+  if (counts[ClassTable::kPending] > 0) {
+    for (guint y = 0; y < h && counts[ClassTable::kPending] > 0; y++) {
+      guint8 *row = labels + (gsize) y * w;
+      if (!memchr (row, ClassTable::kPending, w))
+        continue;
+      reader.set_row (y);
+      for (guint x = 0; x < w; x++) {
+        if (row[x] != ClassTable::kPending)
+          continue;
+        guint8 c[3] = { 0, 0, 0 };
+        reader.get (x, c);
+        row[x] = st.table.resolve (c[0], c[1], c[2]);
+        counts[row[x]]++;
+        counts[ClassTable::kPending]--;
+      }
+    }
+  }
 
   /* the dominant-colour rule */
-  const guint n = st.palette.classes.size ();
   guint8 active[kMaxClasses] = { 0 };
   guint8 demoted[kMaxClasses + 1] = { 0 };
   bool any_demoted = false, any_active = false;
@@ -778,7 +843,7 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
     any_demoted |= demoted[k + 1] != 0;
   }
   guint32 final_counts[kMaxClasses + 1];
-  memcpy (final_counts, counts, sizeof (counts));
+  memcpy (final_counts, counts, sizeof (final_counts));
   for (guint k = 0; k < n; k++)
     if (!active[k])
       final_counts[k + 1] = 0;
@@ -787,9 +852,9 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
    * class; there are fewer than n * min-class-pixels of them. They are
    * converted in batches, like the table's own boundary cells. */
   if (any_demoted) {
-    guint8 comps[3 * landmark::ClassTable::kBatch];
-    guint8 *where[landmark::ClassTable::kBatch];
-    guint8 relabel[landmark::ClassTable::kBatch];
+    guint8 comps[3 * ClassTable::kBatch];
+    guint8 *where[ClassTable::kBatch];
+    guint8 relabel[ClassTable::kBatch];
     int pending = 0;
     auto flush = [&]() {
       if (any_active)
@@ -814,7 +879,7 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
         }
         reader.get (x, comps + 3 * pending);
         where[pending++] = row + x;
-        if (pending == landmark::ClassTable::kBatch)
+        if (pending == ClassTable::kBatch)
           flush ();
       }
     }

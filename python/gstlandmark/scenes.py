@@ -114,5 +114,3 @@ def floor_scene(width, height, index=0, seed=SEED, palette=None,
     image = cv2.GaussianBlur(image, (0, 0), sigma)
     image = image + frame_rng.normal(0.0, 2.0, image.shape)
     return np.clip(np.rint(image), 0, 255).astype(np.uint8)
-
-

@@ -80,7 +80,6 @@ def pack_rgb(rgb, fmt, info, rng):
 def random_yuv(rng, fmt, info):
     """Random bytes laid out as a YUV frame, and the frame's components
     (Y, U, V) per pixel for the reference."""
-    w, h = info.width, info.height
     data = rng.integers(0, 256, info.size, dtype=np.uint8)
     return data.tobytes(), yuv_components(data, fmt, info)
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace landmark {
@@ -17,10 +18,17 @@ distance2 (const float *p, const Lab & r, bool use_lightness)
 }
 
 double
-lab_distance (const float *p, const float *q)
+distance2 (const Lab & p, const Lab & r, bool use_lightness)
 {
-  const double dl = p[0] - q[0], da = p[1] - q[1], db = p[2] - q[2];
-  return std::sqrt (dl * dl + da * da + db * db);
+  const double dl = use_lightness ? p.L - r.L : 0.0;
+  const double da = p.a - r.a, db = p.b - r.b;
+  return dl * dl + da * da + db * db;
+}
+
+double
+lab_distance (const Lab & p, const Lab & q)
+{
+  return std::sqrt (distance2 (p, q, true));
 }
 
 /* OpenCV's table-based conversion stays within this of the CIE formulas
@@ -64,79 +72,46 @@ ClassTable::classify_exact (const uint8_t * comps, int n,
 }
 
 void
-ClassTable::fill_block (size_t block, int b0, int b1, int b2)
-{
-  static_assert (kBatch >= 512, "one block per conversion");
-  for (int u = 0; u < 8; u++)
-    for (int v = 0; v < 8; v++)
-      for (int w = 0; w < 8; w++) {
-        float *c = comps_ + 3 * ((u << 6) | (v << 3) | w);
-        c[0] = b0 + u;
-        c[1] = b1 + v;
-        c[2] = b2 + w;
-      }
-  converter_.convert (cfg_.model, comps_, 512, lab_);
-  uint8_t *out = &fine_[block << 9];
-  for (int i = 0; i < 512; i++)
-    out[i] = nearest (lab_ + 3 * i, nullptr);
-  fine_ready_[block] = 1;
-  filled_++;
-}
-
-void
-ClassTable::build (const ClassifierConfig & cfg)
+ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
 {
   cfg_ = cfg;
+  order_ = order;
   max_d2_ = cfg.max_distance * cfg.max_distance;
-  coarse_.assign (32 * 32 * 32, 0);
-  fine_ready_.clear ();
-  filled_ = 0;
+  const size_t n = cfg.refs.size ();
+  std::vector<uint8_t> cell_label (32 * 32 * 32, 0);
+  pending_.assign (32 * 32 * 32, 0);
+  boundary_cells_ = 0;
 
-  /* L*a*b* at the cell corners 0, 8, ..., 256 of each component (cell i
-   * covers [8i, 8i + 8)), shared between neighbouring cells, and at the
-   * cell centres */
-  const int n_grid = 33 * 33 * 33, n_cells = 32 * 32 * 32;
-  std::vector<float> comps (3 * (n_grid + n_cells));
-  float *g = comps.data (), *c = g + 3 * n_grid;
+  /* L*a*b* by the CIE formulas at the cell corners 0, 8, ..., 256 of each
+   * component (cell i covers [8i, 8i + 8)), shared between neighbouring
+   * cells */
+  std::vector<Lab> grid (33 * 33 * 33);
   for (int i = 0; i <= 32; i++)
     for (int j = 0; j <= 32; j++)
-      for (int k = 0; k <= 32; k++, g += 3) {
-        g[0] = i * 8;
-        g[1] = j * 8;
-        g[2] = k * 8;
-      }
-  for (int i = 0; i < 32; i++)
-    for (int j = 0; j < 32; j++)
-      for (int k = 0; k < 32; k++, c += 3) {
-        c[0] = i * 8 + 4;
-        c[1] = j * 8 + 4;
-        c[2] = k * 8 + 4;
-      }
-  std::vector<float> lab (comps.size ());
-  LabConverter converter;
-  converter.convert (cfg.model, comps.data (), n_grid + n_cells, lab.data ());
-  const float *grid = lab.data (), *centres = grid + 3 * n_grid;
+      for (int k = 0; k <= 32; k++)
+        grid[(i * 33 + j) * 33 + k] = input_to_lab_exact (cfg.model, i * 8,
+            j * 8, k * 8);
 
-  const size_t n = cfg.refs.size ();
-  size_t blocks = 0;
   for (int i = 0; i < 32; i++) {
     for (int j = 0; j < 32; j++) {
       for (int k = 0; k < 32; k++) {
         const size_t cell = ((size_t) i << 10) | (j << 5) | k;
-        const float *centre = centres + 3 * cell;
-        /* How far L*a*b* moves inside the cell, from its corners: the
-         * factor covers the curvature of the CIE curves between corners,
-         * the margins OpenCV's approximation of them (the core test checks
-         * every 8-bit colour against the direct computation). No distance
-         * to a reference moves more than that. */
+        const Lab centre = input_to_lab_exact (cfg.model, i * 8 + 4,
+            j * 8 + 4, k * 8 + 4);
+        /* Labels come from OpenCV's conversion g, within kConversionError
+         * of the formulas f. For a colour p of the cell, |g(p) - f(centre)|
+         * <= kConversionError + |f(p) - f(centre)|, and the latter is
+         * bounded from the corners, with a factor for the curvature of the
+         * curves between them (the core test checks every 8-bit colour
+         * against the direct computation). No distance to a reference
+         * moves more than that radius. */
         double spread = 0;
         for (int corner = 0; corner < 8; corner++) {
           const int gi = ((i + (corner & 1)) * 33 + (j + ((corner >> 1) & 1)))
               * 33 + k + ((corner >> 2) & 1);
-          spread = std::max (spread, lab_distance (grid + 3 * gi, centre));
+          spread = std::max (spread, lab_distance (grid[gi], centre));
         }
-        const double radius = 1.5 * (spread + 2 * kConversionError) +
-            2 * kConversionError;
+        const double radius = 1.5 * spread + kConversionError + 1e-3;
 
         double d1 = std::numeric_limits<double>::infinity (), d2 = d1;
         int k1 = -1;
@@ -151,18 +126,63 @@ ClassTable::build (const ClassifierConfig & cfg)
             d2 = dr;
           }
         }
-        if (k1 < 0 || d1 - radius > cfg.max_distance)
-          coarse_[cell] = 0;  /* every colour of the cell is beyond reach */
-        else if (d2 - d1 > 2.0 * radius && d1 + radius < cfg.max_distance)
-          coarse_[cell] = (uint16_t) (k1 + 1);
-        else
-          coarse_[cell] = (uint16_t) (kFineBase + blocks++);
+        if (k1 < 0 || d1 - radius > cfg.max_distance) {
+          cell_label[cell] = 0;  /* every colour of the cell is beyond reach */
+        } else if (d2 - d1 > 2.0 * radius && d1 + radius < cfg.max_distance) {
+          cell_label[cell] = (uint8_t) (k1 + 1);
+        } else {
+          cell_label[cell] = kPending;
+          pending_[cell] = 1;
+          boundary_cells_++;
+        }
       }
     }
   }
-  /* all the memory the lazy fills may need, now rather than per frame */
-  fine_.assign (blocks * 512, 0);
-  fine_ready_.assign (blocks, 0);
+  filled_ = 0;
+
+  /* Fill the keys in memory order: each row of 256 keys (fixed high and
+   * middle bytes) is 32 runs of 8 keys in one cell. */
+  direct_.resize ((size_t) 1 << 24);
+  uint8_t *out = direct_.data ();
+  for (int hi = 0; hi < 256; hi++) {
+    for (int mid = 0; mid < 256; mid++) {
+      for (int run = 0; run < 32; run++, out += 8) {
+        /* the run's low-byte component is run * 8 .. run * 8 + 7 */
+        const int c0 = order == KeyOrder::C0_LOW ? run : hi >> 3;
+        const int c2 = order == KeyOrder::C0_LOW ? hi >> 3 : run;
+        const uint8_t label = cell_label[(c0 << 10) | ((mid >> 3) << 5) | c2];
+        memset (out, label, 8);
+      }
+    }
+  }
+}
+
+uint8_t
+ClassTable::resolve (uint8_t c0, uint8_t c1, uint8_t c2)
+{
+  const size_t cell = ((c0 >> 3) << 10) | ((c1 >> 3) << 5) | (c2 >> 3);
+  if (pending_[cell]) {
+    const int b0 = c0 & ~7, b1 = c1 & ~7, b2 = c2 & ~7;
+    float *comp = comps_;
+    for (int u = 0; u < 8; u++)
+      for (int v = 0; v < 8; v++)
+        for (int w = 0; w < 8; w++, comp += 3) {
+          comp[0] = b0 + u;
+          comp[1] = b1 + v;
+          comp[2] = b2 + w;
+        }
+    static_assert (kBatch >= 512, "one cell per conversion");
+    converter_.convert (cfg_.model, comps_, 512, lab_);
+    int i = 0;
+    for (int u = 0; u < 8; u++)
+      for (int v = 0; v < 8; v++)
+        for (int w = 0; w < 8; w++, i++)
+          direct_[key (b0 + u, b1 + v, b2 + w)] = nearest (lab_ + 3 * i,
+              nullptr);
+    pending_[cell] = 0;
+    filled_++;
+  }
+  return lookup (c0, c1, c2);
 }
 
 }  // namespace landmark

@@ -22,29 +22,49 @@ struct ClassifierConfig {
   InputModel model;
 };
 
-/* Two levels: 32x32x32 cells of 8x8x8 colours hold the label when the whole
- * cell has one; cells that straddle a decision boundary point to a block of
- * 512 exact labels, computed the first time a pixel falls in the cell (a
- * frame touches few of them), in memory reserved by build(). */
+/* Where each component sits in the 24-bit key of a pixel: the key is the
+ * pixel's three bytes read as one little-endian number, so packed formats
+ * need no shuffling. BGR-ordered memory (BGR, BGRx, BGRA, xBGR >> 8) puts
+ * component 0 (R) in the high byte; RGB-ordered memory and our Y,U,V keys
+ * put it in the low byte. */
+enum class KeyOrder { C0_LOW, C0_HIGH };
+
+/* A label for each of the 2^24 keys (16 MB). Built from 32x32x32 cells of
+ * 8x8x8 colours: a cell whose colours all have one class, by a bound on how
+ * far L*a*b* moves inside it, gets that label; a cell that straddles a
+ * decision boundary is marked kPending and computed by the direct
+ * computation the first time a pixel falls in it (a scene touches few of
+ * them). A lookup is one load; callers resolve() the rare kPending. */
 class ClassTable {
 public:
-  /* Builds the coarse table for all classes of cfg (about 70,000 L*a*b*
-   * conversions); call on configuration changes, never per frame. */
-  void build (const ClassifierConfig & cfg);
+  static constexpr uint8_t kPending = 255;
+
+  /* Builds the table for all classes of cfg (about 70,000 L*a*b*
+   * conversions and a 16 MB fill, a few milliseconds). Call on
+   * configuration changes, never per frame. */
+  void build (const ClassifierConfig & cfg, KeyOrder order);
 
   const ClassifierConfig & config () const { return cfg_; }
+  KeyOrder order () const { return order_; }
 
-  /* Nearest class over all classes for one pixel. */
-  inline uint8_t lookup (uint8_t c0, uint8_t c1, uint8_t c2)
+  /* The label array, indexed by key; hot loops keep it in a local. */
+  const uint8_t *labels () const { return direct_.data (); }
+
+  uint32_t key (uint8_t c0, uint8_t c1, uint8_t c2) const
   {
-    const uint16_t v = coarse_[((c0 >> 3) << 10) | ((c1 >> 3) << 5) | (c2 >> 3)];
-    if (v < kFineBase)
-      return (uint8_t) v;
-    const size_t block = v - kFineBase;
-    if (!fine_ready_[block])
-      fill_block (block, c0 & ~7, c1 & ~7, c2 & ~7);
-    return fine_[(block << 9) | ((c0 & 7) << 6) | ((c1 & 7) << 3) | (c2 & 7)];
+    return order_ == KeyOrder::C0_LOW ? c0 | (c1 << 8) | ((uint32_t) c2 << 16)
+        : c2 | (c1 << 8) | ((uint32_t) c0 << 16);
   }
+
+  /* Nearest class over all classes, or kPending. */
+  uint8_t lookup (uint8_t c0, uint8_t c1, uint8_t c2) const
+  {
+    return direct_[key (c0, c1, c2)];
+  }
+
+  /* Nearest class over all classes, computing the pixel's cell if pending.
+   * Never returns kPending. */
+  uint8_t resolve (uint8_t c0, uint8_t c1, uint8_t c2);
 
   /* The direct computation for n pixels (3 components each), optionally
    * over a subset of classes (active[k] != 0 for label k + 1). */
@@ -52,25 +72,22 @@ public:
       uint8_t * labels);
 
   /* Cells of 8x8x8 colours that straddle a decision boundary, and how many
-   * of them have been filled so far. */
-  size_t fine_cells () const { return fine_ready_.size (); }
-  size_t fine_cells_filled () const { return filled_; }
+   * of them have been computed. */
+  size_t boundary_cells () const { return boundary_cells_; }
+  size_t filled_cells () const { return filled_; }
 
   /* Pixels classify_exact handles per conversion call. */
   static constexpr int kBatch = 512;
 
 private:
-  static constexpr uint16_t kFineBase = 256;
-
   uint8_t nearest (const float *lab, const uint8_t * active) const;
-  void fill_block (size_t block, int b0, int b1, int b2);
 
   ClassifierConfig cfg_;
+  KeyOrder order_ = KeyOrder::C0_LOW;
   double max_d2_ = 0;
-  std::vector<uint16_t> coarse_;  /* 32x32x32 cells: label, or fine block */
-  std::vector<uint8_t> fine_;     /* 512 exact labels per boundary cell */
-  std::vector<uint8_t> fine_ready_;
-  size_t filled_ = 0;
+  std::vector<uint8_t> direct_;   /* 2^24 labels by key */
+  std::vector<uint8_t> pending_;  /* 32x32x32 cells: still to compute */
+  size_t boundary_cells_ = 0, filled_ = 0;
 
   LabConverter converter_;
   float comps_[3 * kBatch];

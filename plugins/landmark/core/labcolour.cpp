@@ -151,6 +151,14 @@ InputModel::operator== (const InputModel & o) const
       c_offset == o.c_offset && c_scale == o.c_scale;
 }
 
+Lab
+input_to_lab_exact (const InputModel & model, double c0, double c1, double c2)
+{
+  double rgb[3];
+  model.to_srgb (c0, c1, c2, rgb);
+  return srgb_to_lab (rgb[0], rgb[1], rgb[2]);
+}
+
 void
 LabConverter::convert (const InputModel & model, const float *comps, int n,
     float *lab)

@@ -39,6 +39,10 @@ struct InputModel {
   bool operator!= (const InputModel & o) const { return !(*this == o); }
 };
 
+/* One pixel's components to L*a*b* by the CIE formulas, in double. */
+Lab input_to_lab_exact (const InputModel & model, double c0, double c1,
+    double c2);
+
 /* Converts n pixels, given as 8-bit-scale components (3 floats each, may be
  * fractional), to L*a*b* (3 floats each) through sRGB float32 and OpenCV's
  * float conversion (cv::COLOR_RGB2Lab): bit for bit what the Python

@@ -1,0 +1,402 @@
+/* labsegment-bench: per-frame time of labsegment, beside a plain frame copy.
+ *
+ * Reads raw frames (packed with GStreamer's default strides, as
+ * gst_video_info_set_format computes them) from a file, pushes them in turn
+ * through a GstHarness running the given launch string, and times each
+ * gst_harness_push + gst_harness_pull pair with CLOCK_MONOTONIC after a
+ * warm-up.  Then it times a memcpy of a frame of the same size into a
+ * preallocated buffer as often (the memory-bound floor).  Output: one JSON
+ * object per line, one per measurement.
+ *
+ * This is a benchmark that prints numbers, not a test: it asserts nothing
+ * about speed.  Run it pinned to one core (taskset -c 0) with the build
+ * tree's plugin on GST_PLUGIN_PATH; python/gstlandmark/bench.py does both.
+ *
+ *   labsegment-bench --input frames.raw --format BGRx --width 640 \
+ *       --height 480 [--launch "labsegment min-class-pixels=500"] \
+ *       [--colorimetry bt601] [--frames 500] [--warmup 10] \
+ *       [--dump-labels labels.raw]
+ */
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <gst/gst.h>
+#include <gst/check/gstharness.h>
+#include <gst/video/video.h>
+
+#define LABELS_META_NAME "GstLandmarkLabelsMeta"
+
+typedef struct
+{
+  const gchar *name;
+  gint64 *ns;                   /* per-frame times, sorted by summarise() */
+  guint n;
+  gdouble median_ms, p10_ms, p90_ms, mean_ms, min_ms, max_ms;
+} Timing;
+
+static inline gint64
+now_ns (void)
+{
+  struct timespec ts;
+  clock_gettime (CLOCK_MONOTONIC, &ts);
+  return (gint64) ts.tv_sec * G_GINT64_CONSTANT (1000000000) + ts.tv_nsec;
+}
+
+static int
+cmp_gint64 (const void *a, const void *b)
+{
+  const gint64 x = *(const gint64 *) a, y = *(const gint64 *) b;
+  return x < y ? -1 : x > y;
+}
+
+/* Percentile q (0..1) of sorted values, interpolating between ranks. */
+static gdouble
+percentile (const gint64 * sorted, guint n, gdouble q)
+{
+  if (n == 0)
+    return 0;
+  const gdouble pos = q * (n - 1);
+  const guint lo = (guint) pos;
+  const guint hi = lo + 1 < n ? lo + 1 : lo;
+  const gdouble frac = pos - lo;
+  return sorted[lo] + frac * (sorted[hi] - sorted[lo]);
+}
+
+static void
+summarise (Timing * t)
+{
+  gdouble sum = 0;
+  qsort (t->ns, t->n, sizeof (gint64), cmp_gint64);
+  for (guint i = 0; i < t->n; i++)
+    sum += t->ns[i];
+  t->median_ms = percentile (t->ns, t->n, 0.5) / 1e6;
+  t->p10_ms = percentile (t->ns, t->n, 0.1) / 1e6;
+  t->p90_ms = percentile (t->ns, t->n, 0.9) / 1e6;
+  t->mean_ms = t->n ? sum / t->n / 1e6 : 0;
+  t->min_ms = t->n ? t->ns[0] / 1e6 : 0;
+  t->max_ms = t->n ? t->ns[t->n - 1] / 1e6 : 0;
+}
+
+/* Appends s to out as a JSON string literal. */
+static void
+json_string (GString * out, const gchar * s)
+{
+  g_string_append_c (out, '"');
+  for (const guchar * p = (const guchar *) s; p && *p; p++) {
+    switch (*p) {
+      case '"':
+        g_string_append (out, "\\\"");
+        break;
+      case '\\':
+        g_string_append (out, "\\\\");
+        break;
+      case '\n':
+        g_string_append (out, "\\n");
+        break;
+      case '\t':
+        g_string_append (out, "\\t");
+        break;
+      default:
+        if (*p < 0x20)
+          g_string_append_printf (out, "\\u%04x", *p);
+        else
+          g_string_append_c (out, *p);
+    }
+  }
+  g_string_append_c (out, '"');
+}
+
+static void
+print_timing (const Timing * t, const gchar * launch,
+    const GstVideoInfo * info, guint n_distinct, guint warmup,
+    const gchar * plugin_file)
+{
+  GString *s = g_string_new ("{\"name\": ");
+  json_string (s, t->name);
+  g_string_append (s, ", \"launch\": ");
+  json_string (s, launch ? launch : "");
+  g_string_append (s, ", \"format\": ");
+  json_string (s, GST_VIDEO_INFO_NAME (info));
+  gchar *cm = gst_video_colorimetry_to_string (&info->colorimetry);
+  g_string_append (s, ", \"colorimetry\": ");
+  json_string (s, cm ? cm : "");
+  g_free (cm);
+  g_string_append_printf (s, ", \"width\": %d, \"height\": %d, "
+      "\"frame_bytes\": %" G_GSIZE_FORMAT ", \"frames\": %u, "
+      "\"distinct_frames\": %u, \"warmup\": %u, ",
+      GST_VIDEO_INFO_WIDTH (info), GST_VIDEO_INFO_HEIGHT (info),
+      GST_VIDEO_INFO_SIZE (info), t->n, n_distinct, warmup);
+  g_string_append_printf (s, "\"median_ms\": %.6f, \"p10_ms\": %.6f, "
+      "\"p90_ms\": %.6f, \"mean_ms\": %.6f, \"min_ms\": %.6f, "
+      "\"max_ms\": %.6f", t->median_ms, t->p10_ms, t->p90_ms, t->mean_ms,
+      t->min_ms, t->max_ms);
+  if (plugin_file) {
+    g_string_append (s, ", \"plugin_file\": ");
+    json_string (s, plugin_file);
+  }
+  g_string_append (s, "}\n");
+  fputs (s->str, stdout);
+  fflush (stdout);
+  g_string_free (s, TRUE);
+}
+
+static gboolean
+read_file (const gchar * path, guint8 ** data, gsize * size)
+{
+  GError *err = NULL;
+  gchar *contents = NULL;
+  if (!g_file_get_contents (path, &contents, size, &err)) {
+    g_printerr ("labsegment-bench: %s\n", err->message);
+    g_error_free (err);
+    return FALSE;
+  }
+  *data = (guint8 *) contents;
+  return TRUE;
+}
+
+/* Writes the label plane of buf (width bytes per row, stride dropped) to
+ * out; FALSE when the buffer has no labels meta. */
+static gboolean
+dump_labels (GstBuffer * buf, FILE * out, const GstVideoInfo * info)
+{
+  GstCustomMeta *meta = gst_buffer_get_custom_meta (buf, LABELS_META_NAME);
+  if (!meta) {
+    g_printerr ("labsegment-bench: output buffer has no %s\n",
+        LABELS_META_NAME);
+    return FALSE;
+  }
+  const GstStructure *s = gst_custom_meta_get_structure (meta);
+  GstBuffer *plane = NULL;
+  guint w = 0, h = 0, stride = 0;
+  if (!gst_structure_get (s, "labels", GST_TYPE_BUFFER, &plane,
+          "width", G_TYPE_UINT, &w, "height", G_TYPE_UINT, &h,
+          "stride", G_TYPE_UINT, &stride, NULL)) {
+    g_printerr ("labsegment-bench: labels meta lacks plane fields: %s\n",
+        gst_structure_to_string (s));
+    return FALSE;
+  }
+  gboolean ok = TRUE;
+  GstMapInfo map;
+  if (w != (guint) GST_VIDEO_INFO_WIDTH (info)
+      || h != (guint) GST_VIDEO_INFO_HEIGHT (info) || stride < w
+      || !gst_buffer_map (plane, &map, GST_MAP_READ)) {
+    g_printerr ("labsegment-bench: unexpected label plane %ux%u stride %u\n",
+        w, h, stride);
+    gst_buffer_unref (plane);
+    return FALSE;
+  }
+  if (map.size < (gsize) stride * h) {
+    g_printerr ("labsegment-bench: label plane too small\n");
+    ok = FALSE;
+  }
+  for (guint y = 0; ok && y < h; y++)
+    ok = fwrite (map.data + (gsize) y * stride, 1, w, out) == w;
+  gst_buffer_unmap (plane, &map);
+  gst_buffer_unref (plane);
+  return ok;
+}
+
+/* True when the element named "labsegment" in the harness draws into the
+ * frame (output=labels): its input must then be a fresh copy each time. */
+static gboolean
+element_writes_frames (GstHarness * h)
+{
+  GObjectClass *klass = G_OBJECT_GET_CLASS (h->element);
+  GParamSpec *pspec = g_object_class_find_property (klass, "output");
+  if (!pspec || !G_IS_PARAM_SPEC_ENUM (pspec))
+    return FALSE;
+  gint output = 0;
+  g_object_get (h->element, "output", &output, NULL);
+  return output != G_PARAM_SPEC_ENUM (pspec)->default_value;
+}
+
+int
+main (int argc, char **argv)
+{
+  gchar *input = NULL, *format_name = NULL, *dump_path = NULL;
+  gchar *launch = NULL, *colorimetry = NULL;
+  gint width = 0, height = 0, frames = 500, warmup = 10;
+  gboolean no_copy = FALSE;
+  GOptionEntry entries[] = {
+    {"input", 'i', 0, G_OPTION_ARG_FILENAME, &input,
+        "Raw frames, default GStreamer strides, back to back", "FILE"},
+    {"format", 'f', 0, G_OPTION_ARG_STRING, &format_name,
+        "GStreamer video format name (BGRx, YUY2, I420, ...)", "FORMAT"},
+    {"width", 0, 0, G_OPTION_ARG_INT, &width, "Frame width", "PIXELS"},
+    {"height", 0, 0, G_OPTION_ARG_INT, &height, "Frame height", "PIXELS"},
+    {"colorimetry", 0, 0, G_OPTION_ARG_STRING, &colorimetry,
+        "Caps colorimetry, e.g. bt601 or bt709 (default: GStreamer's "
+          "default for the format and size)", "NAME"},
+    {"launch", 'l', 0, G_OPTION_ARG_STRING, &launch,
+        "Element and properties, launch syntax (default \"labsegment\")",
+        "DESC"},
+    {"frames", 'n', 0, G_OPTION_ARG_INT, &frames,
+        "Timed frames (default 500)", "N"},
+    {"warmup", 0, 0, G_OPTION_ARG_INT, &warmup,
+        "Untimed frames first; at least one per distinct input frame "
+          "(default 10)", "N"},
+    {"dump-labels", 0, 0, G_OPTION_ARG_FILENAME, &dump_path,
+        "Write the label plane (width x height bytes) of each distinct "
+          "input frame, in input order", "FILE"},
+    {"no-copy", 0, 0, G_OPTION_ARG_NONE, &no_copy,
+        "Skip the frame-copy measurement", NULL},
+    {NULL}
+  };
+  GError *err = NULL;
+  GOptionContext *ctx = g_option_context_new ("- time labsegment per frame");
+  g_option_context_add_main_entries (ctx, entries, NULL);
+  g_option_context_add_group (ctx, gst_init_get_option_group ());
+  if (!g_option_context_parse (ctx, &argc, &argv, &err)) {
+    g_printerr ("labsegment-bench: %s\n", err->message);
+    return 2;
+  }
+  g_option_context_free (ctx);
+  if (!input || !format_name || width <= 0 || height <= 0 || frames <= 0
+      || warmup < 0) {
+    g_printerr ("labsegment-bench: need --input, --format, --width, "
+        "--height (and positive --frames); see --help\n");
+    return 2;
+  }
+  if (!launch)
+    launch = g_strdup ("labsegment");
+
+  GstVideoFormat format = gst_video_format_from_string (format_name);
+  GstVideoInfo info;
+  if (format == GST_VIDEO_FORMAT_UNKNOWN
+      || !gst_video_info_set_format (&info, format, width, height)) {
+    g_printerr ("labsegment-bench: unknown format or size %s %dx%d\n",
+        format_name, width, height);
+    return 2;
+  }
+  if (colorimetry && !gst_video_colorimetry_from_string (&info.colorimetry,
+          colorimetry)) {
+    g_printerr ("labsegment-bench: unknown colorimetry %s\n", colorimetry);
+    return 2;
+  }
+  const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
+
+  guint8 *data = NULL;
+  gsize data_size = 0;
+  if (!read_file (input, &data, &data_size))
+    return 1;
+  if (data_size == 0 || data_size % frame_size != 0) {
+    g_printerr ("labsegment-bench: %s holds %" G_GSIZE_FORMAT " bytes, not "
+        "a whole number of %s %dx%d frames of %" G_GSIZE_FORMAT " bytes\n",
+        input, data_size, format_name, width, height, frame_size);
+    return 1;
+  }
+  const guint n_distinct = data_size / frame_size;
+  if ((guint) warmup < n_distinct)
+    warmup = n_distinct;
+
+  /* gst_harness_new_parse asserts on a bad description: check it first so
+   * the user gets the parser's message. */
+  GstElement *probe = gst_parse_launch_full (launch, NULL,
+      GST_PARSE_FLAG_FATAL_ERRORS, &err);
+  if (!probe) {
+    g_printerr ("labsegment-bench: bad --launch \"%s\": %s\n", launch,
+        err ? err->message : "unknown error");
+    return 1;
+  }
+  gst_object_unref (probe);
+
+  GstHarness *h = gst_harness_new_parse (launch);
+  gst_harness_set_src_caps (h, gst_video_info_to_caps (&info));
+  const gboolean fresh_input = element_writes_frames (h);
+  guint8 *scratch = g_malloc (frame_size);
+
+  const gchar *plugin_file = NULL;
+  GstElementFactory *factory = gst_element_factory_find ("labsegment");
+  if (factory) {
+    GstPlugin *plugin =
+        GST_PLUGIN (gst_plugin_feature_get_plugin (GST_PLUGIN_FEATURE
+            (factory)));
+    if (plugin) {
+      plugin_file = g_strdup (gst_plugin_get_filename (plugin));
+      gst_object_unref (plugin);
+    }
+    gst_object_unref (factory);
+  }
+
+  FILE *dump = NULL;
+  if (dump_path && !(dump = fopen (dump_path, "wb"))) {
+    g_printerr ("labsegment-bench: %s: %s\n", dump_path, g_strerror (errno));
+    return 1;
+  }
+
+  Timing element = {.name = "labsegment",.ns = g_new (gint64, frames) };
+  const GstClockTime duration = gst_util_uint64_scale_int (GST_SECOND, 1, 30);
+  for (guint i = 0; i < (guint) (warmup + frames); i++) {
+    guint8 *src = data + (gsize) (i % n_distinct) * frame_size;
+    if (fresh_input) {
+      /* output=labels draws into the frame: keep the input pristine */
+      memcpy (scratch, src, frame_size);
+      src = scratch;
+    }
+    GstBuffer *in = gst_buffer_new_wrapped_full ((GstMemoryFlags) 0, src,
+        frame_size, 0, frame_size, NULL, NULL);
+    GST_BUFFER_PTS (in) = i * duration;
+    GST_BUFFER_DURATION (in) = duration;
+
+    const gint64 t0 = now_ns ();
+    if (gst_harness_push (h, in) != GST_FLOW_OK) {
+      g_printerr ("labsegment-bench: push of frame %u failed\n", i);
+      return 1;
+    }
+    GstBuffer *out = gst_harness_pull (h);
+    const gint64 t1 = now_ns ();
+    if (!out) {
+      g_printerr ("labsegment-bench: no output for frame %u\n", i);
+      return 1;
+    }
+    if (dump && i < n_distinct && !dump_labels (out, dump, &info))
+      return 1;
+    /* drops the meta, so the label plane goes back to its pool */
+    gst_buffer_unref (out);
+    if (i >= (guint) warmup)
+      element.ns[element.n++] = t1 - t0;
+  }
+  if (dump && fclose (dump) != 0) {
+    g_printerr ("labsegment-bench: %s: %s\n", dump_path, g_strerror (errno));
+    return 1;
+  }
+  summarise (&element);
+  print_timing (&element, launch, &info, n_distinct, warmup, plugin_file);
+  gst_harness_teardown (h);
+
+  if (!no_copy) {
+    Timing copy = {.name = "copy",.ns = g_new (gint64, frames) };
+    guint8 *dst = g_malloc (frame_size);
+    memset (dst, 0, frame_size);
+    for (guint i = 0; i < (guint) (warmup + frames); i++) {
+      const guint8 *src = data + (gsize) (i % n_distinct) * frame_size;
+      const gint64 t0 = now_ns ();
+      memcpy (dst, src, frame_size);
+      /* keep the compiler from dropping the copy */
+      __asm__ __volatile__ ("":::"memory");
+      const gint64 t1 = now_ns ();
+      if (i >= (guint) warmup)
+        copy.ns[copy.n++] = t1 - t0;
+    }
+    summarise (&copy);
+    print_timing (&copy, "memcpy", &info, n_distinct, warmup, NULL);
+    g_free (dst);
+    g_free (copy.ns);
+  }
+
+  g_free (element.ns);
+  g_free (scratch);
+  g_free (data);
+  g_free (input);
+  g_free (format_name);
+  g_free (launch);
+  g_free (colorimetry);
+  g_free (dump_path);
+  g_free ((gchar *) plugin_file);
+  gst_deinit ();
+  return 0;
+}

@@ -49,9 +49,13 @@ if [ ! -f "$stamp" ] || [ "$ROOT/python/pyproject.toml" -nt "$stamp" ]; then
 fi
 
 export PATH="$VENV/bin:$PATH"
+options=(-Dpython=enabled -Dtests=enabled "-Dtest_python=$VENV/bin/python")
 if [ ! -f "$BUILD/build.ninja" ]; then
   log "configuring $BUILD"
-  meson setup "$BUILD" "$ROOT" >/dev/null
+  meson setup "$BUILD" "$ROOT" "${options[@]}" >/dev/null
+else
+  # --reconfigure also learns options added since the last set-up
+  meson setup --reconfigure "$BUILD" "$ROOT" "${options[@]}" >/dev/null
 fi
 log "building"
 ninja -C "$BUILD" >/dev/null

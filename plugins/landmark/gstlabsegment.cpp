@@ -1001,7 +1001,7 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
       g_param_spec_uint ("min-class-pixels", "Dominant-colour threshold",
           "Pixels a class needs in a frame's first-pass histogram to take "
           "part in the final labelling (0: every class takes part)",
-          0, G_MAXINT, DEFAULT_MIN_CLASS_PIXELS,
+          0, G_MAXUINT, DEFAULT_MIN_CLASS_PIXELS,
           (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
               GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property (gobject_class, PROP_MAX_DISTANCE,

@@ -161,6 +161,12 @@ GstStructure *
 landmark_labels_meta_add (GstBuffer * buffer)
 {
   gst_landmark_labels_meta_get_info ();
+  /* one labels meta per buffer: a later segmentation replaces an earlier
+   * one, which readers would otherwise find first */
+  GstCustomMeta *old;
+  while ((old = gst_buffer_get_custom_meta (buffer,
+              GST_LANDMARK_LABELS_META_NAME)))
+    gst_buffer_remove_meta (buffer, (GstMeta *) old);
   GstCustomMeta *meta = gst_buffer_add_custom_meta (buffer,
       GST_LANDMARK_LABELS_META_NAME);
   return meta ? gst_custom_meta_get_structure (meta) : nullptr;

@@ -44,14 +44,15 @@ const GstMetaInfo *gst_landmark_pose_meta_get_info (void);
 /* Registers every meta of the contract; called from plugin_init. */
 void landmark_meta_register (void);
 
-/* Adds an empty labels meta and returns its structure to fill. */
+/* Adds an empty labels meta, replacing any the buffer had, and returns its
+ * structure to fill. */
 GstStructure *landmark_labels_meta_add (GstBuffer * buffer);
 
 /* The labels meta's structure, or NULL. */
 const GstStructure *landmark_labels_meta_get (GstBuffer * buffer);
 
 /* Reads the plane fields; FALSE when they are missing or inconsistent
- * (plane smaller than stride * height). */
+ * (plane smaller than stride * height). *plane is a new reference. */
 gboolean landmark_labels_get_plane (const GstStructure * labels,
     GstBuffer ** plane, guint * width, guint * height, guint * stride);
 

@@ -1,6 +1,8 @@
 """labsegment against the Python reference (numpy + OpenCV float L*a*b*)
 on random and natural-looking frames in every accepted format."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -204,3 +206,20 @@ def test_histogram_messages(gst):
         assert [bool(active[i]) for i in range(len(active))] == \
             seg.active.tolist()
         assert m.get_value("min-class-pixels") == 100
+
+
+def test_second_segmentation_replaces_first(gst):
+    """Two labsegments in a row: readers see the last one's labels."""
+    root = os.environ.get("LANDMARK_SOURCE_ROOT",
+                          os.path.join(os.path.dirname(__file__), "..", ".."))
+    custom = os.path.join(root, "tests", "files", "palettes",
+                          "good-custom.json")
+    img = F.natural_rgb(np.random.default_rng(8), 30, 40)
+    caps = F.caps_string("RGB", 40, 30)
+    out = run(f"labsegment min-class-pixels=0 ! labsegment palette={custom} "
+              "min-class-pixels=0", [img], caps)
+    lm = meta.labels(out[0])
+    custom_pal = palette.load_palette(custom)
+    assert lm.class_names == custom_pal.names
+    seg = reference.segment_rgb(img, custom_pal, min_class_pixels=0)
+    np.testing.assert_array_equal(lm.plane, seg.labels)

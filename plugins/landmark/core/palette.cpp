@@ -145,7 +145,11 @@ palette_parse (const std::string & json, const std::string & source,
     return false;
   }
   JsonNode *root = json_parser_get_root (parser.get ());
-  if (!root || !JSON_NODE_HOLDS_OBJECT (root)) {
+  if (!root) {
+    *error = source + ": the file is empty";
+    return false;
+  }
+  if (!JSON_NODE_HOLDS_OBJECT (root)) {
     *error = source + ": the top level must be an object with \"classes\"";
     return false;
   }

@@ -108,6 +108,18 @@ pose_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
   return FALSE;
 }
 
+/* One meta of each kind per buffer: a later result replaces an earlier one,
+ * which readers would otherwise find first. */
+GstStructure *
+replace_custom_meta (GstBuffer * buffer, const char *name)
+{
+  GstCustomMeta *old;
+  while ((old = gst_buffer_get_custom_meta (buffer, name)))
+    gst_buffer_remove_meta (buffer, (GstMeta *) old);
+  GstCustomMeta *meta = gst_buffer_add_custom_meta (buffer, name);
+  return meta ? gst_custom_meta_get_structure (meta) : nullptr;
+}
+
 const GstStructure *
 custom_structure (GstBuffer * buffer, const char *name)
 {
@@ -161,15 +173,7 @@ GstStructure *
 landmark_labels_meta_add (GstBuffer * buffer)
 {
   gst_landmark_labels_meta_get_info ();
-  /* one labels meta per buffer: a later segmentation replaces an earlier
-   * one, which readers would otherwise find first */
-  GstCustomMeta *old;
-  while ((old = gst_buffer_get_custom_meta (buffer,
-              GST_LANDMARK_LABELS_META_NAME)))
-    gst_buffer_remove_meta (buffer, (GstMeta *) old);
-  GstCustomMeta *meta = gst_buffer_add_custom_meta (buffer,
-      GST_LANDMARK_LABELS_META_NAME);
-  return meta ? gst_custom_meta_get_structure (meta) : nullptr;
+  return replace_custom_meta (buffer, GST_LANDMARK_LABELS_META_NAME);
 }
 
 const GstStructure *
@@ -267,9 +271,7 @@ GstStructure *
 landmark_pose_meta_add (GstBuffer * buffer)
 {
   gst_landmark_pose_meta_get_info ();
-  GstCustomMeta *meta = gst_buffer_add_custom_meta (buffer,
-      GST_LANDMARK_POSE_META_NAME);
-  return meta ? gst_custom_meta_get_structure (meta) : nullptr;
+  return replace_custom_meta (buffer, GST_LANDMARK_POSE_META_NAME);
 }
 
 const GstStructure *

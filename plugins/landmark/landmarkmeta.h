@@ -72,7 +72,8 @@ GstVideoRegionOfInterestMeta *landmark_detection_get (GstBuffer * buffer,
     gint id);
 guint landmark_detection_count (GstBuffer * buffer);
 
-/* Pose: adds an empty pose meta and returns its structure to fill. */
+/* Pose: adds an empty pose meta, replacing any the buffer had, and returns
+ * its structure to fill. */
 GstStructure *landmark_pose_meta_add (GstBuffer * buffer);
 const GstStructure *landmark_pose_meta_get (GstBuffer * buffer);
 

@@ -31,8 +31,13 @@ if [ ${#missing[@]} -gt 0 ]; then
   fi
   log "installing ${missing[*]}"
   export DEBIAN_FRONTEND=noninteractive
-  apt-get update -q >/dev/null
-  apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
+  apt_log=$(mktemp)
+  if ! { apt-get update -q && apt-get install -y -q --no-install-recommends "${missing[@]}"; } >"$apt_log" 2>&1; then
+    tail -n 20 "$apt_log" >&2
+    log "apt-get failed (full log: $apt_log)"
+    exit 1
+  fi
+  rm -f "$apt_log"
 fi
 
 # Debian's python3 has the GStreamer bindings (gi); the venv sees them

@@ -229,6 +229,8 @@ COMMANDS = [
     add_palette_parser,
     _lazy("demo", "add_demo_parser"),
     _lazy("bench", "add_bench_parser"),
+    _lazy("regress", "add_regress_parser"),
+    _lazy("evaluate", "add_evaluate_parser"),
 ]
 
 

@@ -23,6 +23,8 @@ gi.require_version("Gst", "1.0")
 gi.require_version("GstVideo", "1.0")
 from gi.repository import GLib, Gst, GstVideo  # noqa: E402
 
+from .messages import structure_to_dict  # noqa: E402
+
 LABELS_META = "GstLandmarkLabelsMeta"
 POSE_META = "GstLandmarkPoseMeta"
 PARAM_NAMES = ("landmark-blob", "landmark-range", "landmark-match")
@@ -73,20 +75,6 @@ def _values(structure: Gst.Structure, name: str) -> list:
         return []
     value = structure.get_value(name)
     return [value[i] for i in range(len(value))]
-
-
-def _structure_dict(structure: Optional[Gst.Structure]) -> Dict[str, Any]:
-    """Every field of a structure, arrays as lists."""
-    if structure is None:
-        return {}
-    out = {}
-    for i in range(structure.n_fields()):
-        name = structure.nth_field_name(i)
-        value = structure.get_value(name)
-        if isinstance(value, (Gst.ValueArray, Gst.ValueList)):
-            value = [value[j] for j in range(len(value))]
-        out[name] = value
-    return out
 
 
 @dataclass
@@ -210,7 +198,7 @@ def detections(buf: Gst.Buffer) -> List[Detection]:
         for name in PARAM_NAMES:
             s = roi.get_param(name)
             if s is not None:
-                params[name] = _structure_dict(s)
+                params[name] = structure_to_dict(s)
         out.append(Detection(
             id=roi.id, class_name=GLib.quark_to_string(roi.roi_type),
             bbox=(roi.x, roi.y, roi.w, roi.h), params=params))
@@ -223,4 +211,4 @@ def pose(buf: Gst.Buffer) -> Optional[Pose]:
     meta = buf.get_custom_meta(POSE_META)
     if meta is None:
         return None
-    return Pose(fields=_structure_dict(meta.get_structure()))
+    return Pose(fields=structure_to_dict(meta.get_structure()))

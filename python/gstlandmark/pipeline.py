@@ -1,8 +1,11 @@
-"""Run our elements from Python: frames in, buffers with metadata out."""
+"""Run our elements from Python: frames in, buffers with metadata out
+(``process_frames``), or a pipeline on a file with per-frame results
+(``run_file``, ``iterate``)."""
 
 from __future__ import annotations
 
-from typing import Iterable, List, Optional
+from dataclasses import dataclass, field
+from typing import Dict, Iterable, Iterator, List, Optional
 
 import numpy as np
 
@@ -11,6 +14,9 @@ import gi
 gi.require_version("Gst", "1.0")
 gi.require_version("GstVideo", "1.0")
 from gi.repository import Gst, GstVideo  # noqa: E402
+
+from . import meta  # noqa: E402
+from .messages import LandmarkMessage  # noqa: E402
 
 
 def init() -> None:
@@ -84,3 +90,96 @@ def _raise_bus_error(bus: Gst.Bus, fallback: Optional[str]) -> None:
         raise PipelineError(f"{err.message} ({dbg})")
     if fallback:
         raise PipelineError(fallback)
+
+
+# ---------------------------------------------------------------------------
+# Embedding: run a pipeline on a file and iterate per-frame results
+
+
+@dataclass
+class FrameResult:
+    """What our elements attached to one frame, plus the ``landmark-*``
+    messages posted for it (matched by timestamp)."""
+    frame: int
+    pts: Optional[int]
+    width: int
+    height: int
+    labels: Optional["meta.LabelsMeta"]
+    detections: List["meta.Detection"]
+    pose: Optional["meta.Pose"]
+    messages: List[LandmarkMessage] = field(default_factory=list)
+    buffer: Optional[Gst.Buffer] = None
+
+
+def file_pipeline(path: str, chain: str = "labsegment") -> str:
+    """A launch line that decodes ``path`` and runs ``chain`` on it."""
+    return (f"filesrc location=\"{path}\" ! decodebin ! videoconvert ! "
+            f"{chain} ! appsink name=results sync=false")
+
+
+def iterate(description: str, timeout_s: float = 60.0,
+            keep_buffers: bool = False) -> Iterator[FrameResult]:
+    """Runs a launch line and yields a FrameResult per frame that reaches
+    its appsink named ``results`` (appended when the line has none).
+
+    Raises PipelineError on a pipeline error or a stall longer than
+    ``timeout_s``. Closing the generator early stops the pipeline.
+    """
+    init()
+    if "name=results" not in description:
+        description += " ! appsink name=results sync=false"
+    pipe = Gst.parse_launch(description)
+    sink = pipe.get_by_name("results")
+    if sink is None:
+        raise PipelineError("no appsink named 'results' in the pipeline")
+    bus = pipe.get_bus()
+    pending: Dict[Optional[int], List[LandmarkMessage]] = {}
+
+    def drain_bus() -> None:
+        while True:
+            msg = bus.pop_filtered(Gst.MessageType.ELEMENT |
+                                   Gst.MessageType.ERROR)
+            if msg is None:
+                return
+            if msg.type == Gst.MessageType.ERROR:
+                err, dbg = msg.parse_error()
+                raise PipelineError(f"{err.message} ({dbg})")
+            lm = LandmarkMessage.from_message(msg)
+            if lm is not None:
+                pending.setdefault(lm.timestamp, []).append(lm)
+
+    if pipe.set_state(Gst.State.PLAYING) == Gst.StateChangeReturn.FAILURE:
+        drain_bus()
+        pipe.set_state(Gst.State.NULL)
+        raise PipelineError(f"could not start: {description}")
+    try:
+        n = 0
+        while True:
+            sample = sink.emit("try-pull-sample", int(timeout_s * Gst.SECOND))
+            drain_bus()
+            if sample is None:
+                if sink.get_property("eos"):
+                    return
+                raise PipelineError(f"no frame for {timeout_s} s")
+            buf = sample.get_buffer()
+            caps = sample.get_caps().get_structure(0)
+            pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts
+            yield FrameResult(
+                frame=n, pts=pts, width=caps.get_value("width"),
+                height=caps.get_value("height"), labels=meta.labels(buf),
+                detections=meta.detections(buf), pose=meta.pose(buf),
+                messages=pending.pop(pts, []),
+                buffer=buf if keep_buffers else None)
+            n += 1
+    finally:
+        pipe.set_state(Gst.State.NULL)
+
+
+def run_file(path: str, chain: str = "labsegment",
+             **kwargs) -> Iterator[FrameResult]:
+    """Per-frame results of ``chain`` on a video file::
+
+        for r in run_file("clip.avi", "labsegment min-class-pixels=300"):
+            print(r.frame, r.labels.class_by_name("red").count)
+    """
+    return iterate(file_pipeline(path, chain), **kwargs)

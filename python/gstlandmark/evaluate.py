@@ -1,0 +1,272 @@
+"""``gst-landmark evaluate RESULT.jsonl truth.jsonl``: accuracy of a
+``landmarklog`` file against the ground truth of a synthetic clip.
+
+- Detections: a detection matches a visible truth landmark of its class
+  when its centroid lies within ``--match-px`` pixels of the landmark's
+  pixel centroid (nearest pairs first, one to one). Truth landmarks
+  smaller than ``--min-pixels`` are neither required nor held against a
+  detection that finds them. Precision and recall per class, and by
+  distance band of the truth range.
+- Range and bearing of matched detections that carry ``landmark-range``:
+  error statistics (median, p95, max) by distance band.
+- Pose, on frames that have one: position and heading error statistics,
+  overall and by solver.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .regress import RegressError, read_jsonl
+
+DEFAULT_BANDS = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0)
+
+
+@dataclass
+class Counts:
+    tp: int = 0
+    fp: int = 0
+    fn: int = 0
+
+    @property
+    def precision(self) -> Optional[float]:
+        n = self.tp + self.fp
+        return self.tp / n if n else None
+
+    @property
+    def recall(self) -> Optional[float]:
+        n = self.tp + self.fn
+        return self.tp / n if n else None
+
+    def as_dict(self) -> Dict[str, Any]:
+        return {"tp": self.tp, "fp": self.fp, "fn": self.fn,
+                "precision": self.precision, "recall": self.recall}
+
+
+@dataclass
+class Evaluation:
+    frames: int = 0
+    by_class: Dict[str, Counts] = field(default_factory=dict)
+    by_band: Dict[str, Counts] = field(default_factory=dict)
+    range_errors: List[Tuple[float, float, float]] = field(
+        default_factory=list)       # (truth range, range error, bearing err)
+    pose_errors: List[Tuple[str, float, float]] = field(
+        default_factory=list)       # (solver, position err, heading err)
+    frames_with_pose: int = 0
+
+
+def band_name(value: Optional[float], bands: Sequence[float]) -> str:
+    if value is None:
+        return "unknown"
+    for lo, hi in zip(bands, bands[1:]):
+        if lo <= value < hi:
+            return f"{lo:g}-{hi:g} m"
+    return f">={bands[-1]:g} m" if value >= bands[-1] else f"<{bands[0]:g} m"
+
+
+def wrap_angle(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def detection_centre(det: Dict[str, Any]) -> Tuple[float, float]:
+    blob = det.get("blob", {})
+    if "centroid-x" in blob and "centroid-y" in blob:
+        return blob["centroid-x"], blob["centroid-y"]
+    x, y, w, h = det["bbox"]
+    # bbox covers pixels x..x+w-1: its centre in pixel-centre coordinates
+    return x + (w - 1) / 2.0, y + (h - 1) / 2.0
+
+
+def match_frame(dets: List[Dict[str, Any]], truth: List[Dict[str, Any]],
+                match_px: float) -> List[Tuple[int, int]]:
+    """One-to-one pairs (detection index, truth index) of the same class
+    within match_px, nearest first."""
+    pairs = []
+    for i, d in enumerate(dets):
+        du, dv = detection_centre(d)
+        for j, t in enumerate(truth):
+            if t["class"] != d["class"]:
+                continue
+            dist = math.hypot(du - t["u"], dv - t["v"])
+            if dist <= match_px:
+                pairs.append((dist, i, j))
+    pairs.sort()
+    used_d, used_t, out = set(), set(), []
+    for _, i, j in pairs:
+        if i not in used_d and j not in used_t:
+            used_d.add(i)
+            used_t.add(j)
+            out.append((i, j))
+    return out
+
+
+def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
+             match_px: float = 4.0, min_pixels: float = 20.0,
+             bands: Sequence[float] = DEFAULT_BANDS) -> Evaluation:
+    ev = Evaluation()
+    truth_by_frame = {t["frame"]: t for t in truth}
+    for res in results:
+        t = truth_by_frame.get(res.get("frame"))
+        if t is None:
+            continue
+        ev.frames += 1
+        dets = [d for d in res.get("detections", [])
+                if d.get("blob", {}).get("kept", True)]
+        marks = t.get("landmarks", [])
+        pairs = match_frame(dets, marks, match_px)
+        matched_d = {i for i, _ in pairs}
+        matched_t = {j for _, j in pairs}
+
+        def count(cls, rng, kind):
+            for key, table in ((cls, ev.by_class),
+                               (band_name(rng, bands), ev.by_band)):
+                c = table.setdefault(key, Counts())
+                setattr(c, kind, getattr(c, kind) + 1)
+
+        for i, j in pairs:
+            mark = marks[j]
+            if mark.get("pixels", math.inf) < min_pixels:
+                continue   # found a landmark too small to be required
+            count(mark["class"], mark.get("range"), "tp")
+            rng = dets[i].get("range", {})
+            if "range" in rng and "range" in mark:
+                ev.range_errors.append((
+                    mark["range"], rng["range"] - mark["range"],
+                    wrap_angle(rng.get("bearing", math.nan) -
+                               mark.get("bearing", math.nan))))
+        for i, d in enumerate(dets):
+            if i not in matched_d:
+                count(d["class"], d.get("range", {}).get("range"), "fp")
+        for j, mark in enumerate(marks):
+            if j not in matched_t and mark.get("pixels", 0) >= min_pixels:
+                count(mark["class"], mark.get("range"), "fn")
+
+        pose = res.get("pose")
+        if pose is not None and "robot" in t:
+            ev.frames_with_pose += 1
+            robot = t["robot"]
+            ev.pose_errors.append((
+                str(pose.get("solver", "")),
+                math.hypot(pose["x"] - robot["x"], pose["y"] - robot["y"]),
+                wrap_angle(pose["heading"] - robot["heading"])))
+    return ev
+
+
+def stats(values: Sequence[float]) -> Dict[str, Any]:
+    a = np.abs(np.asarray([v for v in values if not math.isnan(v)], float))
+    if a.size == 0:
+        return {"n": 0}
+    return {"n": int(a.size), "median": float(np.median(a)),
+            "p95": float(np.percentile(a, 95)), "max": float(a.max())}
+
+
+def summary(ev: Evaluation, bands: Sequence[float] = DEFAULT_BANDS
+            ) -> Dict[str, Any]:
+    ranges: Dict[str, Dict[str, Any]] = {}
+    keys = sorted({band_name(r, bands) for r, _, _ in ev.range_errors})
+    for key in keys:
+        sel = [(r, e, b) for r, e, b in ev.range_errors
+               if band_name(r, bands) == key]
+        ranges[key] = {
+            "range_m": stats([e for _, e, _ in sel]),
+            "range_rel": stats([e / r for r, e, _ in sel if r > 0]),
+            "bearing_deg": stats([math.degrees(b) for _, _, b in sel]),
+        }
+    poses: Dict[str, Dict[str, Any]] = {}
+    solvers = sorted({s for s, _, _ in ev.pose_errors})
+    for solver in ["all"] + solvers:
+        sel = [(p, h) for s, p, h in ev.pose_errors
+               if solver in ("all", s)]
+        poses[solver] = {"position_m": stats([p for p, _ in sel]),
+                         "heading_deg": stats([math.degrees(h)
+                                               for _, h in sel])}
+    total = Counts()
+    for c in ev.by_class.values():
+        total.tp, total.fp, total.fn = (total.tp + c.tp, total.fp + c.fp,
+                                        total.fn + c.fn)
+    return {
+        "frames": ev.frames,
+        "detection": {"all": total.as_dict(),
+                      "by_class": {k: v.as_dict()
+                                   for k, v in sorted(ev.by_class.items())},
+                      "by_band": {k: v.as_dict()
+                                  for k, v in sorted(ev.by_band.items())}},
+        "range": ranges,
+        "pose": {"frames_with_pose": ev.frames_with_pose, **poses},
+    }
+
+
+def _pct(x: Optional[float]) -> str:
+    return "   -  " if x is None else f"{100 * x:6.2f}"
+
+
+def format_report(s: Dict[str, Any]) -> str:
+    lines = [f"frames evaluated: {s['frames']}", "",
+             "detections        tp     fp     fn  precision%  recall%"]
+    det = s["detection"]
+    for name, c in list(det["by_class"].items()) + [("all", det["all"])] + \
+            [(f"band {k}", v) for k, v in det["by_band"].items()]:
+        lines.append(f"{name:14s} {c['tp']:5d}  {c['fp']:5d}  {c['fn']:5d}"
+                     f"     {_pct(c['precision'])}   {_pct(c['recall'])}")
+    if s["range"]:
+        lines += ["", "range (matched)   n   |err| m median  p95    max   "
+                  "rel% median  p95   bearing deg median  p95    max"]
+        for band, r in s["range"].items():
+            m, rel, b = r["range_m"], r["range_rel"], r["bearing_deg"]
+            lines.append(
+                f"{band:14s} {m['n']:4d}   {m['median']:.4f}  {m['p95']:.4f}"
+                f" {m['max']:.4f}   {100 * rel.get('median', 0):6.2f} "
+                f"{100 * rel.get('p95', 0):6.2f}"
+                f"     {b.get('median', math.nan):7.3f} "
+                f"{b.get('p95', math.nan):7.3f} {b.get('max', math.nan):7.3f}")
+    pose = s["pose"]
+    if pose["frames_with_pose"]:
+        lines += ["", f"pose: {pose['frames_with_pose']} of {s['frames']} "
+                  "frames", "solver            n   position m median  p95   "
+                  "max    heading deg median  p95    max"]
+        for solver, p in pose.items():
+            if solver == "frames_with_pose":
+                continue
+            pm, h = p["position_m"], p["heading_deg"]
+            if pm["n"]:
+                lines.append(
+                    f"{solver:14s} {pm['n']:4d}   {pm['median']:.4f} "
+                    f"{pm['p95']:.4f} {pm['max']:.4f}   {h['median']:7.3f} "
+                    f"{h['p95']:7.3f} {h['max']:7.3f}")
+    return "\n".join(lines)
+
+
+def add_evaluate_parser(subparsers):
+    p = subparsers.add_parser(
+        "evaluate", help="accuracy of a landmarklog file against truth",
+        description=__doc__.split("\n\n")[0].replace("``", ""))
+    p.add_argument("result", help="landmarklog output (JSON Lines)")
+    p.add_argument("truth", help="truth.jsonl of a synthetic clip")
+    p.add_argument("--match-px", type=float, default=4.0,
+                   help="largest centroid distance of a match (default 4)")
+    p.add_argument("--min-pixels", type=float, default=20.0,
+                   help="smallest visible area a landmark must be found "
+                        "at (default 20)")
+    p.add_argument("--json", metavar="OUT", help="also write the numbers")
+    p.set_defaults(handler=_handle, parser=p)
+
+
+def _handle(args) -> int:
+    try:
+        ev = evaluate(read_jsonl(args.result), read_jsonl(args.truth),
+                      args.match_px, args.min_pixels)
+    except (RegressError, KeyError) as err:
+        print(f"gst-landmark: error: {err}", file=sys.stderr)
+        return 2
+    s = summary(ev)
+    print(format_report(s))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(s, f, indent=2)
+    return 0

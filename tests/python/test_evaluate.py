@@ -1,0 +1,91 @@
+"""gst-landmark evaluate against hand-made truth with known answers."""
+
+import json
+import math
+
+import pytest
+
+from gstlandmark import cli, evaluate as E
+
+
+def mark(cls, u, v, rng, bearing=0.0, pixels=100, id_="L"):
+    return {"id": id_, "class": cls, "u": u, "v": v, "pixels": pixels,
+            "range": rng, "bearing": bearing}
+
+
+def det(cls, u, v, rng=None, bearing=None, kept=True):
+    d = {"id": 0, "class": cls, "bbox": [int(u) - 5, int(v) - 5, 11, 11],
+         "blob": {"centroid-x": u, "centroid-y": v, "kept": kept}}
+    if rng is not None:
+        d["range"] = {"range": rng, "bearing": bearing}
+    return d
+
+
+TRUTH = [
+    {"frame": 0, "robot": {"x": 0.0, "y": 0.0, "heading": 0.0},
+     "landmarks": [mark("red", 100, 100, 1.0, 0.1),
+                   mark("blue", 200, 100, 2.5, -0.2),
+                   mark("red", 300, 50, 4.5, 0.0, pixels=5)]},   # too small
+    {"frame": 1, "robot": {"x": 1.0, "y": 2.0, "heading": 3.0},
+     "landmarks": [mark("red", 110, 100, 1.2, 0.0)]},
+]
+RESULTS = [
+    {"frame": 0, "detections": [
+        det("red", 101, 100.5, 1.02, 0.1 + math.radians(0.5)),  # match
+        det("blue", 200, 108, 2.5, -0.2),     # 8 px away: no match -> FP
+        det("red", 300, 50, 4.4, 0.0),        # finds a too-small landmark
+        det("green", 10, 10, kept=False)]},   # rejected: ignored
+    {"frame": 1, "detections": [det("red", 110, 102, 1.14, 0.0)],
+     "pose": {"x": 1.03, "y": 1.96, "heading": 3.0 + math.radians(2),
+              "solver": "nls"}},
+]
+
+
+def test_counts_precision_recall():
+    ev = E.evaluate(RESULTS, TRUTH, match_px=4.0, min_pixels=20)
+    assert (ev.by_class["red"].tp, ev.by_class["red"].fp,
+            ev.by_class["red"].fn) == (2, 0, 0)
+    assert (ev.by_class["blue"].tp, ev.by_class["blue"].fp,
+            ev.by_class["blue"].fn) == (0, 1, 1)
+    assert "green" not in ev.by_class
+    s = E.summary(ev)
+    assert s["detection"]["all"]["precision"] == pytest.approx(2 / 3)
+    assert s["detection"]["all"]["recall"] == pytest.approx(2 / 3)
+    assert s["detection"]["by_band"]["1-2 m"]["tp"] == 2
+    assert s["detection"]["by_band"]["2-3 m"]["fn"] == 1
+
+
+def test_range_bearing_and_pose_errors():
+    s = E.summary(E.evaluate(RESULTS, TRUTH))
+    r = s["range"]["1-2 m"]
+    assert r["range_m"]["n"] == 2
+    assert r["range_m"]["median"] == pytest.approx((0.02 + 0.06) / 2)
+    assert r["range_m"]["max"] == pytest.approx(0.06)
+    assert r["range_rel"]["max"] == pytest.approx(0.05)
+    assert r["bearing_deg"]["max"] == pytest.approx(0.5)
+    pose = s["pose"]
+    assert pose["frames_with_pose"] == 1
+    assert pose["all"]["position_m"]["median"] == pytest.approx(0.05)
+    assert pose["nls"]["heading_deg"]["max"] == pytest.approx(2.0)
+
+
+def test_heading_error_wraps():
+    truth = [{"frame": 0, "robot": {"x": 0, "y": 0, "heading": math.pi - 0.01},
+              "landmarks": []}]
+    res = [{"frame": 0, "detections": [],
+            "pose": {"x": 0, "y": 0, "heading": -math.pi + 0.01}}]
+    s = E.summary(E.evaluate(res, truth))
+    assert s["pose"]["all"]["heading_deg"]["max"] == pytest.approx(
+        math.degrees(0.02))
+
+
+def test_cli_prints_and_writes_json(tmp_path, capsys):
+    r, t = tmp_path / "r.jsonl", tmp_path / "t.jsonl"
+    r.write_text("".join(json.dumps(x) + "\n" for x in RESULTS))
+    t.write_text("".join(json.dumps(x) + "\n" for x in TRUTH))
+    out = tmp_path / "eval.json"
+    assert cli.main(["evaluate", str(r), str(t), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "red" in text and "precision" in text and "pose: 1 of 2" in text
+    assert json.loads(out.read_text())["frames"] == 2
+    assert cli.main(["evaluate", str(tmp_path / "none"), str(t)]) == 2

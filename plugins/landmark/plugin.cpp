@@ -5,6 +5,7 @@
 #include <gst/gst.h>
 
 #include "gstlabsegment.h"
+#include "gstlandmarklog.h"
 #include "landmarkmeta.h"
 
 static gboolean
@@ -14,6 +15,7 @@ plugin_init (GstPlugin * plugin)
 
   landmark_meta_register ();
   ok |= GST_ELEMENT_REGISTER (labsegment, plugin);
+  ok |= GST_ELEMENT_REGISTER (landmarklog, plugin);
   return ok;
 }
 

@@ -5,6 +5,8 @@
  * are covered without editing this file. */
 
 #include <gst/check/gstcheck.h>
+#include <glib/gstdio.h>
+#include <unistd.h>
 
 #define PLUGIN_NAME "landmark"
 #define STATE_TIMEOUT (10 * GST_SECOND)
@@ -37,6 +39,32 @@ plugin_element_names (void)
   return names;
 }
 
+/* Elements that need a file to start (landmarklog) get one in the
+ * temporary directory. */
+static void
+configure_element (GstElement * element)
+{
+  GParamSpec *p = g_object_class_find_property (G_OBJECT_GET_CLASS (element),
+      "location");
+  if (p && G_PARAM_SPEC_VALUE_TYPE (p) == G_TYPE_STRING) {
+    gchar *name = g_strdup_printf ("states-%s-%u.out",
+        GST_OBJECT_NAME (element), (guint) getpid ());
+    gchar *path = g_build_filename (g_get_tmp_dir (), name, NULL);
+    g_object_set (element, "location", path, NULL);
+    g_object_set_data_full (G_OBJECT (element), "states-file", path,
+        (GDestroyNotify) g_free);
+    g_free (name);
+  }
+}
+
+static void
+remove_element_file (GstElement * element)
+{
+  const gchar *path = g_object_get_data (G_OBJECT (element), "states-file");
+  if (path)
+    g_remove (path);
+}
+
 /* Sets the state and waits until it is reached. */
 static void
 go_to_state (GstElement * element, GstState target)
@@ -66,11 +94,13 @@ cycle_every_element (const GstState * sequence, guint n, guint rounds)
     guint r, i;
 
     fail_unless (element != NULL, "cannot create %s", (gchar *) l->data);
+    configure_element (element);
     GST_INFO ("cycling %s", (gchar *) l->data);
     for (r = 0; r < rounds; r++)
       for (i = 0; i < n; i++)
         go_to_state (element, sequence[i]);
     go_to_state (element, GST_STATE_NULL);
+    remove_element_file (element);
     gst_object_unref (element);
   }
   g_list_free_full (names, g_free);
@@ -153,15 +183,19 @@ GST_START_TEST (test_state_changes_while_streaming)
         GST_STATE_NULL,
       };
       gchar *desc = g_strdup_printf ("videotestsrc ! "
-          "video/x-raw,width=160,height=120,framerate=30/1 ! %s ! "
-          "fakesink sync=true", (gchar *) l->data);
+          "video/x-raw,width=160,height=120,framerate=30/1 ! %s name=under "
+          "! fakesink sync=true", (gchar *) l->data);
       GError *err = NULL;
       GstElement *pipeline = gst_parse_launch (desc, &err);
       GstBus *bus;
       GstMessage *msg;
       guint r, i;
 
+      GstElement *under;
+
       fail_unless (pipeline != NULL, "%s: %s", desc, err ? err->message : "");
+      under = gst_bin_get_by_name (GST_BIN (pipeline), "under");
+      configure_element (under);
       bus = gst_element_get_bus (pipeline);
       for (r = 0; r < 3; r++) {
         for (i = 0; i < G_N_ELEMENTS (seq); i++) {
@@ -179,6 +213,8 @@ GST_START_TEST (test_state_changes_while_streaming)
             error->message, debug ? debug : "");
       }
       gst_object_unref (bus);
+      remove_element_file (under);
+      gst_object_unref (under);
       gst_object_unref (pipeline);
       g_free (desc);
       tested++;

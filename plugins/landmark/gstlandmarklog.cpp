@@ -1,0 +1,979 @@
+/**
+ * SECTION:element-landmarklog
+ * @title: landmarklog
+ *
+ * Writes the gst-landmark metadata of every buffer to a file, one JSON
+ * object per buffer and per line (JSON Lines), and passes the video through
+ * untouched: the element is a passthrough GstBaseTransform that accepts any
+ * `video/x-raw` caps (any format, any caps features), never copies, maps or
+ * modifies a buffer and never drops one (QoS is off). It can sit anywhere
+ * in a chain, and several can log one pipeline to different files.
+ *
+ * One line per buffer, in the order buffers arrive, nothing else in the
+ * file (docs/landmarklog.md has every field):
+ *
+ * |[
+ * {"frame": 0, "pts": 0, "duration": 33333333, "width": 640, "height": 480,
+ *  "labels": {"classes": ["red", ...], "markers": [true, ...],
+ *             "counts": [...], "active": [...], "labelled": [...],
+ *             "unclassified": 1234, "min-class-pixels": 500,
+ *             "width": 640, "height": 480, ...},
+ *  "detections": [{"id": 0, "class": "red", "bbox": [x, y, w, h],
+ *                  "blob": {...}, "range": {...}, "match": {...},
+ *                  "params": {...}}],
+ *  "pose": {...}}
+ * ]|
+ * (shown here on several lines; in the file each object is one line).
+ *
+ * - `frame`: index of the buffer since the element started (READY to
+ *   PAUSED), 0, 1, 2, ...; `pts`, `duration`: nanoseconds, absent when the
+ *   buffer has none; `width`, `height`: from the negotiated caps.
+ * - `labels`: only when the buffer has a `GstLandmarkLabelsMeta`; its
+ *   fields under short names, never the label plane itself.
+ * - `detections`: always present; every `GstVideoRegionOfInterestMeta` in
+ *   id order, with the `landmark-blob`, `landmark-range` and
+ *   `landmark-match` parameter structures as `blob`, `range`, `match`, and
+ *   any other parameter structure under its own name in `params`.
+ * - `pose`: only when the buffer has a `GstLandmarkPoseMeta`: every field.
+ *
+ * Structure fields become JSON values of their own type: integers as
+ * integers, doubles with the shortest text that reads back to the same
+ * double (always with a `.` or an exponent), NaN and infinities as `null`,
+ * arrays as arrays. A field absent from a meta is absent from the line.
+ *
+ * Lines are collected in memory and handed to the file in whole lines: when
+ * 64 KiB are pending, every `flush-every` frames if set, and at EOS, on a
+ * flushing seek, on PLAYING to PAUSED and when the element stops (also
+ * after an error). The file therefore always ends with a complete line, and
+ * it is complete as soon as the EOS message is posted.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 videotestsrc num-buffers=100 ! labsegment !
+ *     landmarklog location=frames.jsonl ! fakesink
+ * ]|
+ */
+
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstlandmarklog.h"
+
+#include <gst/video/video.h>
+#include <glib/gstdio.h>
+
+#include <errno.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "landmarkmeta.h"
+
+GST_DEBUG_CATEGORY_STATIC (gst_landmark_log_debug);
+#define GST_CAT_DEFAULT gst_landmark_log_debug
+
+#define DEFAULT_LOCATION nullptr
+#define DEFAULT_APPEND FALSE
+#define DEFAULT_FLUSH_EVERY 0
+
+/* Pending lines are handed to the file once they reach this size. */
+#define CHUNK_SIZE (64 * 1024)
+
+enum
+{
+  PROP_0,
+  PROP_LOCATION,
+  PROP_APPEND,
+  PROP_FLUSH_EVERY,
+};
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
+    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
+    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+
+/* *INDENT-OFF* */
+namespace {
+
+/* What the user sets; location and append are read in start(). */
+struct Settings {
+  std::string location;
+  gboolean append = DEFAULT_APPEND;
+  guint flush_every = DEFAULT_FLUSH_EVERY;
+};
+
+/* The open file and the lines not yet written. Filled by the streaming
+ * thread, flushed from events and state changes: guarded by io_lock. */
+struct State {
+  int fd = -1;
+  std::string path;
+  std::string pending;        /* complete lines only */
+  guint64 frame = 0;          /* index of the next buffer */
+  guint unflushed = 0;        /* frames in pending */
+  gint width = -1, height = -1;
+  bool failed = false;        /* a write failed: error already posted */
+  std::vector<GstVideoRegionOfInterestMeta *> rois;   /* reused */
+};
+
+}  // namespace
+
+struct GstLandmarkLogPrivate {
+  std::mutex settings_lock;
+  Settings settings;
+  std::mutex io_lock;
+  State state;
+};
+
+struct _GstLandmarkLog {
+  GstBaseTransform parent;
+  GstLandmarkLogPrivate *priv;
+};
+/* *INDENT-ON* */
+
+G_DEFINE_TYPE_WITH_CODE (GstLandmarkLog, gst_landmark_log,
+    GST_TYPE_BASE_TRANSFORM,
+    GST_DEBUG_CATEGORY_INIT (gst_landmark_log_debug, "landmarklog", 0,
+        "Landmark metadata to JSON Lines"));
+GST_ELEMENT_REGISTER_DEFINE (landmarklog, "landmarklog", GST_RANK_NONE,
+    GST_TYPE_LANDMARK_LOG);
+
+/* ---- JSON text ------------------------------------------------------ */
+
+namespace {
+
+/* Labels meta field -> JSON key, in the order they are written. The plane
+ * ("labels") and its "stride" are never written. */
+struct LabelsKey {
+  const char *field;
+  const char *key;              /* with quotes and ": " */
+  GQuark quark;
+};
+
+LabelsKey labels_keys[] = {
+  {LANDMARK_LABELS_CLASS_NAMES, "\"classes\": ", 0},
+  {LANDMARK_LABELS_CLASS_MARKERS, "\"markers\": ", 0},
+  {LANDMARK_LABELS_CLASS_COUNTS, "\"counts\": ", 0},
+  {LANDMARK_LABELS_CLASS_ACTIVE, "\"active\": ", 0},
+  {LANDMARK_LABELS_LABEL_COUNTS, "\"labelled\": ", 0},
+  {LANDMARK_LABELS_UNCLASSIFIED, "\"unclassified\": ", 0},
+  {LANDMARK_LABELS_MIN_CLASS_PIXELS, "\"min-class-pixels\": ", 0},
+  {LANDMARK_LABELS_WIDTH, "\"width\": ", 0},
+  {LANDMARK_LABELS_HEIGHT, "\"height\": ", 0},
+  {LANDMARK_LABELS_ANALYSIS_WIDTH, "\"analysis-width\": ", 0},
+  {LANDMARK_LABELS_ANALYSIS_HEIGHT, "\"analysis-height\": ", 0},
+  {LANDMARK_LABELS_MAX_DISTANCE, "\"max-distance\": ", 0},
+  {LANDMARK_LABELS_USE_LIGHTNESS, "\"use-lightness\": ", 0},
+  {LANDMARK_LABELS_CLASS_RGB, "\"rgb\": ", 0},
+};
+
+GQuark blob_quark, range_quark, match_quark;
+
+void
+put_uint (std::string & o, guint64 v)
+{
+  char buf[24];
+  auto r = std::to_chars (buf, buf + sizeof (buf), v);
+  o.append (buf, r.ptr - buf);
+}
+
+void
+put_int (std::string & o, gint64 v)
+{
+  char buf[24];
+  auto r = std::to_chars (buf, buf + sizeof (buf), v);
+  o.append (buf, r.ptr - buf);
+}
+
+/* Shortest text that reads back to the same value (std::to_chars: no
+ * locale, no allocation); a '.' is added to integral values so readers
+ * see a floating-point number. NaN and infinities are not JSON: null. */
+template <typename T>
+void
+put_floating (std::string & o, T v)
+{
+  if (!std::isfinite (v)) {
+    o += "null";
+    return;
+  }
+  char buf[40];
+  auto r = std::to_chars (buf, buf + sizeof (buf), v);
+  const size_t n = r.ptr - buf;
+  o.append (buf, n);
+  if (!memchr (buf, '.', n) && !memchr (buf, 'e', n))
+    o += ".0";
+}
+
+void
+put_escaped (std::string & o, const char *s)
+{
+  static const char hex[] = "0123456789abcdef";
+  const char *run = s;
+  for (const char *p = s; *p; p++) {
+    const unsigned char c = (unsigned char) *p;
+    if (c >= 0x20 && c != '"' && c != '\\')
+      continue;
+    o.append (run, p - run);
+    run = p + 1;
+    switch (c) {
+      case '"':
+        o += "\\\"";
+        break;
+      case '\\':
+        o += "\\\\";
+        break;
+      case '\n':
+        o += "\\n";
+        break;
+      case '\r':
+        o += "\\r";
+        break;
+      case '\t':
+        o += "\\t";
+        break;
+      case '\b':
+        o += "\\b";
+        break;
+      case '\f':
+        o += "\\f";
+        break;
+      default:{
+        const char u[] = { '\\', 'u', '0', '0', hex[c >> 4], hex[c & 15] };
+        o.append (u, sizeof (u));
+        break;
+      }
+    }
+  }
+  o.append (run, strlen (run));
+}
+
+/* A JSON string; invalid UTF-8 gets U+FFFD for each bad sequence. */
+void
+put_string (std::string & o, const char *s)
+{
+  if (!s) {
+    o += "null";
+    return;
+  }
+  o += '"';
+  if (G_LIKELY (g_utf8_validate (s, -1, nullptr))) {
+    put_escaped (o, s);
+  } else {
+    gchar *valid = g_utf8_make_valid (s, -1);
+    put_escaped (o, valid);
+    g_free (valid);
+  }
+  o += '"';
+}
+
+void put_value (std::string & o, const GValue * v);
+
+struct ObjectWriter {
+  std::string *out;
+  bool first;
+};
+
+gboolean
+put_field (GQuark field, const GValue * value, gpointer user_data)
+{
+  auto w = (ObjectWriter *) user_data;
+  if (!w->first)
+    *w->out += ", ";
+  w->first = false;
+  put_string (*w->out, g_quark_to_string (field));
+  *w->out += ": ";
+  put_value (*w->out, value);
+  return TRUE;
+}
+
+/* Every field of a structure as a JSON object (the name is not written). */
+void
+put_structure (std::string & o, const GstStructure * s)
+{
+  if (!s) {
+    o += "null";
+    return;
+  }
+  ObjectWriter w { &o, true };
+  o += '{';
+  gst_structure_foreach (s, put_field, &w);
+  o += '}';
+}
+
+void
+put_value (std::string & o, const GValue * v)
+{
+  switch (G_TYPE_FUNDAMENTAL (G_VALUE_TYPE (v))) {
+    case G_TYPE_BOOLEAN:
+      o += g_value_get_boolean (v) ? "true" : "false";
+      return;
+    case G_TYPE_INT:
+      put_int (o, g_value_get_int (v));
+      return;
+    case G_TYPE_UINT:
+      put_uint (o, g_value_get_uint (v));
+      return;
+    case G_TYPE_INT64:
+      put_int (o, g_value_get_int64 (v));
+      return;
+    case G_TYPE_UINT64:
+      put_uint (o, g_value_get_uint64 (v));
+      return;
+    case G_TYPE_LONG:
+      put_int (o, g_value_get_long (v));
+      return;
+    case G_TYPE_ULONG:
+      put_uint (o, g_value_get_ulong (v));
+      return;
+    case G_TYPE_CHAR:
+      put_int (o, g_value_get_schar (v));
+      return;
+    case G_TYPE_UCHAR:
+      put_uint (o, g_value_get_uchar (v));
+      return;
+    case G_TYPE_DOUBLE:
+      put_floating (o, g_value_get_double (v));
+      return;
+    case G_TYPE_FLOAT:
+      put_floating (o, g_value_get_float (v));
+      return;
+    case G_TYPE_STRING:
+      put_string (o, g_value_get_string (v));
+      return;
+    case G_TYPE_ENUM:{
+      /* by nick, as gst-launch and the Python bindings show enums */
+      GEnumClass *klass = (GEnumClass *) g_type_class_ref (G_VALUE_TYPE (v));
+      GEnumValue *ev = g_enum_get_value (klass, g_value_get_enum (v));
+      if (ev)
+        put_string (o, ev->value_nick);
+      else
+        put_int (o, g_value_get_enum (v));
+      g_type_class_unref (klass);
+      return;
+    }
+    case G_TYPE_FLAGS:
+      put_uint (o, g_value_get_flags (v));
+      return;
+    case G_TYPE_POINTER:
+      o += "null";
+      return;
+    default:
+      break;
+  }
+  if (GST_VALUE_HOLDS_ARRAY (v) || GST_VALUE_HOLDS_LIST (v)) {
+    const bool array = GST_VALUE_HOLDS_ARRAY (v);
+    const guint n = array ? gst_value_array_get_size (v) :
+        gst_value_list_get_size (v);
+    o += '[';
+    for (guint i = 0; i < n; i++) {
+      if (i)
+        o += ", ";
+      put_value (o, array ? gst_value_array_get_value (v, i) :
+          gst_value_list_get_value (v, i));
+    }
+    o += ']';
+    return;
+  }
+  if (GST_VALUE_HOLDS_STRUCTURE (v)) {
+    put_structure (o, gst_value_get_structure (v));
+    return;
+  }
+  if (G_VALUE_HOLDS (v, G_TYPE_STRV)) {
+    auto strv = (const gchar * const *) g_value_get_boxed (v);
+    o += '[';
+    for (guint i = 0; strv && strv[i]; i++) {
+      if (i)
+        o += ", ";
+      put_string (o, strv[i]);
+    }
+    o += ']';
+    return;
+  }
+  /* Data (a label plane, a sample) is never dumped into the log. */
+  if (GST_VALUE_HOLDS_BUFFER (v) || G_VALUE_HOLDS (v, GST_TYPE_SAMPLE) ||
+      G_VALUE_HOLDS (v, GST_TYPE_BUFFER_LIST) ||
+      G_VALUE_HOLDS (v, GST_TYPE_MEMORY)) {
+    o += "null";
+    return;
+  }
+  /* Anything else (fractions, ranges, caps, dates): GStreamer's own
+   * serialisation as a string. */
+  gchar *text = gst_value_serialize (v);
+  put_string (o, text);
+  g_free (text);
+}
+
+void
+put_labels (std::string & o, const GstStructure * s)
+{
+  o += ", \"labels\": {";
+  bool first = true;
+  for (const auto & k : labels_keys) {
+    const GValue *v = gst_structure_id_get_value (s, k.quark);
+    if (!v)
+      continue;
+    if (!first)
+      o += ", ";
+    first = false;
+    o += k.key;
+    put_value (o, v);
+  }
+  o += '}';
+}
+
+bool
+roi_before (const GstVideoRegionOfInterestMeta * a,
+    const GstVideoRegionOfInterestMeta * b)
+{
+  if (a->id != b->id)
+    return a->id < b->id;
+  return gst_meta_compare_seqnum (&a->meta, &b->meta) < 0;
+}
+
+void
+put_detection (std::string & o, const GstVideoRegionOfInterestMeta * roi)
+{
+  o += "{\"id\": ";
+  put_int (o, roi->id);
+  o += ", \"class\": ";
+  put_string (o, roi->roi_type ? g_quark_to_string (roi->roi_type) : nullptr);
+  o += ", \"bbox\": [";
+  put_uint (o, roi->x);
+  o += ", ";
+  put_uint (o, roi->y);
+  o += ", ";
+  put_uint (o, roi->w);
+  o += ", ";
+  put_uint (o, roi->h);
+  o += ']';
+
+  /* The first structure of each name counts (as with
+   * gst_video_region_of_interest_meta_get_param); later ones of the same
+   * name would repeat a JSON key and are left out. */
+  const GstStructure *blob = nullptr, *range = nullptr, *match = nullptr;
+  bool others = false;
+  for (GList * l = roi->params; l; l = l->next) {
+    auto s = (const GstStructure *) l->data;
+    const GQuark name = gst_structure_get_name_id (s);
+    if (name == blob_quark)
+      blob = blob ? blob : s;
+    else if (name == range_quark)
+      range = range ? range : s;
+    else if (name == match_quark)
+      match = match ? match : s;
+    else
+      others = true;
+  }
+  if (blob) {
+    o += ", \"blob\": ";
+    put_structure (o, blob);
+  }
+  if (range) {
+    o += ", \"range\": ";
+    put_structure (o, range);
+  }
+  if (match) {
+    o += ", \"match\": ";
+    put_structure (o, match);
+  }
+  if (others) {
+    o += ", \"params\": {";
+    bool first = true;
+    for (GList * l = roi->params; l; l = l->next) {
+      auto s = (const GstStructure *) l->data;
+      const GQuark name = gst_structure_get_name_id (s);
+      if (name == blob_quark || name == range_quark || name == match_quark)
+        continue;
+      bool repeated = false;
+      for (GList * e = roi->params; e != l && !repeated; e = e->next)
+        repeated = gst_structure_get_name_id ((GstStructure *) e->data) ==
+            name;
+      if (repeated)
+        continue;
+      if (!first)
+        o += ", ";
+      first = false;
+      put_string (o, g_quark_to_string (name));
+      o += ": ";
+      put_structure (o, s);
+    }
+    o += '}';
+  }
+  o += '}';
+}
+
+/* Appends the line of one buffer to st.pending. */
+void
+put_frame (State & st, GstBuffer * buf)
+{
+  std::string & o = st.pending;
+  o += "{\"frame\": ";
+  put_uint (o, st.frame);
+  if (GST_BUFFER_PTS_IS_VALID (buf)) {
+    o += ", \"pts\": ";
+    put_uint (o, GST_BUFFER_PTS (buf));
+  }
+  if (GST_BUFFER_DURATION_IS_VALID (buf)) {
+    o += ", \"duration\": ";
+    put_uint (o, GST_BUFFER_DURATION (buf));
+  }
+  if (st.width >= 0) {
+    o += ", \"width\": ";
+    put_int (o, st.width);
+  }
+  if (st.height >= 0) {
+    o += ", \"height\": ";
+    put_int (o, st.height);
+  }
+
+  if (const GstStructure * labels = landmark_labels_meta_get (buf))
+    put_labels (o, labels);
+
+  st.rois.clear ();
+  gpointer iter = nullptr;
+  GstMeta *m;
+  while ((m = gst_buffer_iterate_meta_filtered (buf, &iter,
+              GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE))) {
+    /* insertion sort: a handful of detections, no allocation */
+    auto roi = (GstVideoRegionOfInterestMeta *) m;
+    st.rois.push_back (roi);
+    for (size_t i = st.rois.size () - 1;
+        i > 0 && roi_before (st.rois[i], st.rois[i - 1]); i--)
+      std::swap (st.rois[i], st.rois[i - 1]);
+  }
+  o += ", \"detections\": [";
+  for (size_t i = 0; i < st.rois.size (); i++) {
+    if (i)
+      o += ", ";
+    put_detection (o, st.rois[i]);
+  }
+  o += ']';
+
+  if (const GstStructure * pose = landmark_pose_meta_get (buf)) {
+    o += ", \"pose\": ";
+    put_structure (o, pose);
+  }
+  o += "}\n";
+}
+
+/* ---- file output ---------------------------------------------------- */
+
+/* After a failed write of `done` bytes of pending: cuts a partly written
+ * line off the end of the file, where the file allows it, so the file
+ * still ends with a complete line. */
+void
+trim_partial_line (State & st, size_t done)
+{
+  if (done == 0)
+    return;
+  const char *p = st.pending.data ();
+  size_t keep = done;
+  while (keep > 0 && p[keep - 1] != '\n')
+    keep--;
+  if (keep == done)
+    return;
+  const off_t end = lseek (st.fd, 0, SEEK_CUR);
+  if (end < 0)
+    return;                     /* a pipe or a terminal: nothing to do */
+  const off_t cut = end - (off_t) (done - keep);
+  if (ftruncate (st.fd, cut) == 0)
+    lseek (st.fd, cut, SEEK_SET);
+}
+
+/* Hands every pending line to the file. Returns 0 or an errno value. */
+int
+write_pending (State & st)
+{
+  const char *p = st.pending.data ();
+  const size_t n = st.pending.size ();
+  size_t done = 0;
+  int err = 0;
+  while (done < n) {
+    const ssize_t r = write (st.fd, p + done, n - done);
+    if (r < 0 && errno == EINTR)
+      continue;
+    if (r <= 0) {
+      err = r < 0 ? errno : EIO;
+      trim_partial_line (st, done);
+      break;
+    }
+    done += (size_t) r;
+  }
+  /* after a failure the lines are gone either way: the element stops */
+  st.pending.clear ();
+  st.unflushed = 0;
+  return err;
+}
+
+}  // namespace
+
+/* ---- GObject -------------------------------------------------------- */
+
+static void
+gst_landmark_log_init (GstLandmarkLog * self)
+{
+  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
+  self->priv = new GstLandmarkLogPrivate ();
+  /* buffers go through as they are: never made writable, never copied */
+  gst_base_transform_set_passthrough (trans, TRUE);
+  gst_base_transform_set_prefer_passthrough (trans, TRUE);
+  /* a logger never drops late frames */
+  gst_base_transform_set_qos_enabled (trans, FALSE);
+}
+
+static void
+gst_landmark_log_finalize (GObject * object)
+{
+  auto self = GST_LANDMARK_LOG (object);
+  State & st = self->priv->state;
+  if (st.fd >= 0) {
+    /* stop() closes the file; this is only a safety net */
+    write_pending (st);
+    close (st.fd);
+  }
+  delete self->priv;
+  G_OBJECT_CLASS (gst_landmark_log_parent_class)->finalize (object);
+}
+
+static void
+gst_landmark_log_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  auto self = GST_LANDMARK_LOG (object);
+  std::lock_guard<std::mutex> lk (self->priv->settings_lock);
+  Settings & s = self->priv->settings;
+  switch (prop_id) {
+    case PROP_LOCATION:{
+      const gchar *path = g_value_get_string (value);
+      s.location = path ? path : "";
+      break;
+    }
+    case PROP_APPEND:
+      s.append = g_value_get_boolean (value);
+      break;
+    case PROP_FLUSH_EVERY:
+      s.flush_every = g_value_get_uint (value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+}
+
+static void
+gst_landmark_log_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  auto self = GST_LANDMARK_LOG (object);
+  std::lock_guard<std::mutex> lk (self->priv->settings_lock);
+  const Settings & s = self->priv->settings;
+  switch (prop_id) {
+    case PROP_LOCATION:
+      g_value_set_string (value, s.location.empty ()? nullptr :
+          s.location.c_str ());
+      break;
+    case PROP_APPEND:
+      g_value_set_boolean (value, s.append);
+      break;
+    case PROP_FLUSH_EVERY:
+      g_value_set_uint (value, s.flush_every);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+}
+
+/* ---- configuration and file life ------------------------------------ */
+
+static gboolean
+gst_landmark_log_start (GstBaseTransform * trans)
+{
+  auto self = GST_LANDMARK_LOG (trans);
+  auto priv = self->priv;
+  std::string path;
+  gboolean append;
+  {
+    std::lock_guard<std::mutex> lk (priv->settings_lock);
+    path = priv->settings.location;
+    append = priv->settings.append;
+  }
+
+  if (path.empty ()) {
+    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+        ("No file name specified for writing: set 'location'."), (nullptr));
+    return FALSE;
+  }
+
+  int flags = O_WRONLY | O_CREAT | (append ? O_APPEND : O_TRUNC);
+#ifdef O_CLOEXEC
+  flags |= O_CLOEXEC;
+#endif
+  const int fd = g_open (path.c_str (), flags, 0666);
+  if (fd < 0) {
+    const int err = errno;
+    GST_ELEMENT_ERROR (self, RESOURCE, OPEN_WRITE,
+        ("Could not open file \"%s\" for writing: %s.", path.c_str (),
+            g_strerror (err)),
+        ("open (\"%s\", %s): %s (errno %d)", path.c_str (),
+            append ? "append" : "truncate", g_strerror (err), err));
+    return FALSE;
+  }
+
+  std::lock_guard<std::mutex> lk (priv->io_lock);
+  State & st = priv->state;
+  st.fd = fd;
+  st.path = path;
+  st.pending.clear ();
+  st.pending.reserve (CHUNK_SIZE + 4096);
+  st.frame = 0;
+  st.unflushed = 0;
+  st.failed = false;
+  GST_INFO_OBJECT (self, "logging to %s (%s)", path.c_str (),
+      append ? "appending" : "truncated");
+  return TRUE;
+}
+
+static void
+gst_landmark_log_post_write_error (GstLandmarkLog * self,
+    const std::string & path, int err)
+{
+  GST_ELEMENT_ERROR (self, RESOURCE, WRITE,
+      ("Could not write to file \"%s\": %s.", path.c_str (),
+          g_strerror (err)), ("errno %d", err));
+}
+
+/* Writes the pending lines now; posts the error and returns FALSE when
+ * that fails. */
+static gboolean
+gst_landmark_log_flush (GstLandmarkLog * self, const char *why)
+{
+  auto priv = self->priv;
+  int err = 0;
+  std::string path;
+  {
+    std::lock_guard<std::mutex> lk (priv->io_lock);
+    State & st = priv->state;
+    if (st.fd < 0 || st.pending.empty ())
+      return TRUE;
+    GST_DEBUG_OBJECT (self, "%s: writing %zu bytes (%u frames)", why,
+        st.pending.size (), st.unflushed);
+    err = write_pending (st);
+    if (err) {
+      if (st.failed)
+        return FALSE;
+      st.failed = true;
+      path = st.path;
+    }
+  }
+  if (err) {
+    gst_landmark_log_post_write_error (self, path, err);
+    return FALSE;
+  }
+  return TRUE;
+}
+
+static gboolean
+gst_landmark_log_stop (GstBaseTransform * trans)
+{
+  auto self = GST_LANDMARK_LOG (trans);
+  auto priv = self->priv;
+  int err = 0;
+  std::string path;
+  {
+    std::lock_guard<std::mutex> lk (priv->io_lock);
+    State & st = priv->state;
+    if (st.fd >= 0) {
+      if (!st.pending.empty ())
+        err = write_pending (st);
+      /* some file systems report write errors only on close */
+      if (close (st.fd) != 0 && !err && errno != EINTR)
+        err = errno;
+      st.fd = -1;
+      GST_INFO_OBJECT (self, "closed %s after %" G_GUINT64_FORMAT " frames",
+          st.path.c_str (), st.frame);
+    }
+    if (err && !st.failed)
+      path = st.path;
+    else
+      err = 0;
+    st.pending.clear ();
+    st.pending.shrink_to_fit ();
+    st.rois.clear ();
+    st.width = st.height = -1;
+    st.failed = false;
+  }
+  if (err)
+    gst_landmark_log_post_write_error (self, path, err);
+  return TRUE;
+}
+
+static gboolean
+gst_landmark_log_set_caps (GstBaseTransform * trans, GstCaps * incaps,
+    GstCaps * outcaps)
+{
+  auto self = GST_LANDMARK_LOG (trans);
+  (void) outcaps;
+  gint w = -1, h = -1;
+  if (gst_caps_get_size (incaps) > 0) {
+    const GstStructure *s = gst_caps_get_structure (incaps, 0);
+    if (!gst_structure_get_int (s, "width", &w))
+      w = -1;
+    if (!gst_structure_get_int (s, "height", &h))
+      h = -1;
+  }
+  GST_DEBUG_OBJECT (self, "caps %" GST_PTR_FORMAT, incaps);
+  std::lock_guard<std::mutex> lk (self->priv->io_lock);
+  self->priv->state.width = w;
+  self->priv->state.height = h;
+  return TRUE;
+}
+
+/* ---- streaming ------------------------------------------------------ */
+
+static GstFlowReturn
+gst_landmark_log_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
+{
+  auto self = GST_LANDMARK_LOG (trans);
+  auto priv = self->priv;
+  guint flush_every;
+  {
+    std::lock_guard<std::mutex> lk (priv->settings_lock);
+    flush_every = priv->settings.flush_every;
+  }
+
+  int err = 0;
+  std::string path;
+  try {
+    std::lock_guard<std::mutex> lk (priv->io_lock);
+    State & st = priv->state;
+    if (st.failed)
+      return GST_FLOW_ERROR;    /* already reported */
+    if (G_UNLIKELY (st.fd < 0))
+      err = EBADF;              /* cannot happen: start() opened it */
+    else
+      put_frame (st, buf);
+    GST_LOG_OBJECT (self, "frame %" G_GUINT64_FORMAT " pts %" GST_TIME_FORMAT,
+        st.frame, GST_TIME_ARGS (GST_BUFFER_PTS (buf)));
+    st.frame++;
+    st.unflushed++;
+    if (!err && (st.pending.size () >= CHUNK_SIZE ||
+            (flush_every > 0 && st.unflushed >= flush_every)))
+      err = write_pending (st);
+    if (err) {
+      st.failed = true;
+      path = st.path;
+    }
+  }
+  catch (const std::exception & e) {
+    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Could not log a frame."),
+        ("%s", e.what ()));
+    return GST_FLOW_ERROR;
+  }
+  if (err) {
+    gst_landmark_log_post_write_error (self, path, err);
+    return GST_FLOW_ERROR;
+  }
+  return GST_FLOW_OK;
+}
+
+static gboolean
+gst_landmark_log_sink_event (GstBaseTransform * trans, GstEvent * event)
+{
+  auto self = GST_LANDMARK_LOG (trans);
+  switch (GST_EVENT_TYPE (event)) {
+    case GST_EVENT_EOS:
+      /* before forwarding: the file is complete when EOS reaches the sink
+       * and the application hears of it */
+      gst_landmark_log_flush (self, "EOS");
+      break;
+    case GST_EVENT_FLUSH_STOP:
+      gst_landmark_log_flush (self, "flush-stop");
+      break;
+    default:
+      break;
+  }
+  return GST_BASE_TRANSFORM_CLASS (gst_landmark_log_parent_class)->sink_event
+      (trans, event);
+}
+
+static GstStateChangeReturn
+gst_landmark_log_change_state (GstElement * element,
+    GstStateChange transition)
+{
+  auto self = GST_LANDMARK_LOG (element);
+  GstStateChangeReturn ret =
+      GST_ELEMENT_CLASS (gst_landmark_log_parent_class)->change_state
+      (element, transition);
+  /* a paused pipeline has its file up to date */
+  if (ret != GST_STATE_CHANGE_FAILURE &&
+      transition == GST_STATE_CHANGE_PLAYING_TO_PAUSED)
+    gst_landmark_log_flush (self, "paused");
+  return ret;
+}
+
+static void
+gst_landmark_log_class_init (GstLandmarkLogClass * klass)
+{
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
+
+  for (auto & k : labels_keys)
+    k.quark = g_quark_from_static_string (k.field);
+  blob_quark = g_quark_from_static_string (LANDMARK_BLOB_PARAMS);
+  range_quark = g_quark_from_static_string (LANDMARK_RANGE_PARAMS);
+  match_quark = g_quark_from_static_string (LANDMARK_MATCH_PARAMS);
+
+  gobject_class->set_property = gst_landmark_log_set_property;
+  gobject_class->get_property = gst_landmark_log_get_property;
+  gobject_class->finalize = gst_landmark_log_finalize;
+
+  g_object_class_install_property (gobject_class, PROP_LOCATION,
+      g_param_spec_string ("location", "File location",
+          "JSON Lines file to write, one line per buffer (required; created "
+          "or truncated when the element starts)", DEFAULT_LOCATION,
+          (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+              GST_PARAM_MUTABLE_READY)));
+  g_object_class_install_property (gobject_class, PROP_APPEND,
+      g_param_spec_boolean ("append", "Append",
+          "Add lines to the end of an existing file instead of truncating it",
+          DEFAULT_APPEND,
+          (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+              GST_PARAM_MUTABLE_READY)));
+  g_object_class_install_property (gobject_class, PROP_FLUSH_EVERY,
+      g_param_spec_uint ("flush-every", "Flush every N frames",
+          "Hand the pending lines to the file after every N frames (1: after "
+          "each frame, for readers following the file live; 0: only when "
+          "64 KiB are pending, at EOS, on flush, pause and stop)",
+          0, G_MAXUINT, DEFAULT_FLUSH_EVERY,
+          (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+              GST_PARAM_MUTABLE_PLAYING)));
+
+  gst_element_class_set_static_metadata (element_class,
+      "Landmark metadata logger", "Filter/Analyzer/Video",
+      "Writes the labels, detections and pose metadata of every buffer as "
+      "one JSON line per frame, passing the video through unchanged",
+      "gst-landmark developers");
+  gst_element_class_add_static_pad_template (element_class, &sink_template);
+  gst_element_class_add_static_pad_template (element_class, &src_template);
+
+  element_class->change_state =
+      GST_DEBUG_FUNCPTR (gst_landmark_log_change_state);
+  trans_class->passthrough_on_same_caps = TRUE;
+  trans_class->transform_ip_on_passthrough = TRUE;
+  trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_log_start);
+  trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_log_stop);
+  trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_landmark_log_set_caps);
+  trans_class->transform_ip =
+      GST_DEBUG_FUNCPTR (gst_landmark_log_transform_ip);
+  trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_landmark_log_sink_event);
+}

@@ -231,6 +231,7 @@ COMMANDS = [
     _lazy("bench", "add_bench_parser"),
     _lazy("regress", "add_regress_parser"),
     _lazy("evaluate", "add_evaluate_parser"),
+    _lazy("synth.cli", "add_synth_parser"),
 ]
 
 

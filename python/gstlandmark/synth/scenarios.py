@@ -1,0 +1,426 @@
+"""Named scenarios: a world, a camera path and a frame count each.
+
+``build_scenario(name, seed, frames, size, **overrides)`` returns
+``(scene, frames)``; the overrides are listed in ``OVERRIDES``.
+"""
+
+import json
+import math
+
+import numpy as np
+
+from .camera import Camera, Pose, wrap_angle
+from .floors import FLOOR_NAMES
+from .world import (Distractor, Effects, Landmark, Scene, Segment, Walls,
+                    load_map, marker_palette)
+
+CAMERA_KEYS = ("hfov_deg", "fx", "fy", "cx", "cy", "height_m", "tilt_deg",
+               "roll_deg")
+EFFECT_KEYS = tuple(Effects().__dict__)
+OVERRIDES = CAMERA_KEYS + EFFECT_KEYS + (
+    "fps", "floor", "walls", "palette", "supersample", "map", "poses",
+    "pose")
+
+
+# -- camera paths ------------------------------------------------------------
+
+class Static:
+    """The robot stands still."""
+
+    def __init__(self, x=0.0, y=0.0, heading=0.0):
+        self.start = Pose(x, y, heading)
+
+    def pose(self, t):
+        return self.start
+
+    def to_json(self):
+        return {"type": "static", **self.start.to_json()}
+
+
+class Loop:
+    """A closed smooth curve driven at constant speed, heading along the
+    tangent (counter-clockwise): x = cx + a cos s - c cos 3s,
+    y = cy + b sin s + c sin 3s (c > 0 squares it off), one lap per
+    ``period_s``."""
+
+    def __init__(self, centre, a, b, c, period_s):
+        self.centre = tuple(centre)
+        self.a, self.b, self.c, self.period_s = a, b, c, period_s
+        # arc length along s, for constant speed
+        s = np.linspace(0.0, 2.0 * math.pi, 4097)
+        x, y = self._xy(s)
+        steps = np.hypot(np.diff(x), np.diff(y))
+        self._s = s
+        self._arc = np.concatenate([[0.0], np.cumsum(steps)])
+        self.length = float(self._arc[-1])
+
+    def _xy(self, s):
+        return (self.centre[0] + self.a * np.cos(s) - self.c * np.cos(3 * s),
+                self.centre[1] + self.b * np.sin(s) + self.c * np.sin(3 * s))
+
+    def point(self, s):
+        """(x, y, heading) at curve parameter s."""
+        x, y = self._xy(s)
+        dx = -self.a * math.sin(s) + 3 * self.c * math.sin(3 * s)
+        dy = self.b * math.cos(s) + 3 * self.c * math.cos(3 * s)
+        return float(x), float(y), math.atan2(dy, dx)
+
+    def pose(self, t):
+        lap = (t / self.period_s) % 1.0
+        s = float(np.interp(lap * self.length, self._arc, self._s))
+        x, y, heading = self.point(s)
+        return Pose(x, y, wrap_angle(heading))
+
+    def to_json(self):
+        return {"type": "loop", "centre": list(self.centre), "a": self.a,
+                "b": self.b, "c": self.c, "period_s": self.period_s,
+                "length_m": round(self.length, 4),
+                "speed_m_s": round(self.length / self.period_s, 4)}
+
+
+class Sweep:
+    """Creep forward along ``heading`` at ``speed`` m/s while the heading
+    swings by +-``amplitude`` rad with ``period_s``."""
+
+    def __init__(self, x, y, heading, speed, amplitude, period_s):
+        self.x, self.y, self.heading = x, y, heading
+        self.speed, self.amplitude, self.period_s = speed, amplitude, \
+            period_s
+
+    def pose(self, t):
+        return Pose(self.x + self.speed * t * math.cos(self.heading),
+                    self.y + self.speed * t * math.sin(self.heading),
+                    wrap_angle(self.heading + self.amplitude * math.sin(
+                        2 * math.pi * t / self.period_s)))
+
+    def to_json(self):
+        return {"type": "sweep", "x": self.x, "y": self.y,
+                "heading": self.heading, "speed": self.speed,
+                "amplitude": self.amplitude, "period_s": self.period_s}
+
+
+class Keyframes:
+    """Scripted poses, one per frame, linearly interpolated in between."""
+
+    def __init__(self, poses, fps):
+        if not poses:
+            raise ValueError("no poses")
+        self.poses = [p if isinstance(p, Pose) else Pose(*p) for p in poses]
+        self.fps = fps
+
+    def pose(self, t):
+        f = min(max(t * self.fps, 0.0), len(self.poses) - 1)
+        i = min(int(math.floor(f)), len(self.poses) - 1)
+        j = min(i + 1, len(self.poses) - 1)
+        a, b, k = self.poses[i], self.poses[j], f - i
+        turn = wrap_angle(b.heading - a.heading)
+        return Pose(a.x + k * (b.x - a.x), a.y + k * (b.y - a.y),
+                    wrap_angle(a.heading + k * turn))
+
+    def to_json(self):
+        return {"type": "keyframes", "fps": self.fps,
+                "poses": [p.to_json() for p in self.poses]}
+
+
+def load_poses(path):
+    """Poses from a JSON list or JSON-lines file of {"x", "y", "heading"}
+    (heading in radians)."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    try:
+        items = json.loads(text)
+        if isinstance(items, dict):
+            items = items.get("poses", [items])
+    except json.JSONDecodeError:
+        items = [json.loads(line) for line in text.splitlines()
+                 if line.strip()]
+    poses = []
+    for i, item in enumerate(items):
+        if isinstance(item, dict) and "robot" in item:
+            item = item["robot"]       # a truth.jsonl line works too
+        try:
+            poses.append(Pose(float(item["x"]), float(item["y"]),
+                              float(item["heading"])))
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"{path}: pose {i}: expected an object with "
+                             f"\"x\", \"y\", \"heading\"") from None
+    return poses
+
+
+# -- helpers -------------------------------------------------------------
+
+def _colours(palette):
+    # scenarios pick colours by index, so any marker palette works
+    return palette.names
+
+
+def _polar(r, bearing_deg):
+    """World point at range r and bearing from a robot at the origin
+    facing +x."""
+    a = math.radians(bearing_deg)
+    return r * math.cos(a), r * math.sin(a)
+
+
+def _field_walls(scene, spec, margin=1.0):
+    """Walls from an override: True = around everything, plus margin."""
+    if spec is None or spec is False:
+        return None
+    if isinstance(spec, Walls):
+        return spec
+    xs = [lm.x for lm in scene.landmarks] + [0.0]
+    ys = [lm.y for lm in scene.landmarks] + [0.0]
+    return Walls(min(xs) - margin, min(ys) - margin, max(xs) + margin,
+                 max(ys) + margin)
+
+
+# -- scenarios ---------------------------------------------------------------
+
+RANGES = (0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0)
+BEARINGS = (-20, -10, 0, 10, 20)
+DISC_D, BALL_D = 0.10, 0.065
+
+
+def _range_sweep(ctx):
+    """One landmark per frame: discs then balls at ranges 0.3..5 m and
+    bearings -20..20 degrees; static camera."""
+    colours = _colours(ctx["palette"])
+    items = [(kind, r, b) for kind in ("disc", "ball") for r in RANGES
+             for b in BEARINGS]
+    frames = ctx["frames"] or len(items)
+    # a short clip still spans the whole sweep
+    if frames < len(items):
+        chosen = np.unique(np.linspace(0, len(items) - 1, frames)
+                           .round().astype(int))
+        order = [items[i] for i in chosen]
+    else:
+        order = items
+    intervals = {}
+    for f in range(frames):
+        intervals.setdefault(f % len(order), []).append((f, f))
+    landmarks = []
+    for i, (kind, r, b) in enumerate(order):
+        x, y = _polar(r, b)
+        landmarks.append(Landmark(
+            id=f"{kind}_{r:.2f}m_{b:+d}deg", cls=colours[i % len(colours)],
+            x=x, y=y, diameter=DISC_D if kind == "disc" else BALL_D,
+            kind=kind, frames=intervals.get(i, [])))
+    return dict(landmarks=landmarks, floor="grey",
+                trajectory=Static()), frames
+
+
+def _path(ctx):
+    """8 landmarks in a 6 m x 6 m walled field; a smooth 10 s loop."""
+    colours = _colours(ctx["palette"])
+    loop = Loop((3.0, 3.0), 1.5, 1.5, 0.2, period_s=10.0)
+    # Beside the loop (0.25 to 0.5 m off it), placed by a search so that
+    # one or two landmarks are within 2.5 m in view almost all the time;
+    # (x, y), colour index, kind.
+    plan = [((4.70, 3.82), 0, "disc"), ((3.95, 4.55), 1, "disc"),
+            ((2.10, 3.96), 2, "disc"), ((1.31, 4.02), 3, "disc"),
+            ((1.43, 1.93), 4, "disc"), ((2.08, 2.17), 0, "ball"),
+            ((3.94, 2.09), 1, "disc"), ((4.78, 1.88), 4, "ball")]
+    landmarks = [
+        Landmark(id=f"L{i + 1}", cls=colours[colour % len(colours)],
+                 x=x, y=y, diameter=0.12 if kind == "disc" else 0.07,
+                 kind=kind)
+        for i, ((x, y), colour, kind) in enumerate(plan)]
+    return dict(landmarks=landmarks, floor="grey", walls=Walls(),
+                trajectory=loop), ctx["frames"] or 300
+
+
+def _few_landmarks(colours):
+    spots = [(0.75, 18, "disc"), (0.85, -14, "disc"), (1.15, 2, "disc"),
+             (1.5, 16, "disc"), (1.6, -15, "disc"), (1.05, 25, "ball")]
+    out = []
+    for i, (r, b, kind) in enumerate(spots):
+        x, y = _polar(r, b)
+        out.append(Landmark(id=f"L{i + 1}", cls=colours[i % len(colours)],
+                            x=x, y=y, diameter=0.12 if kind == "disc"
+                            else 0.07, kind=kind))
+    return out
+
+
+def _backgrounds(ctx):
+    """The same landmarks over every floor in turn, then an exposure and
+    white-balance ramp; auto exposure / white balance partly on."""
+    colours = _colours(ctx["palette"])
+    frames = ctx["frames"] or 96
+    seg = max(1, int(round(frames / 12)))
+    segments = [Segment(k * seg, name) for k, name in enumerate(FLOOR_NAMES)]
+    segments.append(Segment(len(FLOOR_NAMES) * seg, "grey",
+                            exposure_stops=(-1.0, 0.8),
+                            wb_gains=((0.8, 1.25), (1.25, 0.8))))
+    return dict(landmarks=_few_landmarks(colours), segments=segments,
+                floor=FLOOR_NAMES[0], trajectory=Static(),
+                effects=dict(auto_exposure=0.5, auto_wb=0.3)), frames
+
+
+def _scatter(rng, count, occupied, radius_of, region):
+    """Up to ``count`` random non-overlapping spots in ``region`` (range
+    and bearing limits), clear of the circles in ``occupied``."""
+    r0, r1, half_angle = region
+    out = []
+    for _ in range(count * 40):
+        if len(out) == count:
+            break
+        radius = radius_of()
+        # uniform in range: near ground is as busy as far ground
+        r = rng.uniform(r0, r1)
+        x, y = _polar(r, rng.uniform(-half_angle, half_angle))
+        if all(math.hypot(x - ox, y - oy) > radius + orad + 0.03
+               for ox, oy, orad in occupied):
+            occupied.append((x, y, radius))
+            out.append((x, y, radius))
+    return out
+
+
+def _distractors(ctx):
+    """Landmarks among non-round patches of the same colours and specks."""
+    colours = _colours(ctx["palette"])
+    rng = np.random.default_rng([ctx["seed"], 4242])
+    frames = ctx["frames"] or 60
+    spots = [(0.8, 17, "disc"), (1.1, -15, "disc"), (1.7, 16, "disc"),
+             (2.1, -17, "disc"), (2.6, 2, "disc"), (1.3, 2, "ball")]
+    landmarks = []
+    occupied = []
+    for i, (r, b, kind) in enumerate(spots):
+        x, y = _polar(r, b)
+        d = 0.12 if kind == "disc" else 0.07
+        landmarks.append(Landmark(id=f"L{i + 1}",
+                                  cls=colours[i % len(colours)], x=x, y=y,
+                                  diameter=d, kind=kind))
+        occupied.append((x, y, d / 2))
+    region = (0.35, 3.5, 45.0)
+    distractors = []
+    shapes = (("square", 14, lambda: rng.uniform(0.05, 0.14)),
+              ("stripe", 10, lambda: rng.uniform(0.15, 0.45)),
+              ("triangle", 12, lambda: rng.uniform(0.06, 0.15)),
+              ("speck", 50, lambda: rng.uniform(0.004, 0.015)))
+    for shape, count, size_of in shapes:
+        sizes = []
+
+        def radius_of():
+            sizes.append(size_of())
+            # the shape's circumscribed radius
+            return sizes[-1] * (0.5 if shape in ("stripe", "speck")
+                                else 0.71)
+        spots = _scatter(rng, count, occupied, radius_of, region)
+        for x, y, radius in spots:
+            size = radius / (0.5 if shape in ("stripe", "speck") else 0.71)
+            distractors.append(Distractor(
+                cls=colours[int(rng.integers(len(colours)))], shape=shape,
+                x=x, y=y, size=size,
+                width=rng.uniform(0.015, 0.04) if shape == "stripe"
+                else None,
+                angle=rng.uniform(0, 2 * math.pi)))
+    return dict(landmarks=landmarks, distractors=distractors, floor="grey",
+                trajectory=Sweep(0.0, 0.0, 0.0, 0.0, 0.2,
+                                 max(frames, 2) / ctx["fps"])), frames
+
+
+def _edge_cases(ctx):
+    """Cut by the border, very far, very near, one colour twice, a ball
+    hiding part of a disc; the robot creeps forward and swings."""
+    c = _colours(ctx["palette"])
+    n = len(c)
+    spec = [
+        ("E1-twice-a", 0, 1.2, 0.0, 0.12, "disc"),
+        ("E2-twice-b", 0, 2.0, 0.3, 0.12, "disc"),
+        ("E3-occluder", 4, 0.9, -0.25, 0.08, "ball"),
+        ("E4-occluded", 1, 1.02, -0.28, 0.14, "disc"),
+        ("E5-far", 2, 7.0, 0.5, 0.2, "disc"),
+        ("E6-far-ball", 3, 9.0, -0.8, 0.1, "ball"),
+        ("E7-near", 3, 0.3, 0.05, 0.1, "disc"),
+        ("E8-near-ball", 2, 0.42, -0.16, 0.065, "ball"),
+        ("E9-edge", 1, 1.0, 0.62, 0.12, "disc"),
+    ]
+    landmarks = [Landmark(id=i, cls=c[k % n], x=x, y=y, diameter=d,
+                          kind=kind) for i, k, x, y, d, kind in spec]
+    return dict(landmarks=landmarks, floor="grey",
+                trajectory=Sweep(0.0, 0.0, 0.0, 0.1, 0.3, 3.0)), \
+        ctx["frames"] or 90
+
+
+def _custom(ctx):
+    """Your map (``map``: file or list of Landmark) seen from scripted
+    poses (``poses``: file or list) or one static ``pose``."""
+    spec = ctx["overrides"].pop("map", None)
+    if spec is None:
+        raise ValueError("the custom scenario needs a map (--map FILE)")
+    landmarks = load_map(spec) if isinstance(spec, str) else list(spec)
+    poses = ctx["overrides"].pop("poses", None)
+    pose = ctx["overrides"].pop("pose", None)
+    if poses is not None:
+        if isinstance(poses, str):
+            poses = load_poses(poses)
+        trajectory = Keyframes(poses, ctx["fps"])
+        frames = ctx["frames"] or len(poses)
+    else:
+        trajectory = Static(*(pose or (0.0, 0.0, 0.0)))
+        frames = ctx["frames"] or 30
+    return dict(landmarks=landmarks, floor="grey",
+                trajectory=trajectory), frames
+
+
+SCENARIOS = {
+    "range-sweep": _range_sweep,
+    "path": _path,
+    "backgrounds": _backgrounds,
+    "distractors": _distractors,
+    "edge-cases": _edge_cases,
+    "custom": _custom,
+}
+
+
+def build_scenario(name, seed=0, frames=None, size=(640, 480),
+                   **overrides):
+    """(Scene, frame count) of a named scenario with overrides."""
+    if name not in SCENARIOS:
+        raise ValueError(f"unknown scenario {name!r}, expected one of "
+                         f"{', '.join(SCENARIOS)}")
+    unknown = set(overrides) - set(OVERRIDES)
+    if unknown:
+        raise ValueError(f"unknown override(s): {', '.join(sorted(unknown))}"
+                         f" (known: {', '.join(OVERRIDES)})")
+    overrides = {k: v for k, v in overrides.items() if v is not None}
+    if frames is not None and frames < 1:
+        raise ValueError("frames must be >= 1")
+    width, height = size
+    cam_args = {k: overrides.pop(k) for k in CAMERA_KEYS if k in overrides}
+    camera = Camera(width, height, **cam_args)
+    palette = marker_palette(overrides.pop("palette", None))
+    fps = int(overrides.pop("fps", 30))
+    if fps < 1:
+        raise ValueError("fps must be >= 1")
+    ctx = {"seed": int(seed), "frames": frames, "palette": palette,
+           "fps": fps, "overrides": overrides}
+    parts, n_frames = SCENARIOS[name](ctx)
+    for key in ("map", "poses", "pose"):
+        if key in overrides:
+            raise ValueError(f"{key} only applies to the custom scenario")
+
+    effects = Effects(**parts.pop("effects", {}))
+    for key in EFFECT_KEYS:
+        if key in overrides:
+            setattr(effects, key, type(getattr(effects, key))(
+                overrides.pop(key)))
+    floor = overrides.pop("floor", None)
+    if floor is not None:
+        # one floor for the whole clip
+        parts["floor"] = floor
+        segments = parts.pop("segments", None)
+        if segments:
+            parts["segments"] = [Segment(s.from_frame, floor,
+                                         s.exposure_stops, s.wb_gains)
+                                 for s in segments]
+    walls_spec = overrides.pop("walls", "default")
+    supersample = int(overrides.pop("supersample", 4))
+    scene = Scene(camera=camera, palette=palette, fps=fps, seed=int(seed),
+                  effects=effects, supersample=supersample, scenario=name,
+                  **parts)
+    if walls_spec != "default":
+        if walls_spec is True and scene.walls is not None:
+            pass
+        else:
+            scene = scene.with_(walls=_field_walls(scene, walls_spec))
+    return scene, n_frames

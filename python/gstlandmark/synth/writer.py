@@ -1,0 +1,280 @@
+"""Write a rendered scenario: the MJPEG clip (through GStreamer), the
+ground truth, the scene description, the map and the class masks."""
+
+import json
+import os
+import sys
+import time
+
+import cv2
+import numpy as np
+
+from gstlandmark.palette import save_palette
+
+from .render import render_frame
+from .scenarios import Static, build_scenario
+from .world import palette_json
+
+
+def _stride(width):
+    # GStreamer's default row stride for packed RGB: a multiple of 4.
+    return (width * 3 + 3) // 4 * 4
+
+
+def _packed(rgb):
+    """Frame bytes in GStreamer's default RGB layout."""
+    h, w, _ = rgb.shape
+    stride = _stride(w)
+    if stride == w * 3:
+        return rgb.tobytes()
+    out = np.zeros((h, stride), np.uint8)
+    out[:, :w * 3] = rgb.reshape(h, w * 3)
+    return out.tobytes()
+
+
+def raw_caps(width, height, fps):
+    return (f"video/x-raw,format=RGB,width={width},height={height},"
+            f"framerate={fps}/1")
+
+
+class ClipWriter:
+    """appsrc ! videoconvert ! jpegenc quality=Q ! avimux ! filesink.
+    Encoding runs in GStreamer's threads while the next frame renders."""
+
+    def __init__(self, path, width, height, fps, quality):
+        from gstlandmark import pipeline
+        pipeline.init()
+        self.Gst = Gst = pipeline.Gst
+        self.error_type = pipeline.PipelineError
+        self.fps = fps
+        frame_bytes = _stride(width) * height
+        self.pipe = Gst.parse_launch(
+            f"appsrc name=src format=time block=true "
+            f"max-bytes={4 * frame_bytes} "
+            f"caps={raw_caps(width, height, fps)} ! videoconvert ! "
+            f"jpegenc quality={int(quality)} ! avimux ! filesink name=sink")
+        self.pipe.get_by_name("sink").set_property("location", str(path))
+        self.src = self.pipe.get_by_name("src")
+        self.bus = self.pipe.get_bus()
+        self.pipe.set_state(Gst.State.PLAYING)
+
+    def _check(self, timeout_ns=0):
+        Gst = self.Gst
+        msg = self.bus.timed_pop_filtered(
+            timeout_ns, Gst.MessageType.EOS | Gst.MessageType.ERROR)
+        if msg is not None and msg.type == Gst.MessageType.ERROR:
+            err, dbg = msg.parse_error()
+            self.pipe.set_state(Gst.State.NULL)
+            raise self.error_type(f"clip encoding failed: {err.message} "
+                                  f"({dbg})")
+        return msg
+
+    def push(self, rgb, index):
+        Gst = self.Gst
+        buf = Gst.Buffer.new_wrapped(_packed(rgb))
+        buf.pts = index * Gst.SECOND // self.fps
+        buf.duration = (index + 1) * Gst.SECOND // self.fps - buf.pts
+        ret = self.src.emit("push-buffer", buf)
+        if ret != Gst.FlowReturn.OK:
+            self._check()
+            raise self.error_type(f"clip encoding stopped: {ret}")
+        self._check()
+
+    def close(self):
+        Gst = self.Gst
+        self.src.emit("end-of-stream")
+        try:
+            if self._check(120 * Gst.SECOND) is None:
+                raise self.error_type("clip encoding did not finish")
+        finally:
+            self.pipe.set_state(Gst.State.NULL)
+
+    def abort(self):
+        self.pipe.set_state(self.Gst.State.NULL)
+
+
+class Progress:
+    """A one-line text progress bar on stderr with frames/s and ETA."""
+
+    def __init__(self, total, enabled, label="", stream=None):
+        self.total, self.enabled, self.label = total, enabled, label
+        self.stream = stream or sys.stderr
+        self.start = time.perf_counter()
+        self.last = 0.0
+
+    def update(self, done):
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        if done < self.total and now - self.last < 0.25:
+            return
+        self.last = now
+        elapsed = now - self.start
+        rate = done / elapsed if elapsed > 0 else 0.0
+        eta = (self.total - done) / rate if rate > 0 else 0.0
+        width = 30
+        filled = int(width * done / max(self.total, 1))
+        self.stream.write(
+            f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] "
+            f"{done}/{self.total} {rate:5.1f} frames/s "
+            f"ETA {int(eta) // 60}:{int(eta) % 60:02d} ")
+        self.stream.flush()
+
+    def close(self):
+        if self.enabled:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _write_png(path, rgb):
+    if not cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)):
+        raise OSError(f"{path}: cannot write")
+
+
+def _write_mask(path, mask):
+    if not cv2.imwrite(str(path), mask):
+        raise OSError(f"{path}: cannot write")
+
+
+def scene_json(scene, frames):
+    """The scene description written to scene.json."""
+    out = {
+        "scenario": scene.scenario,
+        "seed": scene.seed,
+        "fps": scene.fps,
+        "frames": frames,
+        "camera": scene.camera.to_json(),
+        "floor": (scene.floor if not scene.segments
+                  else [s.to_json() for s in scene.segments]),
+        "walls": scene.walls.to_json() if scene.walls else None,
+        "effects": scene.effects.to_json(),
+        "supersample": scene.supersample,
+        "sky_colour_srgb": list(scene.sky_colour),
+        "palette": palette_json(scene.scene_palette()),
+        "map": scene.map_json(),
+        "distractors": [d.to_json() for d in scene.distractors],
+        "trajectory": (scene.trajectory.to_json()
+                       if scene.trajectory is not None else None),
+    }
+    presence = {lm.id: [list(f) for f in lm.frames]
+                for lm in scene.landmarks if lm.frames is not None}
+    if presence:
+        # landmarks that exist only in some frames (range-sweep)
+        out["landmark_frames"] = presence
+    return out
+
+
+def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
+                  raw=None, masks="first", clip=True):
+    """Render ``frames`` frames of ``scene`` into ``out_dir``; return a
+    summary dict.  ``frames_png``: folder for lossless PNG frames;
+    ``raw``: file for raw RGB frames; ``masks``: "first" or "all";
+    ``progress``: None = only when stderr is a terminal."""
+    if masks not in ("first", "all"):
+        raise ValueError(f"masks must be 'first' or 'all', got {masks!r}")
+    os.makedirs(out_dir, exist_ok=True)
+    cam = scene.camera
+    width, height = cam.width, cam.height
+    if progress is None:
+        progress = sys.stderr.isatty()
+    bar = Progress(frames, progress, f"synth {scene.scenario}")
+    files = {"truth": os.path.join(out_dir, "truth.jsonl"),
+             "scene": os.path.join(out_dir, "scene.json"),
+             "map": os.path.join(out_dir, "map.json"),
+             "palette": os.path.join(out_dir, "palette.json"),
+             "mask0": os.path.join(out_dir, "mask0.png"),
+             "frame0": os.path.join(out_dir, "frame0.png")}
+    if clip:
+        files["clip"] = os.path.join(out_dir, "clip.avi")
+    if frames_png:
+        os.makedirs(frames_png, exist_ok=True)
+        files["frames_png"] = frames_png
+    if masks == "all":
+        os.makedirs(os.path.join(out_dir, "masks"), exist_ok=True)
+        files["masks"] = os.path.join(out_dir, "masks")
+    if raw:
+        files["raw"] = raw
+
+    trajectory = scene.trajectory or Static()
+    start = time.perf_counter()
+    writer = (ClipWriter(files["clip"], width, height, scene.fps,
+                         scene.effects.jpeg_quality) if clip else None)
+    raw_file = open(raw, "wb") if raw else None
+    visible = 0
+    try:
+        with open(files["truth"], "w", encoding="utf-8") as truth_file:
+            for i in range(frames):
+                t = i / scene.fps
+                pose = trajectory.pose(t)
+                rgb, truth, mask = render_frame(scene, pose, t=t, frame=i,
+                                                frames_total=frames)
+                if writer is not None:
+                    writer.push(rgb, i)
+                truth_file.write(json.dumps(truth) + "\n")
+                visible += len(truth["landmarks"])
+                if i == 0:
+                    _write_png(files["frame0"], rgb)
+                    _write_mask(files["mask0"], mask)
+                if masks == "all":
+                    _write_mask(os.path.join(files["masks"],
+                                             f"{i:06d}.png"), mask)
+                if frames_png:
+                    _write_png(os.path.join(frames_png, f"{i:06d}.png"),
+                               rgb)
+                if raw_file is not None:
+                    raw_file.write(_packed(rgb))
+                bar.update(i + 1)
+        if writer is not None:
+            writer.close()
+            writer = None
+    finally:
+        if writer is not None:
+            writer.abort()
+        if raw_file is not None:
+            raw_file.close()
+        bar.close()
+    seconds = time.perf_counter() - start
+
+    description = scene_json(scene, frames)
+    description["clip"] = ({"file": "clip.avi", "format": "MJPEG in AVI",
+                            "jpeg_quality": scene.effects.jpeg_quality}
+                           if clip else None)
+    if raw:
+        description["raw"] = {"file": raw,
+                              "caps": raw_caps(width, height, scene.fps),
+                              "stride": _stride(width)}
+    if frames_png:
+        description["frames_png"] = frames_png
+    description["masks"] = "masks/%06d.png" if masks == "all" else None
+    description["render_seconds"] = round(seconds, 3)
+    with open(files["scene"], "w", encoding="utf-8") as f:
+        json.dump(description, f, indent=2)
+        f.write("\n")
+    with open(files["map"], "w", encoding="utf-8") as f:
+        json.dump(scene.map_json(), f, indent=2)
+        f.write("\n")
+    # the scene palette as a palette file, for labsegment palette=...
+    save_palette(scene.scene_palette(), files["palette"],
+                 description=f"Scene palette of gst-landmark synth "
+                             f"{scene.scenario} (seed {scene.seed}): "
+                             f"marker colours, then floor and wall "
+                             f"classes; mask value k is class k.")
+    return {"scenario": scene.scenario, "out_dir": out_dir,
+            "frames": frames, "size": [width, height],
+            "seconds": round(seconds, 3),
+            "frames_per_second": round(frames / seconds, 3)
+            if seconds > 0 else None,
+            "landmark_sightings": visible, "files": files}
+
+
+def render_scenario(name, out_dir, seed=0, frames=None, size=(640, 480),
+                    progress=None, frames_png=None, raw=None,
+                    masks="first", clip=True, **overrides):
+    """Build the named scenario and write it to ``out_dir``; return the
+    summary (see ``write_outputs``).  ``overrides``: see
+    ``scenarios.OVERRIDES``."""
+    scene, n = build_scenario(name, seed=seed, frames=frames, size=size,
+                              **overrides)
+    return write_outputs(scene, n, out_dir, progress=progress,
+                         frames_png=frames_png, raw=raw, masks=masks,
+                         clip=clip)

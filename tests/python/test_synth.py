@@ -1,0 +1,471 @@
+"""gst-landmark synth: geometry self-test against cv2.projectPoints, the
+ground truth's formulas, determinism, masks and the written outputs."""
+
+import json
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from gstlandmark import cli, reference
+from gstlandmark.palette import (learn_from_mask, load_palette,
+                                 palette_to_json)
+from gstlandmark.synth import (Camera, Distractor, Effects, Landmark, Pose,
+                               Scene, Walls, render_frame, render_scenario)
+from gstlandmark.synth.scenarios import SCENARIOS
+
+MARKERS = ("red", "green", "yellow", "pink", "blue")
+SMALL = (160, 120)
+
+
+# -- an independent camera model, written from docs/conventions.md -------
+
+def conventions_rvec_tvec(pose, height, tilt_deg, roll_deg):
+    """rvec, tvec of world points for cv2.projectPoints."""
+    t, r = math.radians(tilt_deg), math.radians(roll_deg)
+    x_c = np.array([0.0, -1.0, 0.0])
+    y_c = np.array([-math.sin(t), 0.0, -math.cos(t)])
+    z_c = np.array([math.cos(t), 0.0, -math.sin(t)])
+    robot_to_cam = np.array([math.cos(r) * x_c + math.sin(r) * y_c,
+                             -math.sin(r) * x_c + math.cos(r) * y_c, z_c])
+    c, s = math.cos(pose.heading), math.sin(pose.heading)
+    world_to_robot = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    rot = robot_to_cam @ world_to_robot
+    centre = np.array([pose.x, pose.y, height])
+    rvec, _ = cv2.Rodrigues(rot)
+    return rvec, -rot @ centre
+
+
+def project(points, pose, camera):
+    rvec, tvec = conventions_rvec_tvec(pose, camera.height_m,
+                                       camera.tilt_deg, camera.roll_deg)
+    k = np.array([[camera.fx, 0, camera.cx], [0, camera.fy, camera.cy],
+                  [0, 0, 1.0]])
+    uv, _ = cv2.projectPoints(np.asarray(points, np.float64).reshape(-1, 3),
+                              rvec, tvec, k, None)
+    return uv.reshape(-1, 2)
+
+
+def outline_world(lm, pose, camera, count=2000):
+    """Boundary of a disc, or the silhouette circle of a ball."""
+    a = np.linspace(0.0, 2 * math.pi, count, endpoint=False)
+    centre = np.array([lm.x, lm.y, lm.z])
+    if lm.kind == "disc":
+        return centre + lm.radius * np.stack(
+            [np.cos(a), np.sin(a), np.zeros_like(a)], axis=1)
+    eye = np.array([pose.x, pose.y, camera.height_m])
+    v = centre - eye
+    dist = np.linalg.norm(v)
+    n = v / dist
+    e1 = np.cross(n, [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    q = centre - lm.radius ** 2 / dist * n
+    rho = lm.radius * math.sqrt(1 - (lm.radius / dist) ** 2)
+    return q + rho * (np.cos(a)[:, None] * e1 + np.sin(a)[:, None] * e2)
+
+
+def polygon_centroid(p):
+    x, y = p[:, 0], p[:, 1]
+    x1, y1 = np.roll(x, -1), np.roll(y, -1)
+    cross = x * y1 - x1 * y
+    area = cross.sum() / 2
+    return np.array([((x + x1) * cross).sum(),
+                     ((y + y1) * cross).sum()]) / (6 * area)
+
+
+def srgb_to_linear(c):
+    c = np.asarray(c, np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def image_centroid(rgb, colour, floor, centre, half=30):
+    """Coverage-weighted centroid measured on the rendered image itself:
+    each pixel's coverage recovered from its colour in linear light."""
+    u0 = max(int(centre[0]) - half, 0)
+    v0 = max(int(centre[1]) - half, 0)
+    win = srgb_to_linear(rgb[v0:int(centre[1]) + half,
+                             u0:int(centre[0]) + half])
+    col, bg = srgb_to_linear(colour), srgb_to_linear(floor)
+    d = col - bg
+    alpha = np.clip(((win - bg) @ d) / (d @ d), 0.0, 1.0)
+    alpha[alpha < 0.02] = 0.0            # 8-bit rounding of the floor
+    vv, uu = np.mgrid[0:alpha.shape[0], 0:alpha.shape[1]]
+    total = alpha.sum()
+    return np.array([(alpha * uu).sum() / total + u0,
+                     (alpha * vv).sum() / total + v0])
+
+
+def quiet_effects(**kw):
+    return Effects(noise_sigma=0.0, ball_shading=0.0, **kw)
+
+
+# -- geometry self-test --------------------------------------------------
+
+@pytest.mark.parametrize("kind, diameter, roll", [
+    ("disc", 0.04, 0.0), ("ball", 0.04, 0.0),
+    ("disc", 0.04, 7.0), ("ball", 0.05, -5.0)])
+def test_small_landmark_centroid_matches_project_points(kind, diameter,
+                                                        roll):
+    camera = Camera(640, 480, hfov_deg=60, height_m=0.3, tilt_deg=25,
+                    roll_deg=roll)
+    pose = Pose(0.7, -0.4, 0.6)
+    # 1.6 m ahead, a little to the right
+    a = pose.heading - 0.15
+    lm = Landmark("L1", "blue", pose.x + 1.6 * math.cos(a),
+                  pose.y + 1.6 * math.sin(a), diameter, kind=kind)
+    scene = Scene(camera=camera, landmarks=[lm], effects=quiet_effects())
+    rgb, truth, _ = render_frame(scene, pose, frame=0)
+    (entry,) = truth["landmarks"]
+    centre = project([[lm.x, lm.y, lm.z]], pose, camera)[0]
+    area_centroid = polygon_centroid(
+        project(outline_world(lm, pose, camera), pose, camera))
+    rendered = np.array([entry["u"], entry["v"]])
+    measured = image_centroid(rgb, scene.marker_srgb8()["blue"],
+                              (128, 128, 128), centre)
+
+    # the projective bias of so small an object is below 0.1 px
+    assert np.abs(area_centroid - centre).max() < 0.1
+    assert np.abs(rendered - centre).max() < 0.5
+    assert np.abs(measured - centre).max() < 0.5
+    # and it agrees with the exact area centroid far better than that
+    assert np.abs(rendered - area_centroid).max() < 0.05
+    assert np.abs(measured - area_centroid).max() < 0.1
+    assert entry["u_centre"] == pytest.approx(centre[0], abs=1e-3)
+    assert entry["v_centre"] == pytest.approx(centre[1], abs=1e-3)
+    # visible area: the exact projected area within 3 % (4 x 4 samples)
+    p = project(outline_world(lm, pose, camera), pose, camera)
+    x, y = p[:, 0], p[:, 1]
+    area = abs((x * np.roll(y, -1) - np.roll(x, -1) * y).sum()) / 2
+    assert entry["pixels"] == pytest.approx(area, rel=0.03)
+    assert not entry["cut"] and not entry["occluded"]
+
+
+def test_large_near_landmarks_area_centroid():
+    """Bigger, nearer objects: the rendered centroid is the exact area
+    centroid of the projected outline, not the projected centre."""
+    camera = Camera(640, 480, tilt_deg=30, roll_deg=3.0)
+    pose = Pose(-1.0, 2.0, -2.0)
+    lms = []
+    for i, (r, b, kind, d) in enumerate([(0.6, 0.2, "disc", 0.12),
+                                         (0.9, -0.25, "ball", 0.08),
+                                         (1.4, 0.0, "disc", 0.15)]):
+        lms.append(Landmark(f"L{i}", MARKERS[i],
+                            pose.x + r * math.cos(pose.heading + b),
+                            pose.y + r * math.sin(pose.heading + b), d,
+                            kind=kind))
+    scene = Scene(camera=camera, landmarks=lms, effects=quiet_effects())
+    _, truth, _ = render_frame(scene, pose, frame=0)
+    assert len(truth["landmarks"]) == 3
+    for entry, lm in zip(truth["landmarks"], lms):
+        expected = polygon_centroid(
+            project(outline_world(lm, pose, camera), pose, camera))
+        got = np.array([entry["u"], entry["v"]])
+        assert np.abs(got - expected).max() < 0.05, entry["id"]
+
+
+# -- truth values ----------------------------------------------------------
+
+def test_range_bearing_follow_conventions(tmp_path):
+    summary = render_scenario("path", str(tmp_path), frames=24, size=SMALL,
+                              progress=False)
+    assert summary["frames"] == 24
+    landmarks = {lm["id"]: lm for lm in json.loads(
+        (tmp_path / "map.json").read_text())["landmarks"]}
+    seen = 0
+    for line in (tmp_path / "truth.jsonl").read_text().splitlines():
+        frame = json.loads(line)
+        robot = frame["robot"]
+        h = robot["heading"]
+        assert -math.pi < h <= math.pi
+        for entry in frame["landmarks"]:
+            lm = landmarks[entry["id"]]
+            dx, dy = lm["x"] - robot["x"], lm["y"] - robot["y"]
+            gx = math.cos(h) * dx + math.sin(h) * dy
+            gy = -math.sin(h) * dx + math.cos(h) * dy
+            assert entry["ground_x"] == pytest.approx(gx, abs=2e-6)
+            assert entry["ground_y"] == pytest.approx(gy, abs=2e-6)
+            assert entry["range"] == pytest.approx(math.hypot(dx, dy),
+                                                   abs=2e-6)
+            bearing = math.atan2(dy, dx) - h
+            bearing = math.atan2(math.sin(bearing), math.cos(bearing))
+            assert entry["bearing"] == pytest.approx(bearing, abs=2e-6)
+            assert entry["class"] == lm["class"]
+            assert entry["kind"] == lm["kind"]
+            seen += 1
+    assert seen > 10
+
+
+def test_straight_ahead_and_left():
+    camera = Camera(640, 480)
+    pose = Pose(2.0, 1.0, 1.0)
+    ahead = Landmark("ahead", "red", 2.0 + 1.2 * math.cos(1.0),
+                     1.0 + 1.2 * math.sin(1.0), 0.1)
+    left = Landmark("left", "green", 2.0 + 1.0 * math.cos(1.3),
+                    1.0 + 1.0 * math.sin(1.3), 0.1)
+    right = Landmark("right", "blue", 2.0 + 0.9 * math.cos(0.75),
+                     1.0 + 0.9 * math.sin(0.75), 0.07, kind="ball")
+    scene = Scene(camera=camera, landmarks=[ahead, left, right],
+                  effects=quiet_effects())
+    _, truth, _ = render_frame(scene, pose, frame=0)
+    got = {e["id"]: e for e in truth["landmarks"]}
+    assert got["ahead"]["bearing"] == pytest.approx(0.0, abs=1e-6)
+    assert got["ahead"]["u"] == pytest.approx(camera.cx, abs=0.01)
+    assert got["ahead"]["u_centre"] == pytest.approx(camera.cx, abs=1e-3)
+    assert got["left"]["bearing"] == pytest.approx(0.3, abs=1e-6)
+    assert got["left"]["u"] < camera.cx - 50
+    assert got["left"]["ground_y"] > 0
+    assert got["right"]["bearing"] == pytest.approx(-0.25, abs=1e-6)
+    assert got["right"]["u"] > camera.cx + 50
+    assert got["ahead"]["range"] == pytest.approx(1.2, abs=1e-6)
+
+
+def test_cut_and_occluded_flags():
+    camera = Camera(640, 480)
+    pose = Pose(0.0, 0.0, 0.0)
+    # bearing 31 degrees: the disc straddles the left border (hfov 60)
+    edge = Landmark("edge", "red", 1.0 * math.cos(0.54),
+                    1.0 * math.sin(0.54), 0.12)
+    inside = Landmark("inside", "green", 1.2, -0.1, 0.1)
+    near = Landmark("near", "yellow", 0.28, 0.0, 0.1)   # bottom border
+    ball = Landmark("ball", "blue", 0.9, 0.4, 0.08, kind="ball")
+    hidden = Landmark("hidden", "pink", 1.02, 0.45, 0.14)
+    scene = Scene(camera=camera, landmarks=[edge, inside, near, ball,
+                                            hidden],
+                  effects=quiet_effects())
+    _, truth, _ = render_frame(scene, pose, frame=0)
+    got = {e["id"]: e for e in truth["landmarks"]}
+    assert got["edge"]["cut"] and got["edge"]["pixels"] > 0
+    assert got["edge"]["u"] < 40
+    assert got["near"]["cut"] and got["near"]["v"] > 420
+    assert not got["inside"]["cut"] and not got["inside"]["occluded"]
+    assert got["hidden"]["occluded"] and not got["hidden"]["cut"]
+    assert not got["ball"]["occluded"]
+    # what the ball hides is missing from the disc's visible area
+    full = Scene(camera=camera, landmarks=[hidden], effects=quiet_effects())
+    _, alone, _ = render_frame(full, pose, frame=0)
+    assert got["hidden"]["pixels"] < 0.9 * alone["landmarks"][0]["pixels"]
+    # a landmark out of view is not listed
+    behind = Scene(camera=camera, landmarks=[
+        Landmark("behind", "red", -1.0, 0.0, 0.1)], effects=quiet_effects())
+    assert render_frame(behind, pose, frame=0)[1]["landmarks"] == []
+
+
+# -- determinism -------------------------------------------------------------
+
+def _scene(seed):
+    return Scene(camera=Camera(*SMALL), seed=seed, floor="carpet",
+                 landmarks=[Landmark("A", "red", 0.8, 0.1, 0.1),
+                            Landmark("B", "blue", 1.1, -0.2, 0.07,
+                                     kind="ball")])
+
+
+def test_rendering_is_deterministic_for_a_seed():
+    pose = Pose(0.0, 0.0, 0.05)
+    a = render_frame(_scene(5), pose, frame=3)
+    b = render_frame(_scene(5), pose, frame=3)
+    c = render_frame(_scene(6), pose, frame=3)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[2], b[2])
+    assert a[1] == b[1]
+    assert not np.array_equal(a[0], c[0])
+    # noise changes from frame to frame, the geometry does not
+    d = render_frame(_scene(5), pose, frame=4)
+    assert not np.array_equal(a[0], d[0])
+    assert d[1]["landmarks"] == a[1]["landmarks"]
+
+
+def test_scenario_outputs_are_deterministic(tmp_path):
+    for name in ("one", "two"):
+        render_scenario("distractors", str(tmp_path / name), seed=3,
+                        frames=2, size=SMALL, progress=False)
+    for f in ("truth.jsonl", "map.json", "frame0.png", "mask0.png"):
+        assert ((tmp_path / "one" / f).read_bytes()
+                == (tmp_path / "two" / f).read_bytes()), f
+
+
+# -- masks -------------------------------------------------------------------
+
+def test_mask_labels_agree_with_rendered_colours(tmp_path):
+    camera = Camera(320, 240)
+    spots = [(0.6, 0.22), (0.75, -0.2), (0.95, 0.12), (1.1, -0.12),
+             (1.3, 0.3)]
+    lms = [Landmark(f"L{i}", name, x, y, 0.15)
+           for i, (name, (x, y)) in enumerate(zip(MARKERS, spots))]
+    scene = Scene(camera=camera, landmarks=lms, floor="tiles",
+                  effects=quiet_effects())
+    rgb, truth, mask = render_frame(scene, Pose(0.0, 0.0, 0.0), frame=0)
+    palette = scene.scene_palette()
+    assert palette.names == list(MARKERS) + ["floor"]
+    assert palette.markers == list(MARKERS)
+    assert set(np.unique(mask)) == set(range(1, len(palette) + 1))
+    # interior pixels carry exactly the class colour
+    srgb = scene.marker_srgb8()
+    for k, name in enumerate(MARKERS, start=1):
+        inner = cv2.erode((mask == k).astype(np.uint8), np.ones((3, 3)))
+        assert inner.sum() > 20, name
+        assert np.abs(rgb[inner > 0].astype(int)
+                      - srgb[name]).max() <= 1, name
+    # a palette learned from the frame and its mask comes back: exactly
+    # from the interiors, roughly from the whole mask (edge pixels,
+    # labelled by their majority class, blend with the floor)
+    inner = np.zeros_like(mask)
+    for k in range(1, len(palette) + 1):
+        inner[cv2.erode((mask == k).astype(np.uint8),
+                        np.ones((3, 3))) > 0] = k
+    exact = learn_from_mask(rgb[:, :, ::-1], inner, names=palette.names)
+    rough = learn_from_mask(rgb[:, :, ::-1], mask, names=palette.names)
+    for a, b, want in zip(exact.classes, rough.classes, palette.classes):
+        assert np.linalg.norm(np.subtract(a.lab, want.lab)) < 1.0, want.name
+        assert np.linalg.norm(np.subtract(b.lab, want.lab)) < 8.0, want.name
+    # nearly every labelled pixel is nearest to its own class colour
+    lab = reference.rgb_to_lab(rgb).reshape(-1, 3)
+    dist = np.linalg.norm(lab[:, None, :] - palette.lab_array()[None],
+                          axis=2)
+    nearest = dist.argmin(axis=1) + 1
+    labels = mask.ravel()
+    for k in range(1, len(palette) + 1):
+        assert (nearest[labels == k] == k).mean() > 0.9, palette.names[k - 1]
+
+
+def test_mask_of_balls_walls_and_distractors():
+    camera = Camera(320, 240, tilt_deg=10)
+    scene = Scene(
+        camera=camera, floor="wood", walls=Walls(-1, -2, 3, 2),
+        landmarks=[Landmark("ball", "pink", 1.0, 0.0, 0.1, kind="ball")],
+        distractors=[Distractor("yellow", "square", 0.8, 0.3, 0.1),
+                     Distractor("green", "stripe", 1.2, -0.4, 0.3, 0.03),
+                     Distractor("blue", "triangle", 0.7, -0.25, 0.1)])
+    rgb, truth, mask = render_frame(scene, Pose(0.0, 0.0, 0.0), frame=0)
+    names = scene.scene_palette().names
+    assert names[-2:] == ["floor", "wall"]
+    (entry,) = truth["landmarks"]      # distractors are not landmarks
+    u, v = int(round(entry["u"])), int(round(entry["v"]))
+    assert mask[v, u] == names.index("pink") + 1
+    for name in ("yellow", "green", "blue", "floor", "wall"):
+        assert (mask == names.index(name) + 1).sum() > 30, name
+
+
+# -- outputs -----------------------------------------------------------------
+
+@pytest.mark.parametrize("name", [n for n in SCENARIOS if n != "custom"])
+def test_scenario_writes_outputs(tmp_path, name):
+    summary = render_scenario(name, str(tmp_path), frames=3, size=SMALL,
+                              progress=False)
+    assert summary["frames"] == 3
+    scene = json.loads((tmp_path / "scene.json").read_text())
+    assert scene["scenario"] == name and scene["frames"] == 3
+    assert set(scene["camera"]) == {"width", "height", "fx", "fy", "cx",
+                                    "cy", "hfov_deg", "height_m",
+                                    "tilt_deg", "roll_deg"}
+    assert scene["camera"]["hfov_deg"] == pytest.approx(60.0)
+    for key in ("fps", "seed", "floor", "effects", "palette", "map"):
+        assert key in scene
+    the_map = json.loads((tmp_path / "map.json").read_text())
+    assert list(the_map) == ["landmarks"] and the_map == scene["map"]
+    for lm in the_map["landmarks"]:
+        assert set(lm) == {"id", "class", "x", "y", "z", "diameter",
+                           "kind"}
+    palette = load_palette(str(tmp_path / "palette.json"))
+    assert palette_to_json(palette)["classes"] == \
+        scene["palette"]["classes"]
+    lines = (tmp_path / "truth.jsonl").read_text().splitlines()
+    assert [json.loads(x)["frame"] for x in lines] == [0, 1, 2]
+    assert json.loads(lines[1])["pts"] == 33333333
+    mask = cv2.imread(str(tmp_path / "mask0.png"), cv2.IMREAD_UNCHANGED)
+    assert mask.shape == (120, 160) and mask.dtype == np.uint8
+    assert mask.max() <= len(scene["palette"]["classes"])
+    frame0 = cv2.imread(str(tmp_path / "frame0.png"))
+    cap = cv2.VideoCapture(str(tmp_path / "clip.avi"))
+    ok, decoded = cap.read()
+    assert ok and decoded.shape == frame0.shape
+    assert np.abs(decoded.astype(int) - frame0).mean() < 4
+
+
+def test_cli_custom_raw_png_and_masks(tmp_path):
+    the_map = {"landmarks": [
+        {"id": "A", "class": "red", "x": 1.0, "y": 0.0, "z": 0.0,
+         "diameter": 0.1, "kind": "disc"},
+        {"id": "B", "class": "yellow", "x": 1.3, "y": 0.3, "z": 0.035,
+         "diameter": 0.07, "kind": "ball"}]}
+    (tmp_path / "map.json").write_text(json.dumps(the_map))
+    poses = [{"x": 0.0, "y": 0.0, "heading": 0.0},
+             {"x": 0.05, "y": 0.0, "heading": 0.02}]
+    (tmp_path / "poses.json").write_text(json.dumps(poses))
+    out = tmp_path / "out"
+    status = cli.main(["synth", "custom", "--out", str(out), "--map",
+                       str(tmp_path / "map.json"), "--poses",
+                       str(tmp_path / "poses.json"), "--size", "161x121",
+                       "--raw", str(out / "clip.rgb"), "--frames-png",
+                       str(out / "png"), "--masks", "all", "--floor",
+                       "tiles", "--noise", "0", "--no-progress"])
+    assert status == 0
+    scene = json.loads((out / "scene.json").read_text())
+    assert scene["frames"] == 2
+    assert scene["raw"]["caps"] == ("video/x-raw,format=RGB,width=161,"
+                                    "height=121,framerate=30/1")
+    stride = scene["raw"]["stride"]
+    assert stride == 484
+    raw = (out / "clip.rgb").read_bytes()
+    assert len(raw) == 2 * stride * 121
+    first = np.frombuffer(raw[:stride * 121], np.uint8).reshape(121, stride)
+    png = cv2.imread(str(out / "png" / "000000.png"))[:, :, ::-1]
+    assert np.array_equal(first[:, :161 * 3].reshape(121, 161, 3), png)
+    assert (out / "masks" / "000001.png").exists()
+    truth = [json.loads(x) for x in
+             (out / "truth.jsonl").read_text().splitlines()]
+    assert truth[1]["robot"] == {"x": 0.05, "y": 0.0, "heading": 0.02}
+    assert {e["id"] for e in truth[0]["landmarks"]} == {"A", "B"}
+    assert json.loads((out / "map.json").read_text()) == the_map
+
+
+def test_cli_rejects_bad_input(tmp_path, capsys):
+    assert cli.main(["synth", "path", "--size", "big"]) == 2
+    assert cli.main(["synth", "custom", "--out", str(tmp_path)]) == 2
+    assert cli.main(["synth", "path", "--out", str(tmp_path), "--palette",
+                     str(tmp_path / "missing.json")]) == 1
+    assert "missing.json" in capsys.readouterr().err
+
+
+def test_ball_across_the_camera_plane_is_bounded_correctly():
+    """A big ball beside and below the camera, partly behind its plane:
+    the tight pixel box used for supersampling loses nothing."""
+    from gstlandmark.synth.render import Renderer
+    camera = Camera(*SMALL)
+    for x, y, r in ((-0.07, -0.05, 0.16), (-0.07, -0.1, 0.16),
+                    (0.05, -0.1, 0.1)):
+        lm = [Landmark("B", "red", x, y, 2 * r, kind="ball")]
+        tight = Scene(camera=camera, landmarks=lm, effects=quiet_effects())
+        full = Scene(camera=camera, landmarks=lm, effects=quiet_effects())
+        everything = Renderer(full)
+        everything._bbox = lambda o, rot, c: (0, SMALL[0] - 1,
+                                              0, SMALL[1] - 1)
+        full._cache[("renderer",)] = everything
+        a = render_frame(tight, Pose(0, 0, 0), frame=0)
+        b = render_frame(full, Pose(0, 0, 0), frame=0)
+        assert a[1]["landmarks"] and a[1]["landmarks"][0]["cut"]
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[2], b[2])
+        assert a[1] == b[1]
+
+
+def test_effects_change_pixels_not_truth():
+    base = dict(camera=Camera(*SMALL), seed=1,
+                landmarks=[Landmark("A", "red", 0.8, 0.1, 0.1),
+                           Landmark("B", "blue", 1.1, -0.2, 0.07,
+                                    kind="ball")])
+    from gstlandmark.synth.scenarios import Sweep
+    moving = Sweep(0.0, 0.0, 0.0, 0.5, 0.3, 1.0)
+    plain = Scene(effects=quiet_effects(), trajectory=moving, **base)
+    pose = moving.pose(0.2)
+    ref = render_frame(plain, pose, t=0.2, frame=6)
+    for effects in (quiet_effects(vignette=0.4),
+                    quiet_effects(exposure_drift_stops=0.5, wb_drift=0.1),
+                    quiet_effects(auto_exposure=0.7, auto_wb=0.5),
+                    quiet_effects(motion_blur=3),
+                    Effects(noise_sigma=3.0, ball_shading=1.0)):
+        scene = Scene(effects=effects, trajectory=moving, **base)
+        rgb, truth, mask = render_frame(scene, pose, t=0.2, frame=6)
+        assert not np.array_equal(rgb, ref[0]), effects
+        assert truth == ref[1] and np.array_equal(mask, ref[2]), effects
+    with pytest.raises(ValueError):
+        Scene(effects=Effects(jpeg_quality=101), **base)

@@ -541,6 +541,99 @@ def _handle_quantisation(args):
     return 0
 
 
+def segmentation_accuracy(out_dir, scenarios=("backgrounds", "distractors"),
+                          seed=0, frames=None, size=(640, 480),
+                          settings=None, min_class_pixels=500):
+    """Per-class pixel precision and recall of labsegment against the
+    renderer's per-pixel truth, for each setting.
+
+    Each scenario is rendered once (clip.avi and a mask per frame); the
+    clip, JPEG and all, goes through ``labsegment`` with the scene's own
+    palette (the colours the renderer painted) under every setting.
+    Returns {setting: {class: {"tp", "fp", "fn", "precision", "recall"}}}
+    over marker classes, plus "all".
+    """
+    import cv2 as _cv2
+    from . import pipeline, synth
+    settings = settings or {
+        "rule on, L* on": f"min-class-pixels={min_class_pixels}",
+        "rule off, L* on": "min-class-pixels=0",
+        "rule on, L* off": f"min-class-pixels={min_class_pixels} "
+                           "use-lightness=false",
+        "rule off, L* off": "min-class-pixels=0 use-lightness=false",
+    }
+    totals = {name: {} for name in settings}
+    for scenario in scenarios:
+        folder = os.path.join(out_dir, scenario)
+        synth.render_scenario(scenario, folder, seed=seed, frames=frames,
+                              size=size, masks="all", progress=False)
+        with open(os.path.join(folder, "scene.json")) as f:
+            scene = json.load(f)
+        classes = scene["palette"]["classes"]
+        names = [c["name"] for c in classes]
+        markers = [c["name"] for c in classes if c.get("marker", True)]
+        palette_file = os.path.join(folder, "palette.json")
+        clip = os.path.join(folder, "clip.avi")
+        for name, props in settings.items():
+            chain = f"labsegment palette={palette_file} {props}"
+            for r in pipeline.run_file(clip, chain):
+                truth = _cv2.imread(os.path.join(
+                    folder, "masks", f"{r.frame:06d}.png"),
+                    _cv2.IMREAD_UNCHANGED)
+                got = r.labels.plane
+                for k, cls in enumerate(names, 1):
+                    if cls not in markers:
+                        continue
+                    t, g = truth == k, got == k
+                    c = totals[name].setdefault(cls, [0, 0, 0])
+                    c[0] += int((t & g).sum())
+                    c[1] += int((~t & g).sum())
+                    c[2] += int((t & ~g).sum())
+    out = {}
+    for name, per_class in totals.items():
+        rows = {}
+        all_ = [0, 0, 0]
+        for cls, (tp, fp, fn) in sorted(per_class.items()):
+            rows[cls] = _prf(tp, fp, fn)
+            all_ = [all_[0] + tp, all_[1] + fp, all_[2] + fn]
+        rows["all"] = _prf(*all_)
+        out[name] = rows
+    return out
+
+
+def _prf(tp, fp, fn):
+    return {"tp": tp, "fp": fp, "fn": fn,
+            "precision": tp / (tp + fp) if tp + fp else None,
+            "recall": tp / (tp + fn) if tp + fn else None}
+
+
+def _handle_segmentation(args):
+    args.scenario = args.scenario or ["backgrounds", "distractors"]
+    out_dir = args.out or tempfile.mkdtemp(prefix="landmark-seg-")
+    result = segmentation_accuracy(out_dir, scenarios=args.scenario,
+                                   seed=args.seed, frames=args.frames)
+    classes = sorted({c for rows in result.values() for c in rows},
+                     key=lambda c: (c == "all", c))
+    header = "class     " + "".join(f"  {name:>22s}" for name in result)
+    print("pixel precision / recall (%) of marker classes against the "
+          f"rendered truth; scenarios: {', '.join(args.scenario)}")
+    print(header)
+    for cls in classes:
+        cells = []
+        for rows in result.values():
+            r = rows.get(cls)
+            if r is None or r["precision"] is None or r["recall"] is None:
+                cells.append(f"  {'-':>22s}")
+            else:
+                cells.append(f"  {100 * r['precision']:10.2f} /"
+                             f"{100 * r['recall']:9.2f}")
+        print(f"{cls:10s}" + "".join(cells))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(result, f, indent=2)
+    return 0
+
+
 def add_bench_parser(subparsers):
     """Add ``bench labsegment`` to the gst-landmark command line."""
     parser = subparsers.add_parser(
@@ -597,6 +690,22 @@ def add_bench_parser(subparsers):
                     "usual way to shrink a colour lookup table); labsegment "
                     "does not quantise.")
     quant.set_defaults(handler=_handle_quantisation)
+
+    seg = actions.add_parser(
+        "segmentation", help="labsegment's per-class pixel precision and "
+                             "recall on rendered scenes",
+        description="Render synthetic scenarios with a truth mask per "
+                    "frame and measure labsegment's per-class pixel "
+                    "precision and recall, with the dominant-colour rule "
+                    "and lightness on and off.")
+    seg.add_argument("--scenario", action="append",
+                     help="synth scenario (repeatable; default backgrounds "
+                          "and distractors)")
+    seg.add_argument("--frames", type=int, help="frames per scenario")
+    seg.add_argument("--seed", type=int, default=0)
+    seg.add_argument("--out", help="keep the renders in this folder")
+    seg.add_argument("--json", metavar="OUT", help="also write the numbers")
+    seg.set_defaults(handler=_handle_segmentation, scenario=None)
     return parser
 
 

@@ -130,13 +130,15 @@ def _palette_learn(args):
         image = _read_image(args.image)
         mask = _read_mask(args.mask)
         palette = learn_from_mask(image, mask, names=_split_list(args.names),
-                                  markers=_split_list(args.markers))
+                                  markers=_split_list(args.markers),
+                                  allow_missing=args.allow_missing)
         description = (f"Learned by '{PROG} palette learn' from the class "
                        f"mask {args.mask}.")
     else:
-        if args.names is not None or args.markers is not None:
-            args.parser.error("--names and --markers go with --mask; with "
-                              "--rect use --background")
+        if (args.names is not None or args.markers is not None
+                or args.allow_missing):
+            args.parser.error("--names, --markers and --allow-missing go "
+                              "with --mask; with --rect use --background")
         image = _read_image(args.image)
         palette = learn_from_rects(image, args.rect,
                                    background=_split_list(args.background))
@@ -179,6 +181,9 @@ def add_palette_parser(subparsers):
         description="Learn a palette: each class gets the mean L*a*b* of "
                     "its pixels, marked either by a class-index mask or by "
                     "rectangles.")
+    learn.add_argument("--allow-missing", action="store_true",
+                       help="with --mask: leave out classes with no pixels "
+                            "(with a warning) instead of failing")
     learn.add_argument("image", metavar="IMAGE", help="the example image")
     source = learn.add_mutually_exclusive_group(required=True)
     source.add_argument("--mask", metavar="MASK",

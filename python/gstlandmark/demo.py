@@ -1,11 +1,13 @@
-"""The main job's demo: a generated floor clip through ``labsegment``.
+"""The main job's demo: the synthetic robot's camera clip through the
+chain, with a palette learned from the clip's colour chart.
 
-Writes, in the output folder:
+The clip (``gst-landmark synth path``) is rendered on first run and kept
+under ``out/clips``. Writes, in the output folder:
 
-- ``input.avi``: the generated clip (MJPEG), a camera gliding over a floor
-  with coloured discs;
+- ``palette.json``: the palette learned from the clip's chart frame;
 - ``labels.avi``: the false-colour segmentation (``labsegment
   output=labels``), the seed's figure 3.6 as video;
+- ``log.jsonl``: ``landmarklog``'s line per frame;
 - ``preview.png``: one frame and its segmentation side by side;
 - ``summary.json``: frames, ms per frame, and the share of each class.
 """
@@ -54,15 +56,17 @@ def write_clip(path: str, width: int, height: int, frames: int,
 
 
 def segment_clip(clip: str, out_video: str, preview_frame: int,
-                 palette: str = None) -> Dict:
-    """Runs ``labsegment output=labels`` over a clip; returns statistics
-    and the preview frame's input and output images."""
+                 palette: str = None, log: str = None) -> Dict:
+    """Runs ``labsegment output=labels`` (and ``landmarklog`` when ``log``
+    is given) over a clip; returns statistics and the preview frame's
+    input and output images."""
     pipeline.init()
     props = f" palette={palette}" if palette else ""
+    logger = f"landmarklog location={log} ! " if log else ""
     pipe = Gst.parse_launch(
         f"filesrc location={clip} ! decodebin ! videoconvert ! "
         f"video/x-raw,format=RGB ! labsegment name=seg output=labels{props} "
-        "! videoconvert ! jpegenc quality=92 ! avimux ! "
+        f"! {logger}videoconvert ! jpegenc quality=92 ! avimux ! "
         f"filesink location={out_video}")
     stats: Dict = {"frames": 0, "class_pixels": {}, "ms": []}
     preview: Dict = {}
@@ -122,16 +126,52 @@ def _wait_eos(pipe, timeout_s=120):
         raise pipeline.PipelineError(f"{err.message} ({dbg})")
 
 
+def synthetic_clip(folder: str, width: int, height: int,
+                   frames: int = None, seed: int = 0) -> str:
+    """The ``path`` scenario rendered into ``folder`` once, reused after."""
+    from . import synth
+    done = os.path.join(folder, "scene.json")
+    if not os.path.exists(done):
+        synth.render_scenario("path", folder, seed=seed, frames=frames,
+                              size=(width, height))
+    return folder
+
+
+def learn_chart_palette(folder: str, out: str) -> str:
+    """Learns a palette from the clip's colour chart frame, as a user
+    learns one from their own camera."""
+    from . import palette as pal
+    with open(os.path.join(folder, "scene.json")) as f:
+        classes = json.load(f)["palette"]["classes"]
+    image = cv2.imread(os.path.join(folder, "chart.png"))
+    mask = cv2.imread(os.path.join(folder, "chart-mask.png"),
+                      cv2.IMREAD_UNCHANGED)
+    learned = pal.learn_from_mask(
+        image, mask, names=[c["name"] for c in classes],
+        markers=[c["name"] for c in classes if c.get("marker", True)])
+    pal.save_palette(learned, out, **{"learned-from": "chart.png"})
+    return out
+
+
 def run_demo(out_dir: str, width: int = 640, height: int = 480,
-             frames: int = 90, palette: str = None) -> Dict:
+             frames: int = None, palette: str = None,
+             clips_dir: str = "out/clips") -> Dict:
     os.makedirs(out_dir, exist_ok=True)
-    clip = os.path.join(out_dir, "input.avi")
-    labels = os.path.join(out_dir, "labels.avi")
     t0 = time.perf_counter()
-    write_clip(clip, width, height, frames)
+    folder = synthetic_clip(
+        os.path.join(clips_dir, f"path-{width}x{height}-"
+                                f"{frames or 'all'}"), width, height, frames)
+    clip = os.path.join(folder, "clip.avi")
+    if palette is None:
+        palette = learn_chart_palette(folder,
+                                      os.path.join(out_dir, "palette.json"))
+    with open(os.path.join(folder, "scene.json")) as f:
+        n_frames = json.load(f)["frames"]
+    labels = os.path.join(out_dir, "labels.avi")
+    log = os.path.join(out_dir, "log.jsonl")
     t1 = time.perf_counter()
-    result = segment_clip(clip, labels, preview_frame=frames // 4,
-                          palette=palette)
+    result = segment_clip(clip, labels, preview_frame=n_frames // 4,
+                          palette=palette, log=log)
     t2 = time.perf_counter()
     stats = result["stats"]
     preview = np.hstack([result["preview"]["input"],
@@ -141,11 +181,14 @@ def run_demo(out_dir: str, width: int = 640, height: int = 480,
     total = sum(stats["class_pixels"].values()) or 1
     summary = {
         "input": clip,
+        "truth": os.path.join(folder, "truth.jsonl"),
+        "palette": palette,
         "labels_video": labels,
+        "log": log,
         "frames": stats["frames"],
         "size": [width, height],
         "labsegment_ms_per_frame_median": float(np.median(stats["ms"])),
-        "render_s": round(t1 - t0, 2),
+        "clip_s": round(t1 - t0, 2),
         "segment_s": round(t2 - t1, 2),
         "class_share": {k: round(v / total, 4)
                         for k, v in stats["class_pixels"].items()},
@@ -160,7 +203,8 @@ def add_demo_parser(subparsers):
         "demo", help="segment a generated floor clip (the main job)",
         description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="out/demo", help="output folder")
-    p.add_argument("--frames", type=int, default=90)
+    p.add_argument("--frames", type=int,
+                   help="frames of the clip (default: the whole path)")
     p.add_argument("--size", default="640x480", help="WIDTHxHEIGHT")
     p.add_argument("--palette", help="palette JSON (default: built-in)")
     p.set_defaults(handler=_handle, parser=p)
@@ -178,6 +222,7 @@ def _handle(args) -> int:
     for name, share in sorted(summary["class_share"].items(),
                               key=lambda kv: -kv[1]):
         print(f"  {name:10s} {100 * share:6.2f} %")
-    print(f"wrote {args.out}/input.avi, labels.avi, preview.png, "
-          "summary.json")
+    print(f"wrote {args.out}/: palette.json, labels.avi, log.jsonl, "
+          "preview.png, summary.json (clip: "
+          f"{os.path.dirname(summary['input'])})")
     return 0

@@ -14,6 +14,7 @@ import importlib.resources
 import json
 import math
 import re
+import sys
 
 import numpy as np
 
@@ -333,28 +334,45 @@ def _marker_flags(names, markers, background):
     return [name not in listed for name in names]
 
 
-def _palette_from_masks(lab, names, masks, flags):
-    """Mean Lab of each class's pixels -> validated Palette."""
+def _palette_from_masks(lab, names, masks, flags, allow_missing=False):
+    """Mean Lab of each class's pixels -> validated Palette.  Classes with
+    no pixels are an error, or with ``allow_missing`` are left out (with
+    a warning on stderr naming them)."""
     entries = []
+    missing = []
     for name, mask, marker in zip(names, masks, flags):
         if not mask.any():
-            raise PaletteError(f"class {json.dumps(name)} has no pixels")
+            if not allow_missing:
+                raise PaletteError(f"class {json.dumps(name)} has no "
+                                   f"pixels")
+            missing.append(name)
+            continue
         # Mean in float64 over the float32 Lab pixels; clip L* so float
         # rounding at pure white or black cannot fail validation.
         mean = lab[mask].astype(np.float64).mean(axis=0)
         mean[0] = min(max(mean[0], 0.0), 100.0)
         entries.append({"name": name, "lab": [float(v) for v in mean],
                         "marker": marker})
+    if missing:
+        listed = ", ".join(json.dumps(n) for n in missing)
+        if not entries:
+            raise PaletteError(f"no class has any pixels ({listed})")
+        print(f"warning: no pixels of class(es) {listed}: left out of the "
+              f"palette", file=sys.stderr)
     return parse_palette({"classes": entries}, "<learned palette>")
 
 
-def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None):
+def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
+                    allow_missing=False):
     """Learn a palette from an image and a mask of class indices.
 
     Mask value 0 is ignored, value k (1..K) marks pixels of class k.  Names
     default to "class1".."classK" (K = largest mask value) or are given;
     ``markers`` lists the names of the marker classes (default: all).
-    Each class gets the mean L*a*b* of its pixels.
+    Each class gets the mean L*a*b* of its pixels.  A class with no pixels
+    is an error unless ``allow_missing`` is true: then it is left out of
+    the palette (the others keep their order) and a warning on stderr
+    names it.
     """
     image = _check_image(image_bgr_uint8)
     mask = np.asarray(mask_uint8)
@@ -385,7 +403,8 @@ def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None):
                            f"are allowed")
     flags = _marker_flags(names, markers, None)
     masks = [mask == k for k in range(1, len(names) + 1)]
-    return _palette_from_masks(_image_lab(image), names, masks, flags)
+    return _palette_from_masks(_image_lab(image), names, masks, flags,
+                               allow_missing=allow_missing)
 
 
 def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None):

@@ -336,6 +336,44 @@ def test_learn_from_mask_errors():
         learn_from_mask(image, mask, names=["a", "b b", "c"])
 
 
+def test_learn_from_mask_allow_missing_leaves_classes_out(capsys):
+    image, mask = synthetic_scene()
+    without_mix = np.where(mask == 2, 0, mask)
+    palette = learn_from_mask(image, without_mix,
+                              names=["red", "mix", "grey", "absent"],
+                              markers=["red", "mix", "absent"],
+                              allow_missing=True)
+    # the others keep their order, colours and marker flags
+    assert palette.names == ["red", "grey"]
+    assert palette.markers == ["red"]
+    np.testing.assert_allclose(palette.lab_array()[0], KNOWN_LAB[RED],
+                               atol=0.1)
+    np.testing.assert_allclose(palette.lab_array()[1], KNOWN_LAB[GREY],
+                               atol=0.1)
+    err = capsys.readouterr().err
+    assert err.startswith("warning: ")
+    assert '"mix"' in err and '"absent"' in err and '"red"' not in err
+    # nothing missing: no warning, the same palette as without the option
+    same = learn_from_mask(image, mask, names=["red", "mix", "grey"],
+                           allow_missing=True)
+    assert same == learn_from_mask(image, mask,
+                                   names=["red", "mix", "grey"])
+    assert capsys.readouterr().err == ""
+
+
+def test_learn_from_mask_missing_class_is_an_error_by_default(capsys):
+    image, mask = synthetic_scene()
+    with pytest.raises(PaletteError, match='class "absent" has no pixels'):
+        learn_from_mask(image, mask, names=["red", "mix", "grey", "absent"])
+    # every class missing is an error even when allowed
+    with pytest.raises(PaletteError, match="no class has any pixels"):
+        learn_from_mask(image, np.zeros_like(mask), names=["a", "b"],
+                        allow_missing=True)
+    with pytest.raises(PaletteError, match="no class pixels"):
+        learn_from_mask(image, np.zeros_like(mask), allow_missing=True)
+    assert capsys.readouterr().err == ""
+
+
 def test_learn_from_rects_pools_rectangles():
     image, _ = synthetic_scene()
     palette = learn_from_rects(
@@ -420,6 +458,33 @@ def test_cli_learn_mask_check_load(tmp_path, scene_files, capsys):
     assert palette.markers == ["red"]
     np.testing.assert_allclose(palette.lab_array()[2], KNOWN_LAB[GREY],
                                atol=0.1)
+
+
+def _cli_has_allow_missing():
+    parser = cli.build_parser()
+    learn = parser._subparsers._group_actions[0].choices["palette"] \
+        ._subparsers._group_actions[0].choices["learn"]
+    return any("--allow-missing" in a.option_strings
+               for a in learn._actions)
+
+
+def test_cli_learn_mask_allow_missing(tmp_path, scene_files, capsys):
+    if not _cli_has_allow_missing():
+        pytest.skip("gst-landmark palette learn has no --allow-missing yet")
+    image_path, mask_path = scene_files
+    out = tmp_path / "learned.json"
+    args = ["palette", "learn", str(image_path), "--mask", str(mask_path),
+            "--names", "red,mix,grey,absent", "--markers", "red,absent",
+            "-o", str(out)]
+    # by default a class without pixels fails
+    assert cli.main(args) == 1
+    assert 'class "absent" has no pixels' in capsys.readouterr().err
+    assert not out.exists()
+    assert cli.main(args + ["--allow-missing"]) == 0
+    assert '"absent"' in capsys.readouterr().err
+    palette = load_palette(out)
+    assert palette.names == ["red", "mix", "grey"]
+    assert palette.markers == ["red"]
 
 
 def test_cli_learn_rects(tmp_path, scene_files):

@@ -6,35 +6,12 @@ import re
 
 import pytest
 
-from gstlandmark import demo, pipeline
+from gstlandmark import demo, goldens, pipeline
 
 Gst = pipeline.Gst
-ROOT = os.environ.get("LANDMARK_SOURCE_ROOT",
-                      os.path.join(os.path.dirname(__file__), "..", ".."))
-PIPELINE_DIR = os.path.join(ROOT, "pipelines")
+PIPELINE_DIR = os.path.join(goldens.ROOT, "pipelines")
 FILES = sorted(f for f in os.listdir(PIPELINE_DIR) if f.endswith(".pipeline"))
-
-
-def launch_line(path):
-    lines = [ln.strip() for ln in open(path) if ln.strip()
-             and not ln.lstrip().startswith("#")]
-    assert len(lines) == 1, f"{path}: one launch line expected"
-    return lines[0]
-
-
-def run_to_eos(desc, timeout_s=60):
-    pipe = Gst.parse_launch(desc)
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        msg = pipe.get_bus().timed_pop_filtered(
-            timeout_s * Gst.SECOND,
-            Gst.MessageType.EOS | Gst.MessageType.ERROR)
-        assert msg is not None, f"no EOS: {desc}"
-        if msg.type == Gst.MessageType.ERROR:
-            err, dbg = msg.parse_error()
-            pytest.fail(f"{err.message} ({dbg}) in {desc}")
-    finally:
-        pipe.set_state(Gst.State.NULL)
+CLIP_FRAMES = 12
 
 
 def count_frames(path):
@@ -57,22 +34,27 @@ def count_frames(path):
 @pytest.mark.parametrize("name", FILES)
 def test_pipeline_runs(gst, name, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    desc = launch_line(os.path.join(PIPELINE_DIR, name))
+    path = os.path.join(PIPELINE_DIR, name)
+    desc = goldens.launch_line(path)
     clip = tmp_path / "input.avi"
-    demo.write_clip(str(clip), 160, 120, 12)
-    desc = desc.replace("${INPUT}", str(clip))
-    desc = desc.replace("${OUTPUT}", str(tmp_path / "output.avi"))
+    demo.write_clip(str(clip), 160, 120, CLIP_FRAMES)
+    out_ext = ".jsonl" if "landmarklog location=${OUTPUT}" in desc else ".avi"
+    output = tmp_path / f"output{out_ext}"
     # no camera and no display here: a test source with the camera's
     # caps, and a fakesink, keep the rest of the line as shipped
     desc = re.sub(r"v4l2src\s+device=\$\{DEVICE\}",
                   "videotestsrc num-buffers=10", desc)
     desc = desc.replace("autovideosink", "fakesink")
-    assert "${" not in desc, f"unhandled variable in {name}: {desc}"
-    run_to_eos(desc)
-    outputs = list(tmp_path.glob("*.avi"))
-    for out in outputs:
-        if out.name == "input.avi":
-            continue
-        expected = 12 if "INPUT" in launch_line(
-            os.path.join(PIPELINE_DIR, name)) else 100
-        assert count_frames(str(out)) == expected
+    run_file = tmp_path / name
+    run_file.write_text(desc + "\n")
+    palette = os.path.join(goldens.ROOT, "python", "gstlandmark", "data",
+                           "default-palette.json")
+    goldens.run_pipeline_file(str(run_file), {"INPUT": clip,
+                                              "OUTPUT": output,
+                                              "PALETTE": palette})
+    expected = CLIP_FRAMES if "${INPUT}" in desc else 100
+    for out in tmp_path.glob("*.avi"):
+        if out.name != "input.avi":
+            assert count_frames(str(out)) == expected, out
+    if out_ext == ".jsonl":
+        assert len(output.read_text().splitlines()) == expected

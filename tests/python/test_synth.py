@@ -358,9 +358,13 @@ def test_scenario_writes_outputs(tmp_path, name):
     assert set(scene["camera"]) == {"width", "height", "fx", "fy", "cx",
                                     "cy", "hfov_deg", "height_m",
                                     "tilt_deg", "roll_deg"}
-    assert scene["camera"]["hfov_deg"] == pytest.approx(60.0)
-    for key in ("fps", "seed", "floor", "effects", "palette", "map"):
+    # the path scenario has its own camera (a robot's wide-angle one)
+    assert scene["camera"]["hfov_deg"] == pytest.approx(
+        80.0 if name == "path" else 60.0)
+    for key in ("fps", "seed", "floor", "effects", "palette", "map",
+                "visibility", "chart"):
         assert key in scene
+    assert sum(scene["visibility"]["frames_by_landmarks"].values()) == 3
     the_map = json.loads((tmp_path / "map.json").read_text())
     assert list(the_map) == ["landmarks"] and the_map == scene["map"]
     for lm in the_map["landmarks"]:
@@ -375,6 +379,13 @@ def test_scenario_writes_outputs(tmp_path, name):
     mask = cv2.imread(str(tmp_path / "mask0.png"), cv2.IMREAD_UNCHANGED)
     assert mask.shape == (120, 160) and mask.dtype == np.uint8
     assert mask.max() <= len(scene["palette"]["classes"])
+    # the colour chart shows every class of the scene palette
+    chart = cv2.imread(str(tmp_path / "chart.png"))
+    chart_mask = cv2.imread(str(tmp_path / "chart-mask.png"),
+                            cv2.IMREAD_UNCHANGED)
+    assert chart.shape == (120, 160, 3) and chart_mask.shape == (120, 160)
+    n_classes = len(scene["palette"]["classes"])
+    assert set(np.unique(chart_mask)) - {0} == set(range(1, n_classes + 1))
     frame0 = cv2.imread(str(tmp_path / "frame0.png"))
     cap = cv2.VideoCapture(str(tmp_path / "clip.avi"))
     ok, decoded = cap.read()
@@ -417,6 +428,24 @@ def test_cli_custom_raw_png_and_masks(tmp_path):
     assert truth[1]["robot"] == {"x": 0.05, "y": 0.0, "heading": 0.02}
     assert {e["id"] for e in truth[0]["landmarks"]} == {"A", "B"}
     assert json.loads((out / "map.json").read_text()) == the_map
+
+
+def test_no_chart_when_the_camera_sees_no_floor(tmp_path, capsys):
+    the_map = tmp_path / "map.json"
+    the_map.write_text(json.dumps({"landmarks": [
+        {"id": "A", "class": "red", "x": 1.0, "y": 0.0, "diameter": 0.1}]}))
+    out = tmp_path / "out"
+    # looking up: the clip and the truth are written, the chart is not
+    status = cli.main(["synth", "custom", "--out", str(out), "--map",
+                       str(the_map), "--frames", "1", "--size", "80x60",
+                       "--tilt", "-40", "--no-progress"])
+    assert status == 0
+    captured = capsys.readouterr()
+    assert "warning: no colour chart" in captured.err
+    assert "chart.png" not in captured.out
+    assert json.loads((out / "scene.json").read_text())["chart"] is None
+    assert (out / "truth.jsonl").exists()
+    assert not (out / "chart.png").exists()
 
 
 def test_cli_rejects_bad_input(tmp_path, capsys):
@@ -469,3 +498,189 @@ def test_effects_change_pixels_not_truth():
         assert truth == ref[1] and np.array_equal(mask, ref[2]), effects
     with pytest.raises(ValueError):
         Scene(effects=Effects(jpeg_quality=101), **base)
+
+
+# -- the path benchmark ------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def path_clip(tmp_path_factory):
+    """The path scenario as shipped: default seed, size and camera (the
+    truth only; no clip)."""
+    out = tmp_path_factory.mktemp("path")
+    summary = render_scenario("path", str(out), progress=False, clip=False)
+    return out, summary
+
+
+def test_path_shows_three_landmarks_in_most_frames(path_clip):
+    out, summary = path_clip
+    scene = json.loads((out / "scene.json").read_text())
+    frames = [json.loads(x) for x in
+              (out / "truth.jsonl").read_text().splitlines()]
+    assert len(frames) == 300 and scene["fps"] == 30
+    counts = [sum(1 for e in f["landmarks"] if e["pixels"] >= 150)
+              for f in frames]
+    hist = np.bincount(counts, minlength=5)
+    # the histogram in scene.json (and the summary) is this one
+    assert scene["visibility"] == summary["visibility"]
+    assert scene["visibility"]["min_pixels"] == 150
+    assert scene["visibility"]["frames_by_landmarks"] == {
+        str(k): int(n) for k, n in enumerate(hist)}
+    three = int((np.array(counts) >= 3).sum())
+    assert scene["visibility"]["three_or_more"] == three
+    # goals: three or more in over half the frames, and most others show
+    # one or two (frames solved with one and with two are reported too)
+    assert three >= 0.55 * 300, hist
+    assert hist[0] <= 0.02 * 300, hist
+    assert hist[1] >= 20 and hist[2] >= 5, hist
+    assert hist[1] + hist[2] >= 0.9 * (300 - three), hist
+
+
+def test_path_world_and_camera(path_clip):
+    out, _ = path_clip
+    scene = json.loads((out / "scene.json").read_text())
+    cam = scene["camera"]
+    assert (cam["width"], cam["height"]) == (640, 480)
+    assert cam["hfov_deg"] == pytest.approx(80.0)
+    assert cam["height_m"] == 0.5 and cam["tilt_deg"] == 20.0
+    assert scene["notes"]["camera_defaults"] == {
+        "hfov_deg": 80.0, "height_m": 0.5, "tilt_deg": 20.0}
+    walls = scene["walls"]
+    assert (walls["x0"], walls["y0"], walls["x1"], walls["y1"]) == \
+        (0.0, 0.0, 6.0, 6.0)
+    landmarks = scene["map"]["landmarks"]
+    assert len(landmarks) == 8
+    classes = [lm["class"] for lm in landmarks]
+    assert max(classes.count(c) for c in classes) >= 2   # association
+    kinds = [lm["kind"] for lm in landmarks]
+    assert "ball" in kinds and "disc" in kinds
+    for lm in landmarks:
+        r = lm["diameter"] / 2
+        assert r < lm["x"] < 6 - r and r < lm["y"] < 6 - r
+        if lm["kind"] == "disc":
+            assert 0.25 <= lm["diameter"] <= 0.35 and lm["z"] == 0
+        else:
+            assert 0.15 <= lm["diameter"] <= 0.25 and lm["z"] == r
+    # a smooth path inside the field, heading along it, clear of the
+    # landmarks
+    poses = np.array([[f["robot"]["x"], f["robot"]["y"],
+                       f["robot"]["heading"]] for f in
+                      map(json.loads, (out / "truth.jsonl").read_text()
+                          .splitlines())])
+    assert (poses[:, :2] > 0.5).all() and (poses[:, :2] < 5.5).all()
+    step = np.diff(poses[:, :2], axis=0)
+    speed = np.hypot(step[:, 0], step[:, 1]) * 30
+    assert speed.max() < 1.5 and speed.min() > 0.2
+    along = np.arctan2(step[:, 1], step[:, 0])
+    turn = np.angle(np.exp(1j * (along - poses[:-1, 2])))
+    assert np.abs(turn).max() < 0.1
+    turn_rate = np.angle(np.exp(1j * np.diff(poses[:, 2]))) * 30
+    assert np.abs(turn_rate).max() < 3.0          # rad/s
+    for lm in landmarks:
+        gap = np.hypot(poses[:, 0] - lm["x"], poses[:, 1] - lm["y"])
+        assert gap.min() > 0.35, lm["id"]
+
+
+def test_path_camera_overrides_still_apply(tmp_path):
+    from gstlandmark.synth import build_scenario
+    scene, _ = build_scenario("path", frames=2, hfov_deg=60,
+                              height_m=0.3)
+    assert scene.camera.hfov_deg == pytest.approx(60.0)
+    assert scene.camera.height_m == 0.3 and scene.camera.tilt_deg == 20.0
+    scene, _ = build_scenario("path", frames=2, fx=500.0)
+    assert scene.camera.fx == 500.0
+
+
+# -- the colour chart ---------------------------------------------------------
+
+def _srgb_lab(rgb):
+    return reference.rgb_to_lab(
+        np.array(rgb, np.uint8).reshape(1, 1, 3)).reshape(3)
+
+
+def test_chart_learns_every_class_by_the_cli(tmp_path, capsys):
+    out = tmp_path / "path"
+    render_scenario("path", str(out), frames=1, progress=False, clip=False,
+                    noise_sigma=0.0, jpeg_quality=100)
+    scene = json.loads((out / "scene.json").read_text())
+    classes = scene["palette"]["classes"]
+    names = [c["name"] for c in classes]
+    markers = [c["name"] for c in classes if c["marker"]]
+    # frame 0 does not show every class; the chart does
+    mask0 = cv2.imread(str(out / "mask0.png"), cv2.IMREAD_UNCHANGED)
+    assert len(set(np.unique(mask0)) - {0}) < len(names)
+    chart_mask = cv2.imread(str(out / "chart-mask.png"),
+                            cv2.IMREAD_UNCHANGED)
+    pixels = np.bincount(chart_mask.ravel(), minlength=len(names) + 1)
+    assert (pixels[1:] >= 1000).all(), pixels
+    assert scene["chart"]["pixels"] == {
+        n: int(pixels[k]) for k, n in enumerate(names, start=1)}
+    learned_path = tmp_path / "learned.json"
+    status = cli.main(["palette", "learn", str(out / "chart.png"),
+                       "--mask", str(out / "chart-mask.png"),
+                       "--names", ",".join(names), "--markers",
+                       ",".join(markers), "-o", str(learned_path)])
+    assert status == 0, capsys.readouterr().err
+    learned = load_palette(str(learned_path))
+    assert learned.names == names and learned.markers == markers
+    # each class comes back within 2 Delta E of the colour painted
+    from gstlandmark.synth import build_scenario
+    built, _ = build_scenario("path")
+    srgb = built.marker_srgb8()
+    want = {name: _srgb_lab(rgb) for name, rgb in srgb.items()}
+    want["floor"] = _srgb_lab((128, 128, 128))
+    want["wall"] = _srgb_lab(scene["walls"]["colour_srgb"])
+    for cls in learned.classes:
+        delta = np.linalg.norm(np.subtract(cls.lab, want[cls.name]))
+        assert delta < 2.0, (cls.name, delta)
+
+
+def test_chart_of_a_scene_with_many_floors():
+    from gstlandmark.synth import build_scenario
+    from gstlandmark.synth.chart import render_chart
+    scene, n = build_scenario("backgrounds", size=(320, 240),
+                              noise_sigma=0.0, auto_exposure=0.0,
+                              auto_wb=0.0)
+    palette = scene.scene_palette()
+    rgb, mask, info = render_chart(scene, n)
+    assert len(palette.background) == 8          # one class per floor
+    pixels = np.bincount(mask.ravel(), minlength=len(palette) + 1)
+    assert (pixels[1:] >= 50).all(), pixels
+    learned = learn_from_mask(rgb[:, :, ::-1], mask, names=palette.names,
+                              markers=palette.markers)
+    for got, ref in zip(learned.classes, palette.classes):
+        delta = np.linalg.norm(np.subtract(got.lab, ref.lab))
+        # plain colours exactly (up to 8-bit sRGB); a small square of a
+        # texture roughly (the wood's planks differ in tone)
+        textured = ref.name in ("floor-wood", "floor-carpet",
+                                "floor-tiles")
+        assert delta < (8.0 if textured else 1.0), (ref.name, delta)
+
+
+def test_chart_has_frame0_lighting(tmp_path):
+    """Auto exposure and white balance: the chart gets frame 0's gains,
+    not gains of its own."""
+    from gstlandmark.synth import build_scenario
+    from gstlandmark.synth.chart import render_chart
+    scene, n = build_scenario("path", size=SMALL, noise_sigma=0.0,
+                              auto_exposure=1.0, auto_wb=0.6,
+                              exposure_stops=-0.5)
+    rgb0, _, mask0 = render_frame(scene, scene.trajectory.pose(0.0), t=0.0,
+                                  frame=0, frames_total=n)
+    rgb, mask, _ = render_chart(scene, n)
+    floor = scene.scene_palette().names.index("floor") + 1
+    kernel = np.ones((3, 3), np.uint8)
+
+    def inside(m):
+        # away from edges, where a pixel blends two surfaces
+        return cv2.erode((m == floor).astype(np.uint8), kernel) > 0
+
+    a = rgb0[inside(mask0)].reshape(-1, 3)
+    b = rgb[inside(mask)].reshape(-1, 3)
+    assert len(a) > 100 and len(b) > 100
+    # the plain grey floor is one colour in both pictures
+    assert np.ptp(a, axis=0).max() <= 1 and np.ptp(b, axis=0).max() <= 1
+    assert np.abs(np.median(a, axis=0) - np.median(b, axis=0)).max() <= 1
+    plain, _ = build_scenario("path", size=SMALL, noise_sigma=0.0)
+    rgb_plain, mask_plain, _ = render_chart(plain, n)
+    c = rgb_plain[inside(mask_plain)].reshape(-1, 3)
+    assert np.abs(np.median(a, axis=0) - np.median(c, axis=0)).max() > 5

@@ -17,7 +17,15 @@ surface boundary may be) and writes, in DIR:
 - ``scene.json`` (camera, palette, map, floor, effects, ...), ``map.json``
   (docs/conventions.md), ``palette.json`` (the scene palette);
 - ``frame0.png`` and ``mask0.png`` (value k = class k of the scene
-  palette, 0 = none), or ``masks/NNNNNN.png`` for every frame.
+  palette, 0 = none), or ``masks/NNNNNN.png`` for every frame;
+- ``chart.png`` and ``chart-mask.png``: a colour chart of every class of
+  the scene palette (a disc of each marker colour, a square of each other
+  floor, the wall behind) under frame 0's camera, floor and lighting; the
+  mask marks the pixels wholly of one class, for ``gst-landmark palette
+  learn --mask`` (``chart.render_chart``).
+
+``scene.json`` also holds ``visibility``: the histogram of frames by the
+number of landmarks visible with at least 150 pixels.
 
 From Python::
 

@@ -15,12 +15,17 @@ by exact ray casting, with exact ground truth.  Writes, in --out:
 clip.avi (MJPEG), truth.jsonl (per-frame landmark pixels, range,
 bearing), scene.json, map.json, palette.json (the scene palette),
 frame0.png and mask0.png (class mask of the first frame, values index
-the scene palette)."""
+the scene palette), chart.png and chart-mask.png (a colour chart of
+every palette class under frame 0's camera and lighting, for
+'gst-landmark palette learn --mask').  Prints, and writes in scene.json,
+the histogram of frames by landmarks visible with >= 150 pixels."""
 
 EPILOG = """\
 scenarios:
   range-sweep   one disc or ball per frame, 0.3..5 m, -20..20 degrees
-  path          8 landmarks, 6 m x 6 m walled field, a 300-frame loop
+  path          8 landmarks, 6 m x 6 m walled field, a 300-frame loop;
+                three or more landmarks in view in most frames (its
+                camera: --hfov 80 --cam-height 0.5 --tilt 20)
   backgrounds   the same landmarks over every floor, then an exposure
                 and white-balance ramp
   distractors   landmarks among non-round patches and specks
@@ -71,14 +76,17 @@ def add_synth_parser(subparsers):
 
     cam = p.add_argument_group("camera")
     cam.add_argument("--hfov", type=float, dest="hfov_deg", metavar="DEG",
-                     help="horizontal field of view (default 60)")
+                     help="horizontal field of view (default 60; "
+                          "path: 80)")
     for name in ("fx", "fy", "cx", "cy"):
         cam.add_argument(f"--{name}", type=float, metavar="PX",
                          help="intrinsics in pixels instead of --hfov")
     cam.add_argument("--cam-height", type=float, dest="height_m",
-                     metavar="M", help="camera height (default 0.30)")
+                     metavar="M", help="camera height (default 0.30; "
+                                       "path: 0.5)")
     cam.add_argument("--tilt", type=float, dest="tilt_deg", metavar="DEG",
-                     help="tilt below the horizontal (default 25)")
+                     help="tilt below the horizontal (default 25; "
+                          "path: 20)")
     cam.add_argument("--roll", type=float, dest="roll_deg", metavar="DEG",
                      help="roll (default 0)")
 
@@ -161,7 +169,7 @@ OVERRIDE_ARGS = ("fps", "hfov_deg", "fx", "fy", "cx", "cy", "height_m",
 
 def _handle(args):
     from gstlandmark.cli import CliError
-    from .writer import render_scenario
+    from .writer import format_visibility, render_scenario
     from gstlandmark.pipeline import PipelineError
 
     if args.hfov_deg is not None and args.fx is not None:
@@ -188,6 +196,10 @@ def _handle(args):
           f"{width}x{height} in {summary['seconds']:.1f} s "
           f"({summary['frames_per_second']:.1f} frames/s), "
           f"{summary['landmark_sightings']} landmark sightings")
-    print(f"wrote {out}/clip.avi, truth.jsonl, scene.json, map.json, "
-          f"frame0.png, mask0.png")
+    print(format_visibility(summary["visibility"]))
+    written = ["truth.jsonl", "scene.json", "map.json", "palette.json",
+               "frame0.png", "mask0.png"]
+    if "chart" in summary["files"]:
+        written += ["chart.png", "chart-mask.png"]
+    print(f"wrote {out}/clip.avi, {', '.join(written)}")
     return 0

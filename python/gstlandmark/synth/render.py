@@ -315,11 +315,13 @@ class Renderer:
         n_obj = len(self.objects)
         geo = {"rot": rot, "centre": centre, "boxes": boxes,
                "coverage": np.zeros(n_obj), "sum_u": np.zeros(n_obj),
-               "sum_v": np.zeros(n_obj), "hidden": np.zeros(n_obj)}
+               "sum_v": np.zeros(n_obj), "hidden": np.zeros(n_obj),
+               "pure": np.ones(h * w, bool)}
         if len(cidx):
             self._trace_samples(cidx, rot32, centre, floor, floor_value,
                                 boxes, lin, mask, geo)
         geo["mask"] = mask.reshape(h, w)
+        geo["pure"] = geo["pure"].reshape(h, w)
         return lin, geo
 
     def _trace_samples(self, cidx, rot32, centre, floor, floor_value, boxes,
@@ -408,8 +410,11 @@ class Renderer:
         cls[sids == FLOOR] = floor_value
         k1 = self.n_classes + 1
         pix = np.repeat(np.arange(n_c), ss2)
-        counts = np.bincount(pix * k1 + cls, minlength=n_c * k1)
-        mask[cidx] = counts.reshape(n_c, k1).argmax(axis=1)
+        counts = np.bincount(pix * k1 + cls, minlength=n_c * k1) \
+            .reshape(n_c, k1)
+        mask[cidx] = counts.argmax(axis=1)
+        # a pixel is pure when all its samples are of one class
+        geo["pure"][cidx] = counts.max(axis=1) == ss2
 
         # coverage and centroids per object, from visible samples
         on_obj = np.flatnonzero(sids >= OBJ0)
@@ -428,39 +433,46 @@ class Renderer:
     def render(self, pose, t=None, frame=None, frames_total=None):
         """(rgb uint8 (H, W, 3), truth dict, class mask uint8 (H, W))."""
         scene = self.scene
-        eff = scene.effects
         if t is None:
             t = (frame or 0) / scene.fps
         floor_name, seg_stops, seg_wb = scene.segment_state(frame,
                                                             frames_total)
-        floor = scene.floor_texture(floor_name)
-        blur = int(eff.motion_blur or 0)
-        if blur > 1 and scene.trajectory is not None:
-            offsets = ((np.arange(blur) + 0.5) / blur - 0.5) \
-                * eff.shutter / scene.fps
-            acc = None
-            geo = None
-            for i, dt in enumerate(offsets):
-                sub_pose = (pose if abs(dt) < 1e-12
-                            else scene.trajectory.pose(t + dt))
-                lin, g = self.trace(sub_pose, floor, frame)
-                acc = lin if acc is None else acc + lin
-                if abs(dt) < 1e-12:
-                    geo = g
-            lin = acc / blur
-            if geo is None:
-                # truth is of the frame's instant, not of a sub-frame
-                _, geo = self.trace(pose, floor, frame)
-        else:
-            lin, geo = self.trace(pose, floor, frame)
-        rgb = self._finish(lin, t, frame, seg_stops, seg_wb)
+        lin, geo = self.linear(pose, t, frame,
+                               scene.floor_texture(floor_name))
+        gains = self.gains(lin, t, seg_stops, seg_wb)
+        rgb = self.finish(lin, gains, frame)
         truth = self._truth(pose, geo, frame, t)
         return rgb, truth, geo["mask"]
 
-    def _finish(self, lin, t, frame, seg_stops, seg_wb):
+    def linear(self, pose, t, frame, floor):
+        """Linear RGB (H*W, 3) of one frame (motion blur averaged) and
+        the geometry facts of its instant."""
         scene = self.scene
         eff = scene.effects
-        cam = self.camera
+        blur = int(eff.motion_blur or 0)
+        if blur <= 1 or scene.trajectory is None:
+            return self.trace(pose, floor, frame)
+        offsets = ((np.arange(blur) + 0.5) / blur - 0.5) \
+            * eff.shutter / scene.fps
+        acc = None
+        geo = None
+        for dt in offsets:
+            sub_pose = (pose if abs(dt) < 1e-12
+                        else scene.trajectory.pose(t + dt))
+            lin, g = self.trace(sub_pose, floor, frame)
+            acc = lin if acc is None else acc + lin
+            if abs(dt) < 1e-12:
+                geo = g
+        if geo is None:
+            # truth is of the frame's instant, not of a sub-frame
+            _, geo = self.trace(pose, floor, frame)
+        return acc / blur, geo
+
+    def gains(self, lin, t, seg_stops, seg_wb):
+        """Red, green and blue gains on linear light at time ``t``:
+        exposure, white balance and their drifts, then auto exposure and
+        white balance measured on ``lin``."""
+        eff = self.scene.effects
         phase = 2.0 * math.pi * t / eff.drift_period_s \
             if eff.drift_period_s else 0.0
         stops = (eff.exposure_stops + seg_stops
@@ -475,6 +487,14 @@ class Renderer:
             if luma > 1e-6:
                 gains *= (AUTO_TARGET / luma) ** eff.auto_exposure
                 gains *= (luma / np.maximum(mean, 1e-6)) ** eff.auto_wb
+        return gains
+
+    def finish(self, lin, gains, frame):
+        """sRGB uint8 image from linear light: gains, vignetting, sRGB
+        encoding, then the frame's sensor noise."""
+        scene = self.scene
+        eff = scene.effects
+        cam = self.camera
         img = lin * gains.astype(np.float32)
         if self.vignette is not None:
             img *= self.vignette

@@ -208,24 +208,48 @@ def _range_sweep(ctx):
                 trajectory=Static()), frames
 
 
+# The path scenario is the benchmark for positioning from landmarks, so
+# its camera is a small robot's: a wide-angle camera half a metre up,
+# looking a little down, and landmarks large enough for it to see from
+# across the field.
+PATH_CAMERA = {"hfov_deg": 80.0, "height_m": 0.5, "tilt_deg": 20.0}
+PATH_DISC_D, PATH_BALL_D = 0.30, 0.20
+# Landmarks around the field's edge, at least 0.4 m from the loop and
+# 0.7 m from each other, placed by a search so that three or more show
+# (each >= 150 px) in most frames at the default camera, a few one or
+# two: (x, y), colour index, kind.  Colours 0, 1 and 2 are used twice,
+# each pair far apart, so data association needs the geometry.
+PATH_PLAN = [((5.40, 3.55), 0, "disc"), ((2.95, 5.30), 1, "disc"),
+             ((1.20, 4.00), 2, "disc"), ((0.40, 4.00), 3, "ball"),
+             ((0.70, 2.55), 4, "disc"), ((2.85, 0.95), 0, "disc"),
+             ((4.80, 2.00), 1, "disc"), ((5.50, 1.95), 2, "ball")]
+
+
 def _path(ctx):
-    """8 landmarks in a 6 m x 6 m walled field; a smooth 10 s loop."""
+    """8 landmarks around a 6 m x 6 m walled field; the robot drives a
+    smooth 10 s elliptical loop (3.8 m x 2 m) counter-clockwise."""
     colours = _colours(ctx["palette"])
-    loop = Loop((3.0, 3.0), 1.5, 1.5, 0.2, period_s=10.0)
-    # Beside the loop (0.25 to 0.5 m off it), placed by a search so that
-    # one or two landmarks are within 2.5 m in view almost all the time;
-    # (x, y), colour index, kind.
-    plan = [((4.70, 3.82), 0, "disc"), ((3.95, 4.55), 1, "disc"),
-            ((2.10, 3.96), 2, "disc"), ((1.31, 4.02), 3, "disc"),
-            ((1.43, 1.93), 4, "disc"), ((2.08, 2.17), 0, "ball"),
-            ((3.94, 2.09), 1, "disc"), ((4.78, 1.88), 4, "ball")]
+    loop = Loop((3.0, 3.0), 1.9, 1.0, 0.0, period_s=10.0)
     landmarks = [
         Landmark(id=f"L{i + 1}", cls=colours[colour % len(colours)],
-                 x=x, y=y, diameter=0.12 if kind == "disc" else 0.07,
-                 kind=kind)
-        for i, ((x, y), colour, kind) in enumerate(plan)]
+                 x=x, y=y, diameter=PATH_DISC_D if kind == "disc"
+                 else PATH_BALL_D, kind=kind)
+        for i, ((x, y), colour, kind) in enumerate(PATH_PLAN)]
+    notes = {
+        "purpose": "benchmark of positioning from landmarks: most frames "
+                   "show three or more landmarks, the others one or two",
+        "camera_defaults": dict(PATH_CAMERA),
+        "camera_why": "a small robot's wide-angle camera, 0.5 m up and "
+                      "tilted 20 degrees down, sees the floor from 0.4 m "
+                      "to the far side of the field",
+        "disc_diameter_m": PATH_DISC_D,
+        "ball_diameter_m": PATH_BALL_D,
+        "layout": "landmarks near the walls, the loop inside them; "
+                  "colours used twice are far apart",
+    }
     return dict(landmarks=landmarks, floor="grey", walls=Walls(),
-                trajectory=loop), ctx["frames"] or 300
+                trajectory=loop, camera=dict(PATH_CAMERA),
+                notes=notes), ctx["frames"] or 300
 
 
 def _few_landmarks(colours):
@@ -387,7 +411,6 @@ def build_scenario(name, seed=0, frames=None, size=(640, 480),
         raise ValueError("frames must be >= 1")
     width, height = size
     cam_args = {k: overrides.pop(k) for k in CAMERA_KEYS if k in overrides}
-    camera = Camera(width, height, **cam_args)
     palette = marker_palette(overrides.pop("palette", None))
     fps = int(overrides.pop("fps", 30))
     if fps < 1:
@@ -395,6 +418,9 @@ def build_scenario(name, seed=0, frames=None, size=(640, 480),
     ctx = {"seed": int(seed), "frames": frames, "palette": palette,
            "fps": fps, "overrides": overrides}
     parts, n_frames = SCENARIOS[name](ctx)
+    # the scenario's own camera defaults, then the caller's settings
+    camera = Camera(width, height, **{**parts.pop("camera", {}),
+                                      **cam_args})
     for key in ("map", "poses", "pose"):
         if key in overrides:
             raise ValueError(f"{key} only applies to the custom scenario")

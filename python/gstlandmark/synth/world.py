@@ -237,6 +237,8 @@ class Scene:
     supersample: int = 4
     sky_colour: Tuple[int, int, int] = (72, 76, 84)
     scenario: str = "custom"
+    # what the scenario chose and why, for scene.json
+    notes: Optional[dict] = None
     _cache: dict = field(default_factory=dict, init=False, repr=False,
                          compare=False)
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from gstlandmark.palette import save_palette
 
+from .chart import render_chart
 from .render import render_frame
 from .scenarios import Static, build_scenario
 from .world import palette_json
@@ -136,6 +137,36 @@ def _write_mask(path, mask):
         raise OSError(f"{path}: cannot write")
 
 
+# A landmark counts as visible in the visibility histogram with at least
+# this many visible pixels.
+VISIBLE_MIN_PIXELS = 150
+
+
+def visibility(counts, min_pixels=VISIBLE_MIN_PIXELS):
+    """The histogram of frames by the number of landmarks visible with at
+    least ``min_pixels`` pixels, from per-frame counts."""
+    counts = np.asarray(counts, dtype=np.int64)
+    hist = np.bincount(counts, minlength=1) if counts.size else \
+        np.zeros(1, np.int64)
+    frames = int(counts.size)
+    three = int((counts >= 3).sum())
+    return {"min_pixels": min_pixels,
+            "frames_by_landmarks": {str(k): int(n)
+                                    for k, n in enumerate(hist)},
+            "three_or_more": three,
+            "fraction_three_or_more": round(three / frames, 4)
+            if frames else 0.0}
+
+
+def format_visibility(vis):
+    """One line: frames by landmarks visible."""
+    parts = ", ".join(f"{k}: {n}"
+                      for k, n in vis["frames_by_landmarks"].items())
+    return (f"frames by landmarks visible with >= {vis['min_pixels']} px: "
+            f"{parts} (3 or more: {vis['three_or_more']}, "
+            f"{100 * vis['fraction_three_or_more']:.0f} %)")
+
+
 def scene_json(scene, frames):
     """The scene description written to scene.json."""
     out = {
@@ -156,6 +187,8 @@ def scene_json(scene, frames):
         "trajectory": (scene.trajectory.to_json()
                        if scene.trajectory is not None else None),
     }
+    if scene.notes:
+        out["notes"] = scene.notes
     presence = {lm.id: [list(f) for f in lm.frames]
                 for lm in scene.landmarks if lm.frames is not None}
     if presence:
@@ -183,7 +216,9 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
              "map": os.path.join(out_dir, "map.json"),
              "palette": os.path.join(out_dir, "palette.json"),
              "mask0": os.path.join(out_dir, "mask0.png"),
-             "frame0": os.path.join(out_dir, "frame0.png")}
+             "frame0": os.path.join(out_dir, "frame0.png"),
+             "chart": os.path.join(out_dir, "chart.png"),
+             "chart_mask": os.path.join(out_dir, "chart-mask.png")}
     if clip:
         files["clip"] = os.path.join(out_dir, "clip.avi")
     if frames_png:
@@ -201,6 +236,7 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
                          scene.effects.jpeg_quality) if clip else None)
     raw_file = open(raw, "wb") if raw else None
     visible = 0
+    per_frame = []
     try:
         with open(files["truth"], "w", encoding="utf-8") as truth_file:
             for i in range(frames):
@@ -212,6 +248,9 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
                     writer.push(rgb, i)
                 truth_file.write(json.dumps(truth) + "\n")
                 visible += len(truth["landmarks"])
+                per_frame.append(sum(
+                    1 for e in truth["landmarks"]
+                    if e["pixels"] >= VISIBLE_MIN_PIXELS))
                 if i == 0:
                     _write_png(files["frame0"], rgb)
                     _write_mask(files["mask0"], mask)
@@ -235,7 +274,24 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
         bar.close()
     seconds = time.perf_counter() - start
 
+    # every palette class in one picture, for palette learn
+    try:
+        chart_rgb, chart_mask, chart_info = render_chart(scene, frames)
+    except ValueError as err:
+        # a camera that sees (almost) no floor: the clip is still good
+        print(f"warning: no colour chart: {err}", file=sys.stderr)
+        chart_info = None
+        del files["chart"], files["chart_mask"]
+    else:
+        _write_png(files["chart"], chart_rgb)
+        _write_mask(files["chart_mask"], chart_mask)
+
     description = scene_json(scene, frames)
+    vis = visibility(per_frame)
+    description["visibility"] = vis
+    description["chart"] = (
+        {"file": "chart.png", "mask": "chart-mask.png", **chart_info}
+        if chart_info is not None else None)
     description["clip"] = ({"file": "clip.avi", "format": "MJPEG in AVI",
                             "jpeg_quality": scene.effects.jpeg_quality}
                            if clip else None)
@@ -264,7 +320,8 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
             "seconds": round(seconds, 3),
             "frames_per_second": round(frames / seconds, 3)
             if seconds > 0 else None,
-            "landmark_sightings": visible, "files": files}
+            "landmark_sightings": visible, "visibility": vis,
+            "files": files}
 
 
 def render_scenario(name, out_dir, seed=0, frames=None, size=(640, 480),

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Rewrites the regression goldens from the current build, on purpose: run it
+# after a change that is meant to change results, then review the diff
+# (git diff tests/golden) before committing it with the change.
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+cd "$ROOT"
+"$VENV/bin/python" -m gstlandmark.goldens refresh "$@"
+git --no-pager diff --stat -- tests/golden || true

@@ -65,6 +65,7 @@ GST_DEBUG_CATEGORY_STATIC (gst_lab_segment_debug);
 #define DEFAULT_USE_LIGHTNESS TRUE
 #define DEFAULT_OUTPUT GST_LAB_SEGMENT_OUTPUT_PASSTHROUGH
 #define DEFAULT_POST_MESSAGES FALSE
+#define DEFAULT_RARE_CLASSES GST_LAB_SEGMENT_RARE_UNLABELLED
 
 enum
 {
@@ -75,6 +76,7 @@ enum
   PROP_USE_LIGHTNESS,
   PROP_OUTPUT,
   PROP_POST_MESSAGES,
+  PROP_RARE_CLASSES,
 };
 
 #define LAB_SEGMENT_FORMATS \
@@ -102,6 +104,7 @@ struct Settings {
   gboolean use_lightness = DEFAULT_USE_LIGHTNESS;
   GstLabSegmentOutput output = DEFAULT_OUTPUT;
   gboolean post_messages = DEFAULT_POST_MESSAGES;
+  GstLabSegmentRareClasses rare_classes = DEFAULT_RARE_CLASSES;
 };
 
 /* How the three components of a pixel are laid out in a frame. */
@@ -166,6 +169,24 @@ gst_lab_segment_output_get_type (void)
   };
   if (g_once_init_enter (&type)) {
     GType t = g_enum_register_static ("GstLabSegmentOutput", values);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
+
+GType
+gst_lab_segment_rare_classes_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {GST_LAB_SEGMENT_RARE_NEAREST,
+        "The nearest class that reached the threshold (the seed's rule)",
+        "nearest"},
+    {GST_LAB_SEGMENT_RARE_UNLABELLED, "No class (label 0)", "unlabelled"},
+    {0, nullptr, nullptr},
+  };
+  if (g_once_init_enter (&type)) {
+    GType t = g_enum_register_static ("GstLabSegmentRareClasses", values);
     g_once_init_leave (&type, t);
   }
   return type;
@@ -514,6 +535,9 @@ gst_lab_segment_set_property (GObject * object, guint prop_id,
     case PROP_POST_MESSAGES:
       s.post_messages = g_value_get_boolean (value);
       break;
+    case PROP_RARE_CLASSES:
+      s.rare_classes = (GstLabSegmentRareClasses) g_value_get_enum (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -546,6 +570,9 @@ gst_lab_segment_get_property (GObject * object, guint prop_id,
       break;
     case PROP_POST_MESSAGES:
       g_value_set_boolean (value, s.post_messages);
+      break;
+    case PROP_RARE_CLASSES:
+      g_value_set_enum (value, s.rare_classes);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -848,19 +875,23 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
     if (!active[k])
       final_counts[k + 1] = 0;
 
-  /* pass 2: pixels of classes too rare to count go to the nearest active
-   * class; there are fewer than n * min-class-pixels of them. They are
-   * converted in batches, like the table's own boundary cells. */
-  if (any_demoted) {
+  /* pass 2: pixels of classes too rare to count (fewer than
+   * n * min-class-pixels of them) go to the nearest active class, converted
+   * in batches like the table's boundary cells, or lose their label */
+  const bool to_nearest = any_active &&
+      s.rare_classes == GST_LAB_SEGMENT_RARE_NEAREST;
+  if (any_demoted && !to_nearest) {
+    const gsize size = (gsize) w * h;
+    for (gsize i = 0; i < size; i++)
+      if (demoted[labels[i]])
+        labels[i] = 0;
+  } else if (any_demoted) {
     guint8 comps[3 * ClassTable::kBatch];
     guint8 *where[ClassTable::kBatch];
     guint8 relabel[ClassTable::kBatch];
     int pending = 0;
     auto flush = [&]() {
-      if (any_active)
-        st.table.classify_exact (comps, pending, active, relabel);
-      else
-        memset (relabel, 0, pending);
+      st.table.classify_exact (comps, pending, active, relabel);
       for (int i = 0; i < pending; i++) {
         *where[i] = relabel[i];
         final_counts[relabel[i]]++;
@@ -955,6 +986,7 @@ gst_lab_segment_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
     s.use_lightness = cur.use_lightness;
     s.output = cur.output;
     s.post_messages = cur.post_messages;
+    s.rare_classes = cur.rare_classes;
     s.palette_generation = cur.palette_generation;
     if (cur.palette_generation != st.palette_generation) {
       palette_path = cur.palette;
@@ -1046,6 +1078,16 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_lab_segment_transform_ip);
   filter_class->set_info = GST_DEBUG_FUNCPTR (gst_lab_segment_set_info);
 
+  g_object_class_install_property (gobject_class, PROP_RARE_CLASSES,
+      g_param_spec_enum ("rare-classes", "Rare classes",
+          "Where pixels go whose nearest class has fewer than "
+          "min-class-pixels pixels in the frame",
+          GST_TYPE_LAB_SEGMENT_RARE_CLASSES, DEFAULT_RARE_CLASSES,
+          (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+              GST_PARAM_MUTABLE_PLAYING)));
+
   gst_type_mark_as_plugin_api (GST_TYPE_LAB_SEGMENT_OUTPUT,
+      (GstPluginAPIFlags) 0);
+  gst_type_mark_as_plugin_api (GST_TYPE_LAB_SEGMENT_RARE_CLASSES,
       (GstPluginAPIFlags) 0);
 }

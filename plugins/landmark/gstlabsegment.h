@@ -17,6 +17,17 @@ typedef enum
   GST_LAB_SEGMENT_OUTPUT_LABELS,
 } GstLabSegmentOutput;
 
+#define GST_TYPE_LAB_SEGMENT_RARE_CLASSES \
+    (gst_lab_segment_rare_classes_get_type ())
+GType gst_lab_segment_rare_classes_get_type (void);
+
+/* Where pixels of classes below the dominant-colour threshold go. */
+typedef enum
+{
+  GST_LAB_SEGMENT_RARE_NEAREST,
+  GST_LAB_SEGMENT_RARE_UNLABELLED,
+} GstLabSegmentRareClasses;
+
 GST_ELEMENT_REGISTER_DECLARE (labsegment);
 
 G_END_DECLS

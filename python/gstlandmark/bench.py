@@ -555,12 +555,13 @@ def segmentation_accuracy(out_dir, scenarios=("backgrounds", "distractors"),
     """
     import cv2 as _cv2
     from . import pipeline, synth
+    rule = f"min-class-pixels={min_class_pixels}"
     settings = settings or {
-        "rule on, L* on": f"min-class-pixels={min_class_pixels}",
-        "rule off, L* on": "min-class-pixels=0",
-        "rule on, L* off": f"min-class-pixels={min_class_pixels} "
-                           "use-lightness=false",
-        "rule off, L* off": "min-class-pixels=0 use-lightness=false",
+        "rule, nearest": f"{rule} rare-classes=nearest",
+        "rule, unlabelled": f"{rule} rare-classes=unlabelled",
+        "no rule": "min-class-pixels=0",
+        "rule, L* off": f"{rule} rare-classes=nearest use-lightness=false",
+        "no rule, L* off": "min-class-pixels=0 use-lightness=false",
     }
     totals = {name: {} for name in settings}
     for scenario in scenarios:

@@ -181,7 +181,7 @@ def yuy2_to_rgb_float(packed, width, matrix="bt601", full_range=False):
 
 
 def classify(lab, palette_lab, min_class_pixels=500, max_distance=1000.0,
-             use_lightness=True):
+             use_lightness=True, rare_classes="unlabelled"):
     """Label every pixel with its nearest palette class.
 
     lab          (H, W, 3) L*a*b* image (float32 as from ``rgb_to_lab``).
@@ -191,7 +191,13 @@ def classify(lab, palette_lab, min_class_pixels=500, max_distance=1000.0,
                  labelling; 0 turns the rule off.
     max_distance pixels farther than this from their nearest class get 0.
     use_lightness False measures distance over a*, b* only.
+    rare_classes where pixels whose first-pass class is not active go:
+                 "nearest" (the nearest active class, the seed's rule) or
+                 "unlabelled" (label 0).
     """
+    if rare_classes not in ("nearest", "unlabelled"):
+        raise ValueError(f"rare_classes must be 'nearest' or 'unlabelled', "
+                         f"got {rare_classes!r}")
     lab = np.asarray(lab, dtype=np.float32)
     if lab.ndim != 3 or lab.shape[2] != 3:
         raise ValueError(f"expected an (H, W, 3) Lab image, got {lab.shape}")
@@ -236,6 +242,8 @@ def classify(lab, palette_lab, min_class_pixels=500, max_distance=1000.0,
         final = np.argmin(active_dist, axis=1)
         final_dist = active_dist[np.arange(len(pixels)), final]
         keep = final_dist <= max_distance
+        if rare_classes == "unlabelled":
+            keep &= active[nearest]
         labels[keep] = final[keep] + 1
     labels = labels.reshape(height, width)
 

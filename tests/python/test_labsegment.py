@@ -223,3 +223,24 @@ def test_second_segmentation_replaces_first(gst):
     assert lm.class_names == custom_pal.names
     seg = reference.segment_rgb(img, custom_pal, min_class_pixels=0)
     np.testing.assert_array_equal(lm.plane, seg.labels)
+
+
+@pytest.mark.parametrize("rare", ["nearest", "unlabelled"])
+@pytest.mark.parametrize("kind", ["random", "natural"])
+def test_rare_classes_agree_with_reference(gst, rare, kind):
+    rng = np.random.default_rng(17)
+    pal = palette.default_palette()
+    make = F.random_rgb if kind == "random" else F.natural_rgb
+    images = [make(rng, 96, 128) for _ in range(3)]
+    caps = F.caps_string("BGR", 128, 96)
+    info = F.video_info(caps)
+    payloads = [F.pack_rgb(img, "BGR", info, rng) for img in images]
+    out = run(f"labsegment min-class-pixels=1200 rare-classes={rare}",
+              payloads, caps)
+    for img, buf in zip(images, out):
+        seg = reference.segment_rgb(img, pal, min_class_pixels=1200,
+                                    rare_classes=rare)
+        lm = meta.labels(buf)
+        assert not seg.active.all(), "the frame must have rare classes"
+        assert agreement(lm.plane, seg.labels, rare) >= 0.999
+        check_meta(lm, seg, pal, 128, 96, 1200)

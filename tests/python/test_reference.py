@@ -272,7 +272,8 @@ def test_ties_among_active_classes_go_to_the_lowest_active_index():
     # The tied pixel counts for grey in the first pass, but grey is not
     # active, so it goes to the lowest active class of the tie.
     img = lab_image([[50, 20, 20]] + [[50, 40, 1]] * 3 + [[50, 1, 40]] * 3)
-    seg = reference.classify(img, PALETTE, min_class_pixels=2)
+    seg = reference.classify(img, PALETTE, min_class_pixels=2,
+                             rare_classes="nearest")
     assert seg.counts.tolist() == [1, 3, 3]
     assert seg.active.tolist() == [False, True, True]
     assert seg.labels.tolist() == [[2, 2, 2, 2, 3, 3, 3]]
@@ -314,12 +315,24 @@ def dominant_scene():
 
 
 def test_dominant_rule_moves_minor_class_to_nearest_active():
-    seg = reference.classify(dominant_scene(), PALETTE, min_class_pixels=20)
+    seg = reference.classify(dominant_scene(), PALETTE, min_class_pixels=20,
+                             rare_classes="nearest")
     assert seg.counts.tolist() == [60, 30, 10]
     assert seg.active.tolist() == [True, True, False]
     assert seg.label_counts.tolist() == [60, 40, 0]
     assert seg.unclassified == 0
     assert seg.labels[0, 90:].tolist() == [2] * 10
+
+
+def test_dominant_rule_unlabels_minor_class_by_default():
+    seg = reference.classify(dominant_scene(), PALETTE, min_class_pixels=20)
+    assert seg.counts.tolist() == [60, 30, 10]
+    assert seg.active.tolist() == [True, True, False]
+    assert seg.label_counts.tolist() == [60, 30, 0]
+    assert seg.unclassified == 10
+    assert seg.labels[0, 90:].tolist() == [0] * 10
+    with pytest.raises(ValueError):
+        reference.classify(dominant_scene(), PALETTE, rare_classes="drop")
 
 
 def test_dominant_threshold_is_inclusive():
@@ -346,7 +359,7 @@ def test_no_active_class_labels_everything_zero():
 def test_reassigned_pixels_still_respect_max_distance():
     # The odd pixels are 24.2 from yellowish but 35.0 from reddish.
     seg = reference.classify(dominant_scene(), PALETTE, min_class_pixels=20,
-                             max_distance=30.0)
+                             max_distance=30.0, rare_classes="nearest")
     assert seg.counts.tolist() == [60, 30, 10]
     assert seg.label_counts.tolist() == [60, 30, 0]
     assert seg.unclassified == 10
@@ -362,7 +375,8 @@ def test_first_pass_counts_only_pixels_within_max_distance():
     assert not seg.active.any()
 
 
-def loop_classify(lab, palette, min_pixels, max_dist, use_l):
+def loop_classify(lab, palette, min_pixels, max_dist, use_l,
+                  rare="unlabelled"):
     """The segmentation rule written pixel by pixel."""
     h, w, _ = lab.shape
     dims = [0, 1, 2] if use_l else [1, 2]
@@ -391,6 +405,9 @@ def loop_classify(lab, palette, min_pixels, max_dist, use_l):
     labels = np.zeros((h, w), dtype=int)
     for row in range(h):
         for col in range(w):
+            first, _ = nearest(lab[row, col], range(k_count))
+            if rare == "unlabelled" and not active[first]:
+                continue
             if allowed:
                 k, d = nearest(lab[row, col], allowed)
                 if d <= max_dist:
@@ -398,11 +415,12 @@ def loop_classify(lab, palette, min_pixels, max_dist, use_l):
     return labels, counts, active
 
 
+@pytest.mark.parametrize("rare", ["nearest", "unlabelled"])
 @pytest.mark.parametrize("min_pixels, max_dist, use_l", [
     (0, 1000.0, True), (15, 1000.0, True), (15, 40.0, True),
     (40, 30.0, False), (0, 25.0, False),
 ])
-def test_classify_matches_pixel_loop(min_pixels, max_dist, use_l):
+def test_classify_matches_pixel_loop(min_pixels, max_dist, use_l, rare):
     rng = np.random.default_rng(min_pixels + int(max_dist))
     lab = np.stack([rng.uniform(0, 100, (9, 11)),
                     rng.uniform(-60, 60, (9, 11)),
@@ -412,9 +430,10 @@ def test_classify_matches_pixel_loop(min_pixels, max_dist, use_l):
                                rng.uniform(-60, 60, 5),
                                rng.uniform(-60, 60, 5)])
     seg = reference.classify(lab, palette, min_class_pixels=min_pixels,
-                             max_distance=max_dist, use_lightness=use_l)
+                             max_distance=max_dist, use_lightness=use_l,
+                             rare_classes=rare)
     labels, counts, active = loop_classify(lab, palette, min_pixels,
-                                           max_dist, use_l)
+                                           max_dist, use_l, rare)
     np.testing.assert_array_equal(seg.labels, labels)
     assert seg.counts.tolist() == counts
     assert seg.active.tolist() == active

@@ -535,6 +535,7 @@ typedef struct
   guint min_class_pixels;
   gdouble max_distance;
   gboolean use_lightness;
+  gboolean rare_unlabelled;     /* rare-classes=unlabelled, else nearest */
 } Config;
 
 typedef struct
@@ -566,7 +567,8 @@ picture_colour_lab (const Picture * pic, guint i, gdouble lab[3])
 
 /* The documented rule: first pass over all classes; classes with at least
  * min-class-pixels pixels stay active (0: all); pixels of other classes go
- * to the nearest active class within max-distance, else 0. */
+ * to the nearest active class within max-distance, else 0
+ * (rare-classes=nearest), or get 0 (rare-classes=unlabelled). */
 static void
 expect_picture (const Picture * pic, const Config * cfg, Expected * e)
 {
@@ -604,6 +606,10 @@ expect_picture (const Picture * pic, const Config * cfg, Expected * e)
       continue;
     if (l == 0 || e->active[l - 1]) {
       e->final[c] = l;
+      continue;
+    }
+    if (cfg->rare_unlabelled) {
+      e->final[c] = 0;
       continue;
     }
     picture_colour_lab (pic, c, lab);
@@ -799,6 +805,8 @@ harness_new (const gchar * palette_path, const Config * cfg)
   g_object_set (h->element, "min-class-pixels", cfg->min_class_pixels,
       "max-distance", cfg->max_distance, "use-lightness", cfg->use_lightness,
       NULL);
+  gst_util_set_object_arg (G_OBJECT (h->element), "rare-classes",
+      cfg->rare_unlabelled ? "unlabelled" : "nearest");
   if (palette_path)
     g_object_set (h->element, "palette", palette_path, NULL);
   return h;
@@ -883,7 +891,9 @@ clear_builtin (void)
 static Config
 builtin_config (guint min_class_pixels)
 {
-  Config cfg = { &builtin, min_class_pixels, DEFAULT_MAX_DISTANCE, TRUE };
+  Config cfg = { &builtin, min_class_pixels, DEFAULT_MAX_DISTANCE, TRUE,
+    FALSE
+  };
   return cfg;
 }
 
@@ -1000,7 +1010,7 @@ GST_START_TEST (test_format_output_labels)
   };
   const FormatDesc *fmt = &formats[__i__];
   /* max-distance 20: the saturated green becomes label 0 (black) */
-  Config cfg = { &builtin, 0, 20.0, TRUE };
+  Config cfg = { &builtin, 0, 20.0, TRUE, FALSE };
   Picture pic;
   Expected e;
   GstBuffer *out;
@@ -1092,6 +1102,12 @@ GST_START_TEST (test_dominant_colour_rule)
       builtin.cls[e.final[C_PINK] - 1].name);
   segment_and_check (&pic, 0, NULL, &cfg);
 
+  /* rare-classes=unlabelled: the patch loses its label instead */
+  cfg.rare_unlabelled = TRUE;
+  expect_picture (&pic, &cfg, &e);
+  fail_unless_equals_int (e.final[C_PINK], 0);
+  segment_and_check (&pic, 0, NULL, &cfg);
+
   /* exactly min-class-pixels: the class counts */
   cfg = builtin_config (n);
   expect_picture (&pic, &cfg, &e);
@@ -1130,6 +1146,10 @@ GST_START_TEST (test_dominant_colour_rule_large)
   fail_unless (!e.active[e.first[C_YELLOW] - 1]);
   fail_unless (e.final[C_PINK] != e.first[C_PINK]);
   fail_unless (e.final[C_YELLOW] != e.first[C_YELLOW]);
+  segment_and_check (&pic, 0, NULL, &cfg);
+  cfg.rare_unlabelled = TRUE;
+  expect_picture (&pic, &cfg, &e);
+  fail_unless (e.final[C_PINK] == 0 && e.final[C_YELLOW] == 0);
   segment_and_check (&pic, 0, NULL, &cfg);
   picture_clear (&pic);
 }
@@ -1286,7 +1306,7 @@ GST_START_TEST (test_custom_palette)
 
   ref_palette_load (path, &pal);
   for (f = 0; f < G_N_ELEMENTS (formats); f++) {
-    Config cfg = { &pal, 0, DEFAULT_MAX_DISTANCE, TRUE };
+    Config cfg = { &pal, 0, DEFAULT_MAX_DISTANCE, TRUE, FALSE };
     Picture pic;
     Expected e;
     picture_init (&pic, &formats[f], 24, 16, colours, G_N_ELEMENTS (colours));
@@ -1438,7 +1458,7 @@ GST_START_TEST (test_palette_64_classes)
     cycle[i] = i;
   }
   for (f = 0; f < G_N_ELEMENTS (some); f++) {
-    Config cfg = { &pal, 0, DEFAULT_MAX_DISTANCE, TRUE };
+    Config cfg = { &pal, 0, DEFAULT_MAX_DISTANCE, TRUE, FALSE };
     Picture pic;
     Expected e;
     picture_init (&pic, some[f], 66, 34, colours, 64);

@@ -4,8 +4,10 @@
 
 #include <gst/gst.h>
 
+#include "gstblobroundness.h"
 #include "gstlabsegment.h"
 #include "gstlandmarklog.h"
+#include "gstlandmarkoverlay.h"
 #include "landmarkmeta.h"
 
 static gboolean
@@ -15,7 +17,9 @@ plugin_init (GstPlugin * plugin)
 
   landmark_meta_register ();
   ok |= GST_ELEMENT_REGISTER (labsegment, plugin);
+  ok |= GST_ELEMENT_REGISTER (blobroundness, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarklog, plugin);
+  ok |= GST_ELEMENT_REGISTER (landmarkoverlay, plugin);
   return ok;
 }
 

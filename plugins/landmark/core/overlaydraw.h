@@ -1,0 +1,234 @@
+/* Drawing for landmarkoverlay, without GStreamer types.
+ *
+ * The overlay is drawn into a frame-sized canvas of premultiplied RGBA
+ * (channel order R, G, B, A), and everything drawn there is premultiplied
+ * "over" compositing. Shapes (segments with round ends, polylines, dashed
+ * lines, discs, rings, convex polygons) are rasterised here with
+ * anti-aliasing from the distance of each pixel centre to the shape, into
+ * a coverage mask that is then blended in one colour, so overlapping
+ * strokes of one shape never double-blend. Text uses OpenCV's Hershey
+ * font, rendered once per size into per-character coverage masks. Nothing
+ * is allocated per frame once the canvas exists.
+ *
+ * Every primitive marks the canvas area it touches; at the end of a frame
+ * the union of those areas (aligned to 2x2 blocks) is blended into the
+ * video frame in its own format (packed RGB, I420, NV12, YUY2) and cleared
+ * again, so the canvas is all zero between frames and the cost follows the
+ * drawn area, not the frame size.
+ *
+ * Also here: the landmark map file (docs/conventions.md) and its parser. */
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "labcolour.h"
+
+namespace landmark {
+namespace overlay {
+
+struct Rgb {
+  uint8_t r = 255, g = 255, b = 255;
+};
+
+/* ---- the landmark map ------------------------------------------------ */
+
+struct MapLandmark {
+  std::string id;
+  std::string class_name;
+  double x = 0, y = 0, z = 0;  /* metres, world frame */
+  double diameter = 0;         /* metres; 0 when the file gives none */
+  bool ball = false;           /* kind: "ball" (true) or "disc" */
+};
+
+struct LandmarkMap {
+  std::vector<MapLandmark> landmarks;
+};
+
+/* Parses map JSON ({"landmarks": [{"id", "class", "x", "y", "z",
+ * "diameter", "kind"}, ...]}): `id`, `class`, `x`, `y` are required, the
+ * others are checked when present, other keys are ignored. On failure
+ * returns false and sets *error to a message that starts with `source` and
+ * names the offending entry. */
+bool map_parse (const std::string & json, const std::string & source,
+    LandmarkMap * out, std::string * error);
+
+/* Reads and parses a map file; errors name the file. */
+bool map_load_file (const std::string & path, LandmarkMap * out,
+    std::string * error);
+
+/* ---- what is drawn --------------------------------------------------- */
+
+/* One detection, read from its region-of-interest meta. Pointers are
+ * borrowed for the frame. */
+struct Detection {
+  const char *class_name = nullptr;
+  Rgb colour;
+  double x = 0, y = 0, w = 0, h = 0;  /* bbox, current frame pixels */
+  /* landmark-blob, in the analysed frame's pixels; sx, sy scale them to
+   * the current frame */
+  double sx = 1, sy = 1;
+  bool has_ellipse = false;
+  double ellipse_x = 0, ellipse_y = 0, ellipse_major = 0, ellipse_minor = 0,
+      ellipse_angle = 0;
+  bool has_centroid = false;
+  double centroid_x = 0, centroid_y = 0;
+  bool has_roundness = false;
+  double roundness = 0;
+  bool kept = true;
+  const char *reject_reason = nullptr;
+  /* landmark-range */
+  bool has_range = false;
+  double range = 0;
+  bool has_bearing = false;
+  double bearing = 0;
+  bool no_floor = false;
+  /* landmark-match */
+  bool has_match = false;
+  bool matched = false;
+  const char *landmark_id = nullptr;
+};
+
+struct Pose {
+  double x = 0, y = 0, heading = 0;  /* metres, radians */
+};
+
+/* One palette class of the labels meta. */
+struct ClassInfo {
+  const char *name = nullptr;
+  Rgb colour;
+  unsigned count = 0;
+  bool active = false;
+  bool marker = true;
+};
+
+struct Histogram {
+  const ClassInfo *classes = nullptr;
+  int n = 0;
+  unsigned threshold = 0;   /* min-class-pixels */
+  double total = 0;         /* pixels of the analysed frame */
+};
+
+/* ---- the frame the canvas is blended into ---------------------------- */
+
+struct Target {
+  enum class Kind { PACKED, I420, NV12, YUY2 };
+  Kind kind = Kind::PACKED;
+  int width = 0, height = 0;
+  uint8_t *data[3] = { nullptr, nullptr, nullptr };
+  int stride[3] = { 0, 0, 0 };
+  int pixel_stride = 4;              /* PACKED: 3 or 4 */
+  int offset[3] = { 0, 1, 2 };       /* PACKED: bytes of R, G, B */
+  InputModel model;                  /* YUV: matrix and range */
+};
+
+/* ---- the renderer ---------------------------------------------------- */
+
+class Renderer {
+public:
+  /* Allocates the (zeroed) canvas for frames of this size. */
+  void configure (int width, int height);
+  int width () const { return width_; }
+  int height () const { return height_; }
+
+  /* Sizes of text, lines and insets for this frame; text_scale multiplies
+   * the automatic text size. */
+  void begin_frame (double text_scale);
+
+  /* Order: detections (outlines; their labels are queued), then the
+   * insets, then draw_labels(), which places the labels where they cover
+   * the fewest insets and other labels. */
+  void draw_detection (const Detection & d);
+  void draw_pose_text (const Pose & pose);
+  void draw_class_panel (const Histogram & hist, bool histogram,
+      bool indicators);
+  /* colours: one per map landmark */
+  void draw_minimap (const LandmarkMap & map, const Rgb * colours,
+      const Pose & pose, const Detection * dets, int n_dets);
+  void draw_labels ();
+
+  /* True when something was drawn since begin_frame(). */
+  bool dirty () const { return !rects_.empty (); }
+
+  /* Blends what was drawn into the frame and clears the canvas. */
+  void composite (const Target & target);
+
+  /* Clears the canvas without blending (after an error). */
+  void discard ();
+
+private:
+  struct Style {
+    double g = 1;          /* geometry scale: 1 at 640x480 */
+    double font = 0.5;     /* OpenCV font scale */
+    int text_thick = 1;
+    int line = 1;          /* outline thickness */
+    int pad = 2;
+    int margin = 4;
+    int line_height = 12;  /* text line advance */
+    int ascent = 9;
+  };
+
+  /* a detection's label, waiting for draw_labels() */
+  struct Label {
+    char lines[2][96];
+    int n_lines = 0;
+    Rgb accent;
+    int alpha = 255;
+    bool optional = false;
+    double x = 0, y = 0, w = 0, h = 0;  /* the detection's box */
+  };
+
+  /* coverage mask of one character, origin at (ox, oy) on its baseline */
+  struct Glyph {
+    cv::Mat mask;
+    int ox = 0, oy = 0, advance = 0;
+  };
+  static constexpr char kFirstGlyph = ' ', kLastGlyph = '~';
+
+  void build_glyphs ();
+  const Glyph *glyph (char c) const;
+  void set_clip (const cv::Rect & r);
+  void reset_clip ();
+  void mark (int x0, int y0, int x1, int y1);
+  /* anti-aliased coverage into cover_, then paint() blends it */
+  void cover_row (int y, int x0, int x1);
+  void cover_segment (cv::Point2d a, cv::Point2d b, double half_width);
+  void cover_disc (cv::Point2d c, double r, double inner);
+  void cover_convex (const cv::Point2d * p, int n);
+  void paint (Rgb c, int alpha);
+  int text_width (const char *s) const;
+  void text (const char *s, int x, int baseline, Rgb c, int alpha);
+  void fill_rect (int x0, int y0, int x1, int y1, Rgb c, int alpha);
+  void line (cv::Point2d a, cv::Point2d b, Rgb c, int alpha, int thick);
+  void polyline (const cv::Point2d * pts, int n, bool closed, Rgb c,
+      int alpha, int thick, bool dashed);
+  void circle (cv::Point2d centre, double radius, Rgb c, int alpha,
+      int thick);
+  void fill_circle (cv::Point2d centre, double radius, Rgb c, int alpha);
+  void fill_poly (const cv::Point2d * pts, int n, Rgb c, int alpha);
+  cv::Size label_size (const Label & l) const;
+
+  int width_ = 0, height_ = 0;
+  cv::Mat canvas_;
+  cv::Mat cover_;                    /* coverage of the shape being drawn */
+  std::vector<int> row_x0_, row_x1_; /* its extent per row */
+  int cover_y0_ = 0, cover_y1_ = 0;
+  cv::Rect clip_;
+  Style st_;
+  std::vector<cv::Rect> rects_;      /* drawn areas, to blend and clear */
+  std::vector<std::pair<int, int>> spans_;  /* scratch of composite() */
+  std::vector<cv::Rect> reserved_;   /* insets and placed labels */
+  std::vector<Label> labels_;
+  std::vector<cv::Point2d> pts_;     /* scratch polygon */
+  mutable std::string str_;          /* scratch for OpenCV's text API */
+  Glyph glyphs_[kLastGlyph - kFirstGlyph + 1];
+  double glyph_font_ = -1;
+  int glyph_thick_ = -1;
+};
+
+}  // namespace overlay
+}  // namespace landmark

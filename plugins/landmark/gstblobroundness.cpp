@@ -1,0 +1,792 @@
+/**
+ * SECTION:element-blobroundness
+ * @title: blobroundness
+ *
+ * Finds the landmark blobs in the class labels that `labsegment` attaches
+ * (`GstLandmarkLabelsMeta`, docs/metadata.md) and measures them: the seed's
+ * steps 4 to 6. For every selected class (`classes`, by default every class
+ * the palette marks as a marker) the label plane is a binary image,
+ * optionally opened then closed with a disc of `morphology` pixels; each
+ * 8-connected component is one blob. Per blob: area (pixels), perimeter,
+ * roundness `4 pi area / perimeter^2`, sub-pixel centroid, bounding box,
+ * equivalent diameter, the ellipse with the blob's second moments and how
+ * well the blob matches it (`ellipse-fit`: intersection over union of the
+ * blob and the pixels inside the ellipse).
+ *
+ * Filters, in order: `min-area`, `max-area`, `max-aspect` (major / minor
+ * axis of the ellipse), then the shape test. `shape=circle` is the seed's:
+ * roundness at least `min-roundness`. `shape=ellipse` (the default) accepts
+ * a disc seen at a slant, whose image is an ellipse and whose roundness
+ * falls with distance: `ellipse-fit` at least `min-ellipse-fit`. Squares,
+ * stripes and triangles match their ellipse worse (about 0.83, 0.83 and
+ * 0.68 when large). A blob touching the frame edge may be a cut landmark:
+ * an ellipse is also fitted to its outline away from the edge, and the
+ * better match counts.
+ *
+ * The perimeter is the length of a line-fit polygon of the outline (for
+ * small blobs blended with the smoothed outline): it has neither the
+ * staircase error of chain codes nor the corner loss of smoothing, so a
+ * digitised disc (radius >= 5 px) scores >= 0.94 and a square (side >= 20
+ * px, any rotation) <= 0.79; docs/blobroundness.md has the estimator, its
+ * measured table, and the evaluation behind the defaults. A blob's hole
+ * counts neither as area nor as perimeter: a ring scores about
+ * `1 - (r/R)^2` of a disc.
+ *
+ * Each kept blob gets a `GstVideoRegionOfInterestMeta` (`roi_type` = class
+ * name, `id` = 0, 1, 2, ... in the buffer, the bounding box) with a
+ * `landmark-blob` parameter structure: `class`, `area`, `perimeter`,
+ * `roundness`, `centroid-x`, `centroid-y`, `equivalent-diameter`,
+ * `ellipse-x`, `ellipse-y`, `ellipse-major`, `ellipse-minor`,
+ * `ellipse-angle` (radians), `ellipse-fit`, `kept`, `reject-reason` (only
+ * when not kept: `area`, `max-area`, `aspect`, `roundness`, `ellipse-fit`),
+ * `frame-width`, `frame-height` (docs/metadata.md). With
+ * `keep-rejected=true` rejected blobs are attached too (`kept` false).
+ *
+ * Video passes unchanged and is never mapped: any `video/x-raw` caps are
+ * accepted. Without a labels meta, buffers pass untouched and one warning
+ * is posted. Frames are never dropped (QoS is off). Every property may
+ * change while playing; a bad value set while playing is reported with a
+ * warning and the previous settings stay in force. A class named in
+ * `classes` that the labels do not have is an error at the first buffer
+ * (the palette is only known then).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 filesrc location=clip.avi ! avidemux ! jpegdec !
+ *     videoconvert ! labsegment palette=palette.json min-class-pixels=0 !
+ *     blobroundness ! landmarklog location=blobs.jsonl ! fakesink
+ * ]|
+ */
+
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstblobroundness.h"
+
+#include <gst/video/video.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "blobshape.h"
+#include "landmarkmeta.h"
+
+GST_DEBUG_CATEGORY_STATIC (gst_blob_roundness_debug);
+#define GST_CAT_DEFAULT gst_blob_roundness_debug
+
+#define DEFAULT_CLASSES nullptr
+#define DEFAULT_MORPHOLOGY 0
+#define DEFAULT_MIN_AREA 100
+#define DEFAULT_MAX_AREA 0
+#define DEFAULT_MAX_ASPECT 10.0
+#define DEFAULT_MIN_ROUNDNESS 0.85
+#define DEFAULT_MIN_ELLIPSE_FIT 0.92
+#define DEFAULT_SHAPE GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE
+#define DEFAULT_KEEP_REJECTED FALSE
+
+#define MAX_MORPHOLOGY 255
+
+enum
+{
+  PROP_0,
+  PROP_CLASSES,
+  PROP_MORPHOLOGY,
+  PROP_MIN_AREA,
+  PROP_MAX_AREA,
+  PROP_MAX_ASPECT,
+  PROP_MIN_ROUNDNESS,
+  PROP_MIN_ELLIPSE_FIT,
+  PROP_SHAPE,
+  PROP_KEEP_REJECTED,
+};
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
+    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
+    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+
+/* *INDENT-OFF* */
+namespace {
+
+/* What the user sets. generation counts changes, so the streaming thread
+ * copies (and validates) only what changed. */
+struct Settings {
+  std::string classes;          /* empty: every marker class */
+  guint morphology = DEFAULT_MORPHOLOGY;
+  guint min_area = DEFAULT_MIN_AREA;
+  guint max_area = DEFAULT_MAX_AREA;
+  gdouble max_aspect = DEFAULT_MAX_ASPECT;
+  gdouble min_roundness = DEFAULT_MIN_ROUNDNESS;
+  gdouble min_ellipse_fit = DEFAULT_MIN_ELLIPSE_FIT;
+  GstBlobRoundnessShape shape = DEFAULT_SHAPE;
+  gboolean keep_rejected = DEFAULT_KEEP_REJECTED;
+  guint generation = 0;
+};
+
+/* Settings checked and parsed: what the streaming thread works with. */
+struct Config {
+  std::vector<std::string> classes;   /* empty: every marker class */
+  guint morphology = DEFAULT_MORPHOLOGY;
+  guint min_area = DEFAULT_MIN_AREA;
+  guint max_area = DEFAULT_MAX_AREA;
+  gdouble max_aspect = DEFAULT_MAX_ASPECT;
+  gdouble min_roundness = DEFAULT_MIN_ROUNDNESS;
+  gdouble min_ellipse_fit = DEFAULT_MIN_ELLIPSE_FIT;
+  GstBlobRoundnessShape shape = DEFAULT_SHAPE;
+  gboolean keep_rejected = DEFAULT_KEEP_REJECTED;
+};
+
+/* Built in start(), used by the streaming thread only. */
+struct State {
+  Config config;
+  guint generation = G_MAXUINT;
+  guint warned_generation = G_MAXUINT;
+
+  /* label -> slot, rebuilt when the palette or `classes` change */
+  std::vector<std::string> palette_names;
+  std::vector<bool> palette_markers;
+  uint8_t slot_of[256] = { 0 };
+  bool slots_valid = false;
+
+  landmark::BlobAnalyzer analyzer;
+  landmark::BlobShape shape;
+  std::vector<uint8_t> morph_in, morph_out;
+  cv::Mat kernel;
+  guint kernel_size = 0;
+
+  gint video_width = 0, video_height = 0;   /* from the caps, 0: unknown */
+  bool warned_no_meta = false;
+  bool warned_bad_plane = false;
+};
+
+}  // namespace
+
+struct GstBlobRoundnessPrivate {
+  std::mutex lock;              /* guards settings */
+  Settings settings;
+  State state;
+};
+
+struct _GstBlobRoundness {
+  GstBaseTransform parent;
+  GstBlobRoundnessPrivate *priv;
+};
+/* *INDENT-ON* */
+
+G_DEFINE_TYPE_WITH_CODE (GstBlobRoundness, gst_blob_roundness,
+    GST_TYPE_BASE_TRANSFORM,
+    GST_DEBUG_CATEGORY_INIT (gst_blob_roundness_debug, "blobroundness", 0,
+        "Landmark blob measurement"));
+GST_ELEMENT_REGISTER_DEFINE (blobroundness, "blobroundness", GST_RANK_NONE,
+    GST_TYPE_BLOB_ROUNDNESS);
+
+GType
+gst_blob_roundness_shape_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {GST_BLOB_ROUNDNESS_SHAPE_CIRCLE,
+        "Roundness of the image blob at least min-roundness (the seed's test)",
+        "circle"},
+    {GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE,
+          "The blob matches its moment ellipse (ellipse-fit at least "
+          "min-ellipse-fit): a disc seen at a slant",
+        "ellipse"},
+    {0, nullptr, nullptr},
+  };
+  if (g_once_init_enter (&type)) {
+    GType t = g_enum_register_static ("GstBlobRoundnessShape", values);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
+
+/* ---- configuration -------------------------------------------------- */
+
+/* Checks the settings and parses them into cfg; on failure returns FALSE
+ * with the property's name and a message. */
+static gboolean
+blob_roundness_parse (const Settings & s, Config * cfg,
+    const char **property, std::string * why)
+{
+  if (s.morphology % 2 == 0 && s.morphology != 0) {
+    *property = "morphology";
+    *why = "the kernel size must be 0 (off) or odd, got " +
+        std::to_string (s.morphology);
+    return FALSE;
+  }
+  if (s.max_area != 0 && s.min_area > s.max_area) {
+    *property = "min-area";
+    *why = "min-area (" + std::to_string (s.min_area) +
+        ") is larger than max-area (" + std::to_string (s.max_area) + ")";
+    return FALSE;
+  }
+  cfg->classes.clear ();
+  if (!s.classes.empty ()) {
+    gchar **parts = g_strsplit (s.classes.c_str (), ",", -1);
+    for (gchar ** p = parts; *p; p++) {
+      gchar *name = g_strstrip (*p);
+      if (!*name) {
+        g_strfreev (parts);
+        *property = "classes";
+        *why = "empty class name in \"" + s.classes + "\"";
+        return FALSE;
+      }
+      cfg->classes.emplace_back (name);
+    }
+    g_strfreev (parts);
+  }
+  cfg->morphology = s.morphology;
+  cfg->min_area = s.min_area;
+  cfg->max_area = s.max_area;
+  cfg->max_aspect = s.max_aspect;
+  cfg->min_roundness = s.min_roundness;
+  cfg->min_ellipse_fit = s.min_ellipse_fit;
+  cfg->shape = s.shape;
+  cfg->keep_rejected = s.keep_rejected;
+  return TRUE;
+}
+
+/* ---- GObject -------------------------------------------------------- */
+
+static void
+gst_blob_roundness_init (GstBlobRoundness * self)
+{
+  self->priv = new GstBlobRoundnessPrivate ();
+  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
+  gst_base_transform_set_in_place (trans, TRUE);
+  /* a measuring element never drops late frames */
+  gst_base_transform_set_qos_enabled (trans, FALSE);
+}
+
+static void
+gst_blob_roundness_finalize (GObject * object)
+{
+  delete GST_BLOB_ROUNDNESS (object)->priv;
+  G_OBJECT_CLASS (gst_blob_roundness_parent_class)->finalize (object);
+}
+
+static void
+gst_blob_roundness_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  auto priv = GST_BLOB_ROUNDNESS (object)->priv;
+  std::lock_guard<std::mutex> lk (priv->lock);
+  Settings & s = priv->settings;
+  switch (prop_id) {
+    case PROP_CLASSES:{
+      const gchar *v = g_value_get_string (value);
+      s.classes = v ? v : "";
+      break;
+    }
+    case PROP_MORPHOLOGY:
+      s.morphology = g_value_get_uint (value);
+      break;
+    case PROP_MIN_AREA:
+      s.min_area = g_value_get_uint (value);
+      break;
+    case PROP_MAX_AREA:
+      s.max_area = g_value_get_uint (value);
+      break;
+    case PROP_MAX_ASPECT:
+      s.max_aspect = g_value_get_double (value);
+      break;
+    case PROP_MIN_ROUNDNESS:
+      s.min_roundness = g_value_get_double (value);
+      break;
+    case PROP_MIN_ELLIPSE_FIT:
+      s.min_ellipse_fit = g_value_get_double (value);
+      break;
+    case PROP_SHAPE:
+      s.shape = (GstBlobRoundnessShape) g_value_get_enum (value);
+      break;
+    case PROP_KEEP_REJECTED:
+      s.keep_rejected = g_value_get_boolean (value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      return;
+  }
+  s.generation++;
+}
+
+static void
+gst_blob_roundness_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  auto priv = GST_BLOB_ROUNDNESS (object)->priv;
+  std::lock_guard<std::mutex> lk (priv->lock);
+  const Settings & s = priv->settings;
+  switch (prop_id) {
+    case PROP_CLASSES:
+      g_value_set_string (value, s.classes.empty ()? nullptr :
+          s.classes.c_str ());
+      break;
+    case PROP_MORPHOLOGY:
+      g_value_set_uint (value, s.morphology);
+      break;
+    case PROP_MIN_AREA:
+      g_value_set_uint (value, s.min_area);
+      break;
+    case PROP_MAX_AREA:
+      g_value_set_uint (value, s.max_area);
+      break;
+    case PROP_MAX_ASPECT:
+      g_value_set_double (value, s.max_aspect);
+      break;
+    case PROP_MIN_ROUNDNESS:
+      g_value_set_double (value, s.min_roundness);
+      break;
+    case PROP_MIN_ELLIPSE_FIT:
+      g_value_set_double (value, s.min_ellipse_fit);
+      break;
+    case PROP_SHAPE:
+      g_value_set_enum (value, s.shape);
+      break;
+    case PROP_KEEP_REJECTED:
+      g_value_set_boolean (value, s.keep_rejected);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+}
+
+/* ---- states and caps ------------------------------------------------ */
+
+static gboolean
+gst_blob_roundness_start (GstBaseTransform * trans)
+{
+  auto self = GST_BLOB_ROUNDNESS (trans);
+  State & st = self->priv->state;
+  Settings s;
+  {
+    std::lock_guard<std::mutex> lk (self->priv->lock);
+    s = self->priv->settings;
+  }
+  const char *property = nullptr;
+  std::string why;
+  Config cfg;
+  if (!blob_roundness_parse (s, &cfg, &property, &why)) {
+    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+        ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+    return FALSE;
+  }
+  st.config = std::move (cfg);
+  st.generation = s.generation;
+  st.warned_generation = G_MAXUINT;
+  st.slots_valid = false;
+  st.palette_names.clear ();
+  st.palette_markers.clear ();
+  st.warned_no_meta = false;
+  st.warned_bad_plane = false;
+  st.video_width = st.video_height = 0;
+  GST_INFO_OBJECT (self, "shape %s, min-area %u, max-area %u, max-aspect "
+      "%.2f, min-roundness %.3f, min-ellipse-fit %.3f, morphology %u, "
+      "classes %s", st.config.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE ?
+      "circle" : "ellipse", st.config.min_area, st.config.max_area,
+      st.config.max_aspect,
+      st.config.min_roundness, st.config.min_ellipse_fit,
+      st.config.morphology, s.classes.empty ()? "(markers)" :
+      s.classes.c_str ());
+  return TRUE;
+}
+
+static gboolean
+gst_blob_roundness_stop (GstBaseTransform * trans)
+{
+  auto self = GST_BLOB_ROUNDNESS (trans);
+  State & st = self->priv->state;
+  st.slots_valid = false;
+  st.palette_names.clear ();
+  st.palette_markers.clear ();
+  return TRUE;
+}
+
+static gboolean
+gst_blob_roundness_set_caps (GstBaseTransform * trans, GstCaps * incaps,
+    GstCaps * outcaps)
+{
+  auto self = GST_BLOB_ROUNDNESS (trans);
+  State & st = self->priv->state;
+  (void) outcaps;
+  GstVideoInfo info;
+  /* any caps are fine; the size is only used to rescale boxes if the
+   * label plane does not match the frame */
+  if (gst_video_info_from_caps (&info, incaps)) {
+    st.video_width = GST_VIDEO_INFO_WIDTH (&info);
+    st.video_height = GST_VIDEO_INFO_HEIGHT (&info);
+  } else {
+    st.video_width = st.video_height = 0;
+  }
+  GST_DEBUG_OBJECT (self, "caps %" GST_PTR_FORMAT, incaps);
+  return TRUE;
+}
+
+/* ---- streaming ------------------------------------------------------ */
+
+/* Brings the state up to date with settings changed while running. Bad
+ * values set while streaming are reported once (a warning naming the
+ * property) and the previous ones stay in force. */
+static void
+gst_blob_roundness_sync_settings (GstBlobRoundness * self)
+{
+  State & st = self->priv->state;
+  Settings s;
+  {
+    std::lock_guard<std::mutex> lk (self->priv->lock);
+    if (self->priv->settings.generation == st.generation)
+      return;
+    s = self->priv->settings;
+  }
+  const char *property = nullptr;
+  std::string why;
+  Config cfg;
+  if (!blob_roundness_parse (s, &cfg, &property, &why)) {
+    if (st.warned_generation != s.generation) {
+      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+          ("Invalid '%s' value; keeping the previous settings.", property),
+          ("%s", why.c_str ()));
+      st.warned_generation = s.generation;
+    }
+    return;
+  }
+  if (cfg.classes != st.config.classes)
+    st.slots_valid = false;
+  st.config = std::move (cfg);
+  st.generation = s.generation;
+  GST_INFO_OBJECT (self, "settings changed");
+}
+
+/* Maps labels to slots for this frame's palette. Slot = label, so a slot
+ * names its class directly. FALSE (error posted) on an unknown class. */
+static gboolean
+gst_blob_roundness_update_slots (GstBlobRoundness * self,
+    const GstStructure * labels)
+{
+  State & st = self->priv->state;
+  const guint n = MIN (landmark_labels_n_classes (labels), 255u);
+  bool same = st.slots_valid && st.palette_names.size () == n;
+  for (guint k = 0; same && k < n; k++) {
+    const gchar *name = landmark_labels_class_name (labels, k);
+    same = name && st.palette_names[k] == name &&
+        st.palette_markers[k] == (bool) landmark_labels_class_is_marker
+        (labels, k);
+  }
+  if (same)
+    return TRUE;
+
+  st.palette_names.clear ();
+  st.palette_markers.clear ();
+  for (guint k = 0; k < n; k++) {
+    const gchar *name = landmark_labels_class_name (labels, k);
+    st.palette_names.emplace_back (name ? name : "");
+    st.palette_markers.push_back (landmark_labels_class_is_marker (labels,
+            k));
+  }
+  memset (st.slot_of, 0, sizeof (st.slot_of));
+  if (st.config.classes.empty ()) {
+    for (guint k = 0; k < n; k++)
+      if (st.palette_markers[k])
+        st.slot_of[k + 1] = k + 1;
+  } else {
+    for (const std::string & want : st.config.classes) {
+      guint k = 0;
+      while (k < n && st.palette_names[k] != want)
+        k++;
+      if (k == n) {
+        std::string known;
+        for (const auto & name : st.palette_names)
+          known += (known.empty ()? "" : ", ") + name;
+        GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+            ("Invalid 'classes' value: no class \"%s\" in the labels.",
+                want.c_str ()), ("the palette has: %s", known.c_str ()));
+        st.slots_valid = false;
+        return FALSE;
+      }
+      st.slot_of[k + 1] = k + 1;
+    }
+  }
+  st.slots_valid = true;
+  GST_DEBUG_OBJECT (self, "%u classes in the labels", n);
+  return TRUE;
+}
+
+/* Opens then closes each selected class with a disc of `size` pixels,
+ * inside the class's bounding box plus a margin, and replaces its runs. */
+static void
+gst_blob_roundness_morphology (GstBlobRoundness * self, guint size)
+{
+  State & st = self->priv->state;
+  landmark::BlobAnalyzer & a = st.analyzer;
+  if (st.kernel_size != size) {
+    st.kernel = cv::getStructuringElement (cv::MORPH_ELLIPSE,
+        cv::Size (size, size));
+    st.kernel_size = size;
+  }
+  const cv::Rect frame (0, 0, a.width (), a.height ());
+  for (int slot = 1; slot < 256; slot++) {
+    if (!st.slot_of[slot])
+      continue;
+    const cv::Rect box = a.slot_bounds (slot);
+    if (box.empty ())
+      continue;
+    const int m = (int) size;
+    const cv::Rect roi = cv::Rect (box.x - m, box.y - m, box.width + 2 * m,
+        box.height + 2 * m) & frame;
+    /* scratch grows to the largest box seen, then is reused; the Mats are
+     * whole images of the box's size (not views into a larger image, whose
+     * pixels outside the view OpenCV would read as the border) */
+    const size_t need = (size_t) roi.width * roi.height;
+    if (st.morph_in.size () < need) {
+      st.morph_in.resize (need);
+      st.morph_out.resize (need);
+    }
+    cv::Mat in (roi.height, roi.width, CV_8UC1, st.morph_in.data ());
+    cv::Mat out (roi.height, roi.width, CV_8UC1, st.morph_out.data ());
+    in.setTo (0);
+    a.paint_slot (slot, in, roi.x, roi.y);
+    /* outside the box: the frame edge, or a margin of background at least
+     * the kernel wide; the default border value leaves it out of both */
+    cv::morphologyEx (in, out, cv::MORPH_OPEN, st.kernel, cv::Point (-1, -1),
+        1, cv::BORDER_CONSTANT | cv::BORDER_ISOLATED);
+    cv::morphologyEx (out, in, cv::MORPH_CLOSE, st.kernel, cv::Point (-1, -1),
+        1, cv::BORDER_CONSTANT | cv::BORDER_ISOLATED);
+    a.remove_slot (slot);
+    a.add_mask_runs (in, roi.x, roi.y, slot);
+  }
+}
+
+static void
+gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
+    const landmark::BlobShape & b, const char *class_name,
+    const char *reject, guint plane_w, guint plane_h)
+{
+  State & st = self->priv->state;
+  /* the box in pixels of the current frame (the plane normally is) */
+  gint x = b.bbox_x, y = b.bbox_y, w = b.bbox_w, h = b.bbox_h;
+  if (st.video_width > 0 && st.video_height > 0 &&
+      ((guint) st.video_width != plane_w ||
+          (guint) st.video_height != plane_h)) {
+    const double sx = (double) st.video_width / plane_w;
+    const double sy = (double) st.video_height / plane_h;
+    const gint x1 = (gint) std::ceil ((b.bbox_x + b.bbox_w) * sx);
+    const gint y1 = (gint) std::ceil ((b.bbox_y + b.bbox_h) * sy);
+    x = (gint) std::floor (b.bbox_x * sx);
+    y = (gint) std::floor (b.bbox_y * sy);
+    w = MAX (1, x1 - x);
+    h = MAX (1, y1 - y);
+  }
+  GstVideoRegionOfInterestMeta *roi = landmark_detection_add (buf,
+      class_name, x, y, w, h);
+  if (!roi)
+    return;
+  GstStructure *s = gst_structure_new (LANDMARK_BLOB_PARAMS,
+      "class", G_TYPE_STRING, class_name,
+      "area", G_TYPE_DOUBLE, b.area,
+      "perimeter", G_TYPE_DOUBLE, b.perimeter,
+      "roundness", G_TYPE_DOUBLE, b.roundness,
+      "centroid-x", G_TYPE_DOUBLE, b.centroid_x,
+      "centroid-y", G_TYPE_DOUBLE, b.centroid_y,
+      "equivalent-diameter", G_TYPE_DOUBLE, b.equivalent_diameter,
+      "ellipse-x", G_TYPE_DOUBLE, b.ellipse_x,
+      "ellipse-y", G_TYPE_DOUBLE, b.ellipse_y,
+      "ellipse-major", G_TYPE_DOUBLE, b.ellipse_major,
+      "ellipse-minor", G_TYPE_DOUBLE, b.ellipse_minor,
+      "ellipse-angle", G_TYPE_DOUBLE, b.ellipse_angle,
+      "ellipse-fit", G_TYPE_DOUBLE, b.ellipse_fit,
+      "kept", G_TYPE_BOOLEAN, reject == nullptr,
+      "frame-width", G_TYPE_UINT, plane_w,
+      "frame-height", G_TYPE_UINT, plane_h, nullptr);
+  if (reject)
+    gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);
+  gst_video_region_of_interest_meta_add_param (roi, s);
+}
+
+static GstFlowReturn
+gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
+    const GstStructure * labels)
+{
+  State & st = self->priv->state;
+  const Config & cfg = st.config;
+
+  GstBuffer *plane;
+  guint w, h, stride;
+  if (!landmark_labels_get_plane (labels, &plane, &w, &h, &stride)) {
+    if (!st.warned_bad_plane) {
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
+          ("The labels metadata has no usable label plane."),
+          ("missing or inconsistent plane fields; buffers pass unmeasured"));
+      st.warned_bad_plane = true;
+    }
+    return GST_FLOW_OK;
+  }
+  if (!gst_blob_roundness_update_slots (self, labels)) {
+    gst_buffer_unref (plane);
+    return GST_FLOW_ERROR;
+  }
+  GstMapInfo map;
+  if (!gst_buffer_map (plane, &map, GST_MAP_READ)) {
+    gst_buffer_unref (plane);
+    GST_ELEMENT_ERROR (self, STREAM, FAILED,
+        ("Could not read the label plane."), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+
+  landmark::BlobAnalyzer & a = st.analyzer;
+  a.begin (w, h);
+  a.add_label_runs (map.data, stride, st.slot_of);
+  gst_buffer_unmap (plane, &map);
+  gst_buffer_unref (plane);
+  if (cfg.morphology > 0)
+    gst_blob_roundness_morphology (self, cfg.morphology);
+  a.label ();
+
+  guint kept = 0, rejected = 0;
+  for (size_t i = 0; i < a.count (); i++) {
+    const double area = a.area (i);
+    const char *reject = nullptr;
+    if (area < cfg.min_area)
+      reject = "area";
+    else if (cfg.max_area && area > cfg.max_area)
+      reject = "max-area";
+    if (reject && !cfg.keep_rejected) {
+      rejected++;
+      continue;
+    }
+    landmark::BlobShape & b = st.shape;
+    a.measure (i, &b);
+    if (!reject && cfg.max_aspect > 0 &&
+        b.ellipse_major > cfg.max_aspect * b.ellipse_minor)
+      reject = "aspect";
+    if (!reject) {
+      if (cfg.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE) {
+        if (b.roundness < cfg.min_roundness)
+          reject = "roundness";
+      } else if (b.ellipse_fit < cfg.min_ellipse_fit) {
+        reject = "ellipse-fit";
+      }
+    }
+    if (reject)
+      rejected++;
+    else
+      kept++;
+    if (reject && !cfg.keep_rejected)
+      continue;
+    const std::string & name = st.palette_names[b.slot - 1];
+    gst_blob_roundness_attach (self, buf, b, name.c_str (), reject, w, h);
+  }
+  GST_LOG_OBJECT (self, "%ux%u labels: %zu blobs, %u kept, %u rejected", w,
+      h, a.count (), kept, rejected);
+  return GST_FLOW_OK;
+}
+
+static GstFlowReturn
+gst_blob_roundness_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
+{
+  auto self = GST_BLOB_ROUNDNESS (trans);
+  State & st = self->priv->state;
+
+  gst_blob_roundness_sync_settings (self);
+
+  const GstStructure *labels = landmark_labels_meta_get (buf);
+  if (!labels) {
+    if (!st.warned_no_meta) {
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
+          ("No class labels on the video: blobroundness needs labsegment "
+              "upstream."),
+          ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
+              GST_LANDMARK_LABELS_META_NAME, buf));
+      st.warned_no_meta = true;
+    }
+    return GST_FLOW_OK;
+  }
+  try {
+    return gst_blob_roundness_process (self, buf, labels);
+  }
+  catch (const std::exception & e) {
+    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Blob measurement failed."),
+        ("%s", e.what ()));
+    return GST_FLOW_ERROR;
+  }
+}
+
+static void
+gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
+{
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
+
+  gobject_class->set_property = gst_blob_roundness_set_property;
+  gobject_class->get_property = gst_blob_roundness_get_property;
+  gobject_class->finalize = gst_blob_roundness_finalize;
+
+  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
+      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
+  g_object_class_install_property (gobject_class, PROP_CLASSES,
+      g_param_spec_string ("classes", "Classes",
+          "Comma-separated class names to find blobs of (unset: every class "
+          "the palette marks as a marker)", DEFAULT_CLASSES, flags));
+  g_object_class_install_property (gobject_class, PROP_MORPHOLOGY,
+      g_param_spec_uint ("morphology", "Morphology kernel",
+          "Diameter in pixels of the disc each class is opened then closed "
+          "with before blobs are found; 0 = off, otherwise odd",
+          0, MAX_MORPHOLOGY, DEFAULT_MORPHOLOGY, flags));
+  g_object_class_install_property (gobject_class, PROP_MIN_AREA,
+      g_param_spec_uint ("min-area", "Minimum area",
+          "Smallest blob kept, in pixels (the seed's noise threshold)",
+          0, G_MAXUINT, DEFAULT_MIN_AREA, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_AREA,
+      g_param_spec_uint ("max-area", "Maximum area",
+          "Largest blob kept, in pixels (0 = no limit)",
+          0, G_MAXUINT, DEFAULT_MAX_AREA, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_ASPECT,
+      g_param_spec_double ("max-aspect", "Maximum aspect ratio",
+          "Largest ratio of the ellipse's major to minor axis kept (a floor "
+          "disc seen from camera height h at range r images at about r/h); "
+          "0 = no limit", 0.0, G_MAXDOUBLE, DEFAULT_MAX_ASPECT, flags));
+  g_object_class_install_property (gobject_class, PROP_MIN_ROUNDNESS,
+      g_param_spec_double ("min-roundness", "Minimum roundness",
+          "shape=circle: smallest roundness 4 pi A / P^2 kept, 0..1",
+          0.0, 1.0, DEFAULT_MIN_ROUNDNESS, flags));
+  g_object_class_install_property (gobject_class, PROP_MIN_ELLIPSE_FIT,
+      g_param_spec_double ("min-ellipse-fit", "Minimum ellipse fit",
+          "shape=ellipse: smallest intersection over union of the blob and "
+          "its moment ellipse kept, 0..1",
+          0.0, 1.0, DEFAULT_MIN_ELLIPSE_FIT, flags));
+  g_object_class_install_property (gobject_class, PROP_SHAPE,
+      g_param_spec_enum ("shape", "Shape test",
+          "Which test tells landmarks from other blobs",
+          GST_TYPE_BLOB_ROUNDNESS_SHAPE, DEFAULT_SHAPE, flags));
+  g_object_class_install_property (gobject_class, PROP_KEEP_REJECTED,
+      g_param_spec_boolean ("keep-rejected", "Keep rejected",
+          "Also attach rejected blobs (kept=false, with reject-reason), for "
+          "tuning", DEFAULT_KEEP_REJECTED, flags));
+
+  gst_element_class_set_static_metadata (element_class,
+      "Landmark blob roundness", "Filter/Analyzer/Video",
+      "Finds the blobs of marker classes in the labels of labsegment, "
+      "measures area, perimeter, roundness and a fitted ellipse, keeps the "
+      "round ones and attaches them as region-of-interest metadata",
+      "gst-landmark developers");
+  gst_element_class_add_static_pad_template (element_class, &sink_template);
+  gst_element_class_add_static_pad_template (element_class, &src_template);
+
+  trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
+  trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);
+  trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
+  trans_class->transform_ip =
+      GST_DEBUG_FUNCPTR (gst_blob_roundness_transform_ip);
+
+  gst_type_mark_as_plugin_api (GST_TYPE_BLOB_ROUNDNESS_SHAPE,
+      (GstPluginAPIFlags) 0);
+}

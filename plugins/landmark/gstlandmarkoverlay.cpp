@@ -1,0 +1,737 @@
+/**
+ * SECTION:element-landmarkoverlay
+ * @title: landmarkoverlay
+ *
+ * Draws the gst-landmark metadata of each frame onto the frame itself, in
+ * place and in the frame's own format (no format change, no conversion of
+ * the whole frame): what the seed's program showed in its window.
+ *
+ * - `show-detections`: every detection (`GstVideoRegionOfInterestMeta`,
+ *   docs/metadata.md): the fitted ellipse of its `landmark-blob`
+ *   parameters (`ellipse-x`, `ellipse-y`, `ellipse-major`, `ellipse-minor`,
+ *   `ellipse-angle`, scaled from `frame-width` x `frame-height` to the
+ *   current frame), or its bounding box when there is no ellipse, in the
+ *   class colour with a dark halo, a cross at the centroid, and a label:
+ *   the matched landmark id (`landmark-match`), the class name and the
+ *   roundness (`rnd 0.93`) on the first line, the range with four
+ *   decimals (the seed's `XX.XXXX`) in metres and the bearing in degrees
+ *   (positive to the left) from `landmark-range` on the second. Rejected
+ *   blobs (`kept=false`) are drawn dashed and grey with their
+ *   `reject-reason`, unless `show-rejected=false`.
+ * - `show-pose`: the pose of a `GstLandmarkPoseMeta` (`x`, `y` in metres,
+ *   `heading` in degrees) as a text line at the bottom left.
+ * - `show-histogram`: an inset at the top left with a bar per palette
+ *   class of the labels meta (`class-counts` on a logarithmic scale, bars
+ *   in `class-rgb`, classes below the threshold translucent) and the
+ *   dominant-colour threshold `min-class-pixels` as a dashed line.
+ * - `show-indicators`: under it, one round indicator per marker class,
+ *   lit in the class colour when the class is active (`class-active`).
+ * - `show-minimap`: an inset at the top right with a top-down view of the
+ *   landmark map (`map`, a JSON file in the format of docs/conventions.md),
+ *   the robot pose as a triangle, and for each detection with a range a
+ *   ray from the robot along its bearing and, when it is matched to a map
+ *   landmark, the range circle around that landmark. Drawn only when the
+ *   frame has a pose meta and a map is set.
+ *
+ * Sizes of text, lines and insets follow the frame height (`text-scale`
+ * scales the text further). Without metadata (or with every part switched
+ * off) frames pass through untouched and are not even mapped for writing.
+ * Every property can change while playing; the map file is read when the
+ * element starts and again when `map` is set. QoS is off: no frame is
+ * ever dropped.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 filesrc location=clip.avi ! avidemux ! jpegdec !
+ *     videoconvert ! labsegment ! blobroundness ! landmarkoverlay
+ *     map=map.json ! videoconvert ! autovideosink
+ * ]|
+ */
+
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstlandmarkoverlay.h"
+
+#include <gst/base/gstbasetransform.h>
+#include <gst/video/video.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "landmarkmeta.h"
+#include "overlaydraw.h"
+#include "palette.h"
+
+GST_DEBUG_CATEGORY_STATIC (gst_landmark_overlay_debug);
+#define GST_CAT_DEFAULT gst_landmark_overlay_debug
+
+#define DEFAULT_SHOW TRUE
+#define DEFAULT_TEXT_SCALE 1.0
+
+enum
+{
+  PROP_0,
+  PROP_MAP,
+  PROP_SHOW_DETECTIONS,
+  PROP_SHOW_REJECTED,
+  PROP_SHOW_POSE,
+  PROP_SHOW_HISTOGRAM,
+  PROP_SHOW_INDICATORS,
+  PROP_SHOW_MINIMAP,
+  PROP_TEXT_SCALE,
+};
+
+#define OVERLAY_FORMATS \
+    "{ RGB, BGR, RGBx, BGRx, xRGB, xBGR, RGBA, BGRA, I420, NV12, YUY2 }"
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
+    GST_PAD_SINK, GST_PAD_ALWAYS,
+    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (OVERLAY_FORMATS)));
+
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
+    GST_PAD_SRC, GST_PAD_ALWAYS,
+    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (OVERLAY_FORMATS)));
+
+/* *INDENT-OFF* */
+namespace {
+
+namespace ov = landmark::overlay;
+
+constexpr guint kMaxClasses = 64;
+
+/* What the user sets; read by the streaming thread under the lock. */
+struct Settings {
+  std::string map;              /* empty: no map */
+  guint map_generation = 0;
+  gboolean show_detections = DEFAULT_SHOW;
+  gboolean show_rejected = DEFAULT_SHOW;
+  gboolean show_pose = DEFAULT_SHOW;
+  gboolean show_histogram = DEFAULT_SHOW;
+  gboolean show_indicators = DEFAULT_SHOW;
+  gboolean show_minimap = DEFAULT_SHOW;
+  gdouble text_scale = DEFAULT_TEXT_SCALE;
+};
+
+/* Built in start() and set_info(), used by the streaming thread only. */
+struct State {
+  ov::LandmarkMap map;
+  bool has_map = false;
+  guint map_generation = 0;
+
+  ov::Renderer renderer;
+  ov::Target target;
+
+  /* built-in palette colours, the fallback for classes without a labels
+   * meta */
+  std::vector<std::pair<std::string, ov::Rgb>> default_colours;
+
+  /* per-frame scratch, reused */
+  std::vector<ov::Detection> detections;
+  std::array<ov::ClassInfo, kMaxClasses> classes;
+  std::vector<ov::Rgb> map_colours;
+};
+
+}  // namespace
+
+struct _GstLandmarkOverlay {
+  GstVideoFilter parent;
+  std::mutex *lock;    /* guards settings */
+  Settings *settings;
+  State *state;
+};
+/* *INDENT-ON* */
+
+G_DEFINE_TYPE_WITH_CODE (GstLandmarkOverlay, gst_landmark_overlay,
+    GST_TYPE_VIDEO_FILTER,
+    GST_DEBUG_CATEGORY_INIT (gst_landmark_overlay_debug, "landmarkoverlay", 0,
+        "Draws landmark detections, pose, class histogram and map"));
+GST_ELEMENT_REGISTER_DEFINE (landmarkoverlay, "landmarkoverlay",
+    GST_RANK_NONE, GST_TYPE_LANDMARK_OVERLAY);
+
+/* ---- GObject -------------------------------------------------------- */
+
+static void
+gst_landmark_overlay_init (GstLandmarkOverlay * self)
+{
+  self->lock = new std::mutex ();
+  self->settings = new Settings ();
+  self->state = new State ();
+  self->state->detections.reserve (64);
+  self->state->map_colours.reserve (64);
+  gst_base_transform_set_in_place (GST_BASE_TRANSFORM (self), TRUE);
+  /* an overlay of measurements never drops late frames */
+  gst_base_transform_set_qos_enabled (GST_BASE_TRANSFORM (self), FALSE);
+}
+
+static void
+gst_landmark_overlay_finalize (GObject * object)
+{
+  auto self = GST_LANDMARK_OVERLAY (object);
+  delete self->state;
+  delete self->settings;
+  delete self->lock;
+  G_OBJECT_CLASS (gst_landmark_overlay_parent_class)->finalize (object);
+}
+
+static void
+gst_landmark_overlay_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  auto self = GST_LANDMARK_OVERLAY (object);
+  std::lock_guard<std::mutex> lk (*self->lock);
+  Settings & s = *self->settings;
+  switch (prop_id) {
+    case PROP_MAP:{
+      const gchar *path = g_value_get_string (value);
+      s.map = path ? path : "";
+      s.map_generation++;
+      break;
+    }
+    case PROP_SHOW_DETECTIONS:
+      s.show_detections = g_value_get_boolean (value);
+      break;
+    case PROP_SHOW_REJECTED:
+      s.show_rejected = g_value_get_boolean (value);
+      break;
+    case PROP_SHOW_POSE:
+      s.show_pose = g_value_get_boolean (value);
+      break;
+    case PROP_SHOW_HISTOGRAM:
+      s.show_histogram = g_value_get_boolean (value);
+      break;
+    case PROP_SHOW_INDICATORS:
+      s.show_indicators = g_value_get_boolean (value);
+      break;
+    case PROP_SHOW_MINIMAP:
+      s.show_minimap = g_value_get_boolean (value);
+      break;
+    case PROP_TEXT_SCALE:
+      s.text_scale = g_value_get_double (value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+}
+
+static void
+gst_landmark_overlay_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  auto self = GST_LANDMARK_OVERLAY (object);
+  std::lock_guard<std::mutex> lk (*self->lock);
+  const Settings & s = *self->settings;
+  switch (prop_id) {
+    case PROP_MAP:
+      g_value_set_string (value, s.map.empty ()? nullptr : s.map.c_str ());
+      break;
+    case PROP_SHOW_DETECTIONS:
+      g_value_set_boolean (value, s.show_detections);
+      break;
+    case PROP_SHOW_REJECTED:
+      g_value_set_boolean (value, s.show_rejected);
+      break;
+    case PROP_SHOW_POSE:
+      g_value_set_boolean (value, s.show_pose);
+      break;
+    case PROP_SHOW_HISTOGRAM:
+      g_value_set_boolean (value, s.show_histogram);
+      break;
+    case PROP_SHOW_INDICATORS:
+      g_value_set_boolean (value, s.show_indicators);
+      break;
+    case PROP_SHOW_MINIMAP:
+      g_value_set_boolean (value, s.show_minimap);
+      break;
+    case PROP_TEXT_SCALE:
+      g_value_set_double (value, s.text_scale);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+}
+
+/* ---- configuration -------------------------------------------------- */
+
+/* Loads the map named by the settings into the state; posts the error and
+ * returns FALSE on a bad file. */
+static gboolean
+gst_landmark_overlay_load_map (GstLandmarkOverlay * self,
+    const std::string & path, guint generation)
+{
+  State & st = *self->state;
+  if (path.empty ()) {
+    st.map.landmarks.clear ();
+    st.has_map = false;
+    st.map_generation = generation;
+    return TRUE;
+  }
+  ov::LandmarkMap map;
+  std::string why;
+  if (!ov::map_load_file (path, &map, &why)) {
+    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+        ("Could not use map file \"%s\".", path.c_str ()),
+        ("%s", why.c_str ()));
+    return FALSE;
+  }
+  st.map = std::move (map);
+  st.has_map = true;
+  st.map_generation = generation;
+  GST_INFO_OBJECT (self, "map %s: %zu landmarks", path.c_str (),
+      st.map.landmarks.size ());
+  return TRUE;
+}
+
+static gboolean
+gst_landmark_overlay_start (GstBaseTransform * trans)
+{
+  auto self = GST_LANDMARK_OVERLAY (trans);
+  State & st = *self->state;
+  std::string path;
+  guint generation;
+  {
+    std::lock_guard<std::mutex> lk (*self->lock);
+    path = self->settings->map;
+    generation = self->settings->map_generation;
+  }
+  if (st.default_colours.empty ()) {
+    for (const auto & c : landmark::palette_default ().classes) {
+      double rgb[3];
+      landmark::lab_to_srgb (c.lab, rgb);
+      ov::Rgb col;
+      col.r = (guint8) (rgb[0] * 255 + 0.5);
+      col.g = (guint8) (rgb[1] * 255 + 0.5);
+      col.b = (guint8) (rgb[2] * 255 + 0.5);
+      st.default_colours.emplace_back (c.name, col);
+    }
+  }
+  return gst_landmark_overlay_load_map (self, path, generation);
+}
+
+static gboolean
+gst_landmark_overlay_stop (GstBaseTransform * trans)
+{
+  auto self = GST_LANDMARK_OVERLAY (trans);
+  self->state->renderer.configure (0, 0);
+  return TRUE;
+}
+
+static gboolean
+gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
+    GstVideoInfo * in_info, GstCaps * outcaps, GstVideoInfo * out_info)
+{
+  auto self = GST_LANDMARK_OVERLAY (filter);
+  State & st = *self->state;
+  (void) outcaps;
+  (void) out_info;
+
+  ov::Target t;
+  const GstVideoFormatInfo *finfo = in_info->finfo;
+  switch (GST_VIDEO_INFO_FORMAT (in_info)) {
+    case GST_VIDEO_FORMAT_RGB:
+    case GST_VIDEO_FORMAT_BGR:
+    case GST_VIDEO_FORMAT_RGBx:
+    case GST_VIDEO_FORMAT_BGRx:
+    case GST_VIDEO_FORMAT_xRGB:
+    case GST_VIDEO_FORMAT_xBGR:
+    case GST_VIDEO_FORMAT_RGBA:
+    case GST_VIDEO_FORMAT_BGRA:
+      t.kind = ov::Target::Kind::PACKED;
+      t.pixel_stride = GST_VIDEO_FORMAT_INFO_PSTRIDE (finfo, 0);
+      for (int c = 0; c < 3; c++)
+        t.offset[c] = GST_VIDEO_FORMAT_INFO_POFFSET (finfo, c);
+      break;
+    case GST_VIDEO_FORMAT_I420:
+    case GST_VIDEO_FORMAT_NV12:
+    case GST_VIDEO_FORMAT_YUY2:{
+      const GstVideoFormat fmt = GST_VIDEO_INFO_FORMAT (in_info);
+      t.kind = fmt == GST_VIDEO_FORMAT_I420 ? ov::Target::Kind::I420 :
+          fmt == GST_VIDEO_FORMAT_NV12 ? ov::Target::Kind::NV12 :
+          ov::Target::Kind::YUY2;
+      gdouble kr = 0.299, kb = 0.114;
+      if (!gst_video_color_matrix_get_Kr_Kb (in_info->colorimetry.matrix,
+              &kr, &kb)) {
+        kr = 0.299;
+        kb = 0.114;
+      }
+      t.model = landmark::InputModel::yuv (kr, kb,
+          in_info->colorimetry.range == GST_VIDEO_COLOR_RANGE_0_255);
+      break;
+    }
+    default:
+      GST_ERROR_OBJECT (self, "unsupported format %s",
+          GST_VIDEO_INFO_NAME (in_info));
+      return FALSE;
+  }
+  t.width = GST_VIDEO_INFO_WIDTH (in_info);
+  t.height = GST_VIDEO_INFO_HEIGHT (in_info);
+  st.target = t;
+  try {
+    if (st.renderer.width () != t.width || st.renderer.height () != t.height)
+      st.renderer.configure (t.width, t.height);
+  }
+  catch (const std::exception & e) {
+    GST_ERROR_OBJECT (self, "cannot allocate the overlay canvas: %s",
+        e.what ());
+    return FALSE;
+  }
+  GST_DEBUG_OBJECT (self, "configured for %" GST_PTR_FORMAT, incaps);
+  return TRUE;
+}
+
+/* ---- reading the metadata ------------------------------------------- */
+
+namespace {
+
+const GValue *
+array_element (const GstStructure * s, const char *field, guint index)
+{
+  const GValue *array = gst_structure_get_value (s, field);
+  if (!array || !GST_VALUE_HOLDS_ARRAY (array) ||
+      index >= gst_value_array_get_size (array))
+    return nullptr;
+  return gst_value_array_get_value (array, index);
+}
+
+bool
+get_number (const GstStructure * s, const char *field, double *out)
+{
+  const GValue *v = s ? gst_structure_get_value (s, field) : nullptr;
+  if (!v)
+    return false;
+  if (G_VALUE_HOLDS_DOUBLE (v))
+    *out = g_value_get_double (v);
+  else if (G_VALUE_HOLDS_FLOAT (v))
+    *out = g_value_get_float (v);
+  else if (G_VALUE_HOLDS_INT (v))
+    *out = g_value_get_int (v);
+  else if (G_VALUE_HOLDS_UINT (v))
+    *out = g_value_get_uint (v);
+  else
+    return false;
+  return std::isfinite (*out);
+}
+
+bool
+get_bool (const GstStructure * s, const char *field, bool *out)
+{
+  gboolean b;
+  if (!s || !gst_structure_get_boolean (s, field, &b))
+    return false;
+  *out = b;
+  return true;
+}
+
+ov::Rgb
+rgb_from_uint (guint v)
+{
+  ov::Rgb c;
+  c.r = (v >> 16) & 0xff;
+  c.g = (v >> 8) & 0xff;
+  c.b = v & 0xff;
+  return c;
+}
+
+}  // namespace
+
+/* The labels meta's classes; returns how many (0 without the meta). */
+static int
+gst_landmark_overlay_read_classes (State & st, const GstStructure * labels,
+    ov::Histogram * hist)
+{
+  const guint n = MIN (landmark_labels_n_classes (labels), kMaxClasses);
+  for (guint k = 0; k < n; k++) {
+    ov::ClassInfo & ci = st.classes[k];
+    ci = ov::ClassInfo ();
+    ci.name = landmark_labels_class_name (labels, k);
+    const GValue *v = array_element (labels, LANDMARK_LABELS_CLASS_RGB, k);
+    if (v && G_VALUE_HOLDS_UINT (v))
+      ci.colour = rgb_from_uint (g_value_get_uint (v));
+    ci.count = landmark_labels_class_count (labels, k);
+    v = array_element (labels, LANDMARK_LABELS_CLASS_ACTIVE, k);
+    ci.active = v && G_VALUE_HOLDS_BOOLEAN (v) && g_value_get_boolean (v);
+    v = array_element (labels, LANDMARK_LABELS_CLASS_MARKERS, k);
+    ci.marker = !(v && G_VALUE_HOLDS_BOOLEAN (v)) || g_value_get_boolean (v);
+  }
+  hist->classes = st.classes.data ();
+  hist->n = (int) n;
+  guint threshold = 0, aw = 0, ah = 0;
+  gst_structure_get_uint (labels, LANDMARK_LABELS_MIN_CLASS_PIXELS,
+      &threshold);
+  hist->threshold = threshold;
+  if (!gst_structure_get_uint (labels, LANDMARK_LABELS_ANALYSIS_WIDTH, &aw) ||
+      !gst_structure_get_uint (labels, LANDMARK_LABELS_ANALYSIS_HEIGHT, &ah)) {
+    gst_structure_get_uint (labels, LANDMARK_LABELS_WIDTH, &aw);
+    gst_structure_get_uint (labels, LANDMARK_LABELS_HEIGHT, &ah);
+  }
+  hist->total = (double) aw * ah;
+  return (int) n;
+}
+
+static ov::Rgb
+gst_landmark_overlay_class_colour (const State & st, int n_classes,
+    const char *name)
+{
+  if (name) {
+    for (int k = 0; k < n_classes; k++)
+      if (st.classes[k].name && !strcmp (st.classes[k].name, name))
+        return st.classes[k].colour;
+    for (const auto & dc : st.default_colours)
+      if (dc.first == name)
+        return dc.second;
+  }
+  return ov::Rgb ();
+}
+
+static void
+gst_landmark_overlay_read_detections (GstLandmarkOverlay * self,
+    GstBuffer * buf, int n_classes, int width, int height)
+{
+  State & st = *self->state;
+  st.detections.clear ();
+  gpointer iter = nullptr;
+  GstMeta *meta;
+  while ((meta = gst_buffer_iterate_meta_filtered (buf, &iter,
+              GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE))) {
+    auto roi = (GstVideoRegionOfInterestMeta *) meta;
+    ov::Detection d;
+    d.class_name = g_quark_to_string (roi->roi_type);
+    d.x = roi->x;
+    d.y = roi->y;
+    d.w = roi->w;
+    d.h = roi->h;
+    const GstStructure *blob =
+        gst_video_region_of_interest_meta_get_param (roi,
+        LANDMARK_BLOB_PARAMS);
+    if (blob) {
+      if (const char *cls = gst_structure_get_string (blob, "class"))
+        d.class_name = cls;
+      double fw = 0, fh = 0;
+      if (get_number (blob, "frame-width", &fw) && fw > 0)
+        d.sx = width / fw;
+      if (get_number (blob, "frame-height", &fh) && fh > 0)
+        d.sy = height / fh;
+      d.has_ellipse = get_number (blob, "ellipse-x", &d.ellipse_x) &&
+          get_number (blob, "ellipse-y", &d.ellipse_y) &&
+          get_number (blob, "ellipse-major", &d.ellipse_major) &&
+          get_number (blob, "ellipse-minor", &d.ellipse_minor) &&
+          d.ellipse_major >= 0 && d.ellipse_minor >= 0;
+      if (d.has_ellipse && !get_number (blob, "ellipse-angle",
+              &d.ellipse_angle))
+        d.ellipse_angle = 0;
+      d.has_centroid = get_number (blob, "centroid-x", &d.centroid_x) &&
+          get_number (blob, "centroid-y", &d.centroid_y);
+      d.has_roundness = get_number (blob, "roundness", &d.roundness);
+      get_bool (blob, "kept", &d.kept);
+      d.reject_reason = gst_structure_get_string (blob, "reject-reason");
+    }
+    const GstStructure *range =
+        gst_video_region_of_interest_meta_get_param (roi,
+        LANDMARK_RANGE_PARAMS);
+    if (range) {
+      get_bool (range, "no-floor", &d.no_floor);
+      d.has_range = get_number (range, "range", &d.range) && d.range >= 0;
+      d.has_bearing = get_number (range, "bearing", &d.bearing);
+    }
+    const GstStructure *match =
+        gst_video_region_of_interest_meta_get_param (roi,
+        LANDMARK_MATCH_PARAMS);
+    if (match) {
+      d.has_match = true;
+      get_bool (match, "matched", &d.matched);
+      d.landmark_id = gst_structure_get_string (match, "landmark-id");
+    }
+    d.colour = gst_landmark_overlay_class_colour (st, n_classes,
+        d.class_name);
+    GST_LOG_OBJECT (self, "detection %d %s bbox %g,%g %gx%g blob:%d "
+        "ellipse:%d range:%d match:%d kept:%d", roi->id, d.class_name, d.x,
+        d.y, d.w, d.h, blob != nullptr, d.has_ellipse, d.has_range,
+        d.has_match, d.kept);
+    st.detections.push_back (d);
+  }
+}
+
+/* ---- streaming ------------------------------------------------------ */
+
+static GstFlowReturn
+gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
+{
+  auto self = GST_LANDMARK_OVERLAY (trans);
+  GstVideoFilter *filter = GST_VIDEO_FILTER_CAST (self);
+  State & st = *self->state;
+
+  /* Snapshot the settings; copy the map path only when it changed, so the
+   * steady state allocates nothing here. */
+  Settings s;
+  std::string map_path;
+  bool reload = false;
+  {
+    std::lock_guard<std::mutex> lk (*self->lock);
+    const Settings & cur = *self->settings;
+    s.show_detections = cur.show_detections;
+    s.show_rejected = cur.show_rejected;
+    s.show_pose = cur.show_pose;
+    s.show_histogram = cur.show_histogram;
+    s.show_indicators = cur.show_indicators;
+    s.show_minimap = cur.show_minimap;
+    s.text_scale = cur.text_scale;
+    s.map_generation = cur.map_generation;
+    if (cur.map_generation != st.map_generation) {
+      map_path = cur.map;
+      reload = true;
+    }
+  }
+
+  try {
+    if (reload && !gst_landmark_overlay_load_map (self, map_path,
+            s.map_generation))
+      return GST_FLOW_ERROR;
+
+    /* what this frame has to show */
+    const GstStructure *labels = landmark_labels_meta_get (buf);
+    const GstStructure *pose_s = landmark_pose_meta_get (buf);
+    ov::Pose pose;
+    const bool has_pose = pose_s && get_number (pose_s, "x", &pose.x) &&
+        get_number (pose_s, "y", &pose.y) &&
+        get_number (pose_s, "heading", &pose.heading);
+    const bool has_rois = gst_buffer_get_meta (buf,
+        GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE) != nullptr;
+    const bool panel = labels && (s.show_histogram || s.show_indicators);
+    const bool minimap = s.show_minimap && has_pose && st.has_map;
+    const bool detections = s.show_detections && has_rois;
+    const bool pose_text = s.show_pose && has_pose;
+    if (!panel && !minimap && !detections && !pose_text)
+      return GST_FLOW_OK;
+
+    const int w = st.target.width, h = st.target.height;
+    ov::Histogram hist;
+    const int n_classes = labels ?
+        gst_landmark_overlay_read_classes (st, labels, &hist) : 0;
+    if (has_rois && (detections || minimap))
+      gst_landmark_overlay_read_detections (self, buf, n_classes, w, h);
+    else
+      st.detections.clear ();
+
+    GstVideoFrame frame;
+    if (!gst_video_frame_map (&frame, &filter->in_info, buf,
+            GST_MAP_READWRITE)) {
+      GST_ELEMENT_ERROR (self, STREAM, FAILED,
+          ("Could not map video frame."), (nullptr));
+      return GST_FLOW_ERROR;
+    }
+    ov::Target t = st.target;
+    for (guint p = 0; p < GST_VIDEO_FRAME_N_PLANES (&frame) && p < 3; p++) {
+      t.data[p] = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (&frame, p);
+      t.stride[p] = GST_VIDEO_FRAME_PLANE_STRIDE (&frame, p);
+    }
+
+    ov::Renderer & r = st.renderer;
+    r.begin_frame (s.text_scale);
+    if (detections) {
+      /* rejected blobs first, so kept ones are drawn over them */
+      if (s.show_rejected)
+        for (const auto & d : st.detections)
+          if (!d.kept)
+            r.draw_detection (d);
+      for (const auto & d : st.detections)
+        if (d.kept)
+          r.draw_detection (d);
+    }
+    if (panel)
+      r.draw_class_panel (hist, s.show_histogram, s.show_indicators);
+    if (minimap) {
+      st.map_colours.clear ();
+      for (const auto & lm : st.map.landmarks)
+        st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
+                n_classes, lm.class_name.c_str ()));
+      r.draw_minimap (st.map, st.map_colours.data (), pose,
+          st.detections.data (), (int) st.detections.size ());
+    }
+    if (pose_text)
+      r.draw_pose_text (pose);
+    r.draw_labels ();
+    r.composite (t);
+    gst_video_frame_unmap (&frame);
+    return GST_FLOW_OK;
+  }
+  catch (const std::exception & e) {
+    st.renderer.discard ();
+    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Drawing the overlay failed."),
+        ("%s", e.what ()));
+    return GST_FLOW_ERROR;
+  }
+}
+
+static void
+gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
+{
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
+  GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
+  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
+      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
+
+  gobject_class->set_property = gst_landmark_overlay_set_property;
+  gobject_class->get_property = gst_landmark_overlay_get_property;
+  gobject_class->finalize = gst_landmark_overlay_finalize;
+
+  g_object_class_install_property (gobject_class, PROP_MAP,
+      g_param_spec_string ("map", "Map file",
+          "JSON landmark map (docs/conventions.md) for the mini-map; unset: "
+          "no mini-map", nullptr, flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_DETECTIONS,
+      g_param_spec_boolean ("show-detections", "Show detections",
+          "Draw each detection: ellipse or box, class, roundness, range, "
+          "bearing and matched landmark", DEFAULT_SHOW, flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_REJECTED,
+      g_param_spec_boolean ("show-rejected", "Show rejected blobs",
+          "Also draw blobs the filters rejected (landmark-blob kept=false), "
+          "dashed and grey", DEFAULT_SHOW, flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_POSE,
+      g_param_spec_boolean ("show-pose", "Show pose",
+          "Write the robot pose (x, y in metres, heading in degrees) at the "
+          "bottom left", DEFAULT_SHOW, flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_HISTOGRAM,
+      g_param_spec_boolean ("show-histogram", "Show histogram",
+          "Inset at the top left: pixels per class (log scale) with the "
+          "min-class-pixels threshold", DEFAULT_SHOW, flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_INDICATORS,
+      g_param_spec_boolean ("show-indicators", "Show class indicators",
+          "One indicator per marker class, lit when the class is active",
+          DEFAULT_SHOW, flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_MINIMAP,
+      g_param_spec_boolean ("show-minimap", "Show mini-map",
+          "Inset at the top right: the map, the robot pose and the range "
+          "circles (needs a pose meta and the map property)", DEFAULT_SHOW,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_TEXT_SCALE,
+      g_param_spec_double ("text-scale", "Text scale",
+          "Factor on the automatic text size (which follows the frame "
+          "height)", 0.25, 8.0, DEFAULT_TEXT_SCALE, flags));
+
+  gst_element_class_set_static_metadata (element_class,
+      "Landmark overlay", "Filter/Effect/Video",
+      "Draws landmark detections, robot pose, class histogram, class "
+      "indicators and a mini-map of the landmark map onto the video",
+      "gst-landmark developers");
+  gst_element_class_add_static_pad_template (element_class, &sink_template);
+  gst_element_class_add_static_pad_template (element_class, &src_template);
+
+  trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_overlay_start);
+  trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_overlay_stop);
+  /* Our own transform_ip rather than transform_frame_ip: the frame is
+   * mapped for writing only when there is something to draw. */
+  trans_class->transform_ip =
+      GST_DEBUG_FUNCPTR (gst_landmark_overlay_transform_ip);
+  filter_class->set_info = GST_DEBUG_FUNCPTR (gst_landmark_overlay_set_info);
+}

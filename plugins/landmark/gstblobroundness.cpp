@@ -608,7 +608,7 @@ gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
       "frame-height", G_TYPE_UINT, plane_h, nullptr);
   if (reject)
     gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);
-  gst_video_region_of_interest_meta_add_param (roi, s);
+  landmark_detection_add_param (buf, roi, s);
 }
 
 static GstFlowReturn

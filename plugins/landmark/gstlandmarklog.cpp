@@ -439,7 +439,8 @@ roi_before (const GstVideoRegionOfInterestMeta * a,
 }
 
 void
-put_detection (std::string & o, const GstVideoRegionOfInterestMeta * roi)
+put_detection (std::string & o, GstBuffer * buf,
+    const GstVideoRegionOfInterestMeta * roi)
 {
   o += "{\"id\": ";
   put_int (o, roi->id);
@@ -455,22 +456,21 @@ put_detection (std::string & o, const GstVideoRegionOfInterestMeta * roi)
   put_uint (o, roi->h);
   o += ']';
 
-  /* The first structure of each name counts (as with
+  /* Ours through the contract's reader, which also finds them when a
+   * converter dropped them from the region-of-interest meta. The first
+   * structure of each name counts (as with
    * gst_video_region_of_interest_meta_get_param); later ones of the same
    * name would repeat a JSON key and are left out. */
-  const GstStructure *blob = nullptr, *range = nullptr, *match = nullptr;
+  const GstStructure *blob = landmark_detection_get_param (buf, roi,
+      LANDMARK_BLOB_PARAMS);
+  const GstStructure *range = landmark_detection_get_param (buf, roi,
+      LANDMARK_RANGE_PARAMS);
+  const GstStructure *match = landmark_detection_get_param (buf, roi,
+      LANDMARK_MATCH_PARAMS);
   bool others = false;
-  for (GList * l = roi->params; l; l = l->next) {
-    auto s = (const GstStructure *) l->data;
-    const GQuark name = gst_structure_get_name_id (s);
-    if (name == blob_quark)
-      blob = blob ? blob : s;
-    else if (name == range_quark)
-      range = range ? range : s;
-    else if (name == match_quark)
-      match = match ? match : s;
-    else
-      others = true;
+  for (GList * l = roi->params; l && !others; l = l->next) {
+    const GQuark name = gst_structure_get_name_id ((GstStructure *) l->data);
+    others = name != blob_quark && name != range_quark && name != match_quark;
   }
   if (blob) {
     o += ", \"blob\": ";
@@ -553,7 +553,7 @@ put_frame (State & st, GstBuffer * buf)
   for (size_t i = 0; i < st.rois.size (); i++) {
     if (i)
       o += ", ";
-    put_detection (o, st.rois[i]);
+    put_detection (o, buf, st.rois[i]);
   }
   o += ']';
 

@@ -510,8 +510,7 @@ gst_landmark_overlay_read_detections (GstLandmarkOverlay * self,
     d.w = roi->w;
     d.h = roi->h;
     const GstStructure *blob =
-        gst_video_region_of_interest_meta_get_param (roi,
-        LANDMARK_BLOB_PARAMS);
+        landmark_detection_get_param (buf, roi, LANDMARK_BLOB_PARAMS);
     if (blob) {
       if (const char *cls = gst_structure_get_string (blob, "class"))
         d.class_name = cls;
@@ -535,16 +534,14 @@ gst_landmark_overlay_read_detections (GstLandmarkOverlay * self,
       d.reject_reason = gst_structure_get_string (blob, "reject-reason");
     }
     const GstStructure *range =
-        gst_video_region_of_interest_meta_get_param (roi,
-        LANDMARK_RANGE_PARAMS);
+        landmark_detection_get_param (buf, roi, LANDMARK_RANGE_PARAMS);
     if (range) {
       get_bool (range, "no-floor", &d.no_floor);
       d.has_range = get_number (range, "range", &d.range) && d.range >= 0;
       d.has_bearing = get_number (range, "bearing", &d.bearing);
     }
     const GstStructure *match =
-        gst_video_region_of_interest_meta_get_param (roi,
-        LANDMARK_MATCH_PARAMS);
+        landmark_detection_get_param (buf, roi, LANDMARK_MATCH_PARAMS);
     if (match) {
       d.has_match = true;
       get_bool (match, "matched", &d.matched);

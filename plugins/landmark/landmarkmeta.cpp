@@ -120,6 +120,38 @@ replace_custom_meta (GstBuffer * buffer, const char *name)
   return meta ? gst_custom_meta_get_structure (meta) : nullptr;
 }
 
+/* Key of a detection's entry in the detections meta. */
+void
+detection_key (gint id, char key[32])
+{
+  g_snprintf (key, 32, "detection-%d", id);
+}
+
+gboolean
+detections_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
+    GstBuffer * src, GQuark type, gpointer data, gpointer)
+{
+  (void) src;
+  if (gst_buffer_get_custom_meta (dst, GST_LANDMARK_DETECTIONS_META_NAME))
+    return TRUE;
+  /* Parameters refer to the analysed frame (they record its size), so any
+   * copy or scaling keeps them as they are. */
+  if (GST_META_TRANSFORM_IS_COPY (type)) {
+    if (((GstMetaTransformCopy *) data)->region)
+      return FALSE;
+  } else if (!GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
+    return FALSE;
+  }
+  gst_landmark_detections_meta_get_info ();
+  GstCustomMeta *out = gst_buffer_add_custom_meta (dst,
+      GST_LANDMARK_DETECTIONS_META_NAME);
+  if (!out)
+    return FALSE;
+  copy_fields (gst_custom_meta_get_structure (meta),
+      gst_custom_meta_get_structure (out));
+  return TRUE;
+}
+
 const GstStructure *
 custom_structure (GstBuffer * buffer, const char *name)
 {
@@ -162,11 +194,25 @@ gst_landmark_pose_meta_get_info (void)
   return info;
 }
 
+const GstMetaInfo *
+gst_landmark_detections_meta_get_info (void)
+{
+  /* "video" only: no pixel coordinates that a scaler would have to change
+   * (they refer to the analysed frame), so converters and scalers copy
+   * it */
+  static const gchar *tags[] = { GST_META_TAG_VIDEO_STR, nullptr };
+  static const GstMetaInfo *info = gst_meta_register_custom (
+      GST_LANDMARK_DETECTIONS_META_NAME, tags, detections_meta_transform,
+      nullptr, nullptr);
+  return info;
+}
+
 void
 landmark_meta_register (void)
 {
   gst_landmark_labels_meta_get_info ();
   gst_landmark_pose_meta_get_info ();
+  gst_landmark_detections_meta_get_info ();
 }
 
 GstStructure *
@@ -248,6 +294,55 @@ landmark_detection_add (GstBuffer * buffer, const gchar * class_name,
   if (roi)
     roi->id = (gint) id;
   return roi;
+}
+
+void
+landmark_detection_add_param (GstBuffer * buffer,
+    GstVideoRegionOfInterestMeta * roi, GstStructure * param)
+{
+  gst_landmark_detections_meta_get_info ();
+  GstCustomMeta *meta = gst_buffer_get_custom_meta (buffer,
+      GST_LANDMARK_DETECTIONS_META_NAME);
+  if (!meta)
+    meta = gst_buffer_add_custom_meta (buffer,
+        GST_LANDMARK_DETECTIONS_META_NAME);
+  if (meta) {
+    GstStructure *all = gst_custom_meta_get_structure (meta);
+    char key[32];
+    detection_key (roi->id, key);
+    const GValue *v = gst_structure_get_value (all, key);
+    GstStructure *entry = v ? gst_structure_copy (gst_value_get_structure (v))
+        : gst_structure_new ("landmark-detection", "class", G_TYPE_STRING,
+        g_quark_to_string (roi->roi_type), nullptr);
+    gst_structure_set (entry, gst_structure_get_name (param),
+        GST_TYPE_STRUCTURE, param, nullptr);
+    gst_structure_set (all, key, GST_TYPE_STRUCTURE, entry, nullptr);
+    gst_structure_free (entry);
+  }
+  gst_video_region_of_interest_meta_add_param (roi, param);
+}
+
+const GstStructure *
+landmark_detection_get_param (GstBuffer * buffer,
+    const GstVideoRegionOfInterestMeta * roi, const gchar * name)
+{
+  const GstStructure *p = gst_video_region_of_interest_meta_get_param (
+      (GstVideoRegionOfInterestMeta *) roi, name);
+  if (p)
+    return p;
+  const GstStructure *all = custom_structure (buffer,
+      GST_LANDMARK_DETECTIONS_META_NAME);
+  if (!all)
+    return nullptr;
+  char key[32];
+  detection_key (roi->id, key);
+  const GValue *v = gst_structure_get_value (all, key);
+  if (!v || !GST_VALUE_HOLDS_STRUCTURE (v))
+    return nullptr;
+  const GValue *pv = gst_structure_get_value (gst_value_get_structure (v),
+      name);
+  return pv && GST_VALUE_HOLDS_STRUCTURE (pv) ? gst_value_get_structure (pv)
+      : nullptr;
 }
 
 GstVideoRegionOfInterestMeta *

@@ -15,6 +15,7 @@ G_BEGIN_DECLS
 
 #define GST_LANDMARK_LABELS_META_NAME "GstLandmarkLabelsMeta"
 #define GST_LANDMARK_POSE_META_NAME "GstLandmarkPoseMeta"
+#define GST_LANDMARK_DETECTIONS_META_NAME "GstLandmarkDetectionsMeta"
 
 #define LANDMARK_BLOB_PARAMS "landmark-blob"
 #define LANDMARK_RANGE_PARAMS "landmark-range"
@@ -40,6 +41,7 @@ G_BEGIN_DECLS
 
 const GstMetaInfo *gst_landmark_labels_meta_get_info (void);
 const GstMetaInfo *gst_landmark_pose_meta_get_info (void);
+const GstMetaInfo *gst_landmark_detections_meta_get_info (void);
 
 /* Registers every meta of the contract; called from plugin_init. */
 void landmark_meta_register (void);
@@ -68,6 +70,20 @@ guint landmark_labels_class_count (const GstStructure * labels, guint index);
  * name; id is the detection's index in the buffer (0, 1, 2, ...). */
 GstVideoRegionOfInterestMeta *landmark_detection_add (GstBuffer * buffer,
     const gchar * class_name, guint x, guint y, guint w, guint h);
+
+/* Adds a parameter structure (landmark-blob, -range, -match; ownership
+ * taken) to a detection: on its region-of-interest meta, for other tools,
+ * and on the buffer's GstLandmarkDetectionsMeta, because converters and
+ * scalers (GStreamer 1.22) copy region-of-interest metas without their
+ * parameters. The buffer must be writable. */
+void landmark_detection_add_param (GstBuffer * buffer,
+    GstVideoRegionOfInterestMeta * roi, GstStructure * param);
+
+/* A parameter structure of a detection: from its region-of-interest meta,
+ * else from the detections meta; NULL when neither has it. Valid while the
+ * buffer's metas are unchanged. */
+const GstStructure *landmark_detection_get_param (GstBuffer * buffer,
+    const GstVideoRegionOfInterestMeta * roi, const gchar * name);
 GstVideoRegionOfInterestMeta *landmark_detection_get (GstBuffer * buffer,
     gint id);
 guint landmark_detection_count (GstBuffer * buffer);

@@ -27,6 +27,7 @@ from .messages import structure_to_dict  # noqa: E402
 
 LABELS_META = "GstLandmarkLabelsMeta"
 POSE_META = "GstLandmarkPoseMeta"
+DETECTIONS_META = "GstLandmarkDetectionsMeta"
 PARAM_NAMES = ("landmark-blob", "landmark-range", "landmark-match")
 
 
@@ -185,8 +186,12 @@ def labels(buf: Gst.Buffer) -> Optional[LabelsMeta]:
 
 
 def detections(buf: Gst.Buffer) -> List[Detection]:
-    """Every detection (region-of-interest meta) of a buffer, by id."""
+    """Every detection (region-of-interest meta) of a buffer, by id, with
+    its landmark-* parameters: from the region-of-interest meta, else from
+    the detections meta (converters and scalers drop the former's)."""
     out = []
+    dmeta = buf.get_custom_meta(DETECTIONS_META)
+    entries = dmeta.get_structure() if dmeta is not None else None
     # ids are 0, 1, 2, ... per buffer (the contract), so look them up
     # in order; iterate_meta is not usable from Python
     i = 0
@@ -195,8 +200,13 @@ def detections(buf: Gst.Buffer) -> List[Detection]:
         if roi is None:
             break
         params = {}
+        entry = None
+        if entries is not None and entries.has_field(f"detection-{i}"):
+            entry = entries.get_value(f"detection-{i}")
         for name in PARAM_NAMES:
             s = roi.get_param(name)
+            if s is None and entry is not None and entry.has_field(name):
+                s = entry.get_value(name)
             if s is not None:
                 params[name] = structure_to_dict(s)
         out.append(Detection(

@@ -5,8 +5,10 @@
   when its centroid lies within ``--match-px`` pixels of the landmark's
   pixel centroid (nearest pairs first, one to one). Truth landmarks
   smaller than ``--min-pixels`` are neither required nor held against a
-  detection that finds them. Precision and recall per class, and by
-  distance band of the truth range.
+  detection that finds them; so are landmarks cut by the image border
+  (``--require-cut`` requires them too): their blobs are not whole discs.
+  Precision and recall per class, and by distance band of the truth
+  range.
 - Range and bearing of matched detections that carry ``landmark-range``:
   error statistics (median, p95, max) by distance band.
 - Pose, on frames that have one: position and heading error statistics,
@@ -106,9 +108,17 @@ def match_frame(dets: List[Dict[str, Any]], truth: List[Dict[str, Any]],
     return out
 
 
+def required(mark: Dict[str, Any], min_pixels: float,
+             require_cut: bool) -> bool:
+    """Whether a visible truth landmark must be found."""
+    return (mark.get("pixels", 0) >= min_pixels
+            and (require_cut or not mark.get("cut", False)))
+
+
 def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
              match_px: float = 4.0, min_pixels: float = 20.0,
-             bands: Sequence[float] = DEFAULT_BANDS) -> Evaluation:
+             bands: Sequence[float] = DEFAULT_BANDS,
+             require_cut: bool = False) -> Evaluation:
     ev = Evaluation()
     truth_by_frame = {t["frame"]: t for t in truth}
     for res in results:
@@ -131,8 +141,8 @@ def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
 
         for i, j in pairs:
             mark = marks[j]
-            if mark.get("pixels", math.inf) < min_pixels:
-                continue   # found a landmark too small to be required
+            if not required(mark, min_pixels, require_cut):
+                continue   # found a landmark it need not find
             count(mark["class"], mark.get("range"), "tp")
             rng = dets[i].get("range", {})
             if "range" in rng and "range" in mark:
@@ -144,7 +154,8 @@ def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
             if i not in matched_d:
                 count(d["class"], d.get("range", {}).get("range"), "fp")
         for j, mark in enumerate(marks):
-            if j not in matched_t and mark.get("pixels", 0) >= min_pixels:
+            if j not in matched_t and required(mark, min_pixels,
+                                               require_cut):
                 count(mark["class"], mark.get("range"), "fn")
 
         pose = res.get("pose")
@@ -253,6 +264,8 @@ def add_evaluate_parser(subparsers):
     p.add_argument("--min-pixels", type=float, default=20.0,
                    help="smallest visible area a landmark must be found "
                         "at (default 20)")
+    p.add_argument("--require-cut", action="store_true",
+                   help="also require landmarks cut by the image border")
     p.add_argument("--json", metavar="OUT", help="also write the numbers")
     p.set_defaults(handler=_handle, parser=p)
 
@@ -260,7 +273,8 @@ def add_evaluate_parser(subparsers):
 def _handle(args) -> int:
     try:
         ev = evaluate(read_jsonl(args.result), read_jsonl(args.truth),
-                      args.match_px, args.min_pixels)
+                      args.match_px, args.min_pixels,
+                      require_cut=args.require_cut)
     except (RegressError, KeyError) as err:
         print(f"gst-landmark: error: {err}", file=sys.stderr)
         return 2

@@ -69,6 +69,18 @@ def test_range_bearing_and_pose_errors():
     assert pose["nls"]["heading_deg"]["max"] == pytest.approx(2.0)
 
 
+def test_cut_landmarks_are_required_only_on_request():
+    truth = [{"frame": 0, "landmarks": [
+        dict(mark("red", 10, 10, 1.0), cut=True),
+        dict(mark("blue", 50, 50, 1.0), cut=True)]}]
+    res = [{"frame": 0, "detections": [det("red", 10, 10)]}]
+    ev = E.evaluate(res, truth)
+    # neither required nor held against the detection that finds one
+    assert ev.by_class == {}
+    ev = E.evaluate(res, truth, require_cut=True)
+    assert ev.by_class["red"].tp == 1 and ev.by_class["blue"].fn == 1
+
+
 def test_heading_error_wraps():
     truth = [{"frame": 0, "robot": {"x": 0, "y": 0, "heading": math.pi - 0.01},
               "landmarks": []}]

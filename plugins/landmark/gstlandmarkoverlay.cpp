@@ -277,7 +277,7 @@ gst_landmark_overlay_load_map (GstLandmarkOverlay * self,
   }
   ov::LandmarkMap map;
   std::string why;
-  if (!ov::map_load_file (path, &map, &why)) {
+  if (!landmark::map_load_file (path, &map, &why)) {
     GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
         ("Could not use map file \"%s\".", path.c_str ()),
         ("%s", why.c_str ()));

@@ -1,6 +1,5 @@
 #include "palette.h"
 
-#include <json-glib/json-glib.h>
 
 #include <cmath>
 #include <cstring>
@@ -8,6 +7,7 @@
 #include <set>
 
 #include "default-palette.h"  /* generated: kDefaultPaletteJson */
+#include "jsonutil.h"
 
 namespace landmark {
 
@@ -29,25 +29,10 @@ valid_name (const char *name)
   return true;
 }
 
-bool
-json_number (JsonNode * node, double *out)
-{
-  if (!JSON_NODE_HOLDS_VALUE (node))
-    return false;
-  const GType t = json_node_get_value_type (node);
-  if (t != G_TYPE_INT64 && t != G_TYPE_DOUBLE)
-    return false;  /* booleans and strings are not numbers */
-  *out = json_node_get_double (node);
-  return std::isfinite (*out);
-}
-
 std::string
 entry_label (guint index, const char *name)
 {
-  std::string s = "classes[" + std::to_string (index) + "]";
-  if (name)
-    s += std::string (" (\"") + name + "\")";
-  return s;
+  return json_entry_label ("classes", index, name);
 }
 
 bool
@@ -60,11 +45,7 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
   }
   JsonObject *obj = json_node_get_object (node);
 
-  const char *name = nullptr;
-  JsonNode *name_node = json_object_get_member (obj, "name");
-  if (name_node && JSON_NODE_HOLDS_VALUE (name_node) &&
-      json_node_get_value_type (name_node) == G_TYPE_STRING)
-    name = json_node_get_string (name_node);
+  const char *name = json_string (json_object_get_member (obj, "name"));
   if (!name) {
     *why = entry_label (index, nullptr) + ": \"name\" must be a string";
     return false;
@@ -135,26 +116,12 @@ bool
 palette_parse (const std::string & json, const std::string & source,
     Palette * out, std::string * error)
 {
-  std::unique_ptr<JsonParser, decltype (&g_object_unref)> parser (
-      json_parser_new (), g_object_unref);
-  GError *err = nullptr;
-  if (!json_parser_load_from_data (parser.get (), json.data (),
-          (gssize) json.size (), &err)) {
-    *error = source + ": not valid JSON: " + err->message;
-    g_error_free (err);
+  JsonParserPtr parser (nullptr, g_object_unref);
+  JsonObject *root = json_parse_object (json, source, "\"classes\"", parser,
+      error);
+  if (!root)
     return false;
-  }
-  JsonNode *root = json_parser_get_root (parser.get ());
-  if (!root) {
-    *error = source + ": the file is empty";
-    return false;
-  }
-  if (!JSON_NODE_HOLDS_OBJECT (root)) {
-    *error = source + ": the top level must be an object with \"classes\"";
-    return false;
-  }
-  JsonNode *classes_node = json_object_get_member (
-      json_node_get_object (root), "classes");
+  JsonNode *classes_node = json_object_get_member (root, "classes");
   if (!classes_node || !JSON_NODE_HOLDS_ARRAY (classes_node)) {
     *error = source + ": \"classes\" must be an array";
     return false;
@@ -195,17 +162,9 @@ bool
 palette_load_file (const std::string & path, Palette * out,
     std::string * error)
 {
-  gchar *contents = nullptr;
-  gsize length = 0;
-  GError *err = nullptr;
-  if (!g_file_get_contents (path.c_str (), &contents, &length, &err)) {
-    *error = path + ": cannot read: " + err->message;
-    g_error_free (err);
-    return false;
-  }
-  const std::string json (contents, length);
-  g_free (contents);
-  return palette_parse (json, path, out, error);
+  std::string text;
+  return json_read_file (path, &text, error) &&
+      palette_parse (text, path, out, error);
 }
 
 const Palette &

@@ -237,6 +237,7 @@ COMMANDS = [
     _lazy("regress", "add_regress_parser"),
     _lazy("evaluate", "add_evaluate_parser"),
     _lazy("synth.cli", "add_synth_parser"),
+    _lazy("calibrate", "add_calibrate_parser"),
 ]
 
 

@@ -5,6 +5,7 @@
 #include <gst/gst.h>
 
 #include "gstblobroundness.h"
+#include "gstipmrange.h"
 #include "gstlabsegment.h"
 #include "gstlandmarklog.h"
 #include "gstlandmarkoverlay.h"
@@ -18,6 +19,7 @@ plugin_init (GstPlugin * plugin)
   landmark_meta_register ();
   ok |= GST_ELEMENT_REGISTER (labsegment, plugin);
   ok |= GST_ELEMENT_REGISTER (blobroundness, plugin);
+  ok |= GST_ELEMENT_REGISTER (ipmrange, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarklog, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarkoverlay, plugin);
   return ok;

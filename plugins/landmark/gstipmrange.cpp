@@ -1,0 +1,967 @@
+/**
+ * SECTION:element-ipmrange
+ * @title: ipmrange
+ *
+ * Range and bearing to every detection by inverse perspective mapping
+ * (the seed's section 3.4.1, docs/ipmrange.md). For every detection that
+ * `blobroundness` attached (a `GstVideoRegionOfInterestMeta` with a
+ * `landmark-blob` structure) it adds a `landmark-range` parameter
+ * structure, in the robot frame of docs/conventions.md:
+ *
+ * - `range` (metres, horizontal, from the camera's floor point to the
+ *   marker centre), `bearing` (radians, positive to the left),
+ *   `ground-x` (forward), `ground-y` (left): `range = hypot (ground-x,
+ *   ground-y)`;
+ * - `range-ground`: from where the marker's centre ray meets the plane of
+ *   the marker's centre; `range-size`: from its apparent size, when its
+ *   diameter is known;
+ * - `method`: what `range` reports (`ground`, `size` or `fused`, the
+ *   inverse-variance weighted mean of the two);
+ * - `range-sigma`, `bearing-sigma`: one-sigma estimates (a `pixel-sigma`
+ *   error of the measured points, propagated);
+ * - `no-floor`: true when the ray never meets the marker's plane (above
+ *   the horizon); then no range fields, never a negative or infinite one.
+ *
+ * Camera models (`model`):
+ * - `pinhole` (default): `camera-height`, `tilt` (degrees below the
+ *   horizontal), `roll` (degrees), and intrinsics from `hfov` (principal
+ *   point at the centre, `cx = (W - 1) / 2`), or `fx`, `fy`, `cx`, `cy`, or
+ *   `calibration`: an OpenCV FileStorage file (YAML or XML) with
+ *   `camera_matrix` and `distortion_coefficients` (as OpenCV's calibration
+ *   sample writes them; `cameraMatrix`/`distCoeffs` are read too), scaled
+ *   to the frame when its `image_width`/`image_height` differ; distortion is
+ *   undone for the points used. Exact ray-plane intersection.
+ * - `seed`: the seed's angle-linear model from `camera-height`,
+ *   `blind-distance`, `view-depth` and `half-width` (equations 3.1-3.6).
+ *
+ * Where the marker is: a disc (`marker-kind=disc`) lies flat with its
+ * centre at `marker-height` (0: on the floor): its fitted ellipse is
+ * mapped onto that plane and the centre of the circle through it is the
+ * marker's centre (not the image centroid, which is biased at slant
+ * views). A ball's centre is at `marker-height` (its radius): it lies on
+ * the axis of the cone tangent to the ball, which bisects the rays of the
+ * ellipse's major-axis ends. `map` (the landmark map JSON `trilaterate`
+ * reads) gives height, diameter and kind per class instead; a class whose
+ * landmarks disagree falls back to the properties.
+ *
+ * The geometry is computed when the caps or a property change, never per
+ * frame. Every property may change while playing; a bad value set while
+ * playing is reported with a warning and the previous settings stay.
+ * Impossible geometry (zero height, a tilt that sees no floor, a field of
+ * view out of range, an unreadable or malformed calibration or map file)
+ * fails the change to READY with an error naming the property or file.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 filesrc location=clip.avi ! avidemux ! jpegdec !
+ *     videoconvert ! labsegment palette=palette.json min-class-pixels=0 !
+ *     blobroundness ! ipmrange camera-height=0.3 tilt=25 hfov=60
+ *     marker-diameter=0.1 range-method=fused !
+ *     landmarklog location=ranges.jsonl ! fakesink
+ * ]|
+ */
+
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstipmrange.h"
+
+#include <gst/video/video.h>
+
+#include <cmath>
+#include <exception>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "camerageometry.h"
+#include "landmarkmap.h"
+#include "landmarkmeta.h"
+
+GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
+#define GST_CAT_DEFAULT gst_ipm_range_debug
+
+#define DEFAULT_MODEL GST_IPM_RANGE_MODEL_PINHOLE
+#define DEFAULT_CAMERA_HEIGHT 0.30
+#define DEFAULT_TILT 25.0
+#define DEFAULT_ROLL 0.0
+#define DEFAULT_HFOV 60.0
+#define DEFAULT_FX 0.0
+#define DEFAULT_FY 0.0
+#define DEFAULT_CX -1.0
+#define DEFAULT_CY -1.0
+#define DEFAULT_BLIND 0.0
+#define DEFAULT_DEPTH 0.0
+#define DEFAULT_HALF_WIDTH 0.0
+#define DEFAULT_MARKER_HEIGHT 0.0
+#define DEFAULT_MARKER_DIAMETER 0.0
+#define DEFAULT_MARKER_KIND GST_IPM_RANGE_MARKER_DISC
+#define DEFAULT_METHOD GST_IPM_RANGE_METHOD_GROUND
+#define DEFAULT_PIXEL_SIGMA 0.5
+
+/* frame size assumed to check the geometry before caps are known */
+#define NOMINAL_WIDTH 640
+#define NOMINAL_HEIGHT 480
+
+enum
+{
+  PROP_0,
+  PROP_MODEL,
+  PROP_CAMERA_HEIGHT,
+  PROP_TILT,
+  PROP_ROLL,
+  PROP_HFOV,
+  PROP_FX,
+  PROP_FY,
+  PROP_CX,
+  PROP_CY,
+  PROP_CALIBRATION,
+  PROP_BLIND_DISTANCE,
+  PROP_VIEW_DEPTH,
+  PROP_HALF_WIDTH,
+  PROP_MARKER_HEIGHT,
+  PROP_MARKER_DIAMETER,
+  PROP_MARKER_KIND,
+  PROP_MAP,
+  PROP_RANGE_METHOD,
+  PROP_PIXEL_SIGMA,
+};
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
+    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
+    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+
+/* *INDENT-OFF* */
+namespace {
+
+struct Settings {
+  GstIpmRangeModel model = DEFAULT_MODEL;
+  gdouble camera_height = DEFAULT_CAMERA_HEIGHT;
+  gdouble tilt = DEFAULT_TILT, roll = DEFAULT_ROLL, hfov = DEFAULT_HFOV;
+  gdouble fx = DEFAULT_FX, fy = DEFAULT_FY, cx = DEFAULT_CX, cy = DEFAULT_CY;
+  std::string calibration;
+  gdouble blind = DEFAULT_BLIND, depth = DEFAULT_DEPTH;
+  gdouble half_width = DEFAULT_HALF_WIDTH;
+  gdouble marker_height = DEFAULT_MARKER_HEIGHT;
+  gdouble marker_diameter = DEFAULT_MARKER_DIAMETER;
+  GstIpmRangeMarkerKind marker_kind = DEFAULT_MARKER_KIND;
+  std::string map;
+  GstIpmRangeMethod method = DEFAULT_METHOD;
+  gdouble pixel_sigma = DEFAULT_PIXEL_SIGMA;
+  guint generation = 0;
+};
+
+/* Settings checked, with the files read. */
+struct Config {
+  Settings s;
+  /* intrinsics from the calibration file, for calib_w x calib_h (0: the
+   * frame's size) */
+  bool have_calibration = false;
+  double cal_fx = 0, cal_fy = 0, cal_cx = 0, cal_cy = 0;
+  std::vector<double> cal_dist;
+  int calib_w = 0, calib_h = 0;
+  landmark::MarkerSpec default_marker;
+  std::map<std::string, landmark::MarkerSpec> markers;   /* from the map */
+  std::vector<std::string> ambiguous;    /* map classes that disagree */
+};
+
+struct State {
+  Config config;
+  guint generation = G_MAXUINT;
+  landmark::CameraGeometry geometry;
+  gint geometry_w = 0, geometry_h = 0;    /* what geometry was built for */
+  gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
+};
+
+}  // namespace
+
+struct GstIpmRangePrivate {
+  std::mutex lock;              /* guards settings */
+  Settings settings;
+  State state;
+};
+
+struct _GstIpmRange {
+  GstBaseTransform parent;
+  GstIpmRangePrivate *priv;
+};
+/* *INDENT-ON* */
+
+G_DEFINE_TYPE_WITH_CODE (GstIpmRange, gst_ipm_range,
+    GST_TYPE_BASE_TRANSFORM,
+    GST_DEBUG_CATEGORY_INIT (gst_ipm_range_debug, "ipmrange", 0,
+        "Landmark range and bearing by inverse perspective mapping"));
+GST_ELEMENT_REGISTER_DEFINE (ipmrange, "ipmrange", GST_RANK_NONE,
+    GST_TYPE_IPM_RANGE);
+
+GType
+gst_ipm_range_model_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {GST_IPM_RANGE_MODEL_PINHOLE, "Pinhole camera (OpenCV intrinsics, "
+          "optional distortion), exact ray-floor intersection", "pinhole"},
+    {GST_IPM_RANGE_MODEL_SEED, "The seed's angle-linear model from "
+          "camera-height, blind-distance, view-depth, half-width", "seed"},
+    {0, nullptr, nullptr},
+  };
+  if (g_once_init_enter (&type)) {
+    GType t = g_enum_register_static ("GstIpmRangeModel", values);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
+
+GType
+gst_ipm_range_method_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {GST_IPM_RANGE_METHOD_GROUND, "Where the ray meets the marker's plane",
+        "ground"},
+    {GST_IPM_RANGE_METHOD_SIZE, "From the apparent size and the known "
+          "diameter (ground when the diameter is unknown)", "size"},
+    {GST_IPM_RANGE_METHOD_FUSED, "Inverse-variance weighted mean of ground "
+          "and size", "fused"},
+    {0, nullptr, nullptr},
+  };
+  if (g_once_init_enter (&type)) {
+    GType t = g_enum_register_static ("GstIpmRangeMethod", values);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
+
+GType
+gst_ipm_range_marker_kind_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {GST_IPM_RANGE_MARKER_DISC, "A flat disc, centre at marker-height",
+        "disc"},
+    {GST_IPM_RANGE_MARKER_BALL, "A ball, centre at marker-height (its "
+          "radius when it rests on the floor)", "ball"},
+    {0, nullptr, nullptr},
+  };
+  if (g_once_init_enter (&type)) {
+    GType t = g_enum_register_static ("GstIpmRangeMarkerKind", values);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
+
+/* ---- configuration -------------------------------------------------- */
+
+/* Camera parameters for a frame of width x height. */
+static bool
+ipm_range_camera_params (const Config & cfg, int width, int height,
+    landmark::CameraParams * p, const char **property, std::string * why)
+{
+  const Settings & s = cfg.s;
+  *p = landmark::CameraParams ();
+  p->width = width;
+  p->height = height;
+  p->camera_height = s.camera_height;
+  if (s.model == GST_IPM_RANGE_MODEL_SEED) {
+    p->model = landmark::CameraModel::Seed;
+    p->blind_distance = s.blind;
+    p->view_depth = s.depth;
+    p->half_width = s.half_width;
+    return true;
+  }
+  p->model = landmark::CameraModel::Pinhole;
+  p->tilt_deg = s.tilt;
+  p->roll_deg = s.roll;
+  if (cfg.have_calibration) {
+    const double kx = cfg.calib_w > 0 ? (double) width / cfg.calib_w : 1.0;
+    const double ky = cfg.calib_h > 0 ? (double) height / cfg.calib_h : 1.0;
+    p->fx = cfg.cal_fx * kx;
+    p->fy = cfg.cal_fy * ky;
+    p->cx = (cfg.cal_cx + 0.5) * kx - 0.5;
+    p->cy = (cfg.cal_cy + 0.5) * ky - 0.5;
+    p->dist = cfg.cal_dist;
+  } else if (s.fx > 0) {
+    p->fx = s.fx;
+    p->fy = s.fy > 0 ? s.fy : s.fx;
+    p->cx = s.cx >= 0 ? s.cx : (width - 1) / 2.0;
+    p->cy = s.cy >= 0 ? s.cy : (height - 1) / 2.0;
+  } else if (!landmark::intrinsics_from_hfov (s.hfov, width, height,
+          &p->fx, &p->fy, &p->cx, &p->cy)) {
+    *property = "hfov";
+    *why = "the horizontal field of view must be within (0, 180) degrees, "
+        "got " + std::to_string (s.hfov);
+    return false;
+  }
+  return true;
+}
+
+/* Checks the settings and reads the files; on failure returns FALSE with
+ * the property's name and a message. */
+static gboolean
+ipm_range_parse (const Settings & s, Config * cfg, const char **property,
+    std::string * why)
+{
+  *cfg = Config ();
+  cfg->s = s;
+  if (!(s.camera_height > 0)) {
+    *property = "camera-height";
+    *why = "the camera height must be positive, got " +
+        std::to_string (s.camera_height);
+    return FALSE;
+  }
+  if (s.model == GST_IPM_RANGE_MODEL_PINHOLE) {
+    if (!(s.hfov > 0 && s.hfov < 180) && s.fx <= 0 && s.calibration.empty ()) {
+      *property = "hfov";
+      *why = "the horizontal field of view must be within (0, 180) degrees, "
+          "got " + std::to_string (s.hfov);
+      return FALSE;
+    }
+    if (!(s.tilt >= -90 && s.tilt <= 90)) {
+      *property = "tilt";
+      *why = "the tilt must be within [-90, 90] degrees, got " +
+          std::to_string (s.tilt);
+      return FALSE;
+    }
+    if (!s.calibration.empty ()) {
+      std::string err;
+      if (!landmark::load_calibration (s.calibration, &cfg->cal_fx,
+              &cfg->cal_fy, &cfg->cal_cx, &cfg->cal_cy, &cfg->cal_dist,
+              &cfg->calib_w, &cfg->calib_h, &err)) {
+        *property = "calibration";
+        *why = err;
+        return FALSE;
+      }
+      cfg->have_calibration = true;
+    }
+  } else {
+    if (!(s.depth > 0)) {
+      *property = "view-depth";
+      *why = "model=seed needs view-depth > 0 (and blind-distance, "
+          "half-width), got " + std::to_string (s.depth);
+      return FALSE;
+    }
+    if (!(s.half_width > 0)) {
+      *property = "half-width";
+      *why = "model=seed needs half-width > 0, got " +
+          std::to_string (s.half_width);
+      return FALSE;
+    }
+  }
+  if (s.marker_height >= s.camera_height) {
+    *property = "marker-height";
+    *why = "the marker centre must be below the camera (marker-height " +
+        std::to_string (s.marker_height) + " >= camera-height " +
+        std::to_string (s.camera_height) + ")";
+    return FALSE;
+  }
+  cfg->default_marker.z = s.marker_height;
+  cfg->default_marker.diameter = s.marker_diameter;
+  cfg->default_marker.ball = s.marker_kind == GST_IPM_RANGE_MARKER_BALL;
+
+  if (!s.map.empty ()) {
+    landmark::LandmarkMap map;
+    std::string err;
+    if (!landmark::map_load_file (s.map, &map, &err)) {
+      *property = "map";
+      *why = err;
+      return FALSE;
+    }
+    std::map<std::string, bool> bad;
+    for (const auto & lm : map.landmarks) {
+      landmark::MarkerSpec m;
+      m.z = lm.z;
+      m.diameter = lm.diameter;
+      m.ball = lm.ball;
+      auto it = cfg->markers.find (lm.class_name);
+      if (it == cfg->markers.end ()) {
+        cfg->markers[lm.class_name] = m;
+      } else if (std::fabs (it->second.z - m.z) > 1e-9
+          || std::fabs (it->second.diameter - m.diameter) > 1e-9
+          || it->second.ball != m.ball) {
+        bad[lm.class_name] = true;
+      }
+    }
+    for (const auto & b : bad) {
+      cfg->markers.erase (b.first);
+      cfg->ambiguous.push_back (b.first);
+    }
+  }
+
+  /* the geometry, at the calibration's or a nominal frame size */
+  landmark::CameraParams p;
+  const int w = cfg->calib_w > 0 ? cfg->calib_w : NOMINAL_WIDTH;
+  const int h = cfg->calib_h > 0 ? cfg->calib_h : NOMINAL_HEIGHT;
+  if (!ipm_range_camera_params (*cfg, w, h, &p, property, why))
+    return FALSE;
+  landmark::CameraGeometry g;
+  std::string err;
+  if (!g.configure (p, &err)) {
+    *property = s.model == GST_IPM_RANGE_MODEL_SEED ? "model" : "tilt";
+    *why = err;
+    return FALSE;
+  }
+  return TRUE;
+}
+
+/* Builds the geometry for a frame size; posts an error on failure. */
+static gboolean
+gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
+    gboolean fatal)
+{
+  State & st = self->priv->state;
+  landmark::CameraParams p;
+  const char *property = nullptr;
+  std::string why;
+  if (ipm_range_camera_params (st.config, width, height, &p, &property,
+          &why)) {
+    property = "tilt";
+    if (st.geometry.configure (p, &why)) {
+      st.geometry_w = width;
+      st.geometry_h = height;
+      GST_INFO_OBJECT (self, "geometry for %dx%d: fx %.3f fy %.3f cx %.3f "
+          "cy %.3f, %zu distortion coefficients", width, height, p.fx, p.fy,
+          p.cx, p.cy, p.dist.size ());
+      return TRUE;
+    }
+  }
+  st.geometry_w = st.geometry_h = 0;
+  if (fatal)
+    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+        ("Invalid camera geometry for %dx%d ('%s').", width, height,
+            property), ("%s", why.c_str ()));
+  else
+    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+        ("Invalid camera geometry for %dx%d ('%s').", width, height,
+            property), ("%s", why.c_str ()));
+  return FALSE;
+}
+
+/* ---- GObject -------------------------------------------------------- */
+
+static void
+gst_ipm_range_init (GstIpmRange * self)
+{
+  self->priv = new GstIpmRangePrivate ();
+  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
+  gst_base_transform_set_in_place (trans, TRUE);
+  gst_base_transform_set_qos_enabled (trans, FALSE);
+}
+
+static void
+gst_ipm_range_finalize (GObject * object)
+{
+  delete GST_IPM_RANGE (object)->priv;
+  G_OBJECT_CLASS (gst_ipm_range_parent_class)->finalize (object);
+}
+
+static void
+gst_ipm_range_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  auto priv = GST_IPM_RANGE (object)->priv;
+  std::lock_guard<std::mutex> lk (priv->lock);
+  Settings & s = priv->settings;
+  switch (prop_id) {
+    case PROP_MODEL:
+      s.model = (GstIpmRangeModel) g_value_get_enum (value);
+      break;
+    case PROP_CAMERA_HEIGHT:
+      s.camera_height = g_value_get_double (value);
+      break;
+    case PROP_TILT:
+      s.tilt = g_value_get_double (value);
+      break;
+    case PROP_ROLL:
+      s.roll = g_value_get_double (value);
+      break;
+    case PROP_HFOV:
+      s.hfov = g_value_get_double (value);
+      break;
+    case PROP_FX:
+      s.fx = g_value_get_double (value);
+      break;
+    case PROP_FY:
+      s.fy = g_value_get_double (value);
+      break;
+    case PROP_CX:
+      s.cx = g_value_get_double (value);
+      break;
+    case PROP_CY:
+      s.cy = g_value_get_double (value);
+      break;
+    case PROP_CALIBRATION:{
+      const gchar *v = g_value_get_string (value);
+      s.calibration = v ? v : "";
+      break;
+    }
+    case PROP_BLIND_DISTANCE:
+      s.blind = g_value_get_double (value);
+      break;
+    case PROP_VIEW_DEPTH:
+      s.depth = g_value_get_double (value);
+      break;
+    case PROP_HALF_WIDTH:
+      s.half_width = g_value_get_double (value);
+      break;
+    case PROP_MARKER_HEIGHT:
+      s.marker_height = g_value_get_double (value);
+      break;
+    case PROP_MARKER_DIAMETER:
+      s.marker_diameter = g_value_get_double (value);
+      break;
+    case PROP_MARKER_KIND:
+      s.marker_kind = (GstIpmRangeMarkerKind) g_value_get_enum (value);
+      break;
+    case PROP_MAP:{
+      const gchar *v = g_value_get_string (value);
+      s.map = v ? v : "";
+      break;
+    }
+    case PROP_RANGE_METHOD:
+      s.method = (GstIpmRangeMethod) g_value_get_enum (value);
+      break;
+    case PROP_PIXEL_SIGMA:
+      s.pixel_sigma = g_value_get_double (value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      return;
+  }
+  s.generation++;
+}
+
+static void
+gst_ipm_range_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  auto priv = GST_IPM_RANGE (object)->priv;
+  std::lock_guard<std::mutex> lk (priv->lock);
+  const Settings & s = priv->settings;
+  switch (prop_id) {
+    case PROP_MODEL:
+      g_value_set_enum (value, s.model);
+      break;
+    case PROP_CAMERA_HEIGHT:
+      g_value_set_double (value, s.camera_height);
+      break;
+    case PROP_TILT:
+      g_value_set_double (value, s.tilt);
+      break;
+    case PROP_ROLL:
+      g_value_set_double (value, s.roll);
+      break;
+    case PROP_HFOV:
+      g_value_set_double (value, s.hfov);
+      break;
+    case PROP_FX:
+      g_value_set_double (value, s.fx);
+      break;
+    case PROP_FY:
+      g_value_set_double (value, s.fy);
+      break;
+    case PROP_CX:
+      g_value_set_double (value, s.cx);
+      break;
+    case PROP_CY:
+      g_value_set_double (value, s.cy);
+      break;
+    case PROP_CALIBRATION:
+      g_value_set_string (value, s.calibration.empty ()? nullptr :
+          s.calibration.c_str ());
+      break;
+    case PROP_BLIND_DISTANCE:
+      g_value_set_double (value, s.blind);
+      break;
+    case PROP_VIEW_DEPTH:
+      g_value_set_double (value, s.depth);
+      break;
+    case PROP_HALF_WIDTH:
+      g_value_set_double (value, s.half_width);
+      break;
+    case PROP_MARKER_HEIGHT:
+      g_value_set_double (value, s.marker_height);
+      break;
+    case PROP_MARKER_DIAMETER:
+      g_value_set_double (value, s.marker_diameter);
+      break;
+    case PROP_MARKER_KIND:
+      g_value_set_enum (value, s.marker_kind);
+      break;
+    case PROP_MAP:
+      g_value_set_string (value, s.map.empty ()? nullptr : s.map.c_str ());
+      break;
+    case PROP_RANGE_METHOD:
+      g_value_set_enum (value, s.method);
+      break;
+    case PROP_PIXEL_SIGMA:
+      g_value_set_double (value, s.pixel_sigma);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+}
+
+/* ---- states and caps ------------------------------------------------ */
+
+/* Parses the current settings into the state; posts an error (fatal) or a
+ * warning and keeps the previous configuration. */
+static gboolean
+gst_ipm_range_configure (GstIpmRange * self, gboolean fatal)
+{
+  State & st = self->priv->state;
+  Settings s;
+  {
+    std::lock_guard<std::mutex> lk (self->priv->lock);
+    s = self->priv->settings;
+  }
+  const char *property = nullptr;
+  std::string why;
+  Config cfg;
+  st.generation = s.generation;
+  if (!ipm_range_parse (s, &cfg, &property, &why)) {
+    if (fatal)
+      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+    else
+      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+          ("Invalid '%s' value; the previous settings stay.", property),
+          ("%s", why.c_str ()));
+    return FALSE;
+  }
+  for (const auto & name : cfg.ambiguous)
+    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+        ("The map's '%s' landmarks differ in height, diameter or kind; "
+            "marker-height, marker-diameter and marker-kind apply to them.",
+            name.c_str ()), ("map %s", s.map.c_str ()));
+  const Config old = st.config;
+  st.config = std::move (cfg);
+  if (st.geometry_w > 0 && !gst_ipm_range_build (self, st.geometry_w,
+          st.geometry_h, fatal)) {
+    /* keep the previous, working configuration */
+    if (!fatal) {
+      st.config = old;
+      gst_ipm_range_build (self, st.geometry_w ? st.geometry_w :
+          st.caps_w, st.geometry_h ? st.geometry_h : st.caps_h, FALSE);
+    }
+    return FALSE;
+  }
+  return TRUE;
+}
+
+static GstStateChangeReturn
+gst_ipm_range_change_state (GstElement * element, GstStateChange transition)
+{
+  auto self = GST_IPM_RANGE (element);
+  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
+    /* check the settings and files early: bad geometry fails READY */
+    Settings s;
+    {
+      std::lock_guard<std::mutex> lk (self->priv->lock);
+      s = self->priv->settings;
+    }
+    Config cfg;
+    const char *property = nullptr;
+    std::string why;
+    if (!ipm_range_parse (s, &cfg, &property, &why)) {
+      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+      return GST_STATE_CHANGE_FAILURE;
+    }
+  }
+  return GST_ELEMENT_CLASS (gst_ipm_range_parent_class)->change_state
+      (element, transition);
+}
+
+static gboolean
+gst_ipm_range_start (GstBaseTransform * trans)
+{
+  auto self = GST_IPM_RANGE (trans);
+  State & st = self->priv->state;
+  st.geometry_w = st.geometry_h = 0;
+  st.caps_w = st.caps_h = 0;
+  return gst_ipm_range_configure (self, TRUE);
+}
+
+static gboolean
+gst_ipm_range_stop (GstBaseTransform * trans)
+{
+  State & st = GST_IPM_RANGE (trans)->priv->state;
+  st.geometry_w = st.geometry_h = 0;
+  return TRUE;
+}
+
+static gboolean
+gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
+    GstCaps * outcaps)
+{
+  auto self = GST_IPM_RANGE (trans);
+  State & st = self->priv->state;
+  (void) outcaps;
+  GstVideoInfo info;
+  GST_DEBUG_OBJECT (self, "caps %" GST_PTR_FORMAT, incaps);
+  if (!gst_video_info_from_caps (&info, incaps)) {
+    /* no frame size: built from the detections' frame size instead */
+    st.caps_w = st.caps_h = 0;
+    return TRUE;
+  }
+  st.caps_w = GST_VIDEO_INFO_WIDTH (&info);
+  st.caps_h = GST_VIDEO_INFO_HEIGHT (&info);
+  if (st.caps_w == st.geometry_w && st.caps_h == st.geometry_h)
+    return TRUE;
+  return gst_ipm_range_build (self, st.caps_w, st.caps_h, TRUE);
+}
+
+/* ---- streaming ------------------------------------------------------ */
+
+static void
+gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
+    GstVideoRegionOfInterestMeta * roi)
+{
+  State & st = self->priv->state;
+  const Config & cfg = st.config;
+  const GstStructure *blob = landmark_detection_get_param (buf, roi,
+      LANDMARK_BLOB_PARAMS);
+
+  landmark::BlobObservation obs;
+  guint fw = 0, fh = 0;
+  bool have_centroid = false;
+  if (blob) {
+    have_centroid = gst_structure_get_double (blob, "centroid-x", &obs.u)
+        && gst_structure_get_double (blob, "centroid-y", &obs.v);
+    obs.has_ellipse = gst_structure_get_double (blob, "ellipse-x", &obs.eu)
+        && gst_structure_get_double (blob, "ellipse-y", &obs.ev)
+        && gst_structure_get_double (blob, "ellipse-major", &obs.major)
+        && gst_structure_get_double (blob, "ellipse-minor", &obs.minor)
+        && gst_structure_get_double (blob, "ellipse-angle", &obs.angle);
+    gst_structure_get_double (blob, "equivalent-diameter",
+        &obs.equivalent_diameter);
+    gst_structure_get_uint (blob, "frame-width", &fw);
+    gst_structure_get_uint (blob, "frame-height", &fh);
+  }
+  if (!have_centroid) {
+    /* the box's centre, pixel-centre convention */
+    obs.u = roi->x + (roi->w - 1) / 2.0;
+    obs.v = roi->y + (roi->h - 1) / 2.0;
+    obs.has_ellipse = false;
+    fw = fh = 0;
+  }
+  if (fw == 0 || fh == 0) {
+    fw = st.caps_w ? st.caps_w : st.geometry_w;
+    fh = st.caps_h ? st.caps_h : st.geometry_h;
+  }
+  if (st.geometry_w == 0 && fw > 0 && fh > 0)
+    gst_ipm_range_build (self, fw, fh, FALSE);
+  if (st.geometry_w == 0 || fw == 0 || fh == 0)
+    return;
+  obs.sx = (double) st.geometry_w / fw;
+  obs.sy = (double) st.geometry_h / fh;
+
+  landmark::MarkerSpec marker = cfg.default_marker;
+  const gchar *cls = g_quark_to_string (roi->roi_type);
+  if (cls) {
+    auto it = cfg.markers.find (cls);
+    if (it != cfg.markers.end ())
+      marker = it->second;
+  }
+  if (marker.z >= cfg.s.camera_height)
+    marker.z = 0;   /* cannot range it; treat as on the floor */
+
+  const landmark::RangeEstimate e = landmark::estimate_range (st.geometry,
+      obs, marker, cfg.s.pixel_sigma);
+
+  GstStructure *s;
+  if (e.no_floor) {
+    s = gst_structure_new (LANDMARK_RANGE_PARAMS,
+        "no-floor", G_TYPE_BOOLEAN, TRUE, nullptr);
+    landmark_detection_add_param (buf, roi, s);
+    return;
+  }
+  const char *method = "ground";
+  double range = e.range_ground, sigma = e.range_ground_sigma;
+  if (e.has_size && cfg.s.method == GST_IPM_RANGE_METHOD_SIZE) {
+    method = "size";
+    range = e.range_size;
+    sigma = e.range_size_sigma;
+  } else if (e.has_size && cfg.s.method == GST_IPM_RANGE_METHOD_FUSED &&
+      e.range_ground_sigma > 0 && e.range_size_sigma > 0) {
+    method = "fused";
+    const double wg = 1.0 / (e.range_ground_sigma * e.range_ground_sigma);
+    const double ws = 1.0 / (e.range_size_sigma * e.range_size_sigma);
+    range = (wg * e.range_ground + ws * e.range_size) / (wg + ws);
+    sigma = 1.0 / std::sqrt (wg + ws);
+  }
+  const double k = e.range_ground > 0 ? range / e.range_ground : 1.0;
+  s = gst_structure_new (LANDMARK_RANGE_PARAMS,
+      "range", G_TYPE_DOUBLE, range,
+      "bearing", G_TYPE_DOUBLE, e.bearing,
+      "ground-x", G_TYPE_DOUBLE, e.ground_x * k,
+      "ground-y", G_TYPE_DOUBLE, e.ground_y * k,
+      "range-ground", G_TYPE_DOUBLE, e.range_ground,
+      "method", G_TYPE_STRING, method,
+      "range-sigma", G_TYPE_DOUBLE, sigma,
+      "bearing-sigma", G_TYPE_DOUBLE, e.bearing_sigma,
+      "no-floor", G_TYPE_BOOLEAN, FALSE, nullptr);
+  if (e.has_size)
+    gst_structure_set (s, "range-size", G_TYPE_DOUBLE, e.range_size,
+        nullptr);
+  landmark_detection_add_param (buf, roi, s);
+}
+
+static GstFlowReturn
+gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
+{
+  auto self = GST_IPM_RANGE (trans);
+  State & st = self->priv->state;
+  guint generation;
+  {
+    std::lock_guard<std::mutex> lk (self->priv->lock);
+    generation = self->priv->settings.generation;
+  }
+  if (generation != st.generation) {
+    gst_ipm_range_configure (self, FALSE);
+    if (st.geometry_w == 0 && st.caps_w > 0)
+      gst_ipm_range_build (self, st.caps_w, st.caps_h, FALSE);
+  }
+  try {
+    /* collect first: adding parameters adds metas to the buffer */
+    std::vector<GstVideoRegionOfInterestMeta *> rois;
+    gpointer iter = nullptr;
+    GstMeta *meta;
+    while ((meta = gst_buffer_iterate_meta_filtered (buf, &iter,
+                GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE)))
+      rois.push_back ((GstVideoRegionOfInterestMeta *) meta);
+    for (GstVideoRegionOfInterestMeta * roi : rois)
+      gst_ipm_range_measure (self, buf, roi);
+  }
+  catch (const std::exception & e) {
+    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Ranging failed."),
+        ("%s", e.what ()));
+    return GST_FLOW_ERROR;
+  }
+  return GST_FLOW_OK;
+}
+
+static void
+gst_ipm_range_class_init (GstIpmRangeClass * klass)
+{
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
+
+  gobject_class->set_property = gst_ipm_range_set_property;
+  gobject_class->get_property = gst_ipm_range_get_property;
+  gobject_class->finalize = gst_ipm_range_finalize;
+
+  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
+      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
+  g_object_class_install_property (gobject_class, PROP_MODEL,
+      g_param_spec_enum ("model", "Camera model",
+          "How pixels map to the floor", GST_TYPE_IPM_RANGE_MODEL,
+          DEFAULT_MODEL, flags));
+  g_object_class_install_property (gobject_class, PROP_CAMERA_HEIGHT,
+      g_param_spec_double ("camera-height", "Camera height",
+          "Height of the camera's optical centre above the floor, metres "
+          "(must be > 0)", 0.0, 1000.0, DEFAULT_CAMERA_HEIGHT, flags));
+  g_object_class_install_property (gobject_class, PROP_TILT,
+      g_param_spec_double ("tilt", "Tilt",
+          "model=pinhole: degrees below the horizontal, [-90, 90]",
+          -360.0, 360.0, DEFAULT_TILT, flags));
+  g_object_class_install_property (gobject_class, PROP_ROLL,
+      g_param_spec_double ("roll", "Roll",
+          "model=pinhole: degrees about the optical axis, clockwise as seen "
+          "from behind the camera", -360.0, 360.0, DEFAULT_ROLL, flags));
+  g_object_class_install_property (gobject_class, PROP_HFOV,
+      g_param_spec_double ("hfov", "Horizontal field of view",
+          "model=pinhole: degrees, (0, 180), principal point at the image "
+          "centre; unused when fx or calibration is set", 0.0, 360.0,
+          DEFAULT_HFOV, flags));
+  g_object_class_install_property (gobject_class, PROP_FX,
+      g_param_spec_double ("fx", "Focal length x",
+          "model=pinhole: pixels; 0: from hfov", 0.0, G_MAXDOUBLE,
+          DEFAULT_FX, flags));
+  g_object_class_install_property (gobject_class, PROP_FY,
+      g_param_spec_double ("fy", "Focal length y",
+          "model=pinhole: pixels; 0: as fx", 0.0, G_MAXDOUBLE, DEFAULT_FY,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_CX,
+      g_param_spec_double ("cx", "Principal point x",
+          "model=pinhole with fx: pixels; < 0: (width - 1) / 2", -1.0,
+          G_MAXDOUBLE, DEFAULT_CX, flags));
+  g_object_class_install_property (gobject_class, PROP_CY,
+      g_param_spec_double ("cy", "Principal point y",
+          "model=pinhole with fx: pixels; < 0: (height - 1) / 2", -1.0,
+          G_MAXDOUBLE, DEFAULT_CY, flags));
+  g_object_class_install_property (gobject_class, PROP_CALIBRATION,
+      g_param_spec_string ("calibration", "Calibration file",
+          "model=pinhole: OpenCV FileStorage file (YAML or XML) with "
+          "camera_matrix and distortion_coefficients; overrides hfov and "
+          "fx/fy/cx/cy", nullptr, flags));
+  g_object_class_install_property (gobject_class, PROP_BLIND_DISTANCE,
+      g_param_spec_double ("blind-distance", "Blind distance",
+          "model=seed: metres along the floor from the camera's floor point "
+          "to the first visible floor point (b)", 0.0, 1000.0,
+          DEFAULT_BLIND, flags));
+  g_object_class_install_property (gobject_class, PROP_VIEW_DEPTH,
+      g_param_spec_double ("view-depth", "View depth",
+          "model=seed: metres of floor from the first visible point to the "
+          "point seen at the image centre line (d)", 0.0, 1000.0,
+          DEFAULT_DEPTH, flags));
+  g_object_class_install_property (gobject_class, PROP_HALF_WIDTH,
+      g_param_spec_double ("half-width", "Half width",
+          "model=seed: half-width of the visible floor at distance b + d, "
+          "metres (w)", 0.0, 1000.0, DEFAULT_HALF_WIDTH, flags));
+  g_object_class_install_property (gobject_class, PROP_MARKER_HEIGHT,
+      g_param_spec_double ("marker-height", "Marker height",
+          "Height of the markers' centre above the floor, metres (a ball: "
+          "its radius); the map's z overrides it per class", 0.0, 1000.0,
+          DEFAULT_MARKER_HEIGHT, flags));
+  g_object_class_install_property (gobject_class, PROP_MARKER_DIAMETER,
+      g_param_spec_double ("marker-diameter", "Marker diameter",
+          "Diameter of the markers, metres, for the size range (0: "
+          "unknown); the map's diameter overrides it per class", 0.0,
+          1000.0, DEFAULT_MARKER_DIAMETER, flags));
+  g_object_class_install_property (gobject_class, PROP_MARKER_KIND,
+      g_param_spec_enum ("marker-kind", "Marker kind",
+          "Shape of the markers; the map's kind overrides it per class",
+          GST_TYPE_IPM_RANGE_MARKER_KIND, DEFAULT_MARKER_KIND, flags));
+  g_object_class_install_property (gobject_class, PROP_MAP,
+      g_param_spec_string ("map", "Map file",
+          "Landmark map JSON: z, diameter and kind of each class's "
+          "landmarks", nullptr, flags));
+  g_object_class_install_property (gobject_class, PROP_RANGE_METHOD,
+      g_param_spec_enum ("range-method", "Range method",
+          "What range reports", GST_TYPE_IPM_RANGE_METHOD, DEFAULT_METHOD,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_PIXEL_SIGMA,
+      g_param_spec_double ("pixel-sigma", "Pixel sigma",
+          "One-sigma error of a measured image point, pixels, for "
+          "range-sigma, bearing-sigma and the fused weights", 0.0, 100.0,
+          DEFAULT_PIXEL_SIGMA, flags));
+
+  gst_element_class_set_static_metadata (element_class,
+      "Landmark range by inverse perspective mapping",
+      "Filter/Analyzer/Video",
+      "Adds range and bearing (robot frame) to every landmark detection, "
+      "from a pinhole or the seed's camera model and the markers' size",
+      "gst-landmark developers");
+  gst_element_class_add_static_pad_template (element_class, &sink_template);
+  gst_element_class_add_static_pad_template (element_class, &src_template);
+
+  element_class->change_state = GST_DEBUG_FUNCPTR (gst_ipm_range_change_state);
+  trans_class->start = GST_DEBUG_FUNCPTR (gst_ipm_range_start);
+  trans_class->stop = GST_DEBUG_FUNCPTR (gst_ipm_range_stop);
+  trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_ipm_range_set_caps);
+  trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_ipm_range_transform_ip);
+
+  gst_type_mark_as_plugin_api (GST_TYPE_IPM_RANGE_MODEL,
+      (GstPluginAPIFlags) 0);
+  gst_type_mark_as_plugin_api (GST_TYPE_IPM_RANGE_METHOD,
+      (GstPluginAPIFlags) 0);
+  gst_type_mark_as_plugin_api (GST_TYPE_IPM_RANGE_MARKER_KIND,
+      (GstPluginAPIFlags) 0);
+}

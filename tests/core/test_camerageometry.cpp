@@ -1,0 +1,311 @@
+/* Camera geometry (plugins/landmark/core/camerageometry.h) against
+ * cv::projectPoints and the seed's equations (3.1)-(3.6). */
+#include "camerageometry.h"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace landmark;
+
+static int failures = 0;
+
+#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
+      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
+      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
+  } while (0)
+
+/* The world-to-camera rotation of docs/conventions.md, written out
+ * independently of camerageometry.cpp: rows x_c', y_c', z_c. */
+static cv::Matx33d
+robot_to_camera (double tilt_deg, double roll_deg)
+{
+  const double t = tilt_deg * M_PI / 180, r = roll_deg * M_PI / 180;
+  const cv::Vec3d xc (0, -1, 0), yc (-std::sin (t), 0, -std::cos (t)),
+      zc (std::cos (t), 0, -std::sin (t));
+  const cv::Vec3d x2 = std::cos (r) * xc + std::sin (r) * yc;
+  const cv::Vec3d y2 = -std::sin (r) * xc + std::cos (r) * yc;
+  return cv::Matx33d (x2[0], x2[1], x2[2], y2[0], y2[1], y2[2], zc[0], zc[1],
+      zc[2]);
+}
+
+/* Random floor (or plane z0) points in view, projected with
+ * cv::projectPoints, then back-projected by the geometry. */
+static void
+test_projectpoints_roundtrip (const CameraParams & p, double z0,
+    const char *name)
+{
+  CameraGeometry g;
+  std::string err;
+  CHECK (g.configure (p, &err), "%s: %s", name, err.c_str ());
+  const cv::Matx33d rot = robot_to_camera (p.tilt_deg, p.roll_deg);
+  cv::Vec3d rvec;
+  cv::Rodrigues (rot, rvec);
+  const cv::Vec3d tvec = -(rot * cv::Vec3d (0, 0, p.camera_height));
+  const cv::Matx33d k (p.fx, 0, p.cx, 0, p.fy, p.cy, 0, 0, 1);
+  std::mt19937 rng (42);
+  std::uniform_real_distribution<double> fwd (0.2, 6.0), lat (-3.0, 3.0);
+  int tested = 0;
+  double worst = 0;
+  for (int i = 0; i < 4000 && tested < 500; i++) {
+    const cv::Point3d pt (fwd (rng), lat (rng), z0);
+    const cv::Vec3d pc = rot * (cv::Vec3d (pt.x, pt.y, pt.z) -
+        cv::Vec3d (0, 0, p.camera_height));
+    /* in front, and within the radius where the distortion polynomial is
+     * monotonic (farther points fold back into the image) */
+    if (pc[2] < 0.05 || std::hypot (pc[0] / pc[2], pc[1] / pc[2]) > 0.8)
+      continue;
+    std::vector<cv::Point3d> obj {pt};
+    std::vector<cv::Point2d> img;
+    cv::projectPoints (obj, rvec, tvec, k, p.dist, img);
+    const double u = img[0].x, v = img[0].y;
+    /* keep points inside the image, where the distortion is invertible */
+    if (u < 0 || v < 0 || u > p.width - 1 || v > p.height - 1)
+      continue;
+    double gx, gy;
+    const bool ok = g.pixel_to_plane (u, v, z0, &gx, &gy);
+    CHECK (ok, "%s: (%g, %g) has no floor", name, u, v);
+    if (!ok)
+      continue;
+    const double e = std::hypot (gx - pt.x, gy - pt.y);
+    worst = std::max (worst, e);
+    tested++;
+    /* and forward: project() agrees with cv::projectPoints */
+    double pu, pv;
+    CHECK (g.project (Vec3 {pt.x, pt.y, pt.z}, &pu, &pv) &&
+        std::hypot (pu - u, pv - v) < 1e-6, "%s: project", name);
+  }
+  CHECK (tested >= 100, "%s: only %d points in view", name, tested);
+  CHECK (worst < 1e-6, "%s: worst back-projection error %g m", name, worst);
+  std::printf ("%-28s %3d points, worst error %.3g m\n", name, tested, worst);
+}
+
+static void
+test_pinhole ()
+{
+  CameraParams p;
+  p.width = 640;
+  p.height = 480;
+  p.camera_height = 0.3;
+  p.tilt_deg = 25;
+  CHECK (intrinsics_from_hfov (60, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy),
+      "hfov");
+  CHECK (std::fabs (p.fx - 554.256258) < 1e-5 && p.cx == 319.5 &&
+      p.cy == 239.5, "intrinsics %g %g %g", p.fx, p.cx, p.cy);
+  test_projectpoints_roundtrip (p, 0.0, "pinhole floor");
+  test_projectpoints_roundtrip (p, 0.05, "pinhole plane z=0.05");
+  p.roll_deg = 7;
+  p.tilt_deg = 35;
+  p.camera_height = 0.8;
+  p.fy = p.fx * 1.02;
+  p.cx = 330.2;
+  p.cy = 231.7;
+  test_projectpoints_roundtrip (p, 0.0, "pinhole roll 7 tilt 35");
+  p.dist = {-0.28, 0.09, 0.001, -0.0015, -0.012};
+  test_projectpoints_roundtrip (p, 0.0, "pinhole with distortion");
+  p.roll_deg = -12;
+  test_projectpoints_roundtrip (p, 0.1, "distortion, roll -12, z=0.1");
+
+  /* analytic: straight ahead, image centre row -> h / tan(tilt) */
+  CameraParams q;
+  q.width = 641;
+  q.height = 481;
+  q.camera_height = 0.5;
+  q.tilt_deg = 30;
+  intrinsics_from_hfov (60, 641, 481, &q.fx, &q.fy, &q.cx, &q.cy);
+  CameraGeometry g;
+  std::string err;
+  CHECK (g.configure (q, &err), "%s", err.c_str ());
+  double gx, gy;
+  CHECK (g.pixel_to_plane (320, 240, 0, &gx, &gy) &&
+      std::fabs (gx - 0.5 / std::tan (M_PI / 6)) < 1e-12 &&
+      std::fabs (gy) < 1e-12, "centre %g %g", gx, gy);
+  /* a point to the right of centre has negative bearing */
+  CHECK (g.pixel_to_plane (500, 300, 0, &gx, &gy) && gy < 0, "right %g", gy);
+  double r, b;
+  CHECK (g.lookup (320, 240, &r, &b) &&
+      std::fabs (r - 0.5 / std::tan (M_PI / 6)) < 1e-5, "lookup %g", r);
+  /* tilt 10: the top rows are above the horizon (vertical half fov 23.4) */
+  CameraParams up = q;
+  up.tilt_deg = 10;
+  CHECK (g.configure (up, &err), "%s", err.c_str ());
+  CHECK (!g.pixel_to_plane (320, 0, 0, &gx, &gy), "top row sees floor");
+  CHECK (!g.lookup (320, 0, &r, &b), "lookup above the horizon");
+  CHECK (g.pixel_to_plane (320, 480, 0, &gx, &gy), "bottom row");
+
+  /* impossible geometry */
+  CameraParams bad = q;
+  bad.camera_height = 0;
+  CHECK (!g.configure (bad, &err) && err.find ("camera-height") !=
+      std::string::npos, "zero height: %s", err.c_str ());
+  bad = q;
+  bad.tilt_deg = -40;   /* vertical half fov is about 24 degrees */
+  CHECK (!g.configure (bad, &err) && err.find ("no floor") !=
+      std::string::npos, "tilt up: %s", err.c_str ());
+  CHECK (!intrinsics_from_hfov (180, 640, 480, &gx, &gy, &r, &b), "hfov 180");
+  CHECK (!intrinsics_from_hfov (0, 640, 480, &gx, &gy, &r, &b), "hfov 0");
+}
+
+static void
+test_seed ()
+{
+  /* h, b, d, w as a user measures them with a tape */
+  CameraParams p;
+  p.model = CameraModel::Seed;
+  p.width = 640;
+  p.height = 480;
+  p.camera_height = 0.4;
+  p.blind_distance = 0.3;
+  p.view_depth = 0.9;
+  p.half_width = 0.6;
+  CameraGeometry g;
+  std::string err;
+  CHECK (g.configure (p, &err), "%s", err.c_str ());
+  const double h = 0.4, b = 0.3, d = 0.9, w = 0.6;
+  const double gamma = std::atan (b / h);
+  const double alpha = std::atan ((b + d) / h) - gamma;
+  const double beta = std::atan (w / (b + d));
+  /* (3.1)-(3.4) */
+  CHECK (std::fabs (g.seed_alpha () + g.seed_gamma () + g.seed_tilt () -
+          M_PI / 2) < 1e-12, "3.1");
+  CHECK (std::fabs (std::tan (g.seed_gamma ()) - b / h) < 1e-12, "3.2");
+  CHECK (std::fabs (std::tan (g.seed_gamma () + g.seed_alpha ()) -
+          (b + d) / h) < 1e-12, "3.3");
+  CHECK (std::fabs (std::tan (g.seed_beta ()) - w / (b + d)) < 1e-12, "3.4");
+  /* (3.5)-(3.6) on a grid, against the equations written out here */
+  const double m = 640, n = 480;
+  double worst = 0;
+  for (int v = 0; v < 480; v += 7)
+    for (int u = 0; u < 640; u += 9) {
+      const double psi = gamma + 2 * alpha * (n - 1 - v) / (n - 1);
+      double y, x;
+      const bool floor = g.seed_floor (u, v, &y, &x);
+      CHECK (floor == (psi < M_PI / 2), "horizon at v=%d", v);
+      if (!floor)
+        continue;
+      const double ye = h * std::tan (psi);                   /* 3.5 */
+      const double xe = ye * std::tan (beta * (2 * u - m + 1) / (m - 1));
+      worst = std::max (worst, std::hypot (y - ye, x - xe));
+      /* the ray model gives the same floor point: ground-y = -x */
+      double gx, gy;
+      CHECK (g.pixel_to_plane (u, v, 0, &gx, &gy), "ray floor");
+      worst = std::max (worst, std::hypot (gx - ye, gy + xe));
+      double pu, pv;
+      CHECK (g.project (Vec3 {gx, gy, 0}, &pu, &pv) &&
+          std::hypot (pu - u, pv - v) < 1e-6, "seed project");
+    }
+  CHECK (worst < 1e-9, "seed equations: worst %g", worst);
+  /* bottom row is b ahead, centre column straight ahead (m odd: exact) */
+  double y, x;
+  CHECK (g.seed_floor (319.5, 479, &y, &x) && std::fabs (y - b) < 1e-12 &&
+      std::fabs (x) < 1e-12, "bottom row %g %g", y, x);
+  CHECK (g.seed_floor (0, 239.5, &y, &x) && std::fabs (y - (b + d)) < 1e-12
+      && std::fabs (x + w) < 1e-12, "left edge at b + d: %g %g", y, x);
+  CameraParams bad = p;
+  bad.view_depth = 0;
+  CHECK (!g.configure (bad, &err), "view-depth 0");
+  std::printf ("seed equations worst error %.3g m\n", worst);
+}
+
+static void
+test_estimate ()
+{
+  /* a disc lying on the floor seen at a slant: the ellipse centre is not
+   * the disc centre's image; the estimate recovers the true centre */
+  CameraParams p;
+  p.width = 640;
+  p.height = 480;
+  p.camera_height = 0.3;
+  p.tilt_deg = 25;
+  intrinsics_from_hfov (60, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy);
+  CameraGeometry g;
+  std::string err;
+  g.configure (p, &err);
+  const double cx = 0.9, cy = 0.25, rad = 0.05;
+  std::vector<cv::Point2f> outline;
+  for (int i = 0; i < 360; i++) {
+    double u, v;
+    const double t = 2 * M_PI * i / 360;
+    g.project (Vec3 {cx + rad * std::cos (t), cy + rad * std::sin (t), 0},
+        &u, &v);
+    outline.emplace_back ((float) u, (float) v);
+  }
+  const cv::RotatedRect e = cv::fitEllipse (outline);
+  BlobObservation o;
+  o.has_ellipse = true;
+  o.eu = e.center.x;
+  o.ev = e.center.y;
+  o.major = std::max (e.size.width, e.size.height);
+  o.minor = std::min (e.size.width, e.size.height);
+  o.angle = e.angle * M_PI / 180 + (e.size.width < e.size.height ?
+      M_PI / 2 : 0);
+  o.u = o.eu;
+  o.v = o.ev;
+  MarkerSpec disc;
+  disc.diameter = 2 * rad;
+  const RangeEstimate r = estimate_range (g, o, disc, 0.5);
+  const double want = std::hypot (cx, cy);
+  CHECK (!r.no_floor && std::fabs (r.range_ground - want) < 2e-4,
+      "disc ground %g want %g", r.range_ground, want);
+  CHECK (r.has_size && std::fabs (r.range_size - want) < 5e-3,
+      "disc size %g want %g", r.range_size, want);
+  CHECK (std::fabs (r.bearing - std::atan2 (cy, cx)) < 2e-4, "bearing");
+  /* the ellipse centre's own floor point is biased (farther) */
+  double gx, gy;
+  g.pixel_to_plane (o.eu, o.ev, 0, &gx, &gy);
+  CHECK (std::fabs (std::hypot (gx, gy) - want) > 1e-3,
+      "no bias to correct?");
+  std::printf ("disc: ground %.5f size %.5f (true %.5f), ellipse centre "
+      "%.5f\n", r.range_ground, r.range_size, want, std::hypot (gx, gy));
+}
+
+static void
+test_calibration_file ()
+{
+  const std::string path = "test-camerageometry-cal.yaml";
+  {
+    cv::FileStorage fs (path, cv::FileStorage::WRITE);
+    fs << "image_width" << 640 << "image_height" << 480;
+    fs << "camera_matrix" << cv::Mat (cv::Matx33d (500, 0, 320, 0, 502, 240,
+            0, 0, 1));
+    fs << "distortion_coefficients" << cv::Mat (cv::Matx<double, 5, 1> (-0.2,
+            0.05, 0, 0, 0));
+  }
+  double fx, fy, cx, cy;
+  std::vector<double> dist;
+  int w, h;
+  std::string err;
+  CHECK (load_calibration (path, &fx, &fy, &cx, &cy, &dist, &w, &h, &err),
+      "%s", err.c_str ());
+  CHECK (fx == 500 && fy == 502 && cx == 320 && cy == 240 && w == 640 &&
+      h == 480 && dist.size () == 5 && dist[0] == -0.2, "values");
+  CHECK (!load_calibration ("/nonexistent/cal.yaml", &fx, &fy, &cx, &cy,
+          &dist, &w, &h, &err) && err.find ("/nonexistent/cal.yaml") == 0,
+      "missing file: %s", err.c_str ());
+  {
+    std::ofstream f (path);
+    f << "%YAML:1.0\n---\nfoo: 1\n";
+  }
+  CHECK (!load_calibration (path, &fx, &fy, &cx, &cy, &dist, &w, &h, &err)
+      && err.find ("camera_matrix") != std::string::npos, "%s", err.c_str ());
+  std::remove (path.c_str ());
+}
+
+int
+main ()
+{
+  test_pinhole ();
+  test_seed ();
+  test_estimate ();
+  test_calibration_file ();
+  if (failures)
+    std::fprintf (stderr, "%d failures\n", failures);
+  return failures ? 1 : 0;
+}

@@ -54,6 +54,7 @@
 #include <vector>
 
 #include "classtable.h"
+#include "landmarkcv.h"
 #include "landmarkmeta.h"
 #include "palette.h"
 
@@ -79,16 +80,14 @@ enum
   PROP_RARE_CLASSES,
 };
 
-#define LAB_SEGMENT_FORMATS \
-    "{ RGB, BGR, RGBx, BGRx, xRGB, xBGR, RGBA, BGRA, I420, NV12, YUY2 }"
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
     GST_PAD_SINK, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LAB_SEGMENT_FORMATS)));
+    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
 
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LAB_SEGMENT_FORMATS)));
+    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
 
 /* *INDENT-OFF* */
 namespace {
@@ -699,47 +698,32 @@ gst_lab_segment_set_info (GstVideoFilter * filter, GstCaps * incaps,
   (void) outcaps;
   (void) out_info;
 
+  LandmarkFrameFormat format;
+  if (!landmark_frame_format (in_info, &format)) {
+    GST_ERROR_OBJECT (self, "unsupported format %s",
+        GST_VIDEO_INFO_NAME (in_info));
+    return FALSE;
+  }
   FrameLayout layout;
-  landmark::InputModel model = landmark::InputModel::rgb ();
-  const GstVideoFormatInfo *finfo = in_info->finfo;
-  switch (GST_VIDEO_INFO_FORMAT (in_info)) {
-    case GST_VIDEO_FORMAT_RGB:
-    case GST_VIDEO_FORMAT_BGR:
-    case GST_VIDEO_FORMAT_RGBx:
-    case GST_VIDEO_FORMAT_BGRx:
-    case GST_VIDEO_FORMAT_xRGB:
-    case GST_VIDEO_FORMAT_xBGR:
-    case GST_VIDEO_FORMAT_RGBA:
-    case GST_VIDEO_FORMAT_BGRA:
-      layout.layout = GST_VIDEO_FORMAT_INFO_PSTRIDE (finfo, 0) == 3 ?
-          Layout::PACKED3 : Layout::PACKED4;
+  const landmark::InputModel model = format.model;
+  switch (format.kind) {
+    case LandmarkFrameFormat::Kind::PACKED:
+      layout.layout = format.pixel_stride == 3 ? Layout::PACKED3 :
+          Layout::PACKED4;
       for (int c = 0; c < 3; c++)
-        layout.offset[c] = GST_VIDEO_FORMAT_INFO_POFFSET (finfo, c);
+        layout.offset[c] = format.offset[c];
       /* G is always between R and B: the key is the three bytes from the
        * first of R and B, R low in RGB order and high in BGR order */
       layout.key_shift = 8 * MIN (layout.offset[0], layout.offset[2]);
       layout.order = layout.offset[0] < layout.offset[2] ?
           landmark::KeyOrder::C0_LOW : landmark::KeyOrder::C0_HIGH;
       break;
-    case GST_VIDEO_FORMAT_I420:
-    case GST_VIDEO_FORMAT_NV12:
-    case GST_VIDEO_FORMAT_YUY2:{
-      layout.layout = GST_VIDEO_INFO_FORMAT (in_info) == GST_VIDEO_FORMAT_YUY2 ?
-          Layout::YUY2 : Layout::YUV420;
-      gdouble kr = 0.299, kb = 0.114;
-      if (!gst_video_color_matrix_get_Kr_Kb (in_info->colorimetry.matrix,
-              &kr, &kb)) {
-        kr = 0.299;
-        kb = 0.114;
-      }
-      model = landmark::InputModel::yuv (kr, kb,
-          in_info->colorimetry.range == GST_VIDEO_COLOR_RANGE_0_255);
+    case LandmarkFrameFormat::Kind::YUY2:
+      layout.layout = Layout::YUY2;
       break;
-    }
     default:
-      GST_ERROR_OBJECT (self, "unsupported format %s",
-          GST_VIDEO_INFO_NAME (in_info));
-      return FALSE;
+      layout.layout = Layout::YUV420;
+      break;
   }
 
   if (model != st.model || layout.order != st.layout.order)

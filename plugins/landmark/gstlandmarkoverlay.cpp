@@ -66,6 +66,7 @@
 #include <utility>
 #include <vector>
 
+#include "landmarkcv.h"
 #include "landmarkmeta.h"
 #include "overlaydraw.h"
 #include "palette.h"
@@ -89,16 +90,13 @@ enum
   PROP_TEXT_SCALE,
 };
 
-#define OVERLAY_FORMATS \
-    "{ RGB, BGR, RGBx, BGRx, xRGB, xBGR, RGBA, BGRA, I420, NV12, YUY2 }"
-
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
     GST_PAD_SINK, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (OVERLAY_FORMATS)));
+    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
 
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (OVERLAY_FORMATS)));
+    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
 
 /* *INDENT-OFF* */
 namespace {
@@ -334,44 +332,21 @@ gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
   (void) outcaps;
   (void) out_info;
 
-  ov::Target t;
-  const GstVideoFormatInfo *finfo = in_info->finfo;
-  switch (GST_VIDEO_INFO_FORMAT (in_info)) {
-    case GST_VIDEO_FORMAT_RGB:
-    case GST_VIDEO_FORMAT_BGR:
-    case GST_VIDEO_FORMAT_RGBx:
-    case GST_VIDEO_FORMAT_BGRx:
-    case GST_VIDEO_FORMAT_xRGB:
-    case GST_VIDEO_FORMAT_xBGR:
-    case GST_VIDEO_FORMAT_RGBA:
-    case GST_VIDEO_FORMAT_BGRA:
-      t.kind = ov::Target::Kind::PACKED;
-      t.pixel_stride = GST_VIDEO_FORMAT_INFO_PSTRIDE (finfo, 0);
-      for (int c = 0; c < 3; c++)
-        t.offset[c] = GST_VIDEO_FORMAT_INFO_POFFSET (finfo, c);
-      break;
-    case GST_VIDEO_FORMAT_I420:
-    case GST_VIDEO_FORMAT_NV12:
-    case GST_VIDEO_FORMAT_YUY2:{
-      const GstVideoFormat fmt = GST_VIDEO_INFO_FORMAT (in_info);
-      t.kind = fmt == GST_VIDEO_FORMAT_I420 ? ov::Target::Kind::I420 :
-          fmt == GST_VIDEO_FORMAT_NV12 ? ov::Target::Kind::NV12 :
-          ov::Target::Kind::YUY2;
-      gdouble kr = 0.299, kb = 0.114;
-      if (!gst_video_color_matrix_get_Kr_Kb (in_info->colorimetry.matrix,
-              &kr, &kb)) {
-        kr = 0.299;
-        kb = 0.114;
-      }
-      t.model = landmark::InputModel::yuv (kr, kb,
-          in_info->colorimetry.range == GST_VIDEO_COLOR_RANGE_0_255);
-      break;
-    }
-    default:
-      GST_ERROR_OBJECT (self, "unsupported format %s",
-          GST_VIDEO_INFO_NAME (in_info));
-      return FALSE;
+  LandmarkFrameFormat format;
+  if (!landmark_frame_format (in_info, &format)) {
+    GST_ERROR_OBJECT (self, "unsupported format %s",
+        GST_VIDEO_INFO_NAME (in_info));
+    return FALSE;
   }
+  ov::Target t;
+  t.kind = format.kind == LandmarkFrameFormat::Kind::I420 ?
+      ov::Target::Kind::I420 : format.kind == LandmarkFrameFormat::Kind::NV12 ?
+      ov::Target::Kind::NV12 : format.kind == LandmarkFrameFormat::Kind::YUY2 ?
+      ov::Target::Kind::YUY2 : ov::Target::Kind::PACKED;
+  t.pixel_stride = format.pixel_stride;
+  for (int c = 0; c < 3; c++)
+    t.offset[c] = format.offset[c];
+  t.model = format.model;
   t.width = GST_VIDEO_INFO_WIDTH (in_info);
   t.height = GST_VIDEO_INFO_HEIGHT (in_info);
   st.target = t;

@@ -1,0 +1,25 @@
+/* GStreamer <-> pixel helpers shared by the elements that read or draw
+ * frames: how a negotiated format lays out its three colour components. */
+#pragma once
+
+#include <gst/video/video.h>
+
+#include "labcolour.h"
+
+/* The formats every pixel-reading element of the plugin accepts. */
+#define LANDMARK_VIDEO_FORMATS \
+    "{ RGB, BGR, RGBx, BGRx, xRGB, xBGR, RGBA, BGRA, I420, NV12, YUY2 }"
+
+struct LandmarkFrameFormat {
+  enum class Kind { PACKED, I420, NV12, YUY2 };
+  Kind kind = Kind::PACKED;
+  int pixel_stride = 4;              /* PACKED: bytes per pixel, 3 or 4 */
+  int offset[3] = { 0, 1, 2 };       /* PACKED: bytes of R, G, B */
+  landmark::InputModel model;        /* RGB, or Y'CbCr matrix and range */
+};
+
+/* Describes a negotiated format; FALSE for formats outside
+ * LANDMARK_VIDEO_FORMATS. YUV takes the caps' matrix (BT.601 when the
+ * caps name none) and range. */
+gboolean landmark_frame_format (const GstVideoInfo * info,
+    LandmarkFrameFormat * out);

@@ -12,13 +12,19 @@
 - Range and bearing of matched detections that carry ``landmark-range``:
   error statistics (median, p95, max) by distance band.
 - Pose, on frames that have one: position and heading error statistics,
-  overall and by solver.
+  overall and by solver, by the number of landmarks the truth shows
+  (``--visible-px``: at least that many pixels, as ``synth`` counts them)
+  and by the number of landmarks the pose used; how many frames with that
+  many landmarks visible got a pose.
+- ``--plot OUT.png``: a top-down trajectory plot (truth against estimate,
+  with the map's landmarks), drawn with OpenCV.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -61,6 +67,8 @@ class Evaluation:
     pose_errors: List[Tuple[str, float, float]] = field(
         default_factory=list)       # (solver, position err, heading err)
     frames_with_pose: int = 0
+    # one per truth frame: visible landmarks, and the pose when there is one
+    pose_rows: List[Dict[str, Any]] = field(default_factory=list)
 
 
 def band_name(value: Optional[float], bands: Sequence[float]) -> str:
@@ -115,10 +123,15 @@ def required(mark: Dict[str, Any], min_pixels: float,
             and (require_cut or not mark.get("cut", False)))
 
 
+def visible_group(n: int) -> str:
+    return "3+" if n >= 3 else str(n)
+
+
 def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
              match_px: float = 4.0, min_pixels: float = 20.0,
              bands: Sequence[float] = DEFAULT_BANDS,
-             require_cut: bool = False) -> Evaluation:
+             require_cut: bool = False,
+             visible_px: float = 150.0) -> Evaluation:
     ev = Evaluation()
     truth_by_frame = {t["frame"]: t for t in truth}
     for res in results:
@@ -159,13 +172,24 @@ def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
                 count(mark["class"], mark.get("range"), "fn")
 
         pose = res.get("pose")
+        if "robot" in t:
+            robot = t["robot"]
+            row: Dict[str, Any] = {
+                "frame": t["frame"], "truth": robot,
+                "visible": sum(1 for m in marks
+                               if m.get("pixels", 0) >= visible_px)}
+            if pose is not None:
+                row.update(
+                    pose=pose, solver=str(pose.get("solver", "")),
+                    used=int(pose.get("n-landmarks", 0)),
+                    position=math.hypot(pose["x"] - robot["x"],
+                                        pose["y"] - robot["y"]),
+                    heading=wrap_angle(pose["heading"] - robot["heading"]))
+            ev.pose_rows.append(row)
         if pose is not None and "robot" in t:
             ev.frames_with_pose += 1
-            robot = t["robot"]
-            ev.pose_errors.append((
-                str(pose.get("solver", "")),
-                math.hypot(pose["x"] - robot["x"], pose["y"] - robot["y"]),
-                wrap_angle(pose["heading"] - robot["heading"])))
+            ev.pose_errors.append((row["solver"], row["position"],
+                                   row["heading"]))
     return ev
 
 
@@ -197,6 +221,27 @@ def summary(ev: Evaluation, bands: Sequence[float] = DEFAULT_BANDS
         poses[solver] = {"position_m": stats([p for p, _ in sel]),
                          "heading_deg": stats([math.degrees(h)
                                                for _, h in sel])}
+    by_visible: Dict[str, Dict[str, Any]] = {}
+    by_used: Dict[str, Dict[str, Any]] = {}
+    for key in ("3+", "2", "1", "0"):
+        rows = [r for r in ev.pose_rows
+                if visible_group(r["visible"]) == key]
+        if not rows:
+            continue
+        posed = [r for r in rows if "pose" in r]
+        by_visible[key] = {
+            "frames": len(rows), "with_pose": len(posed),
+            "position_m": stats([r["position"] for r in posed]),
+            "heading_deg": stats([math.degrees(r["heading"])
+                                  for r in posed])}
+    for key in ("3+", "2", "1", "0"):
+        posed = [r for r in ev.pose_rows
+                 if "pose" in r and visible_group(r["used"]) == key]
+        if posed:
+            by_used[key] = {
+                "position_m": stats([r["position"] for r in posed]),
+                "heading_deg": stats([math.degrees(r["heading"])
+                                      for r in posed])}
     total = Counts()
     for c in ev.by_class.values():
         total.tp, total.fp, total.fn = (total.tp + c.tp, total.fp + c.fp,
@@ -210,6 +255,8 @@ def summary(ev: Evaluation, bands: Sequence[float] = DEFAULT_BANDS
                                   for k, v in sorted(ev.by_band.items())}},
         "range": ranges,
         "pose": {"frames_with_pose": ev.frames_with_pose, **poses},
+        "pose_by_visible": by_visible,
+        "pose_by_used": by_used,
     }
 
 
@@ -250,7 +297,128 @@ def format_report(s: Dict[str, Any]) -> str:
                     f"{solver:14s} {pm['n']:4d}   {pm['median']:.4f} "
                     f"{pm['p95']:.4f} {pm['max']:.4f}   {h['median']:7.3f} "
                     f"{h['p95']:7.3f} {h['max']:7.3f}")
+    for title, key, first in (
+            ("landmarks visible", "pose_by_visible", "frames  posed  "),
+            ("landmarks used", "pose_by_used", "")):
+        table = s.get(key) or {}
+        if not table:
+            continue
+        lines += ["", f"pose by {title:17s} {first}n   position m median  "
+                  "p95    max    heading deg median  p95    max"]
+        for group, p in table.items():
+            pm, h = p["position_m"], p["heading_deg"]
+            head = f"{group:>4s}" + " " * 22
+            if first:
+                head = (f"{group:>4s}" + " " * 18 +
+                        f"{p['frames']:6d} {p['with_pose']:6d}  ")
+            if pm["n"]:
+                lines.append(
+                    f"{head}{pm['n']:4d}   {pm['median']:.4f} "
+                    f"{pm['p95']:.4f} {pm['max']:.4f}   {h['median']:7.3f} "
+                    f"{h['p95']:7.3f} {h['max']:7.3f}")
+            else:
+                lines.append(f"{head}   0")
     return "\n".join(lines)
+
+
+# -- trajectory plot ---------------------------------------------------------
+
+SOLVER_BGR = {"lsq": (200, 90, 20), "two": (0, 140, 255), "one": (40, 40, 220),
+              "ekf": (150, 150, 150)}
+CLASS_BGR = {"red": (47, 62, 169), "green": (112, 225, 133),
+             "yellow": (98, 245, 228), "pink": (180, 105, 254),
+             "blue": (200, 80, 30)}
+
+
+def plot_trajectory(ev: Evaluation, out_png: str,
+                    landmarks: Sequence[Dict[str, Any]] = (),
+                    class_bgr: Optional[Dict[str, Tuple[int, int, int]]]
+                    = None, size_px: int = 900) -> None:
+    """Top-down plot: the map's landmarks, the true path (black line) and
+    the estimated positions (dots coloured by solver, a short line for the
+    heading), metres with a 1 m grid. Written as PNG with OpenCV."""
+    import cv2
+
+    colours = dict(CLASS_BGR)
+    colours.update(class_bgr or {})
+    pts = [(r["truth"]["x"], r["truth"]["y"]) for r in ev.pose_rows]
+    pts += [(lm["x"], lm["y"]) for lm in landmarks]
+    if not pts:
+        raise ValueError("nothing to plot: no truth poses and no map")
+    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+    margin = 0.5
+    x0, x1 = min(xs) - margin, max(xs) + margin
+    y0, y1 = min(ys) - margin, max(ys) + margin
+    scale = (size_px - 80) / max(x1 - x0, y1 - y0)
+    width = int((x1 - x0) * scale) + 80
+    height = int((y1 - y0) * scale) + 110
+    img = np.full((height, width, 3), 255, np.uint8)
+
+    def px(x: float, y: float) -> Tuple[int, int]:
+        # world +y up on the image
+        return (int(round(40 + (x - x0) * scale)),
+                int(round(height - 70 - (y - y0) * scale)))
+
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    for gx in range(math.ceil(x0), math.floor(x1) + 1):
+        cv2.line(img, px(gx, y0), px(gx, y1), (225, 225, 225), 1)
+        cv2.putText(img, f"{gx}", px(gx, y0), font, 0.4, (120, 120, 120), 1)
+    for gy in range(math.ceil(y0), math.floor(y1) + 1):
+        cv2.line(img, px(x0, gy), px(x1, gy), (225, 225, 225), 1)
+        cv2.putText(img, f"{gy}", px(x0, gy), font, 0.4, (120, 120, 120), 1)
+    for lm in landmarks:
+        c = px(lm["x"], lm["y"])
+        rad = max(4, int(round(lm.get("diameter", 0.2) / 2 * scale)))
+        cv2.circle(img, c, rad, colours.get(lm.get("class"), (0, 0, 0)), -1,
+                   cv2.LINE_AA)
+        cv2.circle(img, c, rad, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(img, str(lm.get("id", "")), (c[0] + rad + 3, c[1] + 4),
+                    font, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+    truth = np.array([px(r["truth"]["x"], r["truth"]["y"])
+                      for r in ev.pose_rows], np.int32)
+    if len(truth) > 1:
+        cv2.polylines(img, [truth.reshape(-1, 1, 2)], False, (0, 0, 0), 2,
+                      cv2.LINE_AA)
+    for r in ev.pose_rows:
+        if "pose" not in r:
+            continue
+        p = r["pose"]
+        if not (x0 - 1 <= p["x"] <= x1 + 1 and y0 - 1 <= p["y"] <= y1 + 1):
+            continue
+        col = SOLVER_BGR.get(r["solver"], (0, 160, 0))
+        c = px(p["x"], p["y"])
+        tip = px(p["x"] + 0.12 * math.cos(p["heading"]),
+                 p["y"] + 0.12 * math.sin(p["heading"]))
+        cv2.line(img, c, tip, col, 1, cv2.LINE_AA)
+        cv2.circle(img, c, 3, col, -1, cv2.LINE_AA)
+    # legend
+    y = height - 40
+    x = 40
+    cv2.line(img, (x, y), (x + 25, y), (0, 0, 0), 2)
+    cv2.putText(img, "truth", (x + 30, y + 5), font, 0.5, (0, 0, 0), 1,
+                cv2.LINE_AA)
+    x += 100
+    for name, col in SOLVER_BGR.items():
+        cv2.circle(img, (x + 5, y), 4, col, -1, cv2.LINE_AA)
+        cv2.putText(img, f"estimate ({name})", (x + 15, y + 5), font, 0.5,
+                    (0, 0, 0), 1, cv2.LINE_AA)
+        x += 170
+    cv2.putText(img, "top-down, metres; the map's landmarks in class colour",
+                (40, height - 15), font, 0.45, (90, 90, 90), 1, cv2.LINE_AA)
+    if not cv2.imwrite(out_png, img):
+        raise OSError(f"{out_png}: could not write the plot")
+
+
+def _class_colours(results: List[Dict[str, Any]]
+                   ) -> Dict[str, Tuple[int, int, int]]:
+    """Display colours of the classes, from a log line's labels."""
+    for res in results:
+        labels = res.get("labels") or {}
+        names, rgb = labels.get("classes"), labels.get("rgb")
+        if names and rgb and len(names) == len(rgb):
+            return {n: ((c & 255), (c >> 8) & 255, (c >> 16) & 255)
+                    for n, c in zip(names, rgb)}
+    return {}
 
 
 def add_evaluate_parser(subparsers):
@@ -266,15 +434,26 @@ def add_evaluate_parser(subparsers):
                         "at (default 20)")
     p.add_argument("--require-cut", action="store_true",
                    help="also require landmarks cut by the image border")
+    p.add_argument("--visible-px", type=float, default=150.0,
+                   help="pixels a truth landmark needs to count as visible "
+                        "in the pose tables (default 150, as synth counts)")
     p.add_argument("--json", metavar="OUT", help="also write the numbers")
+    p.add_argument("--plot", metavar="OUT.png",
+                   help="write a top-down trajectory plot (truth vs "
+                        "estimate, with the map's landmarks)")
+    p.add_argument("--map", metavar="MAP.json",
+                   help="landmark map for the plot (default: map.json "
+                        "beside the truth file, when there is one)")
     p.set_defaults(handler=_handle, parser=p)
 
 
 def _handle(args) -> int:
     try:
-        ev = evaluate(read_jsonl(args.result), read_jsonl(args.truth),
+        results = read_jsonl(args.result)
+        ev = evaluate(results, read_jsonl(args.truth),
                       args.match_px, args.min_pixels,
-                      require_cut=args.require_cut)
+                      require_cut=args.require_cut,
+                      visible_px=args.visible_px)
     except (RegressError, KeyError) as err:
         print(f"gst-landmark: error: {err}", file=sys.stderr)
         return 2
@@ -283,4 +462,19 @@ def _handle(args) -> int:
     if args.json:
         with open(args.json, "w") as f:
             json.dump(s, f, indent=2)
+    if args.plot:
+        map_path = args.map
+        if map_path is None:
+            beside = os.path.join(os.path.dirname(args.truth), "map.json")
+            map_path = beside if os.path.exists(beside) else None
+        try:
+            landmarks = []
+            if map_path:
+                with open(map_path, encoding="utf-8") as f:
+                    landmarks = json.load(f)["landmarks"]
+            plot_trajectory(ev, args.plot, landmarks,
+                            _class_colours(results))
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            print(f"gst-landmark: error: {err}", file=sys.stderr)
+            return 2
     return 0

@@ -1,0 +1,449 @@
+/* Pose solvers (plugins/landmark/core/posesolver.h): exact observations
+ * recover the exact pose for each solver, both two-landmark ambiguities,
+ * degenerate geometry reported, an outlier rejected, association with
+ * repeated colours, the EKF bridging a gap. Observations are made here
+ * from docs/conventions.md directly, not with the solver's helpers. */
+#include "posesolver.h"
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace landmark;
+
+static int failures = 0;
+
+#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
+      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
+      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
+  } while (0)
+
+static double
+angdiff (double a, double b)
+{
+  return std::remainder (a - b, 2 * M_PI);
+}
+
+/* conventions.md: gx = cos h dx + sin h dy, gy = -sin h dx + cos h dy */
+static RangeBearing
+observe (double x, double y, double h, double lx, double ly)
+{
+  RangeBearing o;
+  const double dx = lx - x, dy = ly - y;
+  o.gx = std::cos (h) * dx + std::sin (h) * dy;
+  o.gy = -std::sin (h) * dx + std::cos (h) * dy;
+  o.range_sigma = 0.01;
+  o.bearing_sigma = 0.005;
+  return o;
+}
+
+static Correspondence
+corr (double x, double y, double h, double lx, double ly)
+{
+  Correspondence c;
+  c.obs = observe (x, y, h, lx, ly);
+  c.lx = lx;
+  c.ly = ly;
+  return c;
+}
+
+static void
+check_pose (const PoseSolution & s, double x, double y, double h,
+    double tol, const char *what)
+{
+  CHECK (s.ok, "%s: no solution (%s)", what, s.why.c_str ());
+  if (!s.ok)
+    return;
+  CHECK (std::fabs (s.pose.x - x) < tol && std::fabs (s.pose.y - y) < tol
+      && std::fabs (angdiff (s.pose.heading, h)) < tol,
+      "%s: got (%.9f, %.9f, %.9f) want (%.9f, %.9f, %.9f)", what, s.pose.x,
+      s.pose.y, s.pose.heading, x, y, h);
+  /* covariance symmetric, positive diagonal */
+  for (int r = 0; r < 3; r++) {
+    CHECK (s.cov[r * 4] > 0 && std::isfinite (s.cov[r * 4]),
+        "%s: cov[%d][%d] = %g", what, r, r, s.cov[r * 4]);
+    for (int c = 0; c < 3; c++)
+      CHECK (std::fabs (s.cov[r * 3 + c] - s.cov[c * 3 + r]) < 1e-9,
+          "%s: covariance not symmetric", what);
+  }
+}
+
+static void
+test_conventions ()
+{
+  /* a landmark 1 m ahead-left of a robot facing +y: bearing positive */
+  const RangeBearing o = observe (0, 0, M_PI / 2, -1, 1);
+  CHECK (std::fabs (o.gx - 1) < 1e-12 && std::fabs (o.gy - 1) < 1e-12,
+      "gx %g gy %g", o.gx, o.gy);
+  CHECK (std::fabs (o.bearing () - M_PI / 4) < 1e-12, "bearing %g",
+      o.bearing ());
+  CHECK (std::fabs (wrap_angle (M_PI) - M_PI) < 1e-12, "wrap(pi)");
+  CHECK (std::fabs (wrap_angle (-M_PI) - M_PI) < 1e-12, "wrap(-pi)");
+  CHECK (std::fabs (wrap_angle (3 * M_PI / 2) + M_PI / 2) < 1e-12, "wrap");
+}
+
+static void
+test_one ()
+{
+  const double poses[][3] = { {1, 2, 0.3}, {-2.5, 0.5, -2.9}, {4, 4, M_PI} };
+  for (const auto & p : poses) {
+    const Correspondence c = corr (p[0], p[1], p[2], 3.0, 1.0);
+    check_pose (solve_one (c, p[2], 0.01), p[0], p[1], p[2], 1e-9, "one");
+  }
+  /* a heading error of e rotates the solution about the landmark: a
+   * heading believed 0.1 rad left puts the robot right of the truth */
+  const Correspondence c = corr (0, 0, 0, 2, 0);
+  const PoseSolution s = solve_one (c, 0.1, 0.01);
+  CHECK (std::fabs (std::hypot (s.pose.x - 2, s.pose.y) - 2) < 1e-9
+      && std::fabs (s.pose.y + 2 * std::sin (0.1)) < 1e-9, "rotated about the landmark: (%g, %g)", s.pose.x,
+      s.pose.y);
+}
+
+static void
+test_two_both_sides ()
+{
+  /* landmarks at (0,0), (4,0); the robot left (y>0) or right (y<0) of the
+   * baseline: both intersections are chosen correctly by the bearings */
+  const double poses[][3] = { {2, 1.5, -1.2}, {2, -1.5, 1.9}, {1, 3, 0},
+    {3, -2.5, 3.0}, {-1, 1, -0.5}, {5, -1, 2.5} };
+  for (const auto & p : poses) {
+    const Correspondence a = corr (p[0], p[1], p[2], 0, 0);
+    const Correspondence b = corr (p[0], p[1], p[2], 4, 0);
+    const PoseSolution s = solve_two (a, b);
+    check_pose (s, p[0], p[1], p[2], 1e-9, "two");
+    CHECK (std::string (s.solver) == "two", "solver %s", s.solver);
+    CHECK (s.geometry == Geometry::Ok, "geometry %s",
+        geometry_name (s.geometry));
+    /* order of the landmarks does not matter */
+    check_pose (solve_two (b, a), p[0], p[1], p[2], 1e-9, "two swapped");
+  }
+}
+
+static void
+test_two_degenerate ()
+{
+  /* robot on the segment between the landmarks: circles touch */
+  {
+    const Correspondence a = corr (1.5, 0, 0.4, 0, 0);
+    const Correspondence b = corr (1.5, 0, 0.4, 4, 0);
+    const PoseSolution s = solve_two (a, b);
+    check_pose (s, 1.5, 0, 0.4, 1e-6, "on baseline");
+    CHECK (s.geometry == Geometry::RobotOnBaseline, "geometry %s",
+        geometry_name (s.geometry));
+    /* noisy ranges that miss each other: still a pose, still reported */
+    Correspondence a2 = a, b2 = b;
+    a2.obs.gx *= 0.98;
+    a2.obs.gy *= 0.98;
+    const PoseSolution s2 = solve_two (a2, b2);
+    CHECK (s2.ok && s2.geometry == Geometry::RobotOnBaseline,
+        "noisy baseline: ok %d geometry %s", s2.ok,
+        geometry_name (s2.geometry));
+    CHECK (s2.ok && std::fabs (s2.pose.y) < 0.05, "y %g", s2.pose.y);
+  }
+  /* robot on the line beyond both */
+  {
+    const Correspondence a = corr (-2, 0, 0.1, 0, 0);
+    const Correspondence b = corr (-2, 0, 0.1, 4, 0);
+    const PoseSolution s = solve_two (a, b);
+    CHECK (s.ok && s.geometry == Geometry::RobotInLine, "geometry %s",
+        geometry_name (s.geometry));
+  }
+  /* circles far apart: no solution, with a reason */
+  {
+    Correspondence a = corr (2, 1, 0, 0, 0);
+    Correspondence b = corr (2, 1, 0, 4, 0);
+    a.obs.gx *= 0.3;
+    a.obs.gy *= 0.3;
+    b.obs.gx *= 0.3;
+    b.obs.gy *= 0.3;
+    const PoseSolution s = solve_two (a, b);
+    CHECK (!s.ok && !s.why.empty (), "circles apart: ok %d", s.ok);
+  }
+}
+
+static void
+test_many_exact ()
+{
+  const double L[][2] = { {0, 0}, {5, 0}, {5, 4}, {0, 4}, {2.5, 6} };
+  const double poses[][3] = { {2, 2, 0.7}, {1, 3, -2.0}, {4, 1, 3.1} };
+  for (const auto & p : poses) {
+    for (size_t n = 3; n <= 5; n++) {
+      std::vector<Correspondence> cs;
+      for (size_t i = 0; i < n; i++)
+        cs.push_back (corr (p[0], p[1], p[2], L[i][0], L[i][1]));
+      const PoseSolution s = solve_many (cs);
+      check_pose (s, p[0], p[1], p[2], 1e-9, "many");
+      CHECK (std::string (s.solver) == "lsq", "solver %s", s.solver);
+      CHECK (s.residual < 1e-9, "residual %g", s.residual);
+      CHECK (s.geometry == Geometry::Ok, "geometry %s",
+          geometry_name (s.geometry));
+    }
+  }
+}
+
+static void
+test_many_noise_and_covariance ()
+{
+  /* noisy observations: error within a few sigmas of the covariance */
+  const double L[][2] = { {0, 0}, {5, 0}, {5, 4}, {0, 4} };
+  std::mt19937 rng (7);
+  std::normal_distribution<double> nr (0, 0.01), nb (0, 0.005);
+  int within = 0;
+  const int trials = 200;
+  for (int t = 0; t < trials; t++) {
+    std::vector<Correspondence> cs;
+    for (const auto & l : L) {
+      Correspondence c = corr (2, 1.5, 0.4, l[0], l[1]);
+      const double r = c.obs.range () + nr (rng);
+      const double b = c.obs.bearing () + nb (rng);
+      c.obs.gx = r * std::cos (b);
+      c.obs.gy = r * std::sin (b);
+      cs.push_back (c);
+    }
+    const PoseSolution s = solve_many (cs);
+    CHECK (s.ok, "noisy: %s", s.why.c_str ());
+    const double ex = s.pose.x - 2, ey = s.pose.y - 1.5;
+    /* Mahalanobis distance of the position error */
+    const double a = s.cov[0], b = s.cov[1], d = s.cov[4];
+    const double det = a * d - b * b;
+    const double m2 = (d * ex * ex - 2 * b * ex * ey + a * ey * ey) / det;
+    within += m2 < 9.21;    /* 99% for two dof */
+  }
+  CHECK (within > trials * 0.9, "%d of %d within the 99%% ellipse", within,
+      trials);
+}
+
+static void
+test_outlier_rejected ()
+{
+  const double L[][2] = { {0, 0}, {5, 0}, {5, 4}, {0, 4} };
+  for (int bad = 0; bad < 4; bad++) {
+    std::vector<Correspondence> cs;
+    for (const auto & l : L)
+      cs.push_back (corr (3, 1, 2.0, l[0], l[1]));
+    /* one detection 0.8 m off in range */
+    const double k = (cs[bad].obs.range () + 0.8) / cs[bad].obs.range ();
+    cs[bad].obs.gx *= k;
+    cs[bad].obs.gy *= k;
+    const PoseSolution s = solve_many (cs);
+    check_pose (s, 3, 1, 2.0, 1e-9, "outlier");
+    for (int i = 0; i < 4; i++)
+      CHECK (s.inlier[i] == (i != bad), "inlier[%d] = %d (bad %d)", i,
+          (int) s.inlier[i], bad);
+    CHECK (s.residuals[bad] > 0.5, "outlier residual %g", s.residuals[bad]);
+  }
+  /* three landmarks, one wrong in bearing: the two good ones win */
+  {
+    std::vector<Correspondence> cs;
+    for (int i = 0; i < 3; i++)
+      cs.push_back (corr (2, 2, -0.3, L[i][0], L[i][1]));
+    const double r = cs[2].obs.range (), b = cs[2].obs.bearing () + 0.4;
+    cs[2].obs.gx = r * std::cos (b);
+    cs[2].obs.gy = r * std::sin (b);
+    const PoseSolution s = solve_many (cs);
+    check_pose (s, 2, 2, -0.3, 1e-9, "3 with outlier");
+    CHECK (s.ok && !s.inlier[2], "outlier kept");
+    CHECK (s.ok && std::string (s.solver) == "two", "solver %s", s.solver);
+  }
+}
+
+static void
+test_collinear ()
+{
+  /* three landmarks on the line y = 0: reported; bearings still place the
+   * robot on the right side */
+  const double L[][2] = { {0, 0}, {2, 0}, {5, 0} };
+  for (double y : { 1.5, -1.5 }) {
+    std::vector<Correspondence> cs;
+    for (const auto & l : L)
+      cs.push_back (corr (2.5, y, 0.5, l[0], l[1]));
+    const PoseSolution s = solve_many (cs);
+    check_pose (s, 2.5, y, 0.5, 1e-9, "collinear");
+    CHECK (s.geometry == Geometry::CollinearLandmarks, "geometry %s",
+        geometry_name (s.geometry));
+  }
+  CHECK (!landmarks_collinear ({corr (0, 0, 0, 0, 0), corr (0, 0, 0, 1, 0),
+              corr (0, 0, 0, 1, 1)}), "a triangle is not collinear");
+}
+
+static std::vector<MapPoint>
+test_map ()
+{
+  /* red and green twice, far apart; blue once */
+  return {
+    {"R1", "red", 0, 0}, {"G1", "green", 4, 0}, {"B1", "blue", 4, 4},
+    {"R2", "red", 8, 4}, {"G2", "green", 8, 0}, {"Y1", "yellow", 0, 4},
+  };
+}
+
+static Detection
+det (const std::vector<MapPoint> & map, const std::string & id, double x,
+    double y, double h)
+{
+  for (const auto & m : map)
+    if (m.id == id)
+      return Detection { m.class_name, observe (x, y, h, m.x, m.y) };
+  return Detection ();
+}
+
+static void
+test_association ()
+{
+  const auto map = test_map ();
+  /* no prior: consensus picks R1/G1 over R2/G2 */
+  {
+    std::vector<Detection> d = { det (map, "R1", 2, 2, -2.0),
+      det (map, "G1", 2, 2, -2.0), det (map, "Y1", 2, 2, -2.0) };
+    LocaliseOptions opt;
+    const LocaliseResult r = localise (map, d, opt);
+    CHECK (r.ok, "%s", r.why.c_str ());
+    CHECK (r.match[0] == 0 && r.match[1] == 1 && r.match[2] == 5,
+        "match %d %d %d", r.match[0], r.match[1], r.match[2]);
+    check_pose (r.solution, 2, 2, -2.0, 1e-9, "associated");
+    CHECK (r.n_used == 3, "n_used %d", r.n_used);
+  }
+  /* the other pair */
+  {
+    std::vector<Detection> d = { det (map, "R2", 6, 2, 0.5),
+      det (map, "G2", 6, 2, 0.5), det (map, "B1", 6, 2, 0.5) };
+    const LocaliseResult r = localise (map, d, LocaliseOptions ());
+    CHECK (r.ok && r.match[0] == 3 && r.match[1] == 4 && r.match[2] == 2,
+        "match %d %d %d", r.match[0], r.match[1], r.match[2]);
+  }
+  /* with a prior: two detections of repeated colours gated to the right
+   * ones, solved by the two-landmark solver */
+  {
+    std::vector<Detection> d = { det (map, "R2", 6, 2, 0.5),
+      det (map, "G2", 6, 2, 0.5) };
+    LocaliseOptions opt;
+    opt.have_prior = true;
+    opt.prior = { 6.1, 2.1, 0.52 };
+    const LocaliseResult r = localise (map, d, opt);
+    CHECK (r.ok && r.match[0] == 3 && r.match[1] == 4, "match %d %d",
+        r.match[0], r.match[1]);
+    check_pose (r.solution, 6, 2, 0.5, 1e-9, "gated two");
+    /* a prior far off: nothing in the gate, never forced */
+    opt.prior = { 0.5, 3.5, 2.5 };
+    const LocaliseResult r2 = localise (map, d, opt);
+    CHECK (!r2.ok && r2.match[0] < 0 && r2.match[1] < 0,
+        "forced match %d %d", r2.match[0], r2.match[1]);
+    CHECK (r2.reasons[0] == "outside-gate", "reason %s",
+        r2.reasons[0].c_str ());
+  }
+  /* a class not on the map, and one red too many: unmatched */
+  {
+    std::vector<Detection> d = { det (map, "R1", 2, 2, -2.0),
+      det (map, "G1", 2, 2, -2.0), det (map, "Y1", 2, 2, -2.0),
+      det (map, "B1", 2, 2, -2.0) };
+    Detection pink = d[0];
+    pink.class_name = "pink";
+    d.push_back (pink);
+    Detection ghost = d[0];      /* a red blob where there is none */
+    ghost.obs.gx += 1.3;
+    ghost.obs.gy -= 0.9;
+    d.push_back (ghost);
+    const LocaliseResult r = localise (map, d, LocaliseOptions ());
+    CHECK (r.ok && r.n_used == 4, "n_used %d", r.n_used);
+    CHECK (r.match[4] == -1 && r.reasons[4] == "no-landmark-of-class",
+        "pink: %d %s", r.match[4], r.reasons[4].c_str ());
+    CHECK (r.match[5] == -1, "ghost matched %d", r.match[5]);
+    check_pose (r.solution, 2, 2, -2.0, 1e-9, "with strays");
+  }
+  /* one detection: needs a heading; ambiguous colour needs a prior */
+  {
+    std::vector<Detection> d = { det (map, "Y1", 1, 2, 1.0) };
+    const LocaliseResult r = localise (map, d, LocaliseOptions ());
+    CHECK (!r.ok && r.why == "too-few-landmarks", "why %s", r.why.c_str ());
+    LocaliseOptions opt;
+    opt.have_heading = true;
+    opt.heading = 1.0;
+    const LocaliseResult r2 = localise (map, d, opt);
+    check_pose (r2.solution, 1, 2, 1.0, 1e-9, "one via localise");
+    CHECK (std::string (r2.solution.solver) == "one", "solver");
+    std::vector<Detection> dr = { det (map, "R1", 1, 2, 1.0) };
+    dr[0] = det (map, "R1", 1, 1, -2.0);
+    const LocaliseResult r3 = localise (map, dr, opt);
+    CHECK (!r3.ok && r3.reasons[0] == "ambiguous", "reason %s",
+        r3.reasons[0].c_str ());
+  }
+}
+
+static void
+test_ekf_bridges_gap ()
+{
+  /* constant-velocity motion: 0.5 m/s along +x, turning 0.2 rad/s;
+   * measurements for 1 s, a gap of 0.5 s, then again */
+  const double L[][2] = { {0, 0}, {5, 0}, {5, 4}, {0, 4} };
+  PoseFilter f;
+  /* the motion is truly constant-velocity: little process noise */
+  f.accel_sigma = 0.2;
+  f.alpha_sigma = 0.5;
+  const double dt = 1.0 / 30;
+  std::mt19937 rng (3);
+  std::normal_distribution<double> nr (0, 0.01), nb (0, 0.005);
+  double worst_gap = 0, worst_after = 0;
+  for (int k = 0; k < 60; k++) {
+    const double t = k * dt;
+    const double x = 1 + 0.5 * t, y = 2, h = 0.2 * t;
+    const bool gap = k >= 30 && k < 45;
+    if (f.initialised ())
+      f.predict (dt);
+    if (!gap) {
+      std::vector<Correspondence> cs;
+      for (const auto & l : L) {
+        Correspondence c = corr (x, y, h, l[0], l[1]);
+        const double r = c.obs.range () + nr (rng);
+        const double b = c.obs.bearing () + nb (rng);
+        c.obs.gx = r * std::cos (b);
+        c.obs.gy = r * std::sin (b);
+        cs.push_back (c);
+      }
+      if (!f.initialised ()) {
+        const PoseSolution s = solve_many (cs);
+        CHECK (s.ok, "init");
+        f.init (s.pose, s.cov);
+      } else {
+        CHECK (f.update (cs) == 4, "all four used");
+      }
+    }
+    const Pose2 p = f.pose ();
+    const double e = std::hypot (p.x - x, p.y - y);
+    if (gap)
+      worst_gap = std::max (worst_gap, e);
+    else if (k > 45)
+      worst_after = std::max (worst_after, e);
+    if (gap) {
+      double c[9];
+      f.pose_cov (c);
+      CHECK (std::sqrt (c[0]) > 0.001, "covariance grows in the gap");
+    }
+  }
+  /* the velocity learnt before the gap carries the pose through it */
+  CHECK (worst_gap < 0.05, "worst error in the gap %.4f m", worst_gap);
+  CHECK (worst_after < 0.03, "worst error after %.4f m", worst_after);
+  /* an absurd measurement is gated out */
+  std::vector<Correspondence> cs = { corr (10, 10, 0, 0, 0) };
+  CHECK (f.update (cs) == 0, "gross outlier accepted");
+}
+
+int
+main ()
+{
+  test_conventions ();
+  test_one ();
+  test_two_both_sides ();
+  test_two_degenerate ();
+  test_many_exact ();
+  test_many_noise_and_covariance ();
+  test_outlier_rejected ();
+  test_collinear ();
+  test_association ();
+  test_ekf_bridges_gap ();
+  if (failures)
+    std::fprintf (stderr, "%d failures\n", failures);
+  else
+    std::printf ("posesolver: all passed\n");
+  return failures ? 1 : 0;
+}

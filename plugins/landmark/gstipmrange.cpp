@@ -30,9 +30,15 @@
  *   `camera_matrix` and `distortion_coefficients` (as OpenCV's calibration
  *   sample writes them; `cameraMatrix`/`distCoeffs` are read too), scaled
  *   to the frame when its `image_width`/`image_height` differ; distortion is
- *   undone for the points used. Exact ray-plane intersection.
+ *   undone for the points used; its `camera_height`, `tilt_deg` and
+ *   `roll_deg` (as `gst-landmark calibrate floor` writes them) replace the
+ *   properties. Exact ray-plane intersection.
  * - `seed`: the seed's angle-linear model from `camera-height`,
- *   `blind-distance`, `view-depth` and `half-width` (equations 3.1-3.6).
+ *   `blind-distance`, `view-depth` and `half-width` (equations 3.1-3.6),
+ *   or a `calibration` file with `model: seed` (`gst-landmark calibrate
+ *   seed`), which selects this model.
+ *
+ * A camera file wins for what it holds; the properties give the rest.
  *
  * Where the marker is: a disc (`marker-kind=disc`) lies flat with its
  * centre at `marker-height` (0: on the floor): its fitted ellipse is
@@ -307,55 +313,82 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
 {
   *cfg = Config ();
   cfg->s = s;
-  if (!(s.camera_height > 0)) {
+  /* A camera file wins for what it holds: its model (a seed file selects
+   * model=seed, a camera_matrix file model=pinhole), its intrinsics or seed
+   * lengths, and camera_height, tilt_deg, roll_deg when present; the
+   * properties give the rest. */
+  if (!s.calibration.empty ()) {
+    landmark::CameraFile f;
+    std::string err;
+    if (!landmark::load_camera_file (s.calibration, &f, &err)) {
+      *property = "calibration";
+      *why = err;
+      return FALSE;
+    }
+    Settings & m = cfg->s;
+    cfg->calib_w = f.image_width;
+    cfg->calib_h = f.image_height;
+    if (f.seed) {
+      m.model = GST_IPM_RANGE_MODEL_SEED;
+      m.camera_height = f.camera_height;
+      m.blind = f.blind_distance;
+      m.depth = f.view_depth;
+      m.half_width = f.half_width;
+    } else {
+      m.model = GST_IPM_RANGE_MODEL_PINHOLE;
+      cfg->have_calibration = true;
+      cfg->cal_fx = f.fx;
+      cfg->cal_fy = f.fy;
+      cfg->cal_cx = f.cx;
+      cfg->cal_cy = f.cy;
+      cfg->cal_dist = f.dist;
+      if (f.has_camera_height)
+        m.camera_height = f.camera_height;
+      if (f.has_tilt)
+        m.tilt = f.tilt_deg;
+      if (f.has_roll)
+        m.roll = f.roll_deg;
+    }
+  }
+  const Settings & e = cfg->s;    /* the effective settings */
+  if (!(e.camera_height > 0)) {
     *property = "camera-height";
     *why = "the camera height must be positive, got " +
-        std::to_string (s.camera_height);
+        std::to_string (e.camera_height);
     return FALSE;
   }
-  if (s.model == GST_IPM_RANGE_MODEL_PINHOLE) {
-    if (!(s.hfov > 0 && s.hfov < 180) && s.fx <= 0 && s.calibration.empty ()) {
+  if (e.model == GST_IPM_RANGE_MODEL_PINHOLE) {
+    if (!(e.hfov > 0 && e.hfov < 180) && e.fx <= 0 && !cfg->have_calibration) {
       *property = "hfov";
       *why = "the horizontal field of view must be within (0, 180) degrees, "
-          "got " + std::to_string (s.hfov);
+          "got " + std::to_string (e.hfov);
       return FALSE;
     }
-    if (!(s.tilt >= -90 && s.tilt <= 90)) {
+    if (!(e.tilt >= -90 && e.tilt <= 90)) {
       *property = "tilt";
       *why = "the tilt must be within [-90, 90] degrees, got " +
-          std::to_string (s.tilt);
+          std::to_string (e.tilt);
       return FALSE;
-    }
-    if (!s.calibration.empty ()) {
-      std::string err;
-      if (!landmark::load_calibration (s.calibration, &cfg->cal_fx,
-              &cfg->cal_fy, &cfg->cal_cx, &cfg->cal_cy, &cfg->cal_dist,
-              &cfg->calib_w, &cfg->calib_h, &err)) {
-        *property = "calibration";
-        *why = err;
-        return FALSE;
-      }
-      cfg->have_calibration = true;
     }
   } else {
-    if (!(s.depth > 0)) {
+    if (!(e.depth > 0)) {
       *property = "view-depth";
       *why = "model=seed needs view-depth > 0 (and blind-distance, "
-          "half-width), got " + std::to_string (s.depth);
+          "half-width), got " + std::to_string (e.depth);
       return FALSE;
     }
-    if (!(s.half_width > 0)) {
+    if (!(e.half_width > 0)) {
       *property = "half-width";
       *why = "model=seed needs half-width > 0, got " +
-          std::to_string (s.half_width);
+          std::to_string (e.half_width);
       return FALSE;
     }
   }
-  if (s.marker_height >= s.camera_height) {
+  if (e.marker_height >= e.camera_height) {
     *property = "marker-height";
     *why = "the marker centre must be below the camera (marker-height " +
         std::to_string (s.marker_height) + " >= camera-height " +
-        std::to_string (s.camera_height) + ")";
+        std::to_string (e.camera_height) + ")";
     return FALSE;
   }
   cfg->default_marker.z = s.marker_height;
@@ -400,7 +433,8 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
   landmark::CameraGeometry g;
   std::string err;
   if (!g.configure (p, &err)) {
-    *property = s.model == GST_IPM_RANGE_MODEL_SEED ? "model" : "tilt";
+    *property = !s.calibration.empty ()? "calibration" :
+        e.model == GST_IPM_RANGE_MODEL_SEED ? "model" : "tilt";
     *why = err;
     return FALSE;
   }
@@ -422,9 +456,12 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
     if (st.geometry.configure (p, &why)) {
       st.geometry_w = width;
       st.geometry_h = height;
-      GST_INFO_OBJECT (self, "geometry for %dx%d: fx %.3f fy %.3f cx %.3f "
-          "cy %.3f, %zu distortion coefficients", width, height, p.fx, p.fy,
-          p.cx, p.cy, p.dist.size ());
+      GST_INFO_OBJECT (self, "geometry for %dx%d: %s, height %.4f m, "
+          "tilt %.3f, roll %.3f deg, fx %.3f fy %.3f cx %.3f cy %.3f, %zu "
+          "distortion coefficients, seed b %.4f d %.4f w %.4f", width, height,
+          p.model == landmark::CameraModel::Seed ? "seed" : "pinhole",
+          p.camera_height, p.tilt_deg, p.roll_deg, p.fx, p.fy, p.cx, p.cy,
+          p.dist.size (), p.blind_distance, p.view_depth, p.half_width);
       return TRUE;
     }
   }
@@ -898,9 +935,11 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
           G_MAXDOUBLE, DEFAULT_CY, flags));
   g_object_class_install_property (gobject_class, PROP_CALIBRATION,
       g_param_spec_string ("calibration", "Calibration file",
-          "model=pinhole: OpenCV FileStorage file (YAML or XML) with "
-          "camera_matrix and distortion_coefficients; overrides hfov and "
-          "fx/fy/cx/cy", nullptr, flags));
+          "Camera file (OpenCV FileStorage YAML or XML, as gst-landmark "
+          "calibrate writes it): camera_matrix and distortion_coefficients "
+          "(model pinhole), or model: seed with its four lengths (model "
+          "seed); what the file holds (also camera_height, tilt_deg, "
+          "roll_deg) overrides the properties", nullptr, flags));
   g_object_class_install_property (gobject_class, PROP_BLIND_DISTANCE,
       g_param_spec_double ("blind-distance", "Blind distance",
           "model=seed: metres along the floor from the camera's floor point "

@@ -707,6 +707,9 @@ def add_bench_parser(subparsers):
     seg.add_argument("--out", help="keep the renders in this folder")
     seg.add_argument("--json", metavar="OUT", help="also write the numbers")
     seg.set_defaults(handler=_handle_segmentation, scenario=None)
+
+    from .ranging_bench import add_ranging_bench_parser
+    add_ranging_bench_parser(actions)
     return parser
 
 

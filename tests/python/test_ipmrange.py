@@ -15,17 +15,24 @@ from gstlandmark import cli, evaluate as E
 from gstlandmark.regress import read_jsonl
 
 MAX_RANGE = 4.0
-MARKERS = {
-    "disc": "marker-kind=disc marker-height=0 marker-diameter=0.1",
-    "ball": "marker-kind=ball marker-height=0.0325 marker-diameter=0.065",
-}
+# distance bands reported and checked one by one, metres (upper bound
+# inclusive for the last)
+BANDS = ((0.3, 0.5), (0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0))
 
 
 @pytest.fixture(scope="module")
 def sweep(tmp_path_factory):
     out = tmp_path_factory.mktemp("range-sweep")
-    assert cli.main(["synth", "range-sweep", "--out", str(out)]) == 0
+    assert cli.main(["synth", "range-sweep", "--out", str(out),
+                     "--no-progress"]) == 0
     return out
+
+
+def marker_props(scene, kind):
+    """marker-* properties of the sweep's discs or balls (scene.json)."""
+    d = scene["notes"][f"{kind}_diameter_m"]
+    z = 0.0 if kind == "disc" else d / 2
+    return f"marker-kind={kind} marker-height={z} marker-diameter={d}"
 
 
 def camera_props(scene):
@@ -56,7 +63,8 @@ def range_run(Gst, sweep, kind, method, log):
     run(Gst, f"filesrc location={sweep / 'clip.avi'} ! avidemux ! jpegdec ! "
         f"videoconvert ! labsegment palette={sweep / 'palette.json'} "
         f"min-class-pixels=0 ! blobroundness ! ipmrange "
-        f"{camera_props(scene)} {MARKERS[kind]} range-method={method} ! "
+        f"{camera_props(scene)} {marker_props(scene, kind)} "
+        f"range-method={method} ! "
         f"landmarklog location={log} ! fakesink")
     return read_jsonl(str(log))
 
@@ -67,9 +75,15 @@ def errors(results, truth, kind):
                                and m["range"] <= MAX_RANGE + 1e-9])
             for t in truth]
     ev = E.evaluate(results, only)
+    dist = np.array([r for r, _, _ in ev.range_errors])
     rel = np.abs([e / r for r, e, _ in ev.range_errors])
     bearing = np.abs([math.degrees(b) for _, _, b in ev.range_errors])
-    return rel, bearing, ev
+    return rel, bearing, dist
+
+
+def band_of(dist, lo, hi):
+    return (dist >= lo - 1e-9) & ((dist < hi - 1e-9) if hi < MAX_RANGE
+                                  else (dist <= hi + 1e-9))
 
 
 @pytest.mark.parametrize("kind", ["disc", "ball"])
@@ -77,18 +91,33 @@ def errors(results, truth, kind):
 def test_range_sweep_accuracy(gst, sweep, tmp_path, kind, method):
     results = range_run(gst, sweep, kind, method, tmp_path / "log.jsonl")
     truth = read_jsonl(str(sweep / "truth.jsonl"))
-    rel, bearing, ev = errors(results, truth, kind)
+    rel, bearing, dist = errors(results, truth, kind)
     print(f"\n{kind} {method}: n={rel.size} range median "
           f"{100 * np.median(rel):.2f}% p95 "
           f"{100 * np.percentile(rel, 95):.2f}% bearing median "
           f"{np.median(bearing):.3f} deg p95 "
           f"{np.percentile(bearing, 95):.3f} deg")
-    # discs beyond about 2 m and balls beyond about 3 m are not detected by
-    # blobroundness's defaults; what is detected is measured
-    assert rel.size >= (35 if kind == "disc" else 50)
+    # every landmark not cut by the border is found, 0.3 (discs: 0.4) to
+    # 4 m: 11 ranges x 5 bearings of discs, and the balls' too, less two
+    # balls at 0.3 m cut by the side
+    assert rel.size >= (55 if kind == "disc" else 58)
+    assert dist.max() == pytest.approx(MAX_RANGE)
     assert np.median(rel) <= 0.01
     assert np.percentile(rel, 95) <= 0.02
     assert np.median(bearing) <= 0.3
+    for lo, hi in BANDS:
+        sel = band_of(dist, lo, hi)
+        if kind == "disc" and hi <= 0.5:
+            assert sel.sum() >= 5      # 0.4 m only
+        else:
+            assert sel.sum() >= 8, (lo, hi)
+        print(f"  {lo}-{hi} m: n={sel.sum()} median "
+              f"{100 * np.median(rel[sel]):.2f}% p95 "
+              f"{100 * np.percentile(rel[sel], 95):.2f}% bearing median "
+              f"{np.median(bearing[sel]):.3f} deg")
+        assert np.median(rel[sel]) <= 0.01, (lo, hi)
+        assert np.percentile(rel[sel], 95) <= 0.02, (lo, hi)
+        assert np.median(bearing[sel]) <= 0.3, (lo, hi)
     # every detection has a landmark-range, finite and non-negative
     for res in results:
         for det in res.get("detections", []):
@@ -103,12 +132,298 @@ def test_range_sweep_accuracy(gst, sweep, tmp_path, kind, method):
                            rng["range"]) < 1e-9
 
 
-def test_size_range_is_reported(gst, sweep, tmp_path):
-    results = range_run(gst, sweep, "ball", "size", tmp_path / "log.jsonl")
+@pytest.mark.parametrize("kind", ["disc", "ball"])
+def test_size_range_is_reported(gst, sweep, tmp_path, kind):
+    results = range_run(gst, sweep, kind, "size", tmp_path / "log.jsonl")
     truth = read_jsonl(str(sweep / "truth.jsonl"))
-    rel, _, _ = errors(results, truth, "ball")
-    assert rel.size >= 50
-    assert np.median(rel) <= 0.02
+    rel, _, dist = errors(results, truth, kind)
+    print(f"\n{kind} size: n={rel.size} range median "
+          f"{100 * np.median(rel):.2f}% p95 "
+          f"{100 * np.percentile(rel, 95):.2f}%")
+    for lo, hi in BANDS:
+        sel = band_of(dist, lo, hi)
+        print(f"  {lo}-{hi} m: n={sel.sum()} median "
+              f"{100 * np.median(rel[sel]):.2f}% p95 "
+              f"{100 * np.percentile(rel[sel], 95):.2f}%")
+    assert rel.size >= 55
+    assert np.median(rel) <= 0.03
     methods = {d["range"]["method"] for r in results
                for d in r.get("detections", []) if "range" in d}
     assert methods == {"size"}
+
+
+# ---------------------------------------------------------------------------
+# Camera files written by gst-landmark calibrate, and the exact geometry
+# against OpenCV, on detections attached by hand
+
+import cv2  # noqa: E402
+import gi  # noqa: E402
+
+gi.require_version("GstVideo", "1.0")
+from gi.repository import GstVideo  # noqa: E402
+
+from gstlandmark import calibrate as C, meta  # noqa: E402
+
+W, H = 640, 480
+K_TEST = np.array([[530.0, 0.0, 318.2], [0.0, 527.5, 243.9],
+                   [0.0, 0.0, 1.0]])
+DIST_TEST = np.array([-0.21, 0.06, 0.0008, -0.0012, -0.008])
+
+
+def range_points(Gst, props, uv, size=(W, H)):
+    """landmark-range of detections at pixel centroids uv (no ellipse),
+    through appsrc ! ipmrange props ! appsink; one dict per point."""
+    w, h = size
+    caps = f"video/x-raw,format=GRAY8,width={w},height={h},framerate=30/1"
+    pipe = Gst.parse_launch(f"appsrc name=src format=time caps={caps} ! "
+                            f"ipmrange {props} ! appsink name=sink "
+                            f"sync=false")
+    src, sink = pipe.get_by_name("src"), pipe.get_by_name("sink")
+    stride = (w + 3) // 4 * 4
+    buf = Gst.Buffer.new_wrapped(bytes(stride * h))
+    buf.pts = 0
+    for i, (u, v) in enumerate(uv):
+        u, v = float(u), float(v)
+        roi = GstVideo.buffer_add_video_region_of_interest_meta(
+            buf, "red", max(0, int(u) - 2), max(0, int(v) - 2), 5, 5)
+        roi.id = i
+        roi.add_param(Gst.Structure.new_from_string(
+            f"landmark-blob, class=(string)red, centroid-x=(double){u!r}, "
+            f"centroid-y=(double){v!r}, frame-width=(uint){w}, "
+            f"frame-height=(uint){h}"))
+    pipe.set_state(Gst.State.PLAYING)
+    try:
+        src.emit("push-buffer", buf)
+        src.emit("end-of-stream")
+        sample = sink.emit("try-pull-sample", 10 * Gst.SECOND)
+        if sample is None:
+            msg = pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
+            detail = msg.parse_error()[0].message if msg else "timeout"
+            raise AssertionError(f"ipmrange {props}: {detail}")
+        return [d.range for d in meta.detections(sample.get_buffer())]
+    finally:
+        pipe.set_state(Gst.State.NULL)
+
+
+def ready_error(Gst, props):
+    """The error message of ipmrange props failing READY (None: no
+    failure)."""
+    pipe = Gst.parse_launch(f"fakesrc num-buffers=1 ! ipmrange {props} ! "
+                            f"fakesink")
+    try:
+        if pipe.set_state(Gst.State.READY) != Gst.StateChangeReturn.FAILURE:
+            return None
+        msg = pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
+        err, dbg = msg.parse_error()
+        return f"{err.message} {dbg}"
+    finally:
+        pipe.set_state(Gst.State.NULL)
+
+
+def floor_truth(uv, k, dist, height, tilt_deg, roll_deg, z0=0.0):
+    """Exact floor points (N, 2) of pixels: OpenCV undoes the distortion,
+    the rays leave the camera at (0, 0, height) in the robot frame
+    (docs/conventions.md) and meet the plane z = z0."""
+    pts = np.asarray(uv, dtype=np.float64).reshape(-1, 1, 2)
+    norm = cv2.undistortPointsIter(
+        pts, k, dist, np.eye(3), np.eye(3),
+        (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15))
+    norm = norm.reshape(-1, 2)
+    rot = C.robot_to_camera_rotation(math.radians(tilt_deg),
+                                     math.radians(roll_deg))
+    rays = np.column_stack([norm, np.ones(len(norm))]) @ rot
+    t = (z0 - height) / rays[:, 2]
+    return np.column_stack([t * rays[:, 0], t * rays[:, 1]])
+
+
+def pinhole_fields(height=None, tilt=None, roll=None, dist=DIST_TEST):
+    """A camera file as calibrate chessboard (+ floor) writes it."""
+    camera = {C.K_MATRIX: K_TEST, "dist": dist, C.K_WIDTH: W,
+              C.K_HEIGHT: H}
+    fields = C._intrinsic_fields(camera)
+    for key, value in (("camera_height", height), ("tilt_deg", tilt),
+                       ("roll_deg", roll)):
+        if value is not None:
+            fields[key] = value
+    return fields
+
+
+UV_GRID = [(u, v) for v in (300.0, 380.0, 470.0)
+           for u in (12.0, 200.5, 319.5, 500.0, 630.0)]
+
+
+@pytest.mark.parametrize("suffix", ["yml", "xml"])
+def test_camera_file_mounting_wins_over_properties(gst, tmp_path, suffix):
+    path = tmp_path / f"cam.{suffix}"
+    C.write_camera_file(str(path), pinhole_fields(0.42, 31.0, 2.5))
+    # the properties say otherwise: the file's values are used
+    got = range_points(gst, f"calibration={path} camera-height=1.0 tilt=10 "
+                       f"roll=-4", UV_GRID)
+    want = floor_truth(UV_GRID, K_TEST, DIST_TEST, 0.42, 31.0, 2.5)
+    for r, (gx, gy) in zip(got, want):
+        assert not r["no-floor"]
+        assert r["ground-x"] == pytest.approx(gx, abs=1e-7)
+        assert r["ground-y"] == pytest.approx(gy, abs=1e-7)
+
+
+def test_camera_file_partial_mounting(gst, tmp_path):
+    # the file has the height only: tilt and roll come from the properties
+    path = tmp_path / "cam.yml"
+    C.write_camera_file(str(path), pinhole_fields(height=0.36))
+    got = range_points(gst, f"calibration={path} camera-height=2 tilt=28 "
+                       f"roll=1.5", UV_GRID)
+    want = floor_truth(UV_GRID, K_TEST, DIST_TEST, 0.36, 28.0, 1.5)
+    for r, (gx, gy) in zip(got, want):
+        assert (r["ground-x"], r["ground-y"]) == pytest.approx(
+            (gx, gy), abs=1e-7)
+
+
+def test_camera_file_without_mounting_uses_properties(gst, tmp_path):
+    path = tmp_path / "cam.yml"
+    C.write_camera_file(str(path), pinhole_fields())
+    got = range_points(gst, f"calibration={path} camera-height=0.35 "
+                       f"tilt=27 roll=-1", UV_GRID)
+    want = floor_truth(UV_GRID, K_TEST, DIST_TEST, 0.35, 27.0, -1.0)
+    for r, (gx, gy) in zip(got, want):
+        assert (r["ground-x"], r["ground-y"]) == pytest.approx(
+            (gx, gy), abs=1e-7)
+
+
+def test_calibrate_floor_file_is_read(gst, tmp_path):
+    # the file calibrate floor writes (floor_fields), as it stands
+    path = tmp_path / "floor.yml"
+    camera = {C.K_MATRIX: K_TEST, "dist": DIST_TEST, C.K_WIDTH: W,
+              C.K_HEIGHT: H}
+    result = C.FloorResult(height=0.5, tilt_deg=20.0, roll_deg=-0.7,
+                           rms=0.05, centre_robot=(1.0, 0.0))
+    C.write_camera_file(str(path), C.floor_fields(camera, result))
+    got = range_points(gst, f"calibration={path}", UV_GRID)
+    want = floor_truth(UV_GRID, K_TEST, DIST_TEST, 0.5, 20.0, -0.7)
+    for r, (gx, gy) in zip(got, want):
+        assert (r["ground-x"], r["ground-y"]) == pytest.approx(
+            (gx, gy), abs=1e-7)
+
+
+def test_seed_file_selects_the_seed_model(gst, tmp_path):
+    geo = C.seed_geometry(0.4, 0.3, 0.9, 0.6)
+    path = tmp_path / "seed.yml"
+    C.write_camera_file(str(path), C.seed_fields(geo, size=(W, H)))
+    uv = [(u, v) for v in (479.0, 400.0, 239.5)
+          for u in (0.0, 160.0, 319.5, 639.0)]
+    # model=pinhole (the default) and another height: the file wins
+    from_file = range_points(gst, f"calibration={path} camera-height=1.0",
+                             uv)
+    from_props = range_points(gst, "model=seed camera-height=0.4 "
+                              "blind-distance=0.3 view-depth=0.9 "
+                              "half-width=0.6", uv)
+    x_right, y_ahead = geo.floor_point([p[0] for p in uv],
+                                       [p[1] for p in uv], W, H)
+    for a, b, xr, ya in zip(from_file, from_props, x_right, y_ahead):
+        assert a["ground-x"] == pytest.approx(b["ground-x"], abs=1e-12)
+        assert a["ground-y"] == pytest.approx(b["ground-y"], abs=1e-12)
+        assert a["ground-x"] == pytest.approx(ya, abs=1e-9)
+        assert a["ground-y"] == pytest.approx(-xr, abs=1e-9)
+    # the bottom row sees b, the centre row b + d, the corner w
+    assert from_file[2]["ground-x"] == pytest.approx(0.3, abs=1e-9)
+    assert from_file[10]["ground-x"] == pytest.approx(1.2, abs=1e-3)
+    assert from_file[8]["ground-y"] == pytest.approx(0.6, abs=1e-3)
+
+
+@pytest.mark.parametrize("fields, words", [
+    ({"model": "seed", "camera_height": 0.4, "blind_distance": 0.3,
+      "half_width": 0.6}, "view_depth"),
+    ({"model": "seed", "camera_height": 0.4, "blind_distance": 0.3,
+      "view_depth": -0.9, "half_width": 0.6}, "view_depth"),
+    ({"model": "fisheye"}, "unknown model"),
+    ("pinhole", "camera_height"),
+    ("tilt", "tilt_deg"),
+])
+def test_bad_camera_files_fail_ready(gst, tmp_path, fields, words):
+    if fields == "pinhole":
+        fields = pinhole_fields(height=-0.3)
+    elif fields == "tilt":
+        fields = pinhole_fields(height=0.3, tilt=120.0)
+    path = tmp_path / "bad.yml"
+    C.write_camera_file(str(path), fields)
+    err = ready_error(gst, f"calibration={path}")
+    assert err is not None and words in err and str(path) in err
+
+
+@pytest.mark.parametrize("z0", [0.0, 0.1])
+def test_element_matches_cv2_projectpoints(gst, tmp_path, z0):
+    """Random points on the plane z = z0 projected by cv2.projectPoints
+    (distortion included); ipmrange, given the same camera file and
+    detections at those pixels, gives the points back."""
+    rng = np.random.default_rng(5 + int(10 * z0))
+    height, tilt, roll = 0.45, 28.0, 1.8
+    path = tmp_path / "cam.yml"
+    C.write_camera_file(str(path), pinhole_fields(height, tilt, roll))
+    x = rng.uniform(0.35, 6.0, 400)
+    y = rng.uniform(-1.0, 1.0, 400) * x * math.tan(math.radians(38))
+    world = np.column_stack([x, y, np.full_like(x, z0)])
+    rot = C.robot_to_camera_rotation(math.radians(tilt), math.radians(roll))
+    rvec, _ = cv2.Rodrigues(rot)
+    tvec = -rot @ np.array([0.0, 0.0, height])
+    uv, _ = cv2.projectPoints(world, rvec, tvec, K_TEST, DIST_TEST)
+    uv = uv.reshape(-1, 2)
+    # inside the image, and away from the corners where the polynomial
+    # distortion model folds back on itself
+    r2 = (((uv - K_TEST[:2, 2]) / K_TEST[[0, 1], [0, 1]]) ** 2).sum(1)
+    keep = ((uv[:, 0] >= 0) & (uv[:, 0] <= W - 1) & (uv[:, 1] >= 0)
+            & (uv[:, 1] <= H - 1) & (r2 < 0.45))
+    assert keep.sum() >= 100
+    world, uv = world[keep], uv[keep]
+    got = range_points(gst, f"calibration={path} marker-height={z0}",
+                       [tuple(p) for p in uv])
+    gx = np.array([r["ground-x"] for r in got])
+    gy = np.array([r["ground-y"] for r in got])
+    err = np.hypot(gx - world[:, 0], gy - world[:, 1])
+    rng_true = np.hypot(world[:, 0], world[:, 1])
+    assert np.max(err / rng_true) < 1e-6
+    bearing = np.array([r["bearing"] for r in got])
+    assert np.max(np.abs(bearing - np.arctan2(world[:, 1], world[:, 0]))) \
+        < 1e-6
+
+
+def test_rendered_discs_at_random_floor_points(gst, tmp_path):
+    """Small discs drawn by the synthetic renderer at random floor
+    points: labsegment ! blobroundness ! ipmrange finds their centres."""
+    rng = np.random.default_rng(11)
+    colours = ["red", "green", "yellow", "pink", "blue"]
+    landmarks, placed = [], []
+    while len(landmarks) < len(colours):
+        r = rng.uniform(0.45, 1.5)
+        b = rng.uniform(-22, 22)
+        x, y = r * math.cos(math.radians(b)), r * math.sin(math.radians(b))
+        if any(math.hypot(x - px, y - py) < 0.25 for px, py in placed):
+            continue
+        placed.append((x, y))
+        landmarks.append({"id": f"D{len(landmarks)}",
+                          "class": colours[len(landmarks)], "x": x, "y": y,
+                          "z": 0.0, "diameter": 0.12, "kind": "disc"})
+    (tmp_path / "map.json").write_text(json.dumps({"landmarks": landmarks}))
+    out = tmp_path / "synth"
+    assert cli.main(["synth", "custom", "--map", str(tmp_path / "map.json"),
+                     "--pose", "0,0,0", "--frames", "1", "--out", str(out),
+                     "--no-progress"]) == 0
+    scene = json.loads((out / "scene.json").read_text())
+    log = tmp_path / "log.jsonl"
+    run(gst, f"filesrc location={out / 'clip.avi'} ! avidemux ! jpegdec ! "
+        f"videoconvert ! labsegment palette={out / 'palette.json'} "
+        f"min-class-pixels=0 ! blobroundness ! ipmrange "
+        f"{camera_props(scene)} marker-diameter=0.12 ! "
+        f"landmarklog location={log} ! fakesink")
+    dets = read_jsonl(str(log))[0]["detections"]
+    by_class = {d["class"]: d["range"] for d in dets if "range" in d}
+    # the renderer's truth says which are whole and big enough to find
+    truth = read_jsonl(str(out / "truth.jsonl"))[0]["landmarks"]
+    findable = {t["class"] for t in truth if not t["cut"]
+                and t["pixels"] >= 150}
+    assert len(findable) >= 4 and findable <= set(by_class), findable
+    for lm in landmarks:
+        if lm["class"] not in findable:
+            continue
+        got = by_class[lm["class"]]
+        r = math.hypot(lm["x"], lm["y"])
+        assert math.hypot(got["ground-x"] - lm["x"],
+                          got["ground-y"] - lm["y"]) < 0.005 * r, lm

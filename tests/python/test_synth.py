@@ -358,9 +358,9 @@ def test_scenario_writes_outputs(tmp_path, name):
     assert set(scene["camera"]) == {"width", "height", "fx", "fy", "cx",
                                     "cy", "hfov_deg", "height_m",
                                     "tilt_deg", "roll_deg"}
-    # the path scenario has its own camera (a robot's wide-angle one)
+    # path and range-sweep have their own camera (a robot's wide-angle one)
     assert scene["camera"]["hfov_deg"] == pytest.approx(
-        80.0 if name == "path" else 60.0)
+        80.0 if name in ("path", "range-sweep") else 60.0)
     for key in ("fps", "seed", "floor", "effects", "palette", "map",
                 "visibility", "chart"):
         assert key in scene

@@ -50,11 +50,33 @@ read_matrix (const cv::FileStorage & fs, const char *a, const char *b,
   return true;
 }
 
-bool
-load_calibration (const std::string & path, double *fx, double *fy,
-    double *cx, double *cy, std::vector<double> *dist, int *image_width,
-    int *image_height, std::string * error)
+/* A real number under key, when present; false (with *error) when the key
+ * is there but not a finite number. */
+static bool
+read_real (const cv::FileStorage & fs, const std::string & path,
+    const char *key, bool *present, double *value, std::string * error)
 {
+  const cv::FileNode n = fs[key];
+  *present = !n.empty ();
+  if (!*present)
+    return true;
+  if (!n.isReal () && !n.isInt ()) {
+    *error = path + ": " + key + " is not a number";
+    return false;
+  }
+  *value = (double) n;
+  if (!std::isfinite (*value)) {
+    *error = path + ": " + key + " is not finite";
+    return false;
+  }
+  return true;
+}
+
+bool
+load_camera_file (const std::string & path, CameraFile * out,
+    std::string * error)
+{
+  *out = CameraFile ();
   {
     std::ifstream f (path);
     if (!f.good ()) {
@@ -68,9 +90,80 @@ load_calibration (const std::string & path, double *fx, double *fy,
       *error = path + ": not an OpenCV FileStorage file (YAML or XML)";
       return false;
     }
+    const cv::FileNode model = fs["model"];
+    if (!model.empty ()) {
+      const std::string name = model.isString ()? (std::string) model : "";
+      if (name == "seed") {
+        out->seed = true;
+      } else if (name != "pinhole") {
+        *error = path + ": unknown model '" + name + "' (expected seed, or "
+            "a pinhole file with camera_matrix)";
+        return false;
+      }
+    }
+    if (!fs["image_width"].empty ())
+      fs["image_width"] >> out->image_width;
+    if (!fs["image_height"].empty ())
+      fs["image_height"] >> out->image_height;
+    if (out->image_width < 0 || out->image_height < 0) {
+      *error = path + ": image_width and image_height must be positive";
+      return false;
+    }
+    double v = 0;
+    bool present = false;
+    if (!read_real (fs, path, "camera_height", &present, &v, error))
+      return false;
+    if (present) {
+      if (!(v > 0)) {
+        *error = path + ": camera_height must be positive (metres), got " +
+            num (v);
+        return false;
+      }
+      out->has_camera_height = true;
+      out->camera_height = v;
+    }
+
+    if (out->seed) {
+      if (!out->has_camera_height) {
+        *error = path + ": a seed file (model: seed) needs camera_height";
+        return false;
+      }
+      const char *keys[] = { "blind_distance", "view_depth", "half_width" };
+      double *dst[] = { &out->blind_distance, &out->view_depth,
+        &out->half_width
+      };
+      for (int i = 0; i < 3; i++) {
+        if (!read_real (fs, path, keys[i], &present, dst[i], error))
+          return false;
+        if (!present) {
+          *error = path + ": a seed file (model: seed) needs " + keys[i];
+          return false;
+        }
+        if (!(*dst[i] > 0)) {
+          *error = path + ": " + keys[i] + " must be positive (metres), got "
+              + num (*dst[i]);
+          return false;
+        }
+      }
+      /* tilt_deg and the fields of view in a seed file are derived from
+       * the four lengths: not read */
+      return true;
+    }
+
+    if (!read_real (fs, path, "tilt_deg", &out->has_tilt, &out->tilt_deg,
+            error)
+        || !read_real (fs, path, "roll_deg", &out->has_roll, &out->roll_deg,
+            error))
+      return false;
+    if (out->has_tilt && !(out->tilt_deg >= -90 && out->tilt_deg <= 90)) {
+      *error = path + ": tilt_deg must be within [-90, 90] degrees, got " +
+          num (out->tilt_deg);
+      return false;
+    }
+
     cv::Mat k, d;
     if (!read_matrix (fs, "camera_matrix", "cameraMatrix", &k)) {
-      *error = path + ": no camera_matrix";
+      *error = path + ": no camera_matrix (nor model: seed)";
       return false;
     }
     if (k.rows != 3 || k.cols != 3 || k.channels () != 1) {
@@ -78,18 +171,19 @@ load_calibration (const std::string & path, double *fx, double *fy,
       return false;
     }
     k.convertTo (k, CV_64F);
-    *fx = k.at<double> (0, 0);
-    *fy = k.at<double> (1, 1);
-    *cx = k.at<double> (0, 2);
-    *cy = k.at<double> (1, 2);
-    if (!(*fx > 0 && *fy > 0) || !std::isfinite (*cx) || !std::isfinite (*cy)
-        || k.at<double> (1, 0) != 0 || k.at<double> (2, 0) != 0
-        || k.at<double> (2, 1) != 0 || k.at<double> (2, 2) != 1.0) {
+    out->fx = k.at<double> (0, 0);
+    out->fy = k.at<double> (1, 1);
+    out->cx = k.at<double> (0, 2);
+    out->cy = k.at<double> (1, 2);
+    if (!(out->fx > 0 && out->fy > 0) || !std::isfinite (out->fx)
+        || !std::isfinite (out->fy) || !std::isfinite (out->cx)
+        || !std::isfinite (out->cy) || k.at<double> (1, 0) != 0
+        || k.at<double> (2, 0) != 0 || k.at<double> (2, 1) != 0
+        || k.at<double> (2, 2) != 1.0) {
       *error = path + ": camera_matrix is not a camera matrix (fx, fy > 0, "
           "last row 0 0 1)";
       return false;
     }
-    dist->clear ();
     if (read_matrix (fs, "distortion_coefficients", "distCoeffs", &d)
         && !d.empty ()) {
       const size_t n = d.total ();
@@ -102,24 +196,41 @@ load_calibration (const std::string & path, double *fx, double *fy,
       d = d.reshape (1, 1);
       d.convertTo (d, CV_64F);
       for (size_t i = 0; i < n; i++) {
-        const double v = d.at<double> (0, (int) i);
-        if (!std::isfinite (v)) {
+        const double c = d.at<double> (0, (int) i);
+        if (!std::isfinite (c)) {
           *error = path + ": distortion_coefficients are not finite";
           return false;
         }
-        dist->push_back (v);
+        out->dist.push_back (c);
       }
     }
-    *image_width = *image_height = 0;
-    if (!fs["image_width"].empty ())
-      fs["image_width"] >> *image_width;
-    if (!fs["image_height"].empty ())
-      fs["image_height"] >> *image_height;
   }
   catch (const cv::Exception & e) {
     *error = path + ": cannot parse the calibration file: " + e.msg;
     return false;
   }
+  return true;
+}
+
+bool
+load_calibration (const std::string & path, double *fx, double *fy,
+    double *cx, double *cy, std::vector<double> *dist, int *image_width,
+    int *image_height, std::string * error)
+{
+  CameraFile f;
+  if (!load_camera_file (path, &f, error))
+    return false;
+  if (f.seed) {
+    *error = path + ": a seed-model file has no camera_matrix";
+    return false;
+  }
+  *fx = f.fx;
+  *fy = f.fy;
+  *cx = f.cx;
+  *cy = f.cy;
+  *dist = f.dist;
+  *image_width = f.image_width;
+  *image_height = f.image_height;
   return true;
 }
 

@@ -52,6 +52,29 @@ bool load_calibration (const std::string & path, double *fx, double *fy,
     double *cx, double *cy, std::vector<double> *dist, int *image_width,
     int *image_height, std::string * error);
 
+/* Everything a camera file (`gst-landmark calibrate`, docs/calibration.md)
+ * may hold. A pinhole file has `camera_matrix`; a seed file has
+ * `model: seed` with `camera_height`, `blind_distance`, `view_depth` and
+ * `half_width`. The mounting keys `camera_height`, `tilt_deg` and
+ * `roll_deg` are optional in a pinhole file (has_* say which are there). */
+struct CameraFile {
+  bool seed = false;                   /* model: seed */
+  double fx = 0, fy = 0, cx = 0, cy = 0;   /* pinhole */
+  std::vector<double> dist;
+  int image_width = 0, image_height = 0;   /* 0: not in the file */
+  bool has_camera_height = false, has_tilt = false, has_roll = false;
+  double camera_height = 0, tilt_deg = 0, roll_deg = 0;
+  double blind_distance = 0, view_depth = 0, half_width = 0;   /* seed */
+};
+
+/* Reads and checks a camera file (OpenCV FileStorage, YAML or XML). False
+ * with *error naming the file and the key: unreadable, neither a
+ * camera_matrix nor model: seed, an unknown model, a seed file missing one
+ * of its four lengths or with a non-positive one, a non-positive
+ * camera_height, tilt_deg outside [-90, 90], non-finite values. */
+bool load_camera_file (const std::string & path, CameraFile * out,
+    std::string * error);
+
 class CameraGeometry {
 public:
   /* Checks and precomputes; false with *error (naming the parameter) on

@@ -1,15 +1,17 @@
 """The main job's demo: the synthetic robot's camera clip through the
-chain, with a palette learned from the clip's colour chart.
+whole chain, with a palette learned from the clip's colour chart.
 
 The clip (``gst-landmark synth path``) is rendered on first run and kept
 under ``out/clips``. Writes, in the output folder:
 
 - ``palette.json``: the palette learned from the clip's chart frame;
-- ``labels.avi``: the false-colour segmentation (``labsegment
-  output=labels``), the seed's figure 3.6 as video;
+- ``overlay.avi``: the clip with detections, ranges, pose, histogram and
+  mini-map drawn by ``landmarkoverlay``;
 - ``log.jsonl``: ``landmarklog``'s line per frame;
-- ``preview.png``: one frame and its segmentation side by side;
-- ``summary.json``: frames, ms per frame, and the share of each class.
+- ``trajectory.png``: estimated poses against the true path;
+- ``accuracy.json``: ``gst-landmark evaluate`` against the clip's truth;
+- ``preview.png``: one overlay frame;
+- ``summary.json``: frames, time per frame, pose and accuracy figures.
 """
 
 from __future__ import annotations
@@ -17,12 +19,12 @@ from __future__ import annotations
 import json
 import os
 import time
-from typing import Dict, List
+from typing import Dict
 
 import cv2
 import numpy as np
 
-from . import meta, pipeline
+from . import pipeline
 from .scenes import floor_scene
 
 Gst = pipeline.Gst
@@ -53,57 +55,6 @@ def write_clip(path: str, width: int, height: int, frames: int,
         _wait_eos(pipe)
     finally:
         pipe.set_state(Gst.State.NULL)
-
-
-def segment_clip(clip: str, out_video: str, preview_frame: int,
-                 palette: str = None, log: str = None) -> Dict:
-    """Runs ``labsegment output=labels`` (and ``landmarklog`` when ``log``
-    is given) over a clip; returns statistics and the preview frame's
-    input and output images."""
-    pipeline.init()
-    props = f" palette={palette}" if palette else ""
-    logger = f"landmarklog location={log} ! " if log else ""
-    pipe = Gst.parse_launch(
-        f"filesrc location={clip} ! decodebin ! videoconvert ! "
-        f"video/x-raw,format=RGB ! labsegment name=seg output=labels{props} "
-        f"! {logger}videoconvert ! jpegenc quality=92 ! avimux ! "
-        f"filesink location={out_video}")
-    stats: Dict = {"frames": 0, "class_pixels": {}, "ms": []}
-    preview: Dict = {}
-    seg = pipe.get_by_name("seg")
-    entered: List[float] = []
-
-    # Probes around the element: its own time per frame, the labels meta,
-    # and the preview frame before and after (it draws in place).
-    def on_enter(pad, info):
-        if stats["frames"] == preview_frame:
-            preview["input"] = _buffer_rgb(info.get_buffer(),
-                                           pad.get_current_caps())
-        entered.append(time.perf_counter())
-        return Gst.PadProbeReturn.OK
-
-    def on_leave(pad, info):
-        stats["ms"].append((time.perf_counter() - entered.pop(0)) * 1e3)
-        buf = info.get_buffer()
-        lm = meta.labels(buf)
-        for c in lm.classes:
-            stats["class_pixels"][c.name] = (
-                stats["class_pixels"].get(c.name, 0) + c.labelled)
-        stats["class_pixels"]["(none)"] = (
-            stats["class_pixels"].get("(none)", 0) + lm.unclassified)
-        if stats["frames"] == preview_frame:
-            preview["labels"] = _buffer_rgb(buf, pad.get_current_caps())
-        stats["frames"] += 1
-        return Gst.PadProbeReturn.OK
-
-    seg.get_static_pad("sink").add_probe(Gst.PadProbeType.BUFFER, on_enter)
-    seg.get_static_pad("src").add_probe(Gst.PadProbeType.BUFFER, on_leave)
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        _wait_eos(pipe)
-    finally:
-        pipe.set_state(Gst.State.NULL)
-    return {"stats": stats, "preview": preview}
 
 
 def _buffer_rgb(buf, caps):
@@ -153,45 +104,103 @@ def learn_chart_palette(folder: str, out: str) -> str:
     return out
 
 
+def chain_description(folder: str, palette: str, log: str,
+                      video: str) -> str:
+    """The whole chain on the clip in ``folder``, with the scene's true
+    camera and map (as a user would with their calibrated camera)."""
+    with open(os.path.join(folder, "scene.json")) as f:
+        cam = json.load(f)["camera"]
+    clip = os.path.join(folder, "clip.avi")
+    map_file = os.path.join(folder, "map.json")
+    return (
+        f"filesrc location={clip} ! decodebin ! videoconvert ! "
+        "video/x-raw,format=RGB ! "
+        f"labsegment palette={palette} min-class-pixels=0 ! blobroundness ! "
+        f"ipmrange camera-height={cam['height_m']} tilt={cam['tilt_deg']} "
+        f"hfov={cam['hfov_deg']} map={map_file} ! "
+        f"trilaterate map={map_file} filter=ekf post-messages=false ! "
+        f"landmarklog location={log} ! "
+        f"landmarkoverlay name=overlay map={map_file} ! videoconvert ! "
+        f"jpegenc quality=90 ! avimux ! filesink location={video}")
+
+
+def run_chain(description: str, preview_frame: int) -> Dict:
+    """Runs the chain to EOS; returns the frame count, the wall time and
+    the overlay's output at ``preview_frame``."""
+    pipeline.init()
+    pipe = Gst.parse_launch(description)
+    stats: Dict = {"frames": 0}
+
+    def on_frame(pad, info):
+        if stats["frames"] == preview_frame:
+            stats["preview"] = _buffer_rgb(info.get_buffer(),
+                                           pad.get_current_caps())
+        stats["frames"] += 1
+        return Gst.PadProbeReturn.OK
+
+    pipe.get_by_name("overlay").get_static_pad("src").add_probe(
+        Gst.PadProbeType.BUFFER, on_frame)
+    t0 = time.perf_counter()
+    pipe.set_state(Gst.State.PLAYING)
+    try:
+        _wait_eos(pipe)
+    finally:
+        pipe.set_state(Gst.State.NULL)
+    stats["seconds"] = time.perf_counter() - t0
+    return stats
+
+
 def run_demo(out_dir: str, width: int = 640, height: int = 480,
              frames: int = None, palette: str = None,
              clips_dir: str = "out/clips") -> Dict:
+    from . import evaluate
+    from .regress import read_jsonl
     os.makedirs(out_dir, exist_ok=True)
     t0 = time.perf_counter()
     folder = synthetic_clip(
         os.path.join(clips_dir, f"path-{width}x{height}-"
                                 f"{frames or 'all'}"), width, height, frames)
-    clip = os.path.join(folder, "clip.avi")
     if palette is None:
         palette = learn_chart_palette(folder,
                                       os.path.join(out_dir, "palette.json"))
     with open(os.path.join(folder, "scene.json")) as f:
         n_frames = json.load(f)["frames"]
-    labels = os.path.join(out_dir, "labels.avi")
+    video = os.path.join(out_dir, "overlay.avi")
     log = os.path.join(out_dir, "log.jsonl")
     t1 = time.perf_counter()
-    result = segment_clip(clip, labels, preview_frame=n_frames // 4,
-                          palette=palette, log=log)
-    t2 = time.perf_counter()
-    stats = result["stats"]
-    preview = np.hstack([result["preview"]["input"],
-                         result["preview"]["labels"]])
+    stats = run_chain(chain_description(folder, palette, log, video),
+                      preview_frame=n_frames // 4)
     cv2.imwrite(os.path.join(out_dir, "preview.png"),
-                cv2.cvtColor(preview, cv2.COLOR_RGB2BGR))
-    total = sum(stats["class_pixels"].values()) or 1
+                cv2.cvtColor(stats["preview"], cv2.COLOR_RGB2BGR))
+
+    truth = os.path.join(folder, "truth.jsonl")
+    results = read_jsonl(log)
+    ev = evaluate.evaluate(results, read_jsonl(truth))
+    accuracy = evaluate.summary(ev)
+    with open(os.path.join(out_dir, "accuracy.json"), "w") as f:
+        json.dump(accuracy, f, indent=2)
+    with open(os.path.join(folder, "map.json")) as f:
+        landmarks = json.load(f)["landmarks"]
+    evaluate.plot_trajectory(ev, os.path.join(out_dir, "trajectory.png"),
+                             landmarks)
+    pose = accuracy["pose"].get("all", {}).get("position_m", {})
+    heading = accuracy["pose"].get("all", {}).get("heading_deg", {})
     summary = {
-        "input": clip,
-        "truth": os.path.join(folder, "truth.jsonl"),
+        "clip": os.path.join(folder, "clip.avi"),
+        "truth": truth,
         "palette": palette,
-        "labels_video": labels,
+        "overlay_video": video,
         "log": log,
         "frames": stats["frames"],
         "size": [width, height],
-        "labsegment_ms_per_frame_median": float(np.median(stats["ms"])),
+        "ms_per_frame": round(1000 * stats["seconds"] /
+                              max(stats["frames"], 1), 2),
         "clip_s": round(t1 - t0, 2),
-        "segment_s": round(t2 - t1, 2),
-        "class_share": {k: round(v / total, 4)
-                        for k, v in stats["class_pixels"].items()},
+        "chain_s": round(stats["seconds"], 2),
+        "frames_with_pose": accuracy["pose"]["frames_with_pose"],
+        "position_error_m": pose,
+        "heading_error_deg": heading,
+        "detection": accuracy["detection"]["all"],
     }
     with open(os.path.join(out_dir, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
@@ -215,14 +224,20 @@ def _handle(args) -> int:
         width, height = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
         args.parser.error(f"--size must be WIDTHxHEIGHT, got {args.size!r}")
-    summary = run_demo(args.out, width, height, args.frames, args.palette)
-    print(f"{summary['frames']} frames of {width}x{height}: "
-          f"labsegment {summary['labsegment_ms_per_frame_median']:.2f} ms "
-          "per frame (median, incl. probe overhead)")
-    for name, share in sorted(summary["class_share"].items(),
-                              key=lambda kv: -kv[1]):
-        print(f"  {name:10s} {100 * share:6.2f} %")
-    print(f"wrote {args.out}/: palette.json, labels.avi, log.jsonl, "
-          "preview.png, summary.json (clip: "
-          f"{os.path.dirname(summary['input'])})")
+    s = run_demo(args.out, width, height, args.frames, args.palette)
+    pos, head, det = (s["position_error_m"], s["heading_error_deg"],
+                      s["detection"])
+    print(f"{s['frames']} frames of {width}x{height} through labsegment ! "
+          "blobroundness ! ipmrange ! trilaterate ! landmarklog ! "
+          f"landmarkoverlay: {s['ms_per_frame']} ms per frame with decoding "
+          "and encoding")
+    print(f"detections: precision {100 * (det['precision'] or 0):.1f} %, "
+          f"recall {100 * (det['recall'] or 0):.1f} %")
+    if pos.get("n"):
+        print(f"pose on {s['frames_with_pose']} frames: position error "
+              f"median {100 * pos['median']:.1f} cm, p95 "
+              f"{100 * pos['p95']:.1f} cm; heading error median "
+              f"{head['median']:.2f} deg")
+    print(f"wrote {args.out}/: overlay.avi, log.jsonl, trajectory.png, "
+          "accuracy.json, preview.png, palette.json, summary.json")
     return 0

@@ -710,6 +710,8 @@ def add_bench_parser(subparsers):
 
     from .ranging_bench import add_ranging_bench_parser
     add_ranging_bench_parser(actions)
+    from .chainbench import add_chain_bench_parser
+    add_chain_bench_parser(actions)
     return parser
 
 

@@ -77,6 +77,20 @@ def _wait_eos(pipe, timeout_s=120):
         raise pipeline.PipelineError(f"{err.message} ({dbg})")
 
 
+def renderer_version() -> str:
+    """A digest of the renderer's source: a cached clip is reused only if
+    the renderer that made it is the one installed."""
+    import hashlib
+    from . import synth
+    digest = hashlib.sha1()
+    folder = os.path.dirname(synth.__file__)
+    for name in sorted(os.listdir(folder)):
+        if name.endswith(".py"):
+            with open(os.path.join(folder, name), "rb") as f:
+                digest.update(f.read())
+    return digest.hexdigest()[:10]
+
+
 def synthetic_clip(folder: str, width: int, height: int,
                    frames: int = None, seed: int = 0) -> str:
     """The ``path`` scenario rendered into ``folder`` once, reused after."""
@@ -158,8 +172,9 @@ def run_demo(out_dir: str, width: int = 640, height: int = 480,
     os.makedirs(out_dir, exist_ok=True)
     t0 = time.perf_counter()
     folder = synthetic_clip(
-        os.path.join(clips_dir, f"path-{width}x{height}-"
-                                f"{frames or 'all'}"), width, height, frames)
+        os.path.join(clips_dir, f"path-{width}x{height}-{frames or 'all'}-"
+                                f"{renderer_version()}"),
+        width, height, frames)
     if palette is None:
         palette = learn_chart_palette(folder,
                                       os.path.join(out_dir, "palette.json"))

@@ -238,6 +238,7 @@ COMMANDS = [
     _lazy("evaluate", "add_evaluate_parser"),
     _lazy("synth.cli", "add_synth_parser"),
     _lazy("calibrate", "add_calibrate_parser"),
+    _lazy("runner", "add_run_parser"),
 ]
 
 

@@ -2,7 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <new>
+
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 #include <limits>
 
 namespace landmark {
@@ -142,8 +148,18 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
 
   /* Fill the keys in memory order: each row of 256 keys (fixed high and
    * middle bytes) is 32 runs of 8 keys in one cell. */
-  direct_.resize ((size_t) 1 << 24);
-  uint8_t *out = direct_.data ();
+  constexpr size_t kTableSize = (size_t) 1 << 24;
+  if (!direct_) {
+    void *p = nullptr;
+    /* 2 MB aligned, so the table can sit in eight huge pages */
+    if (posix_memalign (&p, (size_t) 2 << 20, kTableSize) != 0)
+      throw std::bad_alloc ();
+#ifdef MADV_HUGEPAGE
+    madvise (p, kTableSize, MADV_HUGEPAGE);
+#endif
+    direct_.reset ((uint8_t *) p);
+  }
+  uint8_t *out = direct_.get ();
   for (int hi = 0; hi < 256; hi++) {
     for (int mid = 0; mid < 256; mid++) {
       for (int run = 0; run < 32; run++, out += 8) {
@@ -155,6 +171,12 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
       }
     }
   }
+}
+
+void
+ClassTable::FreeTable::operator() (uint8_t * p) const
+{
+  free (p);
 }
 
 uint8_t
@@ -177,7 +199,7 @@ ClassTable::resolve (uint8_t c0, uint8_t c1, uint8_t c2)
     for (int u = 0; u < 8; u++)
       for (int v = 0; v < 8; v++)
         for (int w = 0; w < 8; w++, i++)
-          direct_[key (b0 + u, b1 + v, b2 + w)] = nearest (lab_ + 3 * i,
+          direct_.get ()[key (b0 + u, b1 + v, b2 + w)] = nearest (lab_ + 3 * i,
               nullptr);
     pending_[cell] = 0;
     filled_++;

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "labcolour.h"
@@ -48,7 +49,7 @@ public:
   KeyOrder order () const { return order_; }
 
   /* The label array, indexed by key; hot loops keep it in a local. */
-  const uint8_t *labels () const { return direct_.data (); }
+  const uint8_t *labels () const { return direct_.get (); }
 
   uint32_t key (uint8_t c0, uint8_t c1, uint8_t c2) const
   {
@@ -59,7 +60,7 @@ public:
   /* Nearest class over all classes, or kPending. */
   uint8_t lookup (uint8_t c0, uint8_t c1, uint8_t c2) const
   {
-    return direct_[key (c0, c1, c2)];
+    return direct_.get ()[key (c0, c1, c2)];
   }
 
   /* Nearest class over all classes, computing the pixel's cell if pending.
@@ -85,7 +86,13 @@ private:
   ClassifierConfig cfg_;
   KeyOrder order_ = KeyOrder::C0_LOW;
   double max_d2_ = 0;
-  std::vector<uint8_t> direct_;   /* 2^24 labels by key */
+  /* 2^24 labels by key, in huge pages where the system offers them: a
+   * frame's lookups spread over all 16 MB, and with 4 KB pages the TLB
+   * misses cost more than the lookups */
+  struct FreeTable {
+    void operator() (uint8_t * p) const;
+  };
+  std::unique_ptr<uint8_t, FreeTable> direct_;
   std::vector<uint8_t> pending_;  /* 32x32x32 cells: still to compute */
   size_t boundary_cells_ = 0, filled_ = 0;
 

@@ -79,6 +79,7 @@
 #include <exception>
 #include <map>
 #include <mutex>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -144,6 +145,15 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
 /* *INDENT-OFF* */
 namespace {
 
+/* a number as people write it in a message: 0.3, not 0.300000 */
+std::string
+landmark_num (double v)
+{
+  std::ostringstream o;
+  o << v;
+  return o.str ();
+}
+
 struct Settings {
   GstIpmRangeModel model = DEFAULT_MODEL;
   gdouble camera_height = DEFAULT_CAMERA_HEIGHT;
@@ -170,9 +180,12 @@ struct Config {
   double cal_fx = 0, cal_fy = 0, cal_cx = 0, cal_cy = 0;
   std::vector<double> cal_dist;
   int calib_w = 0, calib_h = 0;
+  bool calib_has_tilt = false;    /* tilt_deg came from the file */
   landmark::MarkerSpec default_marker;
   std::map<std::string, landmark::MarkerSpec> markers;   /* from the map */
   std::vector<std::string> ambiguous;    /* map classes that disagree */
+  /* (class, id) of every map landmark, checked against the labels */
+  std::vector<std::pair<std::string, std::string>> map_classes;
 };
 
 struct State {
@@ -181,6 +194,7 @@ struct State {
   landmark::CameraGeometry geometry;
   gint geometry_w = 0, geometry_h = 0;    /* what geometry was built for */
   gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
+  bool map_classes_checked = false;       /* against the first labels */
 };
 
 }  // namespace
@@ -346,6 +360,7 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
         m.camera_height = f.camera_height;
       if (f.has_tilt)
         m.tilt = f.tilt_deg;
+      cfg->calib_has_tilt = f.has_tilt;
       if (f.has_roll)
         m.roll = f.roll_deg;
     }
@@ -405,6 +420,17 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
     }
     std::map<std::string, bool> bad;
     for (const auto & lm : map.landmarks) {
+      /* the same rule as marker-height: a marker plane at or above the
+       * camera is never seen from above */
+      if (lm.z >= e.camera_height) {
+        *property = "map";
+        *why = s.map + ": landmark \"" + lm.id + "\" (class " +
+            lm.class_name + ") has z " + landmark_num (lm.z) +
+            " m: a marker centre must be below the camera (camera-height " +
+            landmark_num (e.camera_height) + " m)";
+        return FALSE;
+      }
+      cfg->map_classes.push_back ({ lm.class_name, lm.id });
       landmark::MarkerSpec m;
       m.z = lm.z;
       m.diameter = lm.diameter;
@@ -433,9 +459,20 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
   landmark::CameraGeometry g;
   std::string err;
   if (!g.configure (p, &err)) {
-    *property = !s.calibration.empty ()? "calibration" :
+    /* blame what set the geometry: the camera file when it holds the
+     * model or the tilt, otherwise the property */
+    const bool from_file = !s.calibration.empty () &&
+        (cfg->calib_has_tilt || e.model == GST_IPM_RANGE_MODEL_SEED);
+    *property = from_file ? "calibration" :
         e.model == GST_IPM_RANGE_MODEL_SEED ? "model" : "tilt";
     *why = err;
+    if (from_file)
+      *why = s.calibration + ": " + err + (cfg->calib_has_tilt ?
+          " (tilt_deg " + landmark_num (e.tilt) + ", camera_height " +
+          landmark_num (e.camera_height) + " m)" : std::string ());
+    else if (!s.calibration.empty ())
+      *why = err + " (tilt property with the intrinsics of " +
+          s.calibration + ")";
     return FALSE;
   }
   return TRUE;
@@ -676,6 +713,8 @@ gst_ipm_range_configure (GstIpmRange * self, gboolean fatal)
             "marker-height, marker-diameter and marker-kind apply to them.",
             name.c_str ()), ("map %s", s.map.c_str ()));
   const Config old = st.config;
+  if (cfg.map_classes != old.map_classes)
+    st.map_classes_checked = false;
   st.config = std::move (cfg);
   if (st.geometry_w > 0 && !gst_ipm_range_build (self, st.geometry_w,
           st.geometry_h, fatal)) {
@@ -721,6 +760,7 @@ gst_ipm_range_start (GstBaseTransform * trans)
   State & st = self->priv->state;
   st.geometry_w = st.geometry_h = 0;
   st.caps_w = st.caps_h = 0;
+  st.map_classes_checked = false;
   return gst_ipm_range_configure (self, TRUE);
 }
 
@@ -863,6 +903,22 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
     gst_ipm_range_configure (self, FALSE);
     if (st.geometry_w == 0 && st.caps_w > 0)
       gst_ipm_range_build (self, st.caps_w, st.caps_h, FALSE);
+  }
+  /* A map class that the palette lacks is legal (a map may serve several
+   * robots) but never matches: say so once, with the first labels. */
+  const GstStructure *labels;
+  if (!st.map_classes_checked && !st.config.map_classes.empty ()
+      && (labels = landmark_labels_meta_get (buf))) {
+    st.map_classes_checked = true;
+    const std::string missing = landmark_labels_missing_classes (labels,
+        st.config.map_classes);
+    if (!missing.empty ())
+      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+          ("The map has landmarks of classes the labels do not have; they "
+              "heights and sizes are never used."),
+          ("%s: %s; the labels have: %s", st.config.s.map.c_str (),
+              missing.c_str (),
+              landmark_labels_class_list (labels).c_str ()));
   }
   try {
     /* collect first: adding parameters adds metas to the buffer */

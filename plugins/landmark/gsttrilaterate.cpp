@@ -133,6 +133,7 @@ struct State {
   GstClockTime ekf_time = GST_CLOCK_TIME_NONE;     /* state's time */
   GstClockTime ekf_measured = GST_CLOCK_TIME_NONE; /* last update */
   guint64 frames = 0;
+  bool map_classes_checked = false;   /* against the first labels */
 };
 
 }  // namespace
@@ -229,6 +230,7 @@ gst_trilaterate_configure (GstTrilaterate * self, gboolean fatal)
     }
     st.map = std::move (map);
     st.map_path = s.map;
+    st.map_classes_checked = false;
     /* a new map: the previous pose means nothing on it */
     st.have_last = false;
     st.ekf.reset ();
@@ -655,6 +657,25 @@ gst_trilaterate_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   }
   if (generation != st.s.generation)
     gst_trilaterate_configure (self, FALSE);
+  /* A map class that the palette lacks is legal (a map may serve several
+   * robots) but never matches: say so once, with the first labels. */
+  const GstStructure *labels;
+  if (!st.map_classes_checked && !st.map.empty ()
+      && (labels = landmark_labels_meta_get (buf))) {
+    st.map_classes_checked = true;
+    std::vector<std::pair<std::string, std::string>> classes;
+    for (const auto & p : st.map)
+      classes.push_back ({ p.class_name, p.id });
+    const std::string missing = landmark_labels_missing_classes (labels,
+        classes);
+    if (!missing.empty ())
+      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+          ("The map has landmarks of classes the labels do not have; they "
+              "can never be matched."),
+          ("%s: %s; the labels have: %s", st.map_path.c_str (),
+              missing.c_str (),
+              landmark_labels_class_list (labels).c_str ()));
+  }
   try {
     return gst_trilaterate_process (self, buf);
   }

@@ -1,5 +1,6 @@
 #include "landmarkmeta.h"
 
+#include <algorithm>
 #include <cstring>
 
 namespace {
@@ -373,4 +374,45 @@ const GstStructure *
 landmark_pose_meta_get (GstBuffer * buffer)
 {
   return custom_structure (buffer, GST_LANDMARK_POSE_META_NAME);
+}
+
+std::string
+landmark_labels_class_list (const GstStructure * labels)
+{
+  std::string out;
+  const guint n = landmark_labels_n_classes (labels);
+  for (guint i = 0; i < n; i++) {
+    const gchar *name = landmark_labels_class_name (labels, i);
+    out += (i ? ", " : "") + std::string (name ? name : "?");
+  }
+  return out;
+}
+
+std::string
+landmark_labels_missing_classes (const GstStructure * labels,
+    const std::vector<std::pair<std::string, std::string>> & map_classes)
+{
+  std::vector<std::string> have;
+  const guint n = landmark_labels_n_classes (labels);
+  for (guint i = 0; i < n; i++) {
+    const gchar *name = landmark_labels_class_name (labels, i);
+    if (name)
+      have.push_back (name);
+  }
+  /* in map order, each missing class once with all its landmark ids */
+  std::vector<std::pair<std::string, std::string>> missing;
+  for (const auto & c : map_classes) {
+    if (std::find (have.begin (), have.end (), c.first) != have.end ())
+      continue;
+    auto it = std::find_if (missing.begin (), missing.end (),
+        [&](const auto & m) { return m.first == c.first; });
+    if (it == missing.end ())
+      missing.push_back ({ c.first, c.second });
+    else
+      it->second += ", " + c.second;
+  }
+  std::string out;
+  for (const auto & m : missing)
+    out += (out.empty ()? "" : ", ") + m.first + " (" + m.second + ")";
+  return out;
 }

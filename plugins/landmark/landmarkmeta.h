@@ -94,3 +94,18 @@ GstStructure *landmark_pose_meta_add (GstBuffer * buffer);
 const GstStructure *landmark_pose_meta_get (GstBuffer * buffer);
 
 G_END_DECLS
+
+#ifdef __cplusplus
+#include <string>
+#include <utility>
+#include <vector>
+
+/* The map classes, given as (class name, landmark id) pairs, that the labels
+ * do not list, as "purple (L1, L4), orange (L2)"; empty when the labels have
+ * them all. Landmarks of such a class can never be detected. */
+std::string landmark_labels_missing_classes (const GstStructure * labels,
+    const std::vector<std::pair<std::string, std::string>> & map_classes);
+
+/* The labels' class names, as "red, green, blue". */
+std::string landmark_labels_class_list (const GstStructure * labels);
+#endif

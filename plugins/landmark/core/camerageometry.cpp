@@ -83,6 +83,12 @@ load_camera_file (const std::string & path, CameraFile * out,
       *error = path + ": cannot open the calibration file";
       return false;
     }
+    /* OpenCV answers an empty file with an internal assertion text */
+    std::string word;
+    if (!(f >> word)) {
+      *error = path + ": the calibration file is empty";
+      return false;
+    }
   }
   try {
     cv::FileStorage fs (path, cv::FileStorage::READ);

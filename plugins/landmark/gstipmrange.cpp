@@ -962,8 +962,8 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
           "(must be > 0)", 0.0, 1000.0, DEFAULT_CAMERA_HEIGHT, flags));
   g_object_class_install_property (gobject_class, PROP_TILT,
       g_param_spec_double ("tilt", "Tilt",
-          "model=pinhole: degrees below the horizontal, [-90, 90]",
-          -360.0, 360.0, DEFAULT_TILT, flags));
+          "model=pinhole: degrees below the horizontal",
+          -90.0, 90.0, DEFAULT_TILT, flags));
   g_object_class_install_property (gobject_class, PROP_ROLL,
       g_param_spec_double ("roll", "Roll",
           "model=pinhole: degrees about the optical axis, clockwise as seen "
@@ -971,7 +971,7 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
   g_object_class_install_property (gobject_class, PROP_HFOV,
       g_param_spec_double ("hfov", "Horizontal field of view",
           "model=pinhole: degrees, (0, 180), principal point at the image "
-          "centre; unused when fx or calibration is set", 0.0, 360.0,
+          "centre; unused when fx or calibration is set", 0.0, 180.0,
           DEFAULT_HFOV, flags));
   g_object_class_install_property (gobject_class, PROP_FX,
       g_param_spec_double ("fx", "Focal length x",

@@ -75,6 +75,7 @@
 
 #include <gst/video/video.h>
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
 #include <map>
@@ -184,6 +185,8 @@ struct Config {
   landmark::MarkerSpec default_marker;
   std::map<std::string, landmark::MarkerSpec> markers;   /* from the map */
   std::vector<std::string> ambiguous;    /* map classes that disagree */
+  /* their distinct marker specs, one ranging hypothesis each */
+  std::map<std::string, std::vector<landmark::MarkerSpec>> hypotheses;
   /* (class, id) of every map landmark, checked against the labels */
   std::vector<std::pair<std::string, std::string>> map_classes;
 };
@@ -418,7 +421,6 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
       *why = err;
       return FALSE;
     }
-    std::map<std::string, bool> bad;
     for (const auto & lm : map.landmarks) {
       /* the same rule as marker-height: a marker plane at or above the
        * camera is never seen from above */
@@ -435,18 +437,24 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
       m.z = lm.z;
       m.diameter = lm.diameter;
       m.ball = lm.ball;
-      auto it = cfg->markers.find (lm.class_name);
-      if (it == cfg->markers.end ()) {
-        cfg->markers[lm.class_name] = m;
-      } else if (std::fabs (it->second.z - m.z) > 1e-9
-          || std::fabs (it->second.diameter - m.diameter) > 1e-9
-          || it->second.ball != m.ball) {
-        bad[lm.class_name] = true;
-      }
+      auto & specs = cfg->hypotheses[lm.class_name];
+      const bool known = std::any_of (specs.begin (), specs.end (),
+          [&](const landmark::MarkerSpec & o) {
+            return std::fabs (o.z - m.z) <= 1e-9
+                && std::fabs (o.diameter - m.diameter) <= 1e-9
+                && o.ball == m.ball;
+          });
+      if (!known)
+        specs.push_back (m);
     }
-    for (const auto & b : bad) {
-      cfg->markers.erase (b.first);
-      cfg->ambiguous.push_back (b.first);
+    for (auto it = cfg->hypotheses.begin (); it != cfg->hypotheses.end ();) {
+      if (it->second.size () == 1) {
+        cfg->markers[it->first] = it->second[0];
+        it = cfg->hypotheses.erase (it);
+      } else {
+        cfg->ambiguous.push_back (it->first);
+        ++it;
+      }
     }
   }
 
@@ -708,10 +716,10 @@ gst_ipm_range_configure (GstIpmRange * self, gboolean fatal)
     return FALSE;
   }
   for (const auto & name : cfg.ambiguous)
-    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-        ("The map's '%s' landmarks differ in height, diameter or kind; "
-            "marker-height, marker-diameter and marker-kind apply to them.",
-            name.c_str ()), ("map %s", s.map.c_str ()));
+    GST_INFO_OBJECT (self, "map %s: the '%s' landmarks differ in height, "
+        "diameter or kind: each detection is ranged under every spec and the "
+        "one whose ground and size ranges agree is kept", s.map.c_str (),
+        name.c_str ());
   const Config old = st.config;
   if (cfg.map_classes != old.map_classes)
     st.map_classes_checked = false;
@@ -840,16 +848,47 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
 
   landmark::MarkerSpec marker = cfg.default_marker;
   const gchar *cls = g_quark_to_string (roi->roi_type);
+  const std::vector<landmark::MarkerSpec> *hypotheses = nullptr;
   if (cls) {
     auto it = cfg.markers.find (cls);
     if (it != cfg.markers.end ())
       marker = it->second;
+    auto h = cfg.hypotheses.find (cls);
+    if (h != cfg.hypotheses.end ())
+      hypotheses = &h->second;
   }
   if (marker.z >= cfg.s.camera_height)
     marker.z = 0;   /* cannot range it; treat as on the floor */
 
-  const landmark::RangeEstimate e = landmark::estimate_range (st.geometry,
+  landmark::RangeEstimate e = landmark::estimate_range (st.geometry,
       obs, marker, cfg.s.pixel_sigma);
+  const landmark::MarkerSpec *chosen = nullptr;
+  /* a blob cut by the frame's edge has no trustworthy size to choose by */
+  const bool cut = roi->x == 0 || roi->y == 0 || roi->x + roi->w >= fw
+      || roi->y + roi->h >= fh;
+  if (hypotheses && !cut) {
+    /* One class, several kinds of marker (a yellow disc and a yellow
+     * ball): only the right spec makes the floor range and the size range
+     * agree, so keep the hypothesis with the smallest normalised
+     * disagreement. Without a size range nothing can choose: the
+     * properties' marker applies, as for a class the map lacks. */
+    double best = HUGE_VAL;
+    for (const landmark::MarkerSpec & h : *hypotheses) {
+      const landmark::RangeEstimate t = landmark::estimate_range
+          (st.geometry, obs, h, cfg.s.pixel_sigma);
+      if (t.no_floor || !t.has_size)
+        continue;
+      const double spread = std::hypot (t.range_ground_sigma,
+          t.range_size_sigma);
+      const double score = std::fabs (t.range_ground - t.range_size) /
+          (spread > 0 ? spread : 1e-9);
+      if (score < best) {
+        best = score;
+        e = t;
+        chosen = &h;
+      }
+    }
+  }
 
   GstStructure *s;
   if (e.no_floor) {
@@ -885,6 +924,11 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
       "no-floor", G_TYPE_BOOLEAN, FALSE, nullptr);
   if (e.has_size)
     gst_structure_set (s, "range-size", G_TYPE_DOUBLE, e.range_size,
+        nullptr);
+  if (chosen)
+    gst_structure_set (s, "marker-kind", G_TYPE_STRING,
+        chosen->ball ? "ball" : "disc", "marker-height", G_TYPE_DOUBLE,
+        chosen->z, "marker-diameter", G_TYPE_DOUBLE, chosen->diameter,
         nullptr);
   landmark_detection_add_param (buf, roi, s);
 }

@@ -196,7 +196,8 @@ trilaterate_load_map (const Settings & s, std::vector<landmark::MapPoint>
   }
   out->clear ();
   for (const auto & lm : map.landmarks)
-    out->push_back ({ lm.id, lm.class_name, lm.x, lm.y });
+    out->push_back ({ lm.id, lm.class_name, lm.x, lm.y, lm.z, lm.diameter,
+            lm.ball });
   return TRUE;
 }
 
@@ -503,6 +504,12 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
     gst_structure_get_double (r, "bearing-sigma", &d.obs.bearing_sigma);
     const gchar *cls = g_quark_to_string (roi->roi_type);
     d.class_name = cls ? cls : "";
+    const gchar *kind = gst_structure_get_string (r, "marker-kind");
+    d.has_marker = kind
+        && gst_structure_get_double (r, "marker-height", &d.marker_z)
+        && gst_structure_get_double (r, "marker-diameter",
+        &d.marker_diameter);
+    d.marker_ball = d.has_marker && g_str_equal (kind, "ball");
     dets.push_back (d);
     det_roi.push_back (roi);
   }

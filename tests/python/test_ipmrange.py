@@ -427,3 +427,64 @@ def test_rendered_discs_at_random_floor_points(gst, tmp_path):
         r = math.hypot(lm["x"], lm["y"])
         assert math.hypot(got["ground-x"] - lm["x"],
                           got["ground-y"] - lm["y"]) < 0.005 * r, lm
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_one_class_discs_and_balls_ranged_by_their_own_marker(gst, tmp_path,
+                                                              seed):
+    """A map whose class holds a disc and a ball (different height,
+    diameter and kind): ipmrange ranges each detection under both markers
+    and keeps the one whose floor and size ranges agree. Rendered truth:
+    which landmark each blob is, and where it stands."""
+    rng = np.random.default_rng(seed)
+    landmarks, placed = [], []
+    for cls in ("red", "green", "blue"):
+        for kind in ("disc", "ball"):
+            while True:
+                r = rng.uniform(0.9, 2.8)
+                b = rng.uniform(-25, 25)
+                x, y = r * math.cos(math.radians(b)), \
+                    r * math.sin(math.radians(b))
+                if all(math.hypot(x - px, y - py) > 0.45
+                       for px, py in placed):
+                    break
+            placed.append((x, y))
+            d = 0.30 if kind == "disc" else 0.20
+            landmarks.append({"id": f"{cls}-{kind}", "class": cls, "x": x,
+                              "y": y, "z": 0.0 if kind == "disc" else d / 2,
+                              "diameter": d, "kind": kind})
+    (tmp_path / "map.json").write_text(json.dumps({"landmarks": landmarks}))
+    out = tmp_path / "synth"
+    assert cli.main(["synth", "custom", "--map", str(tmp_path / "map.json"),
+                     "--pose", "0,0,0", "--frames", "1", "--out", str(out),
+                     "--no-progress"]) == 0
+    scene = json.loads((out / "scene.json").read_text())
+    log = tmp_path / "log.jsonl"
+    # the marker-* properties say "floor disc of 0.3 m": wrong for balls
+    run(gst, f"filesrc location={out / 'clip.avi'} ! avidemux ! jpegdec ! "
+        f"videoconvert ! labsegment palette={out / 'palette.json'} "
+        f"min-class-pixels=0 ! blobroundness ! ipmrange "
+        f"{camera_props(scene)} map={tmp_path / 'map.json'} ! "
+        f"landmarklog location={log} ! fakesink")
+    dets = [d for d in read_jsonl(str(log))[0]["detections"]
+            if d["blob"]["kept"] and "range" in d]
+    truth = read_jsonl(str(out / "truth.jsonl"))[0]["landmarks"]
+    whole = [t for t in truth if not t["cut"] and not t["occluded"]
+             and t["pixels"] >= 150]
+    assert len(whole) >= 4, truth
+    by_id = {lm["id"]: lm for lm in landmarks}
+    checked = 0
+    for t in whole:
+        near = [d for d in dets if d["class"] == t["class"] and math.hypot(
+            d["blob"]["centroid-x"] - t["u"],
+            d["blob"]["centroid-y"] - t["v"]) < 3.0]
+        assert len(near) == 1, (t, dets)
+        got, lm = near[0]["range"], by_id[t["id"]]
+        assert got["marker-kind"] == lm["kind"], (t["id"], got)
+        assert got["marker-height"] == lm["z"], got
+        assert got["marker-diameter"] == lm["diameter"], got
+        r = math.hypot(lm["x"], lm["y"])
+        assert math.hypot(got["ground-x"] - lm["x"],
+                          got["ground-y"] - lm["y"]) < 0.01 * r, (t, got)
+        checked += 1
+    assert checked == len(whole)

@@ -479,9 +479,21 @@ localise (const std::vector<MapPoint> & map,
   std::vector<std::string> reason (nd);
   std::vector<std::vector<int>> cand (nd);
   for (size_t i = 0; i < nd; i++) {
-    for (size_t m = 0; m < map.size (); m++)
-      if (map[m].class_name == dets[i].class_name)
-        cand[i].push_back ((int) m);
+    const Detection & d = dets[i];
+    std::vector<int> same_marker;
+    for (size_t m = 0; m < map.size (); m++) {
+      if (map[m].class_name != d.class_name)
+        continue;
+      cand[i].push_back ((int) m);
+      if (d.has_marker && map[m].ball == d.marker_ball
+          && std::fabs (map[m].z - d.marker_z) < 1e-6
+          && std::fabs (map[m].diameter - d.marker_diameter) < 1e-6)
+        same_marker.push_back ((int) m);
+    }
+    /* a range made for one kind of marker fits only landmarks of that
+     * kind; if none has it (another map upstream), the class decides */
+    if (!same_marker.empty ())
+      cand[i] = std::move (same_marker);
     if (cand[i].empty ())
       reason[i] = "no-landmark-of-class";
   }

@@ -112,11 +112,20 @@ bool landmarks_collinear (const std::vector<Correspondence> & cs,
 struct MapPoint {
   std::string id, class_name;
   double x = 0, y = 0;
+  /* the marker (map `z`, `diameter`, `kind`) */
+  double z = 0, diameter = 0;
+  bool ball = false;
 };
 
 struct Detection {
   std::string class_name;
   RangeBearing obs;
+  /* the marker the range assumed, when the class has several (ipmrange's
+   * marker-kind, -height, -diameter): only landmarks with that marker are
+   * candidates */
+  bool has_marker = false;
+  double marker_z = 0, marker_diameter = 0;
+  bool marker_ball = false;
 };
 
 struct LocaliseOptions {

@@ -368,6 +368,34 @@ test_association ()
     CHECK (!r3.ok && r3.reasons[0] == "ambiguous", "reason %s",
         r3.reasons[0].c_str ());
   }
+  /* one colour, two markers (a floor disc and a ball): a detection that
+   * names its marker has one candidate; one naming a marker that no
+   * landmark has falls back to the class */
+  {
+    std::vector<MapPoint> m2 = {
+      { "D", "yellow", 1, 1, 0.0, 0.30, false },
+      { "B", "yellow", 4, 3, 0.1, 0.20, true },
+    };
+    LocaliseOptions opt;
+    opt.have_heading = true;
+    opt.heading = 0.3;
+    Detection d { "yellow", observe (2, 2, 0.3, 4, 3) };
+    const LocaliseResult plain = localise (m2, { d }, opt);
+    CHECK (!plain.ok && plain.reasons[0] == "ambiguous", "without marker: "
+        "%s", plain.reasons[0].c_str ());
+    d.has_marker = true;
+    d.marker_z = 0.1;
+    d.marker_diameter = 0.20;
+    d.marker_ball = true;
+    const LocaliseResult r = localise (m2, { d }, opt);
+    CHECK (r.ok && r.match[0] == 1, "ball: match %d (%s)", r.match[0],
+        r.reasons[0].c_str ());
+    check_pose (r.solution, 2, 2, 0.3, 1e-9, "ball by its marker");
+    d.marker_diameter = 0.25;    /* no landmark has this marker */
+    const LocaliseResult r2 = localise (m2, { d }, opt);
+    CHECK (!r2.ok && r2.reasons[0] == "ambiguous", "unknown marker: %s",
+        r2.reasons[0].c_str ());
+  }
 }
 
 static void

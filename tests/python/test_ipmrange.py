@@ -385,6 +385,26 @@ def test_element_matches_cv2_projectpoints(gst, tmp_path, z0):
         < 1e-6
 
 
+def render_and_range(gst, tmp_path, landmarks, ipm_props):
+    """Renders the landmarks (seen from the origin, heading +x) with the
+    synthetic renderer and ranges that frame. Returns (its detections, the
+    renderer's truth of its landmarks)."""
+    (tmp_path / "map.json").write_text(json.dumps({"landmarks": landmarks}))
+    out = tmp_path / "synth"
+    assert cli.main(["synth", "custom", "--map", str(tmp_path / "map.json"),
+                     "--pose", "0,0,0", "--frames", "1", "--out", str(out),
+                     "--no-progress"]) == 0
+    scene = json.loads((out / "scene.json").read_text())
+    log = tmp_path / "log.jsonl"
+    run(gst, f"filesrc location={out / 'clip.avi'} ! avidemux ! jpegdec ! "
+        f"videoconvert ! labsegment palette={out / 'palette.json'} "
+        f"min-class-pixels=0 ! blobroundness ! ipmrange "
+        f"{camera_props(scene)} {ipm_props} ! "
+        f"landmarklog location={log} ! fakesink")
+    return (read_jsonl(str(log))[0]["detections"],
+            read_jsonl(str(out / "truth.jsonl"))[0]["landmarks"])
+
+
 def test_rendered_discs_at_random_floor_points(gst, tmp_path):
     """Small discs drawn by the synthetic renderer at random floor
     points: labsegment ! blobroundness ! ipmrange finds their centres."""
@@ -401,22 +421,10 @@ def test_rendered_discs_at_random_floor_points(gst, tmp_path):
         landmarks.append({"id": f"D{len(landmarks)}",
                           "class": colours[len(landmarks)], "x": x, "y": y,
                           "z": 0.0, "diameter": 0.12, "kind": "disc"})
-    (tmp_path / "map.json").write_text(json.dumps({"landmarks": landmarks}))
-    out = tmp_path / "synth"
-    assert cli.main(["synth", "custom", "--map", str(tmp_path / "map.json"),
-                     "--pose", "0,0,0", "--frames", "1", "--out", str(out),
-                     "--no-progress"]) == 0
-    scene = json.loads((out / "scene.json").read_text())
-    log = tmp_path / "log.jsonl"
-    run(gst, f"filesrc location={out / 'clip.avi'} ! avidemux ! jpegdec ! "
-        f"videoconvert ! labsegment palette={out / 'palette.json'} "
-        f"min-class-pixels=0 ! blobroundness ! ipmrange "
-        f"{camera_props(scene)} marker-diameter=0.12 ! "
-        f"landmarklog location={log} ! fakesink")
-    dets = read_jsonl(str(log))[0]["detections"]
+    dets, truth = render_and_range(gst, tmp_path, landmarks,
+                                   "marker-diameter=0.12")
     by_class = {d["class"]: d["range"] for d in dets if "range" in d}
     # the renderer's truth says which are whole and big enough to find
-    truth = read_jsonl(str(out / "truth.jsonl"))[0]["landmarks"]
     findable = {t["class"] for t in truth if not t["cut"]
                 and t["pixels"] >= 150}
     assert len(findable) >= 4 and findable <= set(by_class), findable
@@ -453,22 +461,10 @@ def test_one_class_discs_and_balls_ranged_by_their_own_marker(gst, tmp_path,
             landmarks.append({"id": f"{cls}-{kind}", "class": cls, "x": x,
                               "y": y, "z": 0.0 if kind == "disc" else d / 2,
                               "diameter": d, "kind": kind})
-    (tmp_path / "map.json").write_text(json.dumps({"landmarks": landmarks}))
-    out = tmp_path / "synth"
-    assert cli.main(["synth", "custom", "--map", str(tmp_path / "map.json"),
-                     "--pose", "0,0,0", "--frames", "1", "--out", str(out),
-                     "--no-progress"]) == 0
-    scene = json.loads((out / "scene.json").read_text())
-    log = tmp_path / "log.jsonl"
     # the marker-* properties say "floor disc of 0.3 m": wrong for balls
-    run(gst, f"filesrc location={out / 'clip.avi'} ! avidemux ! jpegdec ! "
-        f"videoconvert ! labsegment palette={out / 'palette.json'} "
-        f"min-class-pixels=0 ! blobroundness ! ipmrange "
-        f"{camera_props(scene)} map={tmp_path / 'map.json'} ! "
-        f"landmarklog location={log} ! fakesink")
-    dets = [d for d in read_jsonl(str(log))[0]["detections"]
-            if d["blob"]["kept"] and "range" in d]
-    truth = read_jsonl(str(out / "truth.jsonl"))[0]["landmarks"]
+    dets, truth = render_and_range(gst, tmp_path, landmarks,
+                                   f"map={tmp_path / 'map.json'}")
+    dets = [d for d in dets if d["blob"]["kept"] and "range" in d]
     whole = [t for t in truth if not t["cut"] and not t["occluded"]
              and t["pixels"] >= 150]
     assert len(whole) >= 4, truth

@@ -796,6 +796,13 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
   }
   st.caps_w = GST_VIDEO_INFO_WIDTH (&info);
   st.caps_h = GST_VIDEO_INFO_HEIGHT (&info);
+  if (st.caps_w < 2 || st.caps_h < 2) {
+    /* no camera geometry for a single row or column (the seed model
+     * divides by width - 1): pass such frames unmeasured rather than
+     * refuse their caps */
+    st.geometry_w = st.geometry_h = 0;
+    return TRUE;
+  }
   if (st.caps_w == st.geometry_w && st.caps_h == st.geometry_h)
     return TRUE;
   return gst_ipm_range_build (self, st.caps_w, st.caps_h, TRUE);
@@ -839,7 +846,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     fw = st.caps_w ? st.caps_w : st.geometry_w;
     fh = st.caps_h ? st.caps_h : st.geometry_h;
   }
-  if (st.geometry_w == 0 && fw > 0 && fh > 0)
+  if (st.geometry_w == 0 && fw >= 2 && fh >= 2)
     gst_ipm_range_build (self, fw, fh, FALSE);
   if (st.geometry_w == 0 || fw == 0 || fh == 0)
     return;
@@ -945,7 +952,7 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   }
   if (generation != st.generation) {
     gst_ipm_range_configure (self, FALSE);
-    if (st.geometry_w == 0 && st.caps_w > 0)
+    if (st.geometry_w == 0 && st.caps_w >= 2 && st.caps_h >= 2)
       gst_ipm_range_build (self, st.caps_w, st.caps_h, FALSE);
   }
   /* A map class that the palette lacks is legal (a map may serve several

@@ -328,7 +328,9 @@ CameraGeometry::configure (const CameraParams & p, std::string * error)
           "view sees no floor (the whole image is above the horizon)";
     return false;
   }
-  build_lut ();
+  /* the lookup table is built on first use (lookup ()) */
+  lut_range_.clear ();
+  lut_bearing_.clear ();
   return true;
 }
 
@@ -447,7 +449,7 @@ CameraGeometry::project (const Vec3 & point, double *u, double *v) const
 }
 
 void
-CameraGeometry::build_lut ()
+CameraGeometry::build_lut () const
 {
   const int w = p_.width, h = p_.height;
   std::vector<double> uv;
@@ -476,6 +478,8 @@ CameraGeometry::lookup (int u, int v, double *range, double *bearing) const
 {
   if (!ok_ || u < 0 || v < 0 || u >= p_.width || v >= p_.height)
     return false;
+  if (lut_range_.empty ())
+    build_lut ();
   const size_t i = (size_t) v * p_.width + u;
   if (std::isnan (lut_range_[i]))
     return false;

@@ -369,8 +369,8 @@ frame_new (const GstVideoInfo * info, gboolean padded, const Disc * d,
   return buf;
 }
 
-/* The usual disc of a frame: at (0.6, 0.7) of the frame, radius 9% of the
- * smaller side. */
+/* A disc centred at (nx, ny) of the frame (fractions of its width and
+ * height), radius 9% of the smaller side. */
 static Disc
 disc_at (guint w, guint h, gdouble nx, gdouble ny)
 {

@@ -1561,6 +1561,11 @@ robustness_suite (void)
 
   element_names = plugin_element_names ();
   n = g_list_length (element_names);
+  /* 3840x2160 frames, and labsegment rebuilding its class table for each
+   * max-distance a thread sets, take several seconds on a shared 2-core
+   * machine: more than check's 20 s default when it is busy */
+  tcase_set_timeout (formats, 120);
+  tcase_set_timeout (props, 120);
 
   suite_add_tcase (s, formats);
   tcase_add_unchecked_fixture (formats, suite_setup, suite_teardown);

@@ -1124,16 +1124,59 @@ typedef enum
   PLANE_EMPTY,                  /* 0 x 0 */
   PLANE_MISSING,                /* labels meta without the plane */
   BLOB_ZERO_FRAME,              /* detection measured on a 0 x 0 frame */
+  BLOB_NON_FINITE,              /* NaN centroid, infinite ellipse */
+  BLOB_OUTSIDE,                 /* centroid and ellipse far off the frame */
   N_META_CASES
 } MetaCase;
 
 static const gchar *meta_case_names[] = {
   "no metadata", "plane half size", "plane larger", "plane short",
   "stride < width", "plane 0x0", "no plane field", "blob frame 0x0",
+  "blob NaN and inf", "blob off the frame",
 };
 
 #define MW 64
 #define MH 48
+
+/* Numbers the elements computed (every parameter structure but the
+ * landmark-blob given to them, and the pose) are finite: the metadata
+ * contract leaves a field out rather than hold NaN or infinity. */
+static void
+check_computed_finite (GstBuffer * out, const gchar * what)
+{
+  gpointer iter = NULL;
+  GstMeta *meta;
+  const GstStructure *pose;
+  GstCustomMeta *pm = gst_buffer_get_custom_meta (out, POSE_META);
+  guint f;
+
+  while ((meta = gst_buffer_iterate_meta_filtered (out, &iter,
+              GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE))) {
+    GstVideoRegionOfInterestMeta *roi = (GstVideoRegionOfInterestMeta *) meta;
+    GList *l;
+    for (l = roi->params; l; l = l->next) {
+      const GstStructure *s = l->data;
+      if (gst_structure_has_name (s, "landmark-blob"))
+        continue;
+      for (f = 0; f < (guint) gst_structure_n_fields (s); f++) {
+        const GValue *v = gst_structure_get_value (s,
+            gst_structure_nth_field_name (s, f));
+        if (G_VALUE_HOLDS_DOUBLE (v))
+          fail_unless (isfinite (g_value_get_double (v)), "%s: %s %s = %g",
+              what, gst_structure_get_name (s),
+              gst_structure_nth_field_name (s, f), g_value_get_double (v));
+      }
+    }
+  }
+  pose = pm ? gst_custom_meta_get_structure (pm) : NULL;
+  for (f = 0; pose && f < (guint) gst_structure_n_fields (pose); f++) {
+    const GValue *v = gst_structure_get_value (pose,
+        gst_structure_nth_field_name (pose, f));
+    if (G_VALUE_HOLDS_DOUBLE (v))
+      fail_unless (isfinite (g_value_get_double (v)), "%s: pose %s", what,
+          gst_structure_nth_field_name (pose, f));
+  }
+}
 
 static GstBuffer *
 meta_case_frame (const GstVideoInfo * info, MetaCase c, guint index)
@@ -1173,6 +1216,25 @@ meta_case_frame (const GstVideoInfo * info, MetaCase c, guint index)
       add_labels (b, MW, MH, MW, G_MAXSIZE, &d);
       add_detection (b, &d, 0, 0);
       break;
+    case BLOB_NON_FINITE:
+    case BLOB_OUTSIDE:{
+      const gboolean nan = c == BLOB_NON_FINITE;
+      GstVideoRegionOfInterestMeta *roi;
+      add_labels (b, MW, MH, MW, G_MAXSIZE, &d);
+      add_detection (b, &d, MW, MH);
+      roi = gst_buffer_get_video_region_of_interest_meta_id (b, 0);
+      gst_structure_set (gst_video_region_of_interest_meta_get_param (roi,
+              "landmark-blob"),
+          "centroid-x", G_TYPE_DOUBLE, nan ? NAN : -500.0,
+          "centroid-y", G_TYPE_DOUBLE, nan ? NAN : 1e6,
+          "ellipse-x", G_TYPE_DOUBLE, nan ? INFINITY : -1e9,
+          "ellipse-major", G_TYPE_DOUBLE, nan ? INFINITY : 1e9,
+          "ellipse-minor", G_TYPE_DOUBLE, nan ? NAN : 1e9,
+          "equivalent-diameter", G_TYPE_DOUBLE, nan ? NAN : 1e9,
+          "area", G_TYPE_DOUBLE, nan ? NAN : 1e18, NULL);
+      add_pose (b);
+      break;
+    }
     default:
       g_assert_not_reached ();
   }
@@ -1193,6 +1255,8 @@ GST_START_TEST (test_element_bad_metadata)
   video_info_init (&info, "BGRx", MW, MH);
   for (c = 0; c < N_META_CASES; c++) {
     GstHarness *h = harness_for (name);
+    gchar *log = g_strdup (g_object_get_data (G_OBJECT (h->element),
+            "robustness-file"));
     GstBus *bus = gst_bus_new ();
     gchar *what = g_strdup_printf ("%s, %s", name, meta_case_names[c]);
     GeometryCheck g = { MW, MH, what };
@@ -1212,6 +1276,7 @@ GST_START_TEST (test_element_bad_metadata)
       GstBuffer *out = gst_harness_push_and_pull (h, b);
       fail_unless (out != NULL, "%s", what);
       check_meta_geometry (out, MW, MH, 0, what);
+      check_computed_finite (out, what);
       gst_buffer_unref (out);
     }
     count_messages (bus, &warnings, &errors);
@@ -1220,6 +1285,10 @@ GST_START_TEST (test_element_bad_metadata)
     gst_element_set_bus (h->element, NULL);
     gst_object_unref (bus);
     gst_harness_teardown (h);
+    /* one whole JSON line per frame, whatever the metadata held */
+    if (log)
+      fail_unless_equals_int (count_log_lines (log), G_N_ELEMENTS (sent) + 1);
+    g_free (log);
     g_free (what);
   }
   g_print ("%s: %u metadata cases of 7 frames, no crash, at most one "

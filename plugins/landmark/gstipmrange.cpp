@@ -850,6 +850,20 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     gst_ipm_range_build (self, fw, fh, FALSE);
   if (st.geometry_w == 0 || fw == 0 || fh == 0)
     return;
+  /* a centroid is inside its frame: anything else is a broken detection
+   * from upstream, which gets no range rather than one behind the camera */
+  if (!(obs.u >= -0.5 && obs.u <= fw - 0.5 && obs.v >= -0.5
+          && obs.v <= fh - 0.5)) {
+    GST_DEBUG_OBJECT (self, "centroid (%g, %g) outside its %ux%u frame: "
+        "not ranged", obs.u, obs.v, fw, fh);
+    return;
+  }
+  if (obs.has_ellipse && !(std::isfinite (obs.eu) && std::isfinite (obs.ev)
+          && std::isfinite (obs.major) && std::isfinite (obs.minor)
+          && std::isfinite (obs.angle) && obs.major >= 0 && obs.minor >= 0))
+    obs.has_ellipse = false;
+  if (!std::isfinite (obs.equivalent_diameter))
+    obs.equivalent_diameter = 0;
   obs.sx = (double) st.geometry_w / fw;
   obs.sy = (double) st.geometry_h / fh;
 

@@ -1277,6 +1277,15 @@ GST_START_TEST (test_element_bad_metadata)
       fail_unless (out != NULL, "%s", what);
       check_meta_geometry (out, MW, MH, 0, what);
       check_computed_finite (out, what);
+      if (g_str_equal (name, "ipmrange") && (c == BLOB_NON_FINITE
+              || c == BLOB_OUTSIDE)) {
+        /* a centroid that is no point of the frame gets no range */
+        GstVideoRegionOfInterestMeta *roi =
+            gst_buffer_get_video_region_of_interest_meta_id (out, 0);
+        fail_unless (roi != NULL, "%s", what);
+        fail_unless (gst_video_region_of_interest_meta_get_param (roi,
+                "landmark-range") == NULL, "%s: ranged", what);
+      }
       gst_buffer_unref (out);
     }
     count_messages (bus, &warnings, &errors);

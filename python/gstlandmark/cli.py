@@ -239,6 +239,7 @@ COMMANDS = [
     _lazy("synth.cli", "add_synth_parser"),
     _lazy("calibrate", "add_calibrate_parser"),
     _lazy("runner", "add_run_parser"),
+    _lazy("soak", "add_soak_parser"),
 ]
 
 

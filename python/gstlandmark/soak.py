@@ -90,9 +90,10 @@ def clip_frames(width: int, height: int,
 
 def chain(log: str, clip_dir: str = CLIP_DIR, flush_every: int = 0) -> str:
     """The whole chain with the clip's palette, map and true camera (the
-    settings of pipelines/file.pipeline), ending in landmarklog. Bus
-    messages are off: an application that does not read them would see
-    its bus queue grow, which is not what is measured here."""
+    settings of pipelines/file.pipeline), ending in landmarklog (named
+    ``log``). Bus messages are off: an application that does not read
+    them would see its bus queue grow, which is not what is measured
+    here."""
     with open(os.path.join(clip_dir, "scene.json")) as f:
         cam = json.load(f)["camera"]
     palette = os.path.join(clip_dir, "palette.json")
@@ -104,7 +105,7 @@ def chain(log: str, clip_dir: str = CLIP_DIR, flush_every: int = 0) -> str:
         f"hfov={cam['hfov_deg']} map={map_file} ! "
         f"trilaterate map={map_file} filter=ekf post-messages=false ! "
         f"landmarkoverlay map={map_file} ! "
-        f"landmarklog location={log} flush-every={flush_every}")
+        f"landmarklog name=log location={log} flush-every={flush_every}")
 
 
 def check_log(path: str, frames: int,

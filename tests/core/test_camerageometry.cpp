@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <fstream>
 #include <random>
@@ -298,6 +299,50 @@ test_calibration_file ()
   std::remove (path.c_str ());
 }
 
+/* Bounds (found by tests/fuzz): sizes that would allocate before any check,
+ * image sizes beyond kMaxCameraImageSize, files beyond 1 MiB, devices, and
+ * OpenCV parser exceptions that are not cv::Exception. */
+static void
+test_calibration_bounds ()
+{
+  const std::string path = "test-camerageometry-bounds.yaml";
+  const char *head = "%YAML:1.0\n---\n";
+  const char *k = "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n"
+      "   dt: d\n   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n";
+  struct { std::string text, expect; } cases[] = {
+    { std::string (head) + "camera_matrix: !!opencv-matrix\n   rows: 100000\n"
+          "   cols: 100000\n   dt: d\n   data: [ 1. ]\n",
+      path + ": camera_matrix is not 3x3" },
+    { std::string (head) + k + "distortion_coefficients: !!opencv-matrix\n"
+          "   rows: 100000\n   cols: 100000\n   dt: d\n   data: [ 0. ]\n",
+      path + ": distortion_coefficients must have 4, 5, 8, 12 or 14 values, "
+          "has 1e+10" },
+    { std::string (head) + k + "distortion_coefficients: !!opencv-matrix\n"
+          "   rows:@ 5\n   cols: 1\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n",
+      path + ": distortion_coefficients is not an OpenCV matrix (rows, cols, "
+          "dt, data)" },
+    { std::string (head) + "image_width: 100000\nimage_height: 480\n" + k,
+      path + ": image_width and image_height must be at most 16384, got "
+          "100000x480" },
+    { std::string (head) + k + std::string (1 << 20, '#'),
+      path + ": " + std::to_string ((1 << 20) + 14 + strlen (k)) +
+          " bytes; at most 1048576 are supported" },
+  };
+  CameraFile f;
+  std::string err;
+  for (const auto & c : cases) {
+    {
+      std::ofstream out (path);
+      out << c.text;
+    }
+    CHECK (!load_camera_file (path, &f, &err) && err == c.expect,
+        "got \"%s\", expected \"%s\"", err.c_str (), c.expect.c_str ());
+  }
+  std::remove (path.c_str ());
+  CHECK (!load_camera_file ("/dev/zero", &f, &err) &&
+      err == "/dev/zero: not a regular file", "%s", err.c_str ());
+}
+
 int
 main ()
 {
@@ -305,6 +350,7 @@ main ()
   test_seed ();
   test_estimate ();
   test_calibration_file ();
+  test_calibration_bounds ();
   if (failures)
     std::fprintf (stderr, "%d failures\n", failures);
   return failures ? 1 : 0;

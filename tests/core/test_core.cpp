@@ -10,6 +10,7 @@
 
 #include "classtable.h"
 #include "labcolour.h"
+#include "landmarkmap.h"
 #include "palette.h"
 
 using namespace landmark;
@@ -279,6 +280,39 @@ test_palette_parsing ()
       err.c_str ());
 }
 
+/* Map bounds: landmark count, coordinates and diameters (tests/fuzz). */
+static void
+test_map_bounds ()
+{
+  std::string many = "{\"landmarks\": [";
+  for (unsigned i = 0; i <= kMaxMapLandmarks; i++)
+    many += std::string (i ? "," : "") + "{\"id\": \"L" + std::to_string (i) +
+        "\", \"class\": \"red\", \"x\": 0, \"y\": 0}";
+  many += "]}";
+  struct { std::string json, expect; } cases[] = {
+    { many, "m.json: 257 landmarks; at most 256 are supported" },
+    { "{\"landmarks\": [{\"id\": \"L1\", \"class\": \"red\", \"x\": 1e300, "
+          "\"y\": 0}]}", "m.json: landmarks[0] (\"L1\"): \"x\" must be within "
+          "-10000..10000 (metres), got 1e+300" },
+    { "{\"landmarks\": [{\"id\": \"L1\", \"class\": \"red\", \"x\": 0, "
+          "\"y\": 0, \"z\": -20000}]}", "m.json: landmarks[0] (\"L1\"): \"z\" "
+          "must be within -10000..10000 (metres), got -20000" },
+    { "{\"landmarks\": [{\"id\": \"L1\", \"class\": \"red\", \"x\": 0, "
+          "\"y\": 0, \"diameter\": 500}]}", "m.json: landmarks[0] (\"L1\"): "
+          "\"diameter\" must be at most 100 (metres), got 500" },
+  };
+  for (const auto & c : cases) {
+    LandmarkMap map;
+    std::string err;
+    CHECK (!map_parse (c.json, "m.json", &map, &err) && err == c.expect,
+        "got \"%s\", expected \"%s\"", err.c_str (), c.expect.c_str ());
+  }
+  LandmarkMap map;
+  std::string err;
+  CHECK (!map_load_file ("/dev/zero", &map, &err) &&
+      err == "/dev/zero: not a regular file", "%s", err.c_str ());
+}
+
 int
 main ()
 {
@@ -288,6 +322,7 @@ main ()
   test_yuv_model ();
   test_subset_classification ();
   test_palette_parsing ();
+  test_map_bounds ();
   test_table_exact ();
   printf ("%d passed, %d failed\n", checks - failures, failures);
   return failures ? 1 : 0;

@@ -1,6 +1,8 @@
 /* Camera geometry for ranging: see camerageometry.h. */
 #include "camerageometry.h"
 
+#include "fileutil.h"
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
@@ -37,17 +39,30 @@ intrinsics_from_hfov (double hfov_deg, int width, int height, double *fx,
   return true;
 }
 
-static bool
+/* The matrix under key a (or b): 0 when absent, 1 when read into *m, -1
+ * when refused unread. OpenCV allocates what a matrix declares before it
+ * counts the data, so a matrix is decoded only when it declares integer
+ * rows and cols with at most max_values values (*declared: rows x cols). */
+static int
 read_matrix (const cv::FileStorage & fs, const char *a, const char *b,
-    cv::Mat * m)
+    double max_values, cv::Mat * m, double *declared)
 {
   cv::FileNode n = fs[a];
   if (n.empty ())
     n = fs[b];
   if (n.empty ())
-    return false;
+    return 0;
+  m->release ();
+  *declared = -1;
+  const cv::FileNode rows = n["rows"], cols = n["cols"];
+  if (!n.isMap () || !rows.isInt () || !cols.isInt ()
+      || (int) rows < 0 || (int) cols < 0)
+    return -1;
+  *declared = (double) (int) rows * (double) (int) cols;
+  if (*declared > max_values)
+    return -1;
   n >> *m;
-  return true;
+  return 1;
 }
 
 /* A real number under key, when present; false (with *error) when the key
@@ -90,6 +105,8 @@ load_camera_file (const std::string & path, CameraFile * out,
       return false;
     }
   }
+  if (!config_file_size_ok (path, error))
+    return false;
   try {
     cv::FileStorage fs (path, cv::FileStorage::READ);
     if (!fs.isOpened ()) {
@@ -113,6 +130,14 @@ load_camera_file (const std::string & path, CameraFile * out,
       fs["image_height"] >> out->image_height;
     if (out->image_width < 0 || out->image_height < 0) {
       *error = path + ": image_width and image_height must be positive";
+      return false;
+    }
+    if (out->image_width > kMaxCameraImageSize
+        || out->image_height > kMaxCameraImageSize) {
+      *error = path + ": image_width and image_height must be at most " +
+          std::to_string (kMaxCameraImageSize) + ", got " +
+          std::to_string (out->image_width) + "x" +
+          std::to_string (out->image_height);
       return false;
     }
     double v = 0;
@@ -168,7 +193,10 @@ load_camera_file (const std::string & path, CameraFile * out,
     }
 
     cv::Mat k, d;
-    if (!read_matrix (fs, "camera_matrix", "cameraMatrix", &k)) {
+    double declared = 0;
+    const int have_k = read_matrix (fs, "camera_matrix", "cameraMatrix", 9,
+        &k, &declared);
+    if (have_k == 0) {
       *error = path + ": no camera_matrix (nor model: seed)";
       return false;
     }
@@ -190,13 +218,20 @@ load_camera_file (const std::string & path, CameraFile * out,
           "last row 0 0 1)";
       return false;
     }
-    if (read_matrix (fs, "distortion_coefficients", "distCoeffs", &d)
-        && !d.empty ()) {
+    const int have_d = read_matrix (fs, "distortion_coefficients",
+        "distCoeffs", 14, &d, &declared);
+    if (have_d < 0 && declared < 0) {
+      *error = path + ": distortion_coefficients is not an OpenCV matrix "
+          "(rows, cols, dt, data)";
+      return false;
+    }
+    if (have_d != 0 && (have_d < 0 || !d.empty ())) {
       const size_t n = d.total ();
       if (d.channels () != 1 || !(n == 4 || n == 5 || n == 8 || n == 12
               || n == 14)) {
         *error = path + ": distortion_coefficients must have 4, 5, 8, 12 or "
-            "14 values, has " + std::to_string (n);
+            "14 values, has " + (have_d < 0 ? num (declared) :
+            std::to_string (n));
         return false;
       }
       d = d.reshape (1, 1);
@@ -213,6 +248,12 @@ load_camera_file (const std::string & path, CameraFile * out,
   }
   catch (const cv::Exception & e) {
     *error = path + ": cannot parse the calibration file: " + e.msg;
+    return false;
+  }
+  catch (const std::exception & e) {
+    /* OpenCV's parsers also throw standard exceptions on some malformed
+     * files (std::length_error from a misplaced key) */
+    *error = path + ": cannot parse the calibration file: " + e.what ();
     return false;
   }
   return true;

@@ -52,6 +52,10 @@ bool load_calibration (const std::string & path, double *fx, double *fy,
     double *cx, double *cy, std::vector<double> *dist, int *image_width,
     int *image_height, std::string * error);
 
+/* Bounds on a camera file: the largest image size it may name (ipmrange
+ * builds a per-pixel table at that size). */
+constexpr int kMaxCameraImageSize = 16384;
+
 /* Everything a camera file (`gst-landmark calibrate`, docs/calibration.md)
  * may hold. A pinhole file has `camera_matrix`; a seed file has
  * `model: seed` with `camera_height`, `blind_distance`, `view_depth` and

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "fileutil.h"
+
 namespace landmark {
 
 bool
@@ -56,6 +58,8 @@ json_read_file (const std::string & path, std::string * text,
   gchar *contents = nullptr;
   gsize length = 0;
   GError *err = nullptr;
+  if (!config_file_size_ok (path, error))
+    return false;
   if (!g_file_get_contents (path.c_str (), &contents, &length, &err)) {
     *error = path + ": cannot read: " + err->message;
     g_error_free (err);

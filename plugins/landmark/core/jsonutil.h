@@ -24,7 +24,8 @@ JsonObject *json_parse_object (const std::string & json,
     const std::string & source, const char *what, JsonParserPtr & parser,
     std::string * error);
 
-/* Reads a whole file; on failure *error is "<path>: cannot read: ...". */
+/* Reads a whole file; on failure *error is "<path>: cannot read: ...", or
+ * names a file too large or not regular (fileutil.h). */
 bool json_read_file (const std::string & path, std::string * text,
     std::string * error);
 

@@ -1,13 +1,23 @@
 #include "landmarkmap.h"
 
+#include <cmath>
 #include <cstring>
 #include <set>
+#include <sstream>
 
 #include "jsonutil.h"
 
 namespace landmark {
 
 namespace {
+
+std::string
+num (double v)
+{
+  std::ostringstream o;
+  o << v;
+  return o.str ();
+}
 
 std::string
 entry_label (guint index, const char *id)
@@ -51,9 +61,24 @@ parse_landmark (JsonNode * node, guint index, MapLandmark * out,
     *why = where + ": \"z\" must be a finite number (metres)";
     return false;
   }
+  const char *axis[] = { "x", "y", "z" };
+  const double xyz[] = { x, y, z };
+  for (int i = 0; i < 3; i++) {
+    if (std::fabs (xyz[i]) > kMaxMapCoordinate) {
+      *why = where + ": \"" + axis[i] + "\" must be within -" +
+          num (kMaxMapCoordinate) + ".." + num (kMaxMapCoordinate) +
+          " (metres), got " + num (xyz[i]);
+      return false;
+    }
+  }
   n = json_object_get_member (obj, "diameter");
   if (n && (!json_number (n, &diameter) || diameter <= 0)) {
     *why = where + ": \"diameter\" must be a positive number (metres)";
+    return false;
+  }
+  if (diameter > kMaxMapDiameter) {
+    *why = where + ": \"diameter\" must be at most " +
+        num (kMaxMapDiameter) + " (metres), got " + num (diameter);
     return false;
   }
   bool ball = false;
@@ -96,6 +121,11 @@ map_parse (const std::string & json, const std::string & source,
   const guint n = json_array_get_length (array);
   if (n == 0) {
     *error = source + ": \"landmarks\" is empty";
+    return false;
+  }
+  if (n > kMaxMapLandmarks) {
+    *error = source + ": " + std::to_string (n) + " landmarks; at most " +
+        std::to_string (kMaxMapLandmarks) + " are supported";
     return false;
   }
   LandmarkMap map;

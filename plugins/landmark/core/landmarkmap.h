@@ -8,6 +8,13 @@
 
 namespace landmark {
 
+/* Bounds on what a map may hold: a map is hand-written or made by
+ * gst-landmark synth for one arena, and trilaterate's association costs
+ * grow with the count (docs/conventions.md). */
+constexpr unsigned kMaxMapLandmarks = 256;
+constexpr double kMaxMapCoordinate = 10000.0;   /* metres, |x|, |y|, |z| */
+constexpr double kMaxMapDiameter = 100.0;       /* metres */
+
 struct MapLandmark {
   std::string id;
   std::string class_name;

@@ -1,0 +1,47 @@
+/* Fuzz target: the palette parser (core/palette.cpp) on arbitrary bytes.
+ * Whatever it accepts must satisfy docs/palette.md's rules; whatever it
+ * refuses must come with an error naming the source. */
+#include <glib.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <set>
+#include <string>
+
+#include "fuzzcheck.h"
+#include "palette.h"
+
+extern "C" int
+LLVMFuzzerTestOneInput (const uint8_t * data, size_t size)
+{
+  const std::string json ((const char *) data, size);
+  landmark::Palette palette;
+  std::string error;
+  if (!landmark::palette_parse (json, "fuzz.json", &palette, &error)) {
+    FUZZ_CHECK (error.rfind ("fuzz.json: ", 0) == 0, "error \"%s\"",
+        error.c_str ());
+    FUZZ_CHECK (palette.classes.empty (), "output touched on failure");
+    return 0;
+  }
+  FUZZ_CHECK (error.empty (), "error set on success: %s", error.c_str ());
+  const size_t n = palette.classes.size ();
+  FUZZ_CHECK (n >= 1 && n <= 64, "%zu classes", n);
+  std::set<std::string> names;
+  for (const auto & c : palette.classes) {
+    const char *name = c.name.c_str ();
+    FUZZ_CHECK (!c.name.empty () && c.name.size () <= 32 &&
+        strlen (name) == c.name.size (), "name length %zu", c.name.size ());
+    for (const char *p = name; *p; p++)
+      FUZZ_CHECK (g_ascii_isalnum (*p) || strchr ("_.-", *p), "name \"%s\"",
+          name);
+    FUZZ_CHECK (names.insert (c.name).second, "duplicate \"%s\"", name);
+    FUZZ_CHECK (std::isfinite (c.lab.L) && c.lab.L >= 0 && c.lab.L <= 100,
+        "L* %g", c.lab.L);
+    FUZZ_CHECK (std::isfinite (c.lab.a) && std::fabs (c.lab.a) <= 128,
+        "a* %g", c.lab.a);
+    FUZZ_CHECK (std::isfinite (c.lab.b) && std::fabs (c.lab.b) <= 128,
+        "b* %g", c.lab.b);
+  }
+  return 0;
+}

@@ -76,6 +76,7 @@ def camera(*extra, matrix=True):
 
 MISSING = object()   # the file is not created
 DIRECTORY = object()  # the path is a directory
+DEVICE = object()     # the path is a link to /dev/zero, which never ends
 
 
 @dataclass
@@ -115,6 +116,9 @@ CASES = [
     # -- labsegment palette= -------------------------------------------------
     P("palette-missing", MISSING, ("No such file",)),
     P("palette-directory", DIRECTORY, ("directory",), name="pal.d"),
+    P("palette-device", DEVICE, ("not a regular file",)),
+    P("palette-too-large", " " * (1 << 20) + "{}",
+      ("1048578 bytes", "at most 1048576")),
     P("palette-empty", "", ("empty",)),
     P("palette-malformed", '{"classes": [', ("JSON",)),
     P("palette-not-object", "[1, 2]", ("object",)),
@@ -184,6 +188,9 @@ CASES = [
     # -- ipmrange calibration= ----------------------------------------------
     C("camera-missing", MISSING, ("'calibration'",)),
     C("camera-empty", "", ("'calibration'", "is empty")),
+    C("camera-directory", DIRECTORY, ("'calibration'", "is a directory"),
+      name="camera.d"),
+    C("camera-device", DEVICE, ("'calibration'", "not a regular file")),
     C("camera-garbage", "this is not a calibration file {\n",
       ("'calibration'",)),
     C("camera-no-matrix", camera(matrix=False),
@@ -237,6 +244,12 @@ CASES = [
     M("tri-map-infinity-token", "trilaterate",
       landmark_map(lm()).replace('"y": 2.0', '"y": -Infinity'),
       ("'map'", "not valid JSON", "7:9")),
+    M("tri-map-device", "trilaterate", DEVICE, ("'map'", "not a regular file")),
+    M("tri-map-too-many", "trilaterate",
+      landmark_map(*[lm(id=f"L{i}", x=float(i)) for i in range(257)]),
+      ("'map'", "256")),
+    M("tri-map-x-huge", "trilaterate", landmark_map(lm(x=1e9)),
+      ("'map'", "L1", '"x"')),
     M("tri-map-duplicate-id", "trilaterate",
       landmark_map(lm(), lm(x=3.0)), ("'map'", '"L1"', "duplicate")),
     # -- landmarkoverlay map= ------------------------------------------------
@@ -268,6 +281,8 @@ def materialise(case, tmp_path):
     path = tmp_path / case.name
     if case.content is DIRECTORY:
         path.mkdir()
+    elif case.content is DEVICE:
+        path.symlink_to("/dev/zero")
     else:
         path.write_text(case.content)
     return str(path)

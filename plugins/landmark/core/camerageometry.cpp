@@ -11,6 +11,8 @@
 #include <limits>
 #include <sstream>
 
+#include <sys/stat.h>
+
 namespace landmark {
 
 namespace {
@@ -98,15 +100,22 @@ load_camera_file (const std::string & path, CameraFile * out,
       *error = path + ": cannot open the calibration file";
       return false;
     }
+  }
+  /* before reading: a device such as /dev/zero never ends */
+  if (!config_file_size_ok (path, error))
+    return false;
+  {
     /* OpenCV answers an empty file with an internal assertion text */
+    std::ifstream f (path);
     std::string word;
     if (!(f >> word)) {
-      *error = path + ": the calibration file is empty";
+      struct stat st;
+      *error = path + (stat (path.c_str (), &st) == 0 && S_ISDIR (st.st_mode)
+          ? ": is a directory, not a calibration file"
+          : ": the calibration file is empty");
       return false;
     }
   }
-  if (!config_file_size_ok (path, error))
-    return false;
   try {
     cv::FileStorage fs (path, cv::FileStorage::READ);
     if (!fs.isOpened ()) {

@@ -456,6 +456,44 @@ test_ekf_bridges_gap ()
   CHECK (f.update (cs) == 0, "gross outlier accepted");
 }
 
+/* Clutter: a map with 253 landmarks of one colour and three of their own,
+ * 40 blobs of the repeated colour at random places beside the three true
+ * ones. The consensus stays within its budget of pair poses and still
+ * finds the pose from the three precise detections. */
+static void
+test_consensus_budget ()
+{
+  std::mt19937 rng (5);
+  std::uniform_real_distribution<double> u (-20, 20), r (2.0, 6.0),
+      b (-0.6, 0.6);
+  std::vector<MapPoint> map = {
+    { "R", "red", 3, 1 }, { "G", "green", 2, -1.5 }, { "B", "blue", 4, 0.5 },
+  };
+  for (int k = 0; map.size () < 256; k++)
+    map.push_back ({ "Y" + std::to_string (k), "yellow", u (rng), u (rng) });
+  const double x = 0.5, y = 0.2, h = 0.1;
+  std::vector<Detection> d;
+  for (int k = 0; k < 3; k++)
+    d.push_back ({ map[k].class_name, observe (x, y, h, map[k].x,
+                map[k].y) });
+  for (int k = 0; k < 40; k++) {
+    const double rr = r (rng), bb = b (rng);
+    RangeBearing o;
+    o.gx = rr * std::cos (bb);
+    o.gy = rr * std::sin (bb);
+    d.push_back ({ "yellow", o });
+  }
+  const LocaliseResult res = localise (map, d, LocaliseOptions ());
+  CHECK (res.hypotheses > 0 && res.hypotheses <= kMaxConsensusHypotheses,
+      "hypotheses %d", res.hypotheses);
+  CHECK (res.ok && res.match[0] == 0 && res.match[1] == 1
+      && res.match[2] == 2, "ok %d match %d %d %d (%s)", res.ok,
+      res.match[0], res.match[1], res.match[2], res.why.c_str ());
+  if (res.ok)
+    CHECK (std::hypot (res.solution.pose.x - x, res.solution.pose.y - y)
+        < 0.05, "pose %g %g", res.solution.pose.x, res.solution.pose.y);
+}
+
 int
 main ()
 {
@@ -468,6 +506,7 @@ main ()
   test_outlier_rejected ();
   test_collinear ();
   test_association ();
+  test_consensus_budget ();
   test_ekf_bridges_gap ();
   if (failures)
     std::fprintf (stderr, "%d failures\n", failures);

@@ -545,12 +545,28 @@ localise (const std::vector<MapPoint> & map,
     double best_cost = 0;
     Pose2 best;
     std::vector<int> best_assign, assign (nd);
+    /* seeds: detections with candidates, the most precise first */
+    std::vector<size_t> seeds;
     for (size_t i = 0; i < nd; i++)
-      for (size_t j = i + 1; j < nd; j++)
-        for (int a : cand[i])
-          for (int b : cand[j]) {
+      if (!cand[i].empty ())
+        seeds.push_back (i);
+    std::stable_sort (seeds.begin (), seeds.end (), [&](size_t x, size_t y) {
+          return position_sigma_of (dets[x].obs) <
+              position_sigma_of (dets[y].obs);
+        });
+    int &tried = res.hypotheses;
+    const int budget = kMaxConsensusHypotheses;
+    for (size_t si = 0; si < seeds.size () && tried < budget; si++)
+      for (size_t sj = si + 1; sj < seeds.size () && tried < budget; sj++)
+        for (size_t ai = 0; ai < cand[seeds[si]].size () && tried < budget;
+            ai++)
+          for (size_t bi = 0; bi < cand[seeds[sj]].size () && tried < budget;
+              bi++) {
+            const size_t i = seeds[si], j = seeds[sj];
+            const int a = cand[i][ai], b = cand[j][bi];
             if (a == b)
               continue;
+            tried++;
             Correspondence ca { dets[i].obs, map[a].x, map[a].y };
             Correspondence cb { dets[j].obs, map[b].x, map[b].y };
             Pose2 p;

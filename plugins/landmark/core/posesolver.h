@@ -150,7 +150,14 @@ struct LocaliseResult {
    * "too-few-landmarks", "no-solution"; empty when matched */
   std::vector<std::string> reasons;
   int n_used = 0;               /* landmarks in the solution */
+  int hypotheses = 0;           /* pair poses the consensus tried */
 };
+
+/* The consensus tries at most this many pair poses per frame, seeded by the
+ * most precise detections first, so that clutter (many blobs of a colour
+ * the map repeats) costs bounded time instead of growing with the cube of
+ * detections and landmarks. */
+constexpr int kMaxConsensusHypotheses = 2048;
 
 /* Associates detections with map points by class (gated around the prior
  * where given; by consensus where not), then solves with one, two or more

@@ -2,7 +2,7 @@
  * whole chain, labsegment ! blobroundness ! ipmrange ! trilaterate !
  * landmarkoverlay ! landmarklog, in a GstHarness, with the plugin from the
  * build tree. The input decides the format (every one labsegment accepts),
- * the size (2..257 x 2..257), one to three frames, each element's
+ * the size (1..256 x 1..256), one to three frames, each element's
  * properties within the ranges that must be accepted, and the pixels:
  * either the input's bytes as they are, or discs painted from it (so that
  * blobs, ranges and poses happen). Invariants: the chain starts, every
@@ -171,7 +171,9 @@ configure (Bytes & in, GstBin * bin, const std::string & map)
   set (bin, "blob", "shape", in.flag ()? "circle" : "ellipse");
   set (bin, "blob", "keep-rejected", in.flag ()? "true" : "false");
 
-  const double cam_h = in.range (0.05, 3.0);
+  /* above the map's highest marker centre (a 0.1 m ball): lower is a
+   * configuration error by design */
+  const double cam_h = in.range (0.15, 3.0);
   set (bin, "ipm", "camera-height", num (cam_h).c_str ());
   set (bin, "ipm", "marker-height", num (in.range (0, 0.95) * cam_h).c_str ());
   set (bin, "ipm", "marker-diameter", num (in.range (0, 1)).c_str ());
@@ -363,9 +365,7 @@ LLVMFuzzerTestOneInput (const uint8_t * data, size_t size)
   Bytes in (data, size);
   GstVideoInfo info;
   const GstVideoFormat format = kFormats[in.pick (G_N_ELEMENTS (kFormats))];
-  /* ipmrange refuses frames narrower or lower than 2 pixels (no camera
-   * geometry), with an ERROR by design */
-  const int w = 2 + in.u8 (), h = 2 + in.u8 ();
+  const int w = 1 + in.u8 (), h = 1 + in.u8 ();
   const unsigned frames = 1 + in.pick (3);
   FUZZ_CHECK (gst_video_info_set_format (&info, format, w, h), "info");
 

@@ -436,7 +436,8 @@ add_labels (GstBuffer * buf, guint w, guint h, guint stride,
     plane_bytes = (gsize) stride * h;
   plane = gst_buffer_new_allocate (NULL, plane_bytes, NULL);
   gst_buffer_map (plane, &map, GST_MAP_WRITE);
-  memset (map.data, 7, map.size);
+  if (map.size)                 /* memset of NULL is undefined, even for 0 */
+    memset (map.data, 7, map.size);
   for (y = 0; y < h; y++)
     for (x = 0; x < w && x < stride; x++) {
       gsize i = (gsize) y * stride + x;
@@ -1530,9 +1531,8 @@ GST_END_TEST;
 #define PUSH_EVERY 10
 
 /* A state cycle costs well under a millisecond here (ipmrange once built a
- * 640x480 lookup table twice per start: 55 ms); this bound only catches
- * such start costs, not a slow machine. */
-#define MAX_MEAN_CYCLE_MS 20.0
+ * 640x480 lookup table twice per start: 55 ms); the cost is printed for
+ * people to watch, not asserted. */
 
 /* CYCLES times NULL -> PLAYING -> NULL; every PUSH_EVERY-th cycle a frame
  * goes through (stream-start, caps and segment again: a stopped element
@@ -1572,8 +1572,7 @@ cycle (GstHarness * h, const gchar * what)
       "the %u first frames after a start took %.2f ms each\n", what, CYCLES,
       total / 1e3, (total - with_frame / 1e3) / CYCLES, CYCLES / PUSH_EVERY,
       with_frame / 1e3 / (CYCLES / PUSH_EVERY));
-  fail_unless (total / CYCLES < MAX_MEAN_CYCLE_MS, "%s: %.1f ms per state "
-      "cycle", what, total / CYCLES);
+  /* the figure is printed, not asserted: speed lives in benchmarks */
 }
 
 GST_START_TEST (test_element_state_cycles)

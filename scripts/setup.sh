@@ -15,10 +15,10 @@ APT_PACKAGES=(
   gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good
   python3 python3-venv python3-gi python3-gst-1.0
   gir1.2-gstreamer-1.0 gir1.2-gst-plugins-base-1.0
-  # scripts/sanitize.sh: clang, its ASan/UBSan/libFuzzer runtimes, and
-  # llvm-symbolizer for readable sanitizer reports
-  clang-14 libclang-rt-14-dev llvm-14
 )
+# what only some commands need (the test command: valgrind, clang)
+read -r -a extra_packages <<<"${LANDMARK_EXTRA_APT:-}"
+APT_PACKAGES+=("${extra_packages[@]}")
 
 log() { printf '[setup] %s\n' "$*" >&2; }
 

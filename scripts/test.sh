@@ -4,6 +4,8 @@
 # setting up what is missing. Extra arguments go to the first `meson test`
 # (e.g. --suite unit).
 set -euo pipefail
+# valgrind for tests/python/test_valgrind.py
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} valgrind"
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 status=0

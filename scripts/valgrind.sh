@@ -8,11 +8,8 @@
 # go to `python -m gstlandmark.valgrind` (--frames N, --size WxH,
 # --error-after K, --out DIR to keep memcheck.xml). About 40 s.
 set -euo pipefail
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} valgrind"
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 cd "$ROOT"
-if ! command -v valgrind >/dev/null; then
-  echo "valgrind is not installed: apt-get install valgrind" >&2
-  exit 1
-fi
 PYTHONPATH="$ROOT/python${PYTHONPATH:+:$PYTHONPATH}" \
   "$VENV/bin/python" -m gstlandmark.valgrind "$@"

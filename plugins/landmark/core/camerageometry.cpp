@@ -11,7 +11,15 @@
 #include <limits>
 #include <sstream>
 
+#include <poll.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
 
 namespace landmark {
 
@@ -90,7 +98,7 @@ read_real (const cv::FileStorage & fs, const std::string & path,
 }
 
 bool
-load_camera_file (const std::string & path, CameraFile * out,
+parse_camera_file (const std::string & path, CameraFile * out,
     std::string * error)
 {
   *out = CameraFile ();
@@ -735,6 +743,174 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     out.range_size_sigma = out.range_size * size_rel_sigma;
   }
   return out;
+}
+
+
+namespace {
+
+/* The child's answer through the pipe: fixed fields, the distortion
+ * coefficients, the error text. */
+struct CameraFileWire {
+  uint8_t ok, seed, has_camera_height, has_tilt, has_roll;
+  int32_t image_width, image_height;
+  double fx, fy, cx, cy, camera_height, tilt_deg, roll_deg;
+  double blind_distance, view_depth, half_width;
+  uint32_t n_dist, n_error;
+};
+
+std::string
+encode_camera_file (bool ok, const CameraFile & f, const std::string & error)
+{
+  CameraFileWire w {};
+  w.ok = ok;
+  w.seed = f.seed;
+  w.has_camera_height = f.has_camera_height;
+  w.has_tilt = f.has_tilt;
+  w.has_roll = f.has_roll;
+  w.image_width = f.image_width;
+  w.image_height = f.image_height;
+  w.fx = f.fx;
+  w.fy = f.fy;
+  w.cx = f.cx;
+  w.cy = f.cy;
+  w.camera_height = f.camera_height;
+  w.tilt_deg = f.tilt_deg;
+  w.roll_deg = f.roll_deg;
+  w.blind_distance = f.blind_distance;
+  w.view_depth = f.view_depth;
+  w.half_width = f.half_width;
+  w.n_dist = (uint32_t) f.dist.size ();
+  w.n_error = (uint32_t) error.size ();
+  std::string out ((const char *) &w, sizeof w);
+  if (!f.dist.empty ())
+    out.append ((const char *) f.dist.data (),
+        f.dist.size () * sizeof (double));
+  out += error;
+  return out;
+}
+
+bool
+decode_camera_file (const std::string & in, CameraFile * f,
+    std::string * error, bool *ok)
+{
+  CameraFileWire w;
+  if (in.size () < sizeof w)
+    return false;
+  memcpy (&w, in.data (), sizeof w);
+  if (in.size () != sizeof w + w.n_dist * sizeof (double) + w.n_error)
+    return false;
+  *ok = w.ok;
+  f->seed = w.seed;
+  f->has_camera_height = w.has_camera_height;
+  f->has_tilt = w.has_tilt;
+  f->has_roll = w.has_roll;
+  f->image_width = w.image_width;
+  f->image_height = w.image_height;
+  f->fx = w.fx;
+  f->fy = w.fy;
+  f->cx = w.cx;
+  f->cy = w.cy;
+  f->camera_height = w.camera_height;
+  f->tilt_deg = w.tilt_deg;
+  f->roll_deg = w.roll_deg;
+  f->blind_distance = w.blind_distance;
+  f->view_depth = w.view_depth;
+  f->half_width = w.half_width;
+  f->dist.resize (w.n_dist);
+  if (w.n_dist)                 /* memcpy to NULL is undefined, even for 0 */
+    memcpy (f->dist.data (), in.data () + sizeof w,
+        w.n_dist * sizeof (double));
+  error->assign (in, sizeof w + w.n_dist * sizeof (double), w.n_error);
+  return true;
+}
+
+}  // namespace
+
+bool
+load_camera_file (const std::string & path, CameraFile * out,
+    std::string * error)
+{
+  *out = CameraFile ();
+  /* OpenCV's FileStorage parsers loop forever or overflow the stack on
+   * some malformed files (found by fuzzing: a '%' inside a YAML
+   * document); a child process parses, so that a bad file costs an error
+   * message, never the application. */
+  int fds[2];
+  if (pipe (fds) != 0)
+    return parse_camera_file (path, out, error);
+  const pid_t pid = fork ();
+  if (pid < 0) {
+    close (fds[0]);
+    close (fds[1]);
+    return parse_camera_file (path, out, error);
+  }
+  if (pid == 0) {
+    close (fds[0]);
+    CameraFile f;
+    std::string err;
+    const bool ok = parse_camera_file (path, &f, &err);
+    const std::string msg = encode_camera_file (ok, f, err);
+    size_t done = 0;
+    while (done < msg.size ()) {
+      const ssize_t n = write (fds[1], msg.data () + done, msg.size () - done);
+      if (n <= 0 && errno != EINTR)
+        break;
+      if (n > 0)
+        done += (size_t) n;
+    }
+    _exit (done == msg.size ()? 0 : 1);
+  }
+  close (fds[1]);
+  std::string msg;
+  const auto deadline = std::chrono::steady_clock::now () +
+      std::chrono::seconds (kCameraFileParseSeconds);
+  bool timed_out = false;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>
+        (deadline - std::chrono::steady_clock::now ()).count ();
+    if (left <= 0) {
+      timed_out = true;
+      break;
+    }
+    struct pollfd p = { fds[0], POLLIN, 0 };
+    const int r = poll (&p, 1, (int) left);
+    if (r < 0 && errno == EINTR)
+      continue;
+    if (r <= 0) {
+      timed_out = r == 0;
+      break;
+    }
+    char buf[4096];
+    const ssize_t n = read (fds[0], buf, sizeof buf);
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n <= 0)
+      break;
+    msg.append (buf, (size_t) n);
+  }
+  close (fds[0]);
+  if (timed_out)
+    kill (pid, SIGKILL);
+  int status = 0;
+  while (waitpid (pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (timed_out) {
+    *error = path + ": OpenCV's parser did not finish within " +
+        std::to_string (kCameraFileParseSeconds) + " s (a malformed file)";
+    return false;
+  }
+  if (WIFSIGNALED (status)) {
+    *error = path + ": OpenCV's parser crashed on it (signal " +
+        std::to_string (WTERMSIG (status)) + "): a malformed file";
+    return false;
+  }
+  bool ok = false;
+  if (!WIFEXITED (status) || WEXITSTATUS (status) != 0
+      || !decode_camera_file (msg, out, error, &ok)) {
+    *error = path + ": the calibration file could not be read";
+    return false;
+  }
+  return ok;
 }
 
 }  // namespace landmark

@@ -79,6 +79,14 @@ struct CameraFile {
 bool load_camera_file (const std::string & path, CameraFile * out,
     std::string * error);
 
+/* load_camera_file parses in a child process (OpenCV's parsers can hang or
+ * crash on malformed files) and gives up after this long. */
+constexpr int kCameraFileParseSeconds = 5;
+
+/* The same in this process: for tests of the checks themselves. */
+bool parse_camera_file (const std::string & path, CameraFile * out,
+    std::string * error);
+
 class CameraGeometry {
 public:
   /* Checks and precomputes; false with *error (naming the parameter) on

@@ -1,7 +1,9 @@
 /* Fuzz target: the camera (calibration) file loader that ipmrange uses,
  * core/camerageometry.cpp load_camera_file (OpenCV FileStorage, YAML, XML
  * or JSON). The loader takes a path, so each input is written to one
- * temporary file. What it accepts must be usable: finite, bounded values,
+ * temporary file. It parses in a child process (OpenCV's parser can hang),
+ * so coverage of the parse itself does not reach the fuzzer: this target
+ * shows that no file takes the caller down, at a few executions a second. What it accepts must be usable: finite, bounded values,
  * and CameraGeometry::configure plus a few projections must run on it
  * (at a small frame size, to keep executions fast). */
 #include <glib.h>

@@ -80,11 +80,11 @@
 #include <exception>
 #include <map>
 #include <mutex>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "camerageometry.h"
+#include "fileutil.h"
 #include "landmarkmap.h"
 #include "landmarkmeta.h"
 
@@ -145,15 +145,6 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
 
 /* *INDENT-OFF* */
 namespace {
-
-/* a number as people write it in a message: 0.3, not 0.300000 */
-std::string
-landmark_num (double v)
-{
-  std::ostringstream o;
-  o << v;
-  return o.str ();
-}
 
 struct Settings {
   GstIpmRangeModel model = DEFAULT_MODEL;
@@ -427,9 +418,9 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
       if (lm.z >= e.camera_height) {
         *property = "map";
         *why = s.map + ": landmark \"" + lm.id + "\" (class " +
-            lm.class_name + ") has z " + landmark_num (lm.z) +
+            lm.class_name + ") has z " + landmark::number_text (lm.z) +
             " m: a marker centre must be below the camera (camera-height " +
-            landmark_num (e.camera_height) + " m)";
+            landmark::number_text (e.camera_height) + " m)";
         return FALSE;
       }
       cfg->map_classes.push_back ({ lm.class_name, lm.id });
@@ -476,8 +467,8 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
     *why = err;
     if (from_file)
       *why = s.calibration + ": " + err + (cfg->calib_has_tilt ?
-          " (tilt_deg " + landmark_num (e.tilt) + ", camera_height " +
-          landmark_num (e.camera_height) + " m)" : std::string ());
+          " (tilt_deg " + landmark::number_text (e.tilt) + ", camera_height " +
+          landmark::number_text (e.camera_height) + " m)" : std::string ());
     else if (!s.calibration.empty ())
       *why = err + " (tilt property with the intrinsics of " +
           s.calibration + ")";
@@ -881,8 +872,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (marker.z >= cfg.s.camera_height)
     marker.z = 0;   /* cannot range it; treat as on the floor */
 
-  landmark::RangeEstimate e = landmark::estimate_range (st.geometry,
-      obs, marker, cfg.s.pixel_sigma);
+  landmark::RangeEstimate e;
   const landmark::MarkerSpec *chosen = nullptr;
   /* a blob cut by the frame's edge has no trustworthy size to choose by */
   const bool cut = roi->x == 0 || roi->y == 0 || roi->x + roi->w >= fw
@@ -910,6 +900,9 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
       }
     }
   }
+  if (!chosen)
+    e = landmark::estimate_range (st.geometry, obs, marker,
+        cfg.s.pixel_sigma);
 
   GstStructure *s;
   if (e.no_floor) {
@@ -975,15 +968,9 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   if (!st.map_classes_checked && !st.config.map_classes.empty ()
       && (labels = landmark_labels_meta_get (buf))) {
     st.map_classes_checked = true;
-    const std::string missing = landmark_labels_missing_classes (labels,
-        st.config.map_classes);
-    if (!missing.empty ())
-      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-          ("The map has landmarks of classes the labels do not have; they "
-              "heights and sizes are never used."),
-          ("%s: %s; the labels have: %s", st.config.s.map.c_str (),
-              missing.c_str (),
-              landmark_labels_class_list (labels).c_str ()));
+    landmark_warn_map_classes_missing (GST_ELEMENT_CAST (self), labels,
+        st.config.s.map, st.config.map_classes,
+        "their heights and sizes are never used.");
   }
   try {
     /* collect first: adding parameters adds metas to the buffer */

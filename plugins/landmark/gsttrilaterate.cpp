@@ -673,15 +673,8 @@ gst_trilaterate_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
     std::vector<std::pair<std::string, std::string>> classes;
     for (const auto & p : st.map)
       classes.push_back ({ p.class_name, p.id });
-    const std::string missing = landmark_labels_missing_classes (labels,
-        classes);
-    if (!missing.empty ())
-      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-          ("The map has landmarks of classes the labels do not have; they "
-              "can never be matched."),
-          ("%s: %s; the labels have: %s", st.map_path.c_str (),
-              missing.c_str (),
-              landmark_labels_class_list (labels).c_str ()));
+    landmark_warn_map_classes_missing (GST_ELEMENT_CAST (self), labels,
+        st.map_path, classes, "they can never be matched.");
   }
   try {
     return gst_trilaterate_process (self, buf);

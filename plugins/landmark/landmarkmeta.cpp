@@ -376,7 +376,7 @@ landmark_pose_meta_get (GstBuffer * buffer)
   return custom_structure (buffer, GST_LANDMARK_POSE_META_NAME);
 }
 
-std::string
+static std::string
 landmark_labels_class_list (const GstStructure * labels)
 {
   std::string out;
@@ -388,7 +388,7 @@ landmark_labels_class_list (const GstStructure * labels)
   return out;
 }
 
-std::string
+static std::string
 landmark_labels_missing_classes (const GstStructure * labels,
     const std::vector<std::pair<std::string, std::string>> & map_classes)
 {
@@ -415,4 +415,19 @@ landmark_labels_missing_classes (const GstStructure * labels,
   for (const auto & m : missing)
     out += (out.empty ()? "" : ", ") + m.first + " (" + m.second + ")";
   return out;
+}
+
+void
+landmark_warn_map_classes_missing (GstElement * element,
+    const GstStructure * labels, const std::string & map_path,
+    const std::vector<std::pair<std::string, std::string>> & map_classes,
+    const char *consequence)
+{
+  const std::string missing = landmark_labels_missing_classes (labels,
+      map_classes);
+  if (!missing.empty ())
+    GST_ELEMENT_WARNING (element, RESOURCE, SETTINGS,
+        ("The map has landmarks of classes the labels do not have; %s",
+            consequence), ("%s: %s; the labels have: %s", map_path.c_str (),
+            missing.c_str (), landmark_labels_class_list (labels).c_str ()));
 }

@@ -101,11 +101,12 @@ G_END_DECLS
 #include <vector>
 
 /* The map classes, given as (class name, landmark id) pairs, that the labels
- * do not list, as "purple (L1, L4), orange (L2)"; empty when the labels have
- * them all. Landmarks of such a class can never be detected. */
-std::string landmark_labels_missing_classes (const GstStructure * labels,
-    const std::vector<std::pair<std::string, std::string>> & map_classes);
-
-/* The labels' class names, as "red, green, blue". */
-std::string landmark_labels_class_list (const GstStructure * labels);
+ * do not list can never be detected. Posts one WARNING on the element that
+ * names the map file, those classes with their ids ("purple (L1, L4)") and
+ * the classes the labels have; the message ends with `consequence`.
+ * Nothing when the labels have them all. */
+void landmark_warn_map_classes_missing (GstElement * element,
+    const GstStructure * labels, const std::string & map_path,
+    const std::vector<std::pair<std::string, std::string>> & map_classes,
+    const char *consequence);
 #endif

@@ -27,14 +27,6 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-std::string
-num (double v)
-{
-  std::ostringstream o;
-  o << v;
-  return o.str ();
-}
-
 }  // namespace
 
 bool
@@ -164,7 +156,7 @@ parse_camera_file (const std::string & path, CameraFile * out,
     if (present) {
       if (!(v > 0)) {
         *error = path + ": camera_height must be positive (metres), got " +
-            num (v);
+            number_text (v);
         return false;
       }
       out->has_camera_height = true;
@@ -189,7 +181,7 @@ parse_camera_file (const std::string & path, CameraFile * out,
         }
         if (!(*dst[i] > 0)) {
           *error = path + ": " + keys[i] + " must be positive (metres), got "
-              + num (*dst[i]);
+              + number_text (*dst[i]);
           return false;
         }
       }
@@ -205,7 +197,7 @@ parse_camera_file (const std::string & path, CameraFile * out,
       return false;
     if (out->has_tilt && !(out->tilt_deg >= -90 && out->tilt_deg <= 90)) {
       *error = path + ": tilt_deg must be within [-90, 90] degrees, got " +
-          num (out->tilt_deg);
+          number_text (out->tilt_deg);
       return false;
     }
 
@@ -247,7 +239,7 @@ parse_camera_file (const std::string & path, CameraFile * out,
       if (d.channels () != 1 || !(n == 4 || n == 5 || n == 8 || n == 12
               || n == 14)) {
         *error = path + ": distortion_coefficients must have 4, 5, 8, 12 or "
-            "14 values, has " + (have_d < 0 ? num (declared) :
+            "14 values, has " + (have_d < 0 ? number_text (declared) :
             std::to_string (n));
         return false;
       }
@@ -309,20 +301,20 @@ CameraGeometry::configure (const CameraParams & p, std::string * error)
     return false;
   }
   if (!(p.camera_height > 0) || !std::isfinite (p.camera_height)) {
-    *error = "camera-height must be positive, got " + num (p.camera_height);
+    *error = "camera-height must be positive, got " + number_text (p.camera_height);
     return false;
   }
   if (p.model == CameraModel::Seed) {
     if (!(p.blind_distance >= 0) || !std::isfinite (p.blind_distance)) {
-      *error = "blind-distance must be >= 0, got " + num (p.blind_distance);
+      *error = "blind-distance must be >= 0, got " + number_text (p.blind_distance);
       return false;
     }
     if (!(p.view_depth > 0) || !std::isfinite (p.view_depth)) {
-      *error = "view-depth must be positive, got " + num (p.view_depth);
+      *error = "view-depth must be positive, got " + number_text (p.view_depth);
       return false;
     }
     if (!(p.half_width > 0) || !std::isfinite (p.half_width)) {
-      *error = "half-width must be positive, got " + num (p.half_width);
+      *error = "half-width must be positive, got " + number_text (p.half_width);
       return false;
     }
     /* (3.2) tan(gamma) = b/h; (3.3) tan(gamma + alpha) = (b + d)/h;
@@ -334,8 +326,8 @@ CameraGeometry::configure (const CameraParams & p, std::string * error)
   } else {
     if (!(p.fx > 0 && p.fy > 0) || !std::isfinite (p.fx)
         || !std::isfinite (p.fy)) {
-      *error = "focal lengths must be positive (fx " + num (p.fx) + ", fy " +
-          num (p.fy) + ")";
+      *error = "focal lengths must be positive (fx " + number_text (p.fx) + ", fy " +
+          number_text (p.fy) + ")";
       return false;
     }
     if (!std::isfinite (p.cx) || !std::isfinite (p.cy)) {
@@ -344,7 +336,7 @@ CameraGeometry::configure (const CameraParams & p, std::string * error)
     }
     if (!(p.tilt_deg >= -90.0 && p.tilt_deg <= 90.0)) {
       *error = "tilt must be within [-90, 90] degrees, got " +
-          num (p.tilt_deg);
+          number_text (p.tilt_deg);
       return false;
     }
     if (!std::isfinite (p.roll_deg)) {
@@ -382,7 +374,7 @@ CameraGeometry::configure (const CameraParams & p, std::string * error)
     if (p.model == CameraModel::Seed)
       *error = "the seed geometry sees no floor";
     else
-      *error = "tilt " + num (p.tilt_deg) + " degrees with this field of "
+      *error = "tilt " + number_text (p.tilt_deg) + " degrees with this field of "
           "view sees no floor (the whole image is above the horizon)";
     return false;
   }

@@ -1,5 +1,7 @@
 #include "fileutil.h"
 
+#include <sstream>
+
 #include <sys/stat.h>
 
 namespace landmark {
@@ -21,6 +23,14 @@ config_file_size_ok (const std::string & path, std::string * error)
     return false;
   }
   return true;
+}
+
+std::string
+number_text (double v)
+{
+  std::ostringstream o;
+  o << v;
+  return o.str ();
 }
 
 }  // namespace landmark

@@ -5,19 +5,12 @@
 #include <set>
 #include <sstream>
 
+#include "fileutil.h"
 #include "jsonutil.h"
 
 namespace landmark {
 
 namespace {
-
-std::string
-num (double v)
-{
-  std::ostringstream o;
-  o << v;
-  return o.str ();
-}
 
 std::string
 entry_label (guint index, const char *id)
@@ -66,8 +59,8 @@ parse_landmark (JsonNode * node, guint index, MapLandmark * out,
   for (int i = 0; i < 3; i++) {
     if (std::fabs (xyz[i]) > kMaxMapCoordinate) {
       *why = where + ": \"" + axis[i] + "\" must be within -" +
-          num (kMaxMapCoordinate) + ".." + num (kMaxMapCoordinate) +
-          " (metres), got " + num (xyz[i]);
+          number_text (kMaxMapCoordinate) + ".." + number_text (kMaxMapCoordinate) +
+          " (metres), got " + number_text (xyz[i]);
       return false;
     }
   }
@@ -78,7 +71,7 @@ parse_landmark (JsonNode * node, guint index, MapLandmark * out,
   }
   if (diameter > kMaxMapDiameter) {
     *why = where + ": \"diameter\" must be at most " +
-        num (kMaxMapDiameter) + " (metres), got " + num (diameter);
+        number_text (kMaxMapDiameter) + " (metres), got " + number_text (diameter);
     return false;
   }
   bool ball = false;

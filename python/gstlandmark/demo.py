@@ -98,7 +98,7 @@ def synthetic_clip(folder: str, width: int, height: int,
     done = os.path.join(folder, "scene.json")
     if not os.path.exists(done):
         synth.render_scenario("path", folder, seed=seed, frames=frames,
-                              size=(width, height))
+                              size=(width, height), robot="comfortable")
     return folder
 
 

@@ -169,7 +169,7 @@ def test_large_near_landmarks_area_centroid():
 
 def test_range_bearing_follow_conventions(tmp_path):
     summary = render_scenario("path", str(tmp_path), frames=24, size=SMALL,
-                              progress=False)
+                              progress=False, robot="comfortable")
     assert summary["frames"] == 24
     landmarks = {lm["id"]: lm for lm in json.loads(
         (tmp_path / "map.json").read_text())["landmarks"]}
@@ -278,7 +278,8 @@ def test_rendering_is_deterministic_for_a_seed():
 def test_scenario_outputs_are_deterministic(tmp_path):
     for name in ("one", "two"):
         render_scenario("distractors", str(tmp_path / name), seed=3,
-                        frames=2, size=SMALL, progress=False)
+                        frames=2, size=SMALL, progress=False,
+                        robot="comfortable")
     for f in ("truth.jsonl", "map.json", "frame0.png", "mask0.png"):
         assert ((tmp_path / "one" / f).read_bytes()
                 == (tmp_path / "two" / f).read_bytes()), f
@@ -351,7 +352,7 @@ def test_mask_of_balls_walls_and_distractors():
 @pytest.mark.parametrize("name", [n for n in SCENARIOS if n != "custom"])
 def test_scenario_writes_outputs(tmp_path, name):
     summary = render_scenario(name, str(tmp_path), frames=3, size=SMALL,
-                              progress=False)
+                              progress=False, robot="comfortable")
     assert summary["frames"] == 3
     scene = json.loads((tmp_path / "scene.json").read_text())
     assert scene["scenario"] == name and scene["frames"] == 3
@@ -404,7 +405,8 @@ def test_cli_custom_raw_png_and_masks(tmp_path):
              {"x": 0.05, "y": 0.0, "heading": 0.02}]
     (tmp_path / "poses.json").write_text(json.dumps(poses))
     out = tmp_path / "out"
-    status = cli.main(["synth", "custom", "--out", str(out), "--map",
+    status = cli.main(["synth", "custom", "--robot", "comfortable",
+                       "--out", str(out), "--map",
                        str(tmp_path / "map.json"), "--poses",
                        str(tmp_path / "poses.json"), "--size", "161x121",
                        "--raw", str(out / "clip.rgb"), "--frames-png",
@@ -507,7 +509,8 @@ def path_clip(tmp_path_factory):
     """The path scenario as shipped: default seed, size and camera (the
     truth only; no clip)."""
     out = tmp_path_factory.mktemp("path")
-    summary = render_scenario("path", str(out), progress=False, clip=False)
+    summary = render_scenario("path", str(out), progress=False, clip=False,
+                              robot="comfortable")
     return out, summary
 
 
@@ -583,10 +586,11 @@ def test_path_world_and_camera(path_clip):
 def test_path_camera_overrides_still_apply(tmp_path):
     from gstlandmark.synth import build_scenario
     scene, _ = build_scenario("path", frames=2, hfov_deg=60,
-                              height_m=0.3)
+                              height_m=0.3, robot="comfortable")
     assert scene.camera.hfov_deg == pytest.approx(60.0)
     assert scene.camera.height_m == 0.3 and scene.camera.tilt_deg == 20.0
-    scene, _ = build_scenario("path", frames=2, fx=500.0)
+    scene, _ = build_scenario("path", frames=2, fx=500.0,
+                              robot="comfortable")
     assert scene.camera.fx == 500.0
 
 
@@ -600,7 +604,7 @@ def _srgb_lab(rgb):
 def test_chart_learns_every_class_by_the_cli(tmp_path, capsys):
     out = tmp_path / "path"
     render_scenario("path", str(out), frames=1, progress=False, clip=False,
-                    noise_sigma=0.0, jpeg_quality=100)
+                    noise_sigma=0.0, jpeg_quality=100, robot="comfortable")
     scene = json.loads((out / "scene.json").read_text())
     classes = scene["palette"]["classes"]
     names = [c["name"] for c in classes]
@@ -624,7 +628,7 @@ def test_chart_learns_every_class_by_the_cli(tmp_path, capsys):
     assert learned.names == names and learned.markers == markers
     # each class comes back within 2 Delta E of the colour painted
     from gstlandmark.synth import build_scenario
-    built, _ = build_scenario("path")
+    built, _ = build_scenario("path", robot="comfortable")
     srgb = built.marker_srgb8()
     want = {name: _srgb_lab(rgb) for name, rgb in srgb.items()}
     want["floor"] = _srgb_lab((128, 128, 128))
@@ -639,7 +643,7 @@ def test_chart_of_a_scene_with_many_floors():
     from gstlandmark.synth.chart import render_chart
     scene, n = build_scenario("backgrounds", size=(320, 240),
                               noise_sigma=0.0, auto_exposure=0.0,
-                              auto_wb=0.0)
+                              auto_wb=0.0, robot="comfortable")
     palette = scene.scene_palette()
     rgb, mask, info = render_chart(scene, n)
     assert len(palette.background) == 8          # one class per floor
@@ -663,7 +667,7 @@ def test_chart_has_frame0_lighting(tmp_path):
     from gstlandmark.synth.chart import render_chart
     scene, n = build_scenario("path", size=SMALL, noise_sigma=0.0,
                               auto_exposure=1.0, auto_wb=0.6,
-                              exposure_stops=-0.5)
+                              exposure_stops=-0.5, robot="comfortable")
     rgb0, _, mask0 = render_frame(scene, scene.trajectory.pose(0.0), t=0.0,
                                   frame=0, frames_total=n)
     rgb, mask, _ = render_chart(scene, n)
@@ -680,7 +684,8 @@ def test_chart_has_frame0_lighting(tmp_path):
     # the plain grey floor is one colour in both pictures
     assert np.ptp(a, axis=0).max() <= 1 and np.ptp(b, axis=0).max() <= 1
     assert np.abs(np.median(a, axis=0) - np.median(b, axis=0)).max() <= 1
-    plain, _ = build_scenario("path", size=SMALL, noise_sigma=0.0)
+    plain, _ = build_scenario("path", size=SMALL, noise_sigma=0.0,
+                              robot="comfortable")
     rgb_plain, mask_plain, _ = render_chart(plain, n)
     c = rgb_plain[inside(mask_plain)].reshape(-1, 3)
     assert np.abs(np.median(a, axis=0) - np.median(c, axis=0)).max() > 5

@@ -51,9 +51,11 @@ class Loop:
     y = cy + b sin s + c sin 3s (c > 0 squares it off), one lap per
     ``period_s``."""
 
-    def __init__(self, centre, a, b, c, period_s):
+    def __init__(self, centre, a, b, c, period_s, phase=0.0):
         self.centre = tuple(centre)
         self.a, self.b, self.c, self.period_s = a, b, c, period_s
+        # where on the lap the clip starts, a fraction of a lap
+        self.phase = float(phase)
         # arc length along s, for constant speed
         s = np.linspace(0.0, 2.0 * math.pi, 4097)
         x, y = self._xy(s)
@@ -74,14 +76,16 @@ class Loop:
         return float(x), float(y), math.atan2(dy, dx)
 
     def pose(self, t):
-        lap = (t / self.period_s) % 1.0
+        lap = (t / self.period_s + self.phase) % 1.0
         s = float(np.interp(lap * self.length, self._arc, self._s))
         x, y, heading = self.point(s)
         return Pose(x, y, wrap_angle(heading))
 
     def to_json(self):
+        extra = {"phase": self.phase} if self.phase else {}
         return {"type": "loop", "centre": list(self.centre), "a": self.a,
                 "b": self.b, "c": self.c, "period_s": self.period_s,
+                **extra,
                 "length_m": round(self.length, 4),
                 "speed_m_s": round(self.length / self.period_s, 4)}
 
@@ -327,7 +331,8 @@ def _path(ctx):
             c = layout["loop_c"] * k
             turn, mirror = layout["plan_turn"], layout["plan_mirror"]
             jitter = layout["plan_jitter"]
-        loop = Loop((half, half), a, b, c, period_s=10.0)
+        loop = Loop((half, half), a, b, c, period_s=10.0,
+                    phase=0.0 if layout is None else layout["loop_phase"])
         plan = []
         for ((x, y), colour, kind), (jx, jy) in zip(SEED_PATH_PLAN,
                                                     jitter):

@@ -129,6 +129,8 @@ def draw_variant(scenario, n):
     range_jitter = [round(float(v), 4)
                     for v in rng.uniform(-0.04, 0.04, 13)]
     bearing_shift = round(float(rng.uniform(-3.0, 3.0)), 1)
+    # a short clip starts anywhere on the lap
+    loop_phase = round(float(rng.uniform(0.0, 1.0)), 4)
 
     tilt = choose_tilt(height, hfov, centre_range)
     fx = 320.0 / math.tan(math.radians(hfov) / 2)
@@ -174,6 +176,7 @@ def draw_variant(scenario, n):
             "seed": layout_seed,
             "field_m": r(clip("field_m", 1.45 * reach * field_jitter), 3),
             "loop_a": r(loop[0]), "loop_b": r(loop[1]), "loop_c": r(loop_c),
+            "loop_phase": loop_phase,
             "plan_turn": turn, "plan_mirror": mirror,
             "plan_jitter": plan_jitter,
             "range_jitter": range_jitter,

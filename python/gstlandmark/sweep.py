@@ -79,7 +79,7 @@ def variant_numbers(count: int, half: str = "all",
     return [n for n in numbers if half == "all" or half_of(n) == half]
 
 
-# -- scoring -------------------------------------------------------------------
+# -- scoring ------------------------------------------------------------------
 
 def required(mark: Dict[str, Any], min_pixels: float = MIN_PIXELS,
              max_occluded: float = MAX_OCCLUDED) -> bool:
@@ -210,7 +210,7 @@ def summarise(t: Dict[str, Any]) -> Dict[str, Any]:
     }
 
 
-# -- rendering and running -----------------------------------------------------
+# -- rendering and running ----------------------------------------------------
 
 def renderer_version() -> str:
     """A digest of the renderer's source (a cached clip is reused only
@@ -343,7 +343,7 @@ def report(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
                                     if seconds else None)}
 
 
-# -- formatting ------------------------------------------------------------------
+# -- formatting ---------------------------------------------------------------
 
 def _pct(x: Optional[float]) -> str:
     return "-" if x is None else f"{100 * x:.1f}"
@@ -399,7 +399,7 @@ def format_markdown(rep: Dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-# -- command ---------------------------------------------------------------------
+# -- command ------------------------------------------------------------------
 
 def run_sweep(out_dir: str = DEFAULT_OUT,
               scenarios: Sequence[str] = DEFAULT_SCENARIOS,

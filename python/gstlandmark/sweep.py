@@ -243,6 +243,42 @@ def render_variant(folder: str, scenario: str, number: int,
     return time.perf_counter() - t0
 
 
+def render_in_parallel(out_dir: str, pairs: Sequence[Tuple[str, int]],
+                       frames: int, jobs: int, stream=None
+                       ) -> Dict[Tuple[str, int], float]:
+    """Render the clips not yet cached, ``jobs`` at a time, each by
+    ``gst-landmark synth`` in a process of its own; returns the seconds
+    each took (a failed one is left for ``run_variant`` to report)."""
+    import shutil
+    import subprocess
+    from concurrent.futures import ThreadPoolExecutor
+
+    todo = [(sc, n) for sc, n in pairs if not os.path.exists(
+        os.path.join(clip_folder(out_dir, sc, n, frames), "scene.json"))]
+
+    def render(pair):
+        sc, n = pair
+        folder = clip_folder(out_dir, sc, n, frames)
+        partial = folder + ".partial"
+        t0 = time.perf_counter()
+        done = subprocess.run(
+            [sys.executable, "-m", "gstlandmark.cli", "synth", sc,
+             "--variant", str(n), "--frames", str(frames), "--out",
+             partial, "--no-progress"], capture_output=True, text=True)
+        if done.returncode == 0:
+            if os.path.exists(folder):
+                shutil.rmtree(folder)
+            os.replace(partial, folder)
+        if stream is not None:
+            print(f"rendered {sc} v{n}"
+                  + ("" if done.returncode == 0 else " (failed)"),
+                  file=stream, flush=True)
+        return pair, time.perf_counter() - t0
+
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        return dict(pool.map(render, todo))
+
+
 def learn_palette(folder: str, out: str) -> str:
     """``gst-landmark palette learn`` on the clip's chart, as docs/palette.md
     shows a user."""
@@ -407,18 +443,29 @@ def run_sweep(out_dir: str = DEFAULT_OUT,
               frames: int = DEFAULT_FRAMES, first: int = 1,
               min_pixels: float = MIN_PIXELS,
               max_occluded: float = MAX_OCCLUDED,
-              stream=None) -> Dict[str, Any]:
+              stream=None, jobs: int = 1) -> Dict[str, Any]:
     """Run the sweep; print a line per variant on ``stream``; write
-    report.json and report.md in ``out_dir``; return the report."""
+    report.json and report.md in ``out_dir``; return the report.
+    ``jobs`` > 1 renders the missing clips that many at a time first."""
     stream = stream or sys.stdout
     numbers = variant_numbers(variants, half, first)
     os.makedirs(out_dir, exist_ok=True)
+    rendered: Dict[Tuple[str, int], float] = {}
+    if jobs > 1:
+        rendered = render_in_parallel(
+            out_dir, [(sc, n) for sc in scenarios for n in numbers],
+            frames, jobs, stream)
     rows = []
     total = len(numbers) * len(scenarios)
     for scenario in scenarios:
         for number in numbers:
             row = run_variant(out_dir, scenario, number, frames,
                               min_pixels, max_occluded)
+            if (scenario, number) in rendered and "error" not in row:
+                # the time it took in the parallel stage
+                row["render_s"] = round(rendered[scenario, number], 2)
+                row["seconds"] = round(row["seconds"] + row["render_s"],
+                                       2)
             rows.append(row)
             if "error" in row:
                 text = f"error: {row['error']}"
@@ -487,6 +534,9 @@ def add_sweep_parser(subparsers):
     p.add_argument("--max-occluded", type=float, default=MAX_OCCLUDED,
                    help=f"largest hidden share of a required landmark "
                         f"(default {MAX_OCCLUDED:g})")
+    p.add_argument("--jobs", type=_positive_int, default=1, metavar="N",
+                   help="render the missing clips N at a time, each in a "
+                        "process of its own (default 1)")
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"clips, logs and the report (default "
                         f"{DEFAULT_OUT})")
@@ -496,7 +546,8 @@ def add_sweep_parser(subparsers):
 def _handle(args) -> int:
     rep = run_sweep(args.out, tuple(args.scenarios or DEFAULT_SCENARIOS),
                     args.variants, args.half, args.frames, args.first,
-                    args.min_pixels, args.max_occluded)
+                    args.min_pixels, args.max_occluded,
+                    jobs=args.jobs)
     print()
     print(format_markdown(rep), end="")
     print(f"wrote {os.path.join(args.out, 'report.json')} and "

@@ -116,8 +116,10 @@ def test_report_pools_each_half():
 
 def test_sweep_on_two_tiny_variants(tmp_path, capsys):
     out = tmp_path / "sweep"
+    # both clips rendered side by side, each by its own process
     status = cli.main(["sweep", "--scenario", "distractors", "--variants",
-                       "2", "--frames", "3", "--out", str(out)])
+                       "2", "--frames", "3", "--jobs", "2", "--out",
+                       str(out)])
     printed = capsys.readouterr().out
     rep = json.loads((out / "report.json").read_text())
     assert [r.get("error") for r in rep["rows"]] == [None, None], \
@@ -127,7 +129,7 @@ def test_sweep_on_two_tiny_variants(tmp_path, capsys):
         (1, "held-out"), (2, "tune")]
     assert set(rep["halves"]) == {"tune", "held-out", "all"}
     for r in rep["rows"]:
-        assert r["frames"] == 3
+        assert r["frames"] == 3 and r["render_s"] > 0
         for key in ("precision", "recall"):
             assert r[key] is None or 0.0 <= r[key] <= 1.0
         # the variant's own camera was drawn and used

@@ -860,3 +860,22 @@ def test_variant_changes_the_scene_and_is_recorded(tmp_path):
                      str(out / "chart-mask.png"), "--names",
                      ",".join(names), "--markers", ",".join(markers),
                      "-o", str(tmp_path / "learned.json")]) == 0
+
+
+@pytest.mark.parametrize("name", ["range-sweep", "path", "distractors"])
+def test_every_variant_has_a_chart_the_palette_learns_from(name):
+    """Red and orange floors, cameras low and high: the chart shows every
+    class of the scene palette and the documented learning reads it."""
+    from gstlandmark.synth import build_scenario
+    from gstlandmark.synth.chart import render_chart
+    from gstlandmark.synth.variants import draw_variant
+    for n in range(1, 9):
+        scene, frames = build_scenario(name, frames=40,
+                                       variant=draw_variant(name, n))
+        rgb, mask, info = render_chart(scene, frames)
+        assert min(info["pixels"].values()) >= 200, (n, info["pixels"])
+        palette = scene.scene_palette()
+        learned = learn_from_mask(rgb[:, :, ::-1].copy(), mask,
+                                  names=palette.names,
+                                  markers=palette.markers)
+        assert learned.names == palette.names

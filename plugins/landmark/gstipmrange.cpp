@@ -87,6 +87,7 @@
 #include "fileutil.h"
 #include "landmarkmap.h"
 #include "landmarkmeta.h"
+#include "markerevidence.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
 #define GST_CAT_DEFAULT gst_ipm_range_debug
@@ -108,6 +109,7 @@ GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
 #define DEFAULT_MARKER_KIND GST_IPM_RANGE_MARKER_DISC
 #define DEFAULT_METHOD GST_IPM_RANGE_METHOD_GROUND
 #define DEFAULT_PIXEL_SIGMA 0.5
+#define DEFAULT_CHECK_SIZE TRUE
 
 /* frame size assumed to check the geometry before caps are known */
 #define NOMINAL_WIDTH 640
@@ -135,6 +137,7 @@ enum
   PROP_MAP,
   PROP_RANGE_METHOD,
   PROP_PIXEL_SIGMA,
+  PROP_CHECK_SIZE,
 };
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
@@ -160,6 +163,7 @@ struct Settings {
   std::string map;
   GstIpmRangeMethod method = DEFAULT_METHOD;
   gdouble pixel_sigma = DEFAULT_PIXEL_SIGMA;
+  gboolean check_size = DEFAULT_CHECK_SIZE;
   guint generation = 0;
 };
 
@@ -188,6 +192,7 @@ struct State {
   landmark::CameraGeometry geometry;
   gint geometry_w = 0, geometry_h = 0;    /* what geometry was built for */
   gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
+  std::vector<double> outline;            /* size test scratch */
   bool map_classes_checked = false;       /* against the first labels */
 };
 
@@ -600,6 +605,9 @@ gst_ipm_range_set_property (GObject * object, guint prop_id,
     case PROP_PIXEL_SIGMA:
       s.pixel_sigma = g_value_get_double (value);
       break;
+    case PROP_CHECK_SIZE:
+      s.check_size = g_value_get_boolean (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       return;
@@ -672,6 +680,9 @@ gst_ipm_range_get_property (GObject * object, guint prop_id,
       break;
     case PROP_PIXEL_SIGMA:
       g_value_set_double (value, s.pixel_sigma);
+      break;
+    case PROP_CHECK_SIZE:
+      g_value_set_boolean (value, s.check_size);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -800,6 +811,32 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 }
 
 /* ---- streaming ------------------------------------------------------ */
+
+/* The size evidence (docs/detection.md): a marker of known diameter at
+ * the floor position the blob was ranged to images at a known size and
+ * aspect; a blob that disagrees (a speck near by, a large patch far away,
+ * a stripe) is not that marker. Adds size-agreement and size-threshold to
+ * s; returns the reject reason or nullptr. */
+static const char *
+gst_ipm_range_check_size (GstIpmRange * self,
+    const landmark::BlobObservation & obs, const landmark::MarkerSpec & m,
+    const landmark::RangeEstimate & e, GstStructure * s)
+{
+  State & st = self->priv->state;
+  landmark::ImageEllipse predicted;
+  if (!landmark::predict_marker_image (st.geometry, m, e.ground_x,
+          e.ground_y, obs.sx, obs.sy, &predicted, &st.outline))
+    return nullptr;
+  const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
+    obs.minor, obs.angle};
+  const double agreement = landmark::ellipse_shape_iou (measured, predicted);
+  const double threshold = landmark::size_agreement_threshold (predicted);
+  gst_structure_set (s, "size-agreement", G_TYPE_DOUBLE, agreement,
+      "size-threshold", G_TYPE_DOUBLE, threshold, "predicted-major",
+      G_TYPE_DOUBLE, predicted.major, "predicted-minor", G_TYPE_DOUBLE,
+      predicted.minor, nullptr);
+  return agreement < threshold ? "size" : nullptr;
+}
 
 static void
 gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
@@ -944,6 +981,13 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
         chosen->ball ? "ball" : "disc", "marker-height", G_TYPE_DOUBLE,
         chosen->z, "marker-diameter", G_TYPE_DOUBLE, chosen->diameter,
         nullptr);
+  const char *reject = nullptr;
+  if (cfg.s.check_size && obs.has_ellipse && !cut)
+    reject = gst_ipm_range_check_size (self, obs, chosen ? *chosen : marker,
+        e, s);
+  gst_structure_set (s, "kept", G_TYPE_BOOLEAN, reject == nullptr, nullptr);
+  if (reject)
+    gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);
   landmark_detection_add_param (buf, roi, s);
 }
 
@@ -1089,6 +1133,11 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
           "One-sigma error of a measured image point, pixels, for "
           "range-sigma, bearing-sigma and the fused weights", 0.0, 100.0,
           DEFAULT_PIXEL_SIGMA, flags));
+  g_object_class_install_property (gobject_class, PROP_CHECK_SIZE,
+      g_param_spec_boolean ("check-size", "Check size",
+          "Reject a detection (kept=false, reject-reason=size) whose image "
+          "disagrees in size or aspect with a marker of known diameter at "
+          "its floor position", DEFAULT_CHECK_SIZE, flags));
 
   gst_element_class_set_static_metadata (element_class,
       "Landmark range by inverse perspective mapping",

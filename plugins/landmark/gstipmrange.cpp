@@ -812,29 +812,49 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 
 /* ---- streaming ------------------------------------------------------ */
 
-/* The size evidence (docs/detection.md): a marker of known diameter at
- * the floor position the blob was ranged to images at a known size and
- * aspect; a blob that disagrees (a speck near by, a large patch far away,
- * a stripe) is not that marker. Adds size-agreement and size-threshold to
- * s; returns the reject reason or nullptr. */
+/* How well the blob's ellipse agrees with the image a marker m has at the
+ * floor position e placed it (docs/detection.md): 0..1, or -1 when it
+ * cannot tell (no diameter, no ellipse, not wholly in front). */
+static double
+gst_ipm_range_size_agreement (GstIpmRange * self,
+    const landmark::BlobObservation & obs, const landmark::MarkerSpec & m,
+    const landmark::RangeEstimate & e, landmark::ImageEllipse * predicted)
+{
+  State & st = self->priv->state;
+  if (!obs.has_ellipse || !landmark::predict_marker_image (st.geometry, m,
+          e.ground_x, e.ground_y, obs.sx, obs.sy, predicted, &st.outline))
+    return -1;
+  const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
+    obs.minor, obs.angle};
+  return landmark::ellipse_shape_iou (measured, *predicted);
+}
+
+/* The size evidence: a marker of known diameter at the floor position the
+ * blob was ranged to images at a known size and aspect; a blob that
+ * disagrees (a speck near by, a large patch far away, a stripe) is not
+ * that marker. A blob cut by the frame's edge may be smaller than the
+ * marker's image, never larger. Adds the test's fields to s; returns the
+ * reject reason or nullptr. */
 static const char *
 gst_ipm_range_check_size (GstIpmRange * self,
     const landmark::BlobObservation & obs, const landmark::MarkerSpec & m,
-    const landmark::RangeEstimate & e, GstStructure * s)
+    const landmark::RangeEstimate & e, bool cut, GstStructure * s)
 {
-  State & st = self->priv->state;
   landmark::ImageEllipse predicted;
-  if (!landmark::predict_marker_image (st.geometry, m, e.ground_x,
-          e.ground_y, obs.sx, obs.sy, &predicted, &st.outline))
+  const double agreement = gst_ipm_range_size_agreement (self, obs, m, e,
+      &predicted);
+  if (agreement < 0)
     return nullptr;
-  const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
-    obs.minor, obs.angle};
-  const double agreement = landmark::ellipse_shape_iou (measured, predicted);
+  gst_structure_set (s, "predicted-major", G_TYPE_DOUBLE, predicted.major,
+      "predicted-minor", G_TYPE_DOUBLE, predicted.minor, nullptr);
+  if (cut) {
+    const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
+      obs.minor, obs.angle};
+    return landmark::cut_blob_fits (measured, predicted) ? nullptr : "size";
+  }
   const double threshold = landmark::size_agreement_threshold (predicted);
   gst_structure_set (s, "size-agreement", G_TYPE_DOUBLE, agreement,
-      "size-threshold", G_TYPE_DOUBLE, threshold, "predicted-major",
-      G_TYPE_DOUBLE, predicted.major, "predicted-minor", G_TYPE_DOUBLE,
-      predicted.minor, nullptr);
+      "size-threshold", G_TYPE_DOUBLE, threshold, nullptr);
   return agreement < threshold ? "size" : nullptr;
 }
 
@@ -916,22 +936,37 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
       || roi->y + roi->h >= fh;
   if (hypotheses && !cut) {
     /* One class, several kinds of marker (a yellow disc and a yellow
-     * ball): only the right spec makes the floor range and the size range
-     * agree, so keep the hypothesis with the smallest normalised
-     * disagreement. Without a size range nothing can choose: the
-     * properties' marker applies, as for a class the map lacks. */
-    double best = HUGE_VAL;
+     * ball): keep the one whose predicted image agrees best with the
+     * blob's ellipse in size and aspect (a disc on the floor is a flat
+     * ellipse, a ball round). Where no image can be predicted, the one
+     * whose floor range and size range agree best. Without either nothing
+     * can choose: the properties' marker applies, as for a class the map
+     * lacks. */
+    double best_agreement = -1, best_score = HUGE_VAL;
     for (const landmark::MarkerSpec & h : *hypotheses) {
       const landmark::RangeEstimate t = landmark::estimate_range
           (st.geometry, obs, h, cfg.s.pixel_sigma);
-      if (t.no_floor || !t.has_size)
+      if (t.no_floor)
+        continue;
+      landmark::ImageEllipse predicted;
+      const double agreement = gst_ipm_range_size_agreement (self, obs, h, t,
+          &predicted);
+      if (agreement >= 0 || best_agreement >= 0) {
+        if (agreement > best_agreement) {
+          best_agreement = agreement;
+          e = t;
+          chosen = &h;
+        }
+        continue;
+      }
+      if (!t.has_size)
         continue;
       const double spread = std::hypot (t.range_ground_sigma,
           t.range_size_sigma);
       const double score = std::fabs (t.range_ground - t.range_size) /
           (spread > 0 ? spread : 1e-9);
-      if (score < best) {
-        best = score;
+      if (score < best_score) {
+        best_score = score;
         e = t;
         chosen = &h;
       }
@@ -982,9 +1017,9 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
         chosen->z, "marker-diameter", G_TYPE_DOUBLE, chosen->diameter,
         nullptr);
   const char *reject = nullptr;
-  if (cfg.s.check_size && obs.has_ellipse && !cut)
+  if (cfg.s.check_size)
     reject = gst_ipm_range_check_size (self, obs, chosen ? *chosen : marker,
-        e, s);
+        e, cut, s);
   gst_structure_set (s, "kept", G_TYPE_BOOLEAN, reject == nullptr, nullptr);
   if (reject)
     gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);

@@ -372,8 +372,11 @@ landmark_detection_rejected (GstBuffer * buffer,
       LANDMARK_MATCH_PARAMS);
   const gchar *why = match ? gst_structure_get_string (match, "reason") :
       nullptr;
+  /* the map disagrees: no landmark of its class where it was seen, not
+   * in the consensus, or a colour the map has once seen twice (the other
+   * detection took the landmark) */
   if (why && (g_str_equal (why, "outside-gate") || g_str_equal (why,
-              "outlier"))) {
+              "outlier") || g_str_equal (why, "duplicate"))) {
     *element = "trilaterate";
     *reason = why;
     return TRUE;

@@ -87,7 +87,8 @@ const GstStructure *landmark_detection_get_param (GstBuffer * buffer,
 /* Whether a stage of the chain rejected a detection (docs/detection.md):
  * blobroundness (landmark-blob kept=false: area or shape), ipmrange
  * (landmark-range kept=false: size against range) or trilaterate
- * (landmark-match reason outside-gate or outlier: the map disagrees).
+ * (landmark-match reason outside-gate, outlier or duplicate: the map
+ * disagrees).
  * TRUE with *element (the element's name) and *reason (its reject reason,
  * may be NULL) set for the first stage that rejected it. */
 gboolean landmark_detection_rejected (GstBuffer * buffer,

@@ -232,6 +232,15 @@ test_disc_ahead ()
   stripe.major = want.major;
   CHECK (ellipse_shape_iou (stripe, got) < thr, "stripe %g vs %g",
       ellipse_shape_iou (stripe, got), thr);
+  /* cut by the frame edge: any smaller part fits, a larger blob not */
+  ImageEllipse half = want;
+  half.major = want.major / 2;
+  CHECK (cut_blob_fits (half, got), "half a marker");
+  CHECK (cut_blob_fits (want, got), "the whole marker");
+  CHECK (!cut_blob_fits (large, got), "three times as large");
+  ImageEllipse tall = want;
+  tall.minor = want.major;
+  CHECK (!cut_blob_fits (tall, got), "round where the disc is flat");
   /* behind the camera: no image */
   CHECK (!predict_marker_image (g, disc, -1, 0, 1, 1, &got, &scratch),
       "behind");

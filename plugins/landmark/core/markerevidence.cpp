@@ -141,6 +141,13 @@ predict_marker_image (const CameraGeometry & geometry,
   return polygon_moment_ellipse (uv, out);
 }
 
+bool
+cut_blob_fits (const ImageEllipse & measured, const ImageEllipse & predicted)
+{
+  return measured.major <= kCutAxisSlack * predicted.major + kCutOutlinePx
+      && measured.minor <= kCutAxisSlack * predicted.minor + kCutOutlinePx;
+}
+
 double
 ellipse_shape_iou (const ImageEllipse & a, const ImageEllipse & b)
 {

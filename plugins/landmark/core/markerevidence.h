@@ -64,6 +64,15 @@ bool predict_marker_image (const CameraGeometry & geometry,
     const MarkerSpec & marker, double gx, double gy, double sx, double sy,
     ImageEllipse * out, std::vector<double> *scratch);
 
+/* The size test of a blob cut by the frame's edge, whose visible part
+ * may be any part of the marker's image: neither of its axes may exceed
+ * the predicted image's by more than kCutAxisSlack times plus
+ * kCutOutlinePx pixels of outline blur. */
+constexpr double kCutAxisSlack = 1.25;
+constexpr double kCutOutlinePx = 2.0;
+bool cut_blob_fits (const ImageEllipse & measured,
+    const ImageEllipse & predicted);
+
 /* Intersection over union of two ellipses placed on one centre (their
  * size, aspect and orientation compared, not their positions), by the
  * polar area integral. 0 when either is degenerate. */

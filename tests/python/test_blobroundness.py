@@ -205,20 +205,7 @@ def run_clip(clip, props, log, ranged=False):
 
 
 def _run(desc, timeout_s=60):
-    from gi.repository import Gst
-    pipe = Gst.parse_launch(desc)
-    bus = pipe.get_bus()
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        msg = bus.timed_pop_filtered(
-            timeout_s * Gst.SECOND,
-            Gst.MessageType.EOS | Gst.MessageType.ERROR)
-        assert msg is not None, f"timeout: {desc}"
-        if msg.type == Gst.MessageType.ERROR:
-            err, dbg = msg.parse_error()
-            raise AssertionError(f"{err.message}: {dbg}")
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    pipeline.run_to_eos(desc, timeout_s)
 
 
 def test_distractor_clip(distractor_clip, tmp_path):

@@ -18,24 +18,6 @@ ENCODERS = [
 ]
 
 
-def _run(desc, timeout_s=60):
-    from gi.repository import Gst
-    pipeline.init()
-    pipe = Gst.parse_launch(desc)
-    bus = pipe.get_bus()
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        msg = bus.timed_pop_filtered(
-            timeout_s * Gst.SECOND,
-            Gst.MessageType.EOS | Gst.MessageType.ERROR)
-        assert msg is not None, f"timeout: {desc}"
-        if msg.type == Gst.MessageType.ERROR:
-            err, dbg = msg.parse_error()
-            raise AssertionError(f"{err.message}: {dbg}")
-    finally:
-        pipe.set_state(Gst.State.NULL)
-
-
 def _encode(tmp_path, encoder, ext):
     """A clip of a red disc moving on grey, encoded by `encoder`."""
     import cv2
@@ -46,9 +28,10 @@ def _encode(tmp_path, encoder, ext):
             cv2.circle(img, (100 + 5 * i, 120), 30, (200, 30, 30), -1)
             f.write(img.tobytes())
     out = tmp_path / f"clip.{ext}"
-    _run(f"filesrc location={raw} ! rawvideoparse format=rgb width={W} "
-         f"height={H} framerate=30/1 ! videoconvert ! "
-         f"video/x-raw,format=I420 ! {encoder} ! filesink location={out}")
+    pipeline.run_to_eos(
+        f"filesrc location={raw} ! rawvideoparse format=rgb width={W} "
+        f"height={H} framerate=30/1 ! videoconvert ! "
+        f"video/x-raw,format=I420 ! {encoder} ! filesink location={out}")
     return out
 
 
@@ -63,8 +46,9 @@ def test_recorded_file_plays(gst, tmp_path, name, encoder, ext):
                     "gstreamer1.0-libav and gstreamer1.0-plugins-ugly")
     clip = _encode(tmp_path, encoder, ext)
     log = tmp_path / "log.jsonl"
-    _run(f"filesrc location={clip} ! decodebin ! videoconvert ! "
-         f"labsegment ! landmarklog location={log} ! fakesink")
+    pipeline.run_to_eos(
+        f"filesrc location={clip} ! decodebin ! videoconvert ! "
+        f"labsegment ! landmarklog location={log} ! fakesink")
     import json
     lines = [json.loads(s) for s in log.read_text().splitlines()]
     assert len(lines) == FRAMES, name

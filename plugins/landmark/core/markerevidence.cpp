@@ -14,12 +14,28 @@ constexpr int kOutlinePoints = 64;
 /* polar samples over half a turn (ellipses are symmetric) */
 constexpr int kIouSamples = 180;
 
-/* squared radius of an ellipse (semi-axes a, b, major axis at angle phi)
- * in direction theta */
+/* cos and sin of the sample directions, computed once */
+struct IouDirections {
+  double c[kIouSamples], s[kIouSamples];
+  IouDirections () {
+    for (int i = 0; i < kIouSamples; i++) {
+      const double t = M_PI * (i + 0.5) / kIouSamples;
+      c[i] = std::cos (t);
+      s[i] = std::sin (t);
+    }
+  }
+};
+const IouDirections kIouDirections;
+
+/* squared radius of an ellipse (semi-axes a, b, major axis at cos_phi,
+ * sin_phi) in sample direction i */
 double
-radius_squared (double a, double b, double phi, double theta)
+radius_squared (double a, double b, double cos_phi, double sin_phi, int i)
 {
-  const double c = std::cos (theta - phi), s = std::sin (theta - phi);
+  const double c = kIouDirections.c[i] * cos_phi + kIouDirections.s[i] *
+      sin_phi;
+  const double s = kIouDirections.s[i] * cos_phi - kIouDirections.c[i] *
+      sin_phi;
   const double den = b * b * c * c + a * a * s * s;
   return den > 0 ? a * a * b * b / den : 0.0;
 }
@@ -155,11 +171,12 @@ ellipse_shape_iou (const ImageEllipse & a, const ImageEllipse & b)
   const double a2 = b.major / 2, b2 = b.minor / 2;
   if (!(a1 > 0 && b1 > 0 && a2 > 0 && b2 > 0))
     return 0;
+  const double ca = std::cos (a.angle), sa = std::sin (a.angle);
+  const double cb = std::cos (b.angle), sb = std::sin (b.angle);
   double inter = 0, uni = 0;
   for (int i = 0; i < kIouSamples; i++) {
-    const double t = M_PI * (i + 0.5) / kIouSamples;
-    const double r1 = radius_squared (a1, b1, a.angle, t);
-    const double r2 = radius_squared (a2, b2, b.angle, t);
+    const double r1 = radius_squared (a1, b1, ca, sa, i);
+    const double r2 = radius_squared (a2, b2, cb, sb, i);
     inter += std::min (r1, r2);
     uni += std::max (r1, r2);
   }

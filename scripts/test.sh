@@ -6,6 +6,8 @@
 set -euo pipefail
 # valgrind for tests/python/test_valgrind.py
 LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} valgrind"
+# the MQTT broker for tests/python/test_publish.py
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT} mosquitto"
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 status=0

@@ -422,6 +422,12 @@ put_string (std::string & o, const char *s)
 }
 
 void
+put_structure (std::string & o, const GstStructure * s)
+{
+  ::put_structure (o, s);
+}
+
+void
 put_frame_fields (std::string & o, GstBuffer * buf, guint64 frame,
     gint width, gint height, std::vector < GstVideoRegionOfInterestMeta * >&rois)
 {

@@ -21,6 +21,9 @@ void put_double (std::string & o, double v);
 /* A JSON string, escaped; invalid UTF-8 repaired; nullptr: null. */
 void put_string (std::string & o, const char *s);
 
+/* Every field of a structure as a JSON object; nullptr: null. */
+void put_structure (std::string & o, const GstStructure * s);
+
 /* Appends the fields of one buffer's object, from "frame" to "pose",
  * without the braces, so callers can add fields of their own. `rois` is
  * scratch space, reused between frames. */

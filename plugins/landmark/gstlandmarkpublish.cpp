@@ -619,6 +619,7 @@ network_main (GstLandmarkPublish * self)
     bool was_connected = false;
     if (rc == MOSQ_ERR_SUCCESS) {
       /* until the connection ends: CONNACK, acknowledgements, keep-alive */
+      gint64 stop_deadline = 0;
       do {
         errno = 0;
         rc = mosquitto_loop (priv->mosq, LOOP_TIMEOUT_MS, 1);
@@ -628,9 +629,19 @@ network_main (GstLandmarkPublish * self)
           was_connected = true;
           delay = 1;
         }
-        if (priv->link.stopping && rc == MOSQ_ERR_SUCCESS &&
-            mosquitto_socket (priv->mosq) < 0)
-          rc = MOSQ_ERR_NO_CONN;
+        if (priv->link.stopping && rc == MOSQ_ERR_SUCCESS) {
+          /* stop() disconnected; a connection this thread was opening at
+           * that moment is closed here, and stopping never waits more
+           * than a second for the DISCONNECT to go out */
+          const gint64 now = g_get_monotonic_time ();
+          if (stop_deadline == 0) {
+            stop_deadline = now + G_USEC_PER_SEC;
+            if (mosquitto_socket (priv->mosq) >= 0)
+              mosquitto_disconnect (priv->mosq);
+          }
+          if (mosquitto_socket (priv->mosq) < 0 || now > stop_deadline)
+            rc = MOSQ_ERR_NO_CONN;
+        }
       } while (rc == MOSQ_ERR_SUCCESS);
     }
     {

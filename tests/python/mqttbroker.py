@@ -34,8 +34,9 @@ class Broker:
     """mosquitto -c CONF. users: {name: password}; anonymous clients are
     allowed only when there are none."""
 
-    def __init__(self, directory, users=None):
+    def __init__(self, directory, users=None, tls=None):
         self.dir = str(directory)
+        self.tls = tls          # (CA, certificate, key) files: TLS only
         self.port = free_port()
         self.users = dict(users or {})
         self.proc = None
@@ -49,6 +50,9 @@ class Broker:
         lines = [f"user {pwd.getpwuid(os.getuid()).pw_name}",
                  f"listener {self.port} 127.0.0.1", "persistence false",
                  f"log_dest file {self.log}", "log_type all"]
+        if self.tls:
+            ca, cert, key = self.tls
+            lines += [f"cafile {ca}", f"certfile {cert}", f"keyfile {key}"]
         if self.users:
             self.write_passwords(self.users)
             lines += ["allow_anonymous false",
@@ -108,7 +112,7 @@ class Subscriber:
     arrival order."""
 
     def __init__(self, broker, topic="landmark/#", username=None,
-                 password=None, name="test-subscriber"):
+                 password=None, name="test-subscriber", ca=None):
         import paho.mqtt.client as mqtt
         self.messages = []
         self.lock = threading.Lock()
@@ -118,6 +122,8 @@ class Subscriber:
                                   protocol=mqtt.MQTTv311)
         if username:
             self.client.username_pw_set(username, password)
+        if ca:
+            self.client.tls_set(ca_certs=ca)
         self.client.on_message = self._on_message
         self.client.on_subscribe = lambda *a: self.subscribed.set()
         self.client.connect("127.0.0.1", broker.port, keepalive=30)
@@ -138,6 +144,30 @@ class Subscriber:
     def close(self):
         self.client.disconnect()
         self.client.loop_stop()
+
+
+def make_certificates(directory, name):
+    """A certificate authority NAME-ca.pem and a broker certificate for
+    127.0.0.1 signed by it (NAME-server.pem, NAME-server.key), with
+    openssl, EC keys (fast). Returns (ca, cert, key) paths."""
+    d = str(directory)
+    ca_key, ca = f"{d}/{name}-ca.key", f"{d}/{name}-ca.pem"
+    key, csr = f"{d}/{name}-server.key", f"{d}/{name}-server.csr"
+    cert, ext = f"{d}/{name}-server.pem", f"{d}/{name}-ext.cnf"
+    ec = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+          "-nodes"]
+
+    def run(*args):
+        subprocess.run(["openssl", *args], check=True, capture_output=True,
+                       timeout=30)
+    run("req", "-x509", *ec, "-keyout", ca_key, "-out", ca, "-days", "2",
+        "-subj", f"/CN={name} test authority")
+    run("req", *ec, "-keyout", key, "-out", csr, "-subj", "/CN=127.0.0.1")
+    with open(ext, "w") as f:
+        f.write("subjectAltName=IP:127.0.0.1\n")
+    run("x509", "-req", "-in", csr, "-CA", ca, "-CAkey", ca_key,
+        "-CAcreateserial", "-out", cert, "-days", "2", "-extfile", ext)
+    return ca, cert, key
 
 
 def wait_for(predicate, timeout_s, step_s=0.05):

@@ -15,6 +15,7 @@
 
 import json
 import os
+import shutil
 import time
 
 import pytest
@@ -23,7 +24,8 @@ from gi.repository import Gst
 
 from gstlandmark import calibrate
 
-from mqttbroker import Broker, Subscriber, needs_mosquitto, wait_for
+from mqttbroker import (Broker, Subscriber, make_certificates,
+                        needs_mosquitto, wait_for)
 
 pytestmark = needs_mosquitto
 
@@ -333,17 +335,38 @@ def test_bad_topic_is_an_error_naming_topic(gst, topic, needle):
         e.set_state(Gst.State.NULL)
 
 
-def test_bad_robot_is_an_error_naming_robot(gst):
+@pytest.mark.parametrize("settings, name, needle", [
+    ({"robot": "r1/left"}, "robot", "'/'"),
+    ({"robot": ""}, "robot", "empty"),
+    ({"pose-topic": "landmark/{robot}/#"}, "pose-topic", "'#'"),
+    ({"status-topic": "x/{id}"}, "status-topic", "{id}"),
+    ({"keep-alive": 3}, "keep-alive", "5 to 65535"),
+    ({"password": "secret"}, "username", "without a user name"),
+    ({"tls-ca-file": "/nonexistent/ca.pem"}, "tls-ca-file",
+     "/nonexistent/ca.pem"),
+    ({"tls-ca-file": __file__, "tls-cert-file": __file__}, "tls-key-file",
+     "both"),
+    ({"tls-cert-file": __file__, "tls-key-file": __file__}, "tls-ca-file",
+     "only used over TLS"),
+    ({"host": ""}, "host", "no broker host"),
+])
+def test_bad_settings_are_errors_naming_the_property(gst, settings, name,
+                                                     needle):
     e = Gst.ElementFactory.make("landmarkpublish", None)
-    e.set_property("robot", "r1/left")
+    for key, value in settings.items():
+        e.set_property(key, value)
     bus = Gst.Bus.new()
     e.set_bus(bus)
     try:
         assert e.set_state(Gst.State.PAUSED) == \
             Gst.StateChangeReturn.FAILURE
-        err, _ = bus.timed_pop_filtered(
-            Gst.SECOND, Gst.MessageType.ERROR).parse_error()
-        assert "'robot'" in err.message and "'/'" in err.message
+        msg = bus.timed_pop_filtered(Gst.SECOND, Gst.MessageType.ERROR)
+        assert msg is not None
+        err, _ = msg.parse_error()
+        assert err.matches(Gst.ResourceError.quark(),
+                           Gst.ResourceError.SETTINGS)
+        assert f"Invalid '{name}'" in err.message and needle in err.message, \
+            err.message
     finally:
         e.set_state(Gst.State.NULL)
 
@@ -388,6 +411,50 @@ def test_refused_credentials_are_a_clear_warning(gst, tmp_path, username,
     assert "'username'" in refused[0] and "'password'" in refused[0]
     conn = [e for n, e in run.elements if n == "landmark-publish-connection"]
     assert conn and not any(c["connected"] for c in conn)
+
+
+@pytest.mark.skipif(shutil.which("openssl") is None,
+                    reason="openssl makes the test certificates")
+def test_tls_with_the_right_and_a_wrong_authority(gst, tmp_path):
+    """A TLS-only broker: with its authority the frames arrive; with
+    another authority the element warns naming 'tls-ca-file', delivers
+    nothing, and the video flows."""
+    ca, cert, key = make_certificates(tmp_path, "broker")
+    other_ca, _, _ = make_certificates(tmp_path, "other")
+    broker = Broker(tmp_path, tls=(ca, cert, key)).start()
+    try:
+        runs = {}
+        for name, authority in (("right", ca), ("wrong", other_ca)):
+            run = Run(gst, f"{live_source(15)} ! landmarkpublish "
+                      f"port={broker.port} robot={name} "
+                      f"tls-ca-file={authority} drain-timeout=3000 ! "
+                      "fakesink name=sink").start()
+            try:
+                run.wait(20)
+            finally:
+                run.stop()
+            runs[name] = run
+        # what the broker kept: the retained status of each robot
+        sub = Subscriber(broker, ca=ca)
+        try:
+            wait_for(lambda: len(sub.take()) >= 1, 3)
+            time.sleep(0.3)
+            topics = {t for t, _, _ in sub.take()}
+        finally:
+            sub.close()
+    finally:
+        broker.stop()
+    right, wrong = runs["right"], runs["wrong"]
+    assert right.errors == [] and right.warnings == [] and right.sunk == 15
+    assert [e["connected"] for n, e in right.elements
+            if n == "landmark-publish-connection"] == [True]
+    assert wrong.errors == [] and wrong.sunk == 15
+    tls = [w for w in wrong.warnings if "'tls-ca-file'" in w]
+    assert len(tls) == 1, wrong.warnings
+    assert "TLS with the broker" in tls[0]
+    assert any("15 results were not delivered" in w for w in wrong.warnings)
+    assert "landmark/right/status" in topics
+    assert "landmark/wrong/status" not in topics
 
 
 def test_per_frame_cost(gst, broker):

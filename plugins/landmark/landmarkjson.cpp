@@ -429,7 +429,8 @@ put_structure (std::string & o, const GstStructure * s)
 
 void
 put_frame_fields (std::string & o, GstBuffer * buf, guint64 frame,
-    gint width, gint height, std::vector < GstVideoRegionOfInterestMeta * >&rois)
+    gint width, gint height,
+    std::vector < GstVideoRegionOfInterestMeta * >&rois)
 {
   o += "\"frame\": ";
   ::put_uint (o, frame);

@@ -482,10 +482,9 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
   std::vector<GstVideoRegionOfInterestMeta *> det_roi;
   std::vector<std::pair<GstVideoRegionOfInterestMeta *, const char *>> skip;
   for (GstVideoRegionOfInterestMeta * roi : rois) {
-    const GstStructure *blob = landmark_detection_get_param (buf, roi,
-        LANDMARK_BLOB_PARAMS);
-    gboolean kept = TRUE;
-    if (blob && gst_structure_get_boolean (blob, "kept", &kept) && !kept) {
+    /* rejected upstream: by shape (blobroundness) or size (ipmrange) */
+    const gchar *by, *why;
+    if (landmark_detection_rejected (buf, roi, &by, &why)) {
       skip.push_back ({ roi, "not-kept" });
       continue;
     }

@@ -325,6 +325,21 @@ put_detection (std::string & o, GstBuffer * buf,
   put_uint (o, roi->h);
   o += ']';
 
+  /* the chain's verdict (docs/detection.md), so a reader need not know
+   * which stage rejects for which reason */
+  const gchar *rejected_by = nullptr, *reject_reason = nullptr;
+  const bool rejected = landmark_detection_rejected (buf, roi, &rejected_by,
+      &reject_reason);
+  o += rejected ? ", \"accepted\": false, \"rejected-by\": " :
+      ", \"accepted\": true";
+  if (rejected) {
+    put_string (o, rejected_by);
+    if (reject_reason) {
+      o += ", \"reject-reason\": ";
+      put_string (o, reject_reason);
+    }
+  }
+
   /* Ours through the contract's reader, which also finds them when a
    * converter dropped them from the region-of-interest meta. The first
    * structure of each name counts (as with

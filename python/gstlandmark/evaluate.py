@@ -139,8 +139,9 @@ def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
         if t is None:
             continue
         ev.frames += 1
+        # the chain's verdict (landmarklog "accepted"); older logs: blob
         dets = [d for d in res.get("detections", [])
-                if d.get("blob", {}).get("kept", True)]
+                if d.get("accepted", d.get("blob", {}).get("kept", True))]
         marks = t.get("landmarks", [])
         pairs = match_frame(dets, marks, match_px)
         matched_d = {i for i, _ in pairs}

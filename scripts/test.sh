@@ -7,6 +7,8 @@ set -euo pipefail
 # valgrind for tests/python/test_valgrind.py; x264enc (plugins-ugly) to
 # encode the H.264 clip of tests/python/test_recorded_files.py
 LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} valgrind gstreamer1.0-plugins-ugly"
+# the MQTT broker for tests/python/test_publish.py
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT} mosquitto"
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 status=0

@@ -21,7 +21,7 @@
  *
  * Topics (`{robot}` and `{client-id}` are replaced; nothing else in braces,
  * no `+` or `#`):
- * - `topic` (`landmark/{robot}/frame`): every frame, at `qos`.
+ * - `topic` (`landmark/{robot}/frame`): every frame, at `mqtt-qos` (not `qos`: GstBaseTransform's own property).
  * - `pose-topic` (`landmark/{robot}/pose`): the latest pose, retained, so
  *   a subscriber that arrives late gets it at once. Empty: not sent.
  * - `status-topic` (`landmark/{robot}/status`): retained `online` when
@@ -1225,7 +1225,7 @@ gst_landmark_publish_class_init (GstLandmarkPublishClass * klass)
           "MQTT client identifier (default: landmark-<robot>-<random>)",
           nullptr, ready));
   g_object_class_install_property (gobject_class, PROP_QOS,
-      g_param_spec_int ("qos", "Quality of service",
+      g_param_spec_int ("mqtt-qos", "MQTT quality of service",
           "MQTT QoS of the frame and pose messages: 0 at most once, 1 at "
           "least once, 2 exactly once", 0, 2, DEFAULT_QOS, ready));
   g_object_class_install_property (gobject_class, PROP_KEEP_ALIVE,

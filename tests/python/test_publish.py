@@ -162,7 +162,7 @@ def test_every_frame_once_in_order_as_the_log(gst, broker, tmp_path,
                   f"ipmrange calibration={camera_file} map={mp} ! "
                   f"trilaterate map={mp} filter=ekf ! "
                   f"landmarklog location={log} ! "
-                  f"landmarkpublish port={broker.port} robot=r1 qos=1 ! "
+                  f"landmarkpublish port={broker.port} robot=r1 mqtt-qos=1 ! "
                   "fakesink name=sink").start()
         try:
             run.wait(60)
@@ -222,7 +222,7 @@ def _outage_run(gst, tmp_path, frames, outage_s, extra=""):
     broker = Broker(tmp_path, users=users).start()
     subs = [Subscriber(broker, username="sub", password="sub-secret")]
     run = Run(gst, f"{live_source(frames)} ! landmarkpublish "
-              f"port={broker.port} robot=r1 qos=1 username=robot "
+              f"port={broker.port} robot=r1 mqtt-qos=1 username=robot "
               "password=robot-secret reconnect-delay-max=1 "
               f"drain-timeout=10000 {extra} ! fakesink name=sink")
     timeline = {}

@@ -11,8 +11,10 @@ VENV=${LANDMARK_VENV:-$ROOT/.venv}
 APT_PACKAGES=(
   ca-certificates meson ninja-build pkg-config g++ util-linux
   libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev libjson-glib-dev
+  libmosquitto-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev
   gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good
+  gstreamer1.0-libav
   python3 python3-venv python3-gi python3-gst-1.0
   gir1.2-gstreamer-1.0 gir1.2-gst-plugins-base-1.0
 )

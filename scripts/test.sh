@@ -4,8 +4,11 @@
 # setting up what is missing. Extra arguments go to the first `meson test`
 # (e.g. --suite unit).
 set -euo pipefail
-# valgrind for tests/python/test_valgrind.py
-LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} valgrind"
+# valgrind for tests/python/test_valgrind.py; x264enc (plugins-ugly) to
+# encode the H.264 clip of tests/python/test_recorded_files.py
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} valgrind gstreamer1.0-plugins-ugly"
+# the MQTT broker for tests/python/test_publish.py
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT} mosquitto"
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 status=0

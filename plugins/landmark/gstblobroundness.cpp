@@ -77,6 +77,7 @@
 
 #include "blobshape.h"
 #include "landmarkmeta.h"
+#include "markerevidence.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_blob_roundness_debug);
 #define GST_CAT_DEFAULT gst_blob_roundness_debug
@@ -85,9 +86,11 @@ GST_DEBUG_CATEGORY_STATIC (gst_blob_roundness_debug);
 #define DEFAULT_MORPHOLOGY 0
 #define DEFAULT_MIN_AREA 100
 #define DEFAULT_MAX_AREA 0
-#define DEFAULT_MAX_ASPECT 10.0
+/* off: ipmrange checks the aspect a marker has at its range */
+#define DEFAULT_MAX_ASPECT 0.0
 #define DEFAULT_MIN_ROUNDNESS 0.85
-#define DEFAULT_MIN_ELLIPSE_FIT 0.92
+/* -1: follow the blob's size (markerevidence.h, shape_fit_threshold) */
+#define DEFAULT_MIN_ELLIPSE_FIT -1.0
 #define DEFAULT_SHAPE GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE
 #define DEFAULT_KEEP_REJECTED FALSE
 
@@ -568,7 +571,7 @@ gst_blob_roundness_morphology (GstBlobRoundness * self, guint size)
 static void
 gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
     const landmark::BlobShape & b, const char *class_name,
-    const char *reject, guint plane_w, guint plane_h)
+    const char *reject, double fit_threshold, guint plane_w, guint plane_h)
 {
   State & st = self->priv->state;
   /* the box in pixels of the current frame (the plane normally is) */
@@ -603,6 +606,7 @@ gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
       "ellipse-minor", G_TYPE_DOUBLE, b.ellipse_minor,
       "ellipse-angle", G_TYPE_DOUBLE, b.ellipse_angle,
       "ellipse-fit", G_TYPE_DOUBLE, b.ellipse_fit,
+      "ellipse-fit-threshold", G_TYPE_DOUBLE, fit_threshold,
       "kept", G_TYPE_BOOLEAN, reject == nullptr,
       "frame-width", G_TYPE_UINT, plane_w,
       "frame-height", G_TYPE_UINT, plane_h, nullptr);
@@ -667,11 +671,17 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
     if (!reject && cfg.max_aspect > 0 &&
         b.ellipse_major > cfg.max_aspect * b.ellipse_minor)
       reject = "aspect";
+    /* auto: the tolerance follows the blob's size, except for a blob cut
+     * by the frame's edge: ipmrange cannot check its size, so its shape
+     * alone must convince */
+    const double fit_threshold = cfg.min_ellipse_fit >= 0 ?
+        cfg.min_ellipse_fit : b.touches_border ? landmark::kShapeFitLarge :
+        landmark::shape_fit_threshold (b.ellipse_major, b.ellipse_minor);
     if (!reject) {
       if (cfg.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE) {
         if (b.roundness < cfg.min_roundness)
           reject = "roundness";
-      } else if (b.ellipse_fit < cfg.min_ellipse_fit) {
+      } else if (b.ellipse_fit < fit_threshold) {
         reject = "ellipse-fit";
       }
     }
@@ -682,7 +692,8 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
     if (reject && !cfg.keep_rejected)
       continue;
     const std::string & name = st.palette_names[b.slot - 1];
-    gst_blob_roundness_attach (self, buf, b, name.c_str (), reject, w, h);
+    gst_blob_roundness_attach (self, buf, b, name.c_str (), reject,
+        fit_threshold, w, h);
   }
   GST_LOG_OBJECT (self, "%ux%u labels: %zu blobs, %u kept, %u rejected", w,
       h, a.count (), kept, rejected);
@@ -761,8 +772,9 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
   g_object_class_install_property (gobject_class, PROP_MIN_ELLIPSE_FIT,
       g_param_spec_double ("min-ellipse-fit", "Minimum ellipse fit",
           "shape=ellipse: smallest intersection over union of the blob and "
-          "its moment ellipse kept, 0..1",
-          0.0, 1.0, DEFAULT_MIN_ELLIPSE_FIT, flags));
+          "its moment ellipse kept, 0..1; -1: from the blob's size (0.92 "
+          "for large blobs, lower for small ones whose outline blur and "
+          "compression move)", -1.0, 1.0, DEFAULT_MIN_ELLIPSE_FIT, flags));
   g_object_class_install_property (gobject_class, PROP_SHAPE,
       g_param_spec_enum ("shape", "Shape test",
           "Which test tells landmarks from other blobs",

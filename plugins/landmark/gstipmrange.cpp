@@ -87,6 +87,7 @@
 #include "fileutil.h"
 #include "landmarkmap.h"
 #include "landmarkmeta.h"
+#include "markerevidence.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
 #define GST_CAT_DEFAULT gst_ipm_range_debug
@@ -108,6 +109,7 @@ GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
 #define DEFAULT_MARKER_KIND GST_IPM_RANGE_MARKER_DISC
 #define DEFAULT_METHOD GST_IPM_RANGE_METHOD_GROUND
 #define DEFAULT_PIXEL_SIGMA 0.5
+#define DEFAULT_CHECK_SIZE TRUE
 
 /* frame size assumed to check the geometry before caps are known */
 #define NOMINAL_WIDTH 640
@@ -135,6 +137,7 @@ enum
   PROP_MAP,
   PROP_RANGE_METHOD,
   PROP_PIXEL_SIGMA,
+  PROP_CHECK_SIZE,
 };
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
@@ -160,6 +163,7 @@ struct Settings {
   std::string map;
   GstIpmRangeMethod method = DEFAULT_METHOD;
   gdouble pixel_sigma = DEFAULT_PIXEL_SIGMA;
+  gboolean check_size = DEFAULT_CHECK_SIZE;
   guint generation = 0;
 };
 
@@ -188,6 +192,7 @@ struct State {
   landmark::CameraGeometry geometry;
   gint geometry_w = 0, geometry_h = 0;    /* what geometry was built for */
   gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
+  std::vector<double> outline;            /* size test scratch */
   bool map_classes_checked = false;       /* against the first labels */
 };
 
@@ -600,6 +605,9 @@ gst_ipm_range_set_property (GObject * object, guint prop_id,
     case PROP_PIXEL_SIGMA:
       s.pixel_sigma = g_value_get_double (value);
       break;
+    case PROP_CHECK_SIZE:
+      s.check_size = g_value_get_boolean (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       return;
@@ -672,6 +680,9 @@ gst_ipm_range_get_property (GObject * object, guint prop_id,
       break;
     case PROP_PIXEL_SIGMA:
       g_value_set_double (value, s.pixel_sigma);
+      break;
+    case PROP_CHECK_SIZE:
+      g_value_set_boolean (value, s.check_size);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -801,6 +812,52 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 
 /* ---- streaming ------------------------------------------------------ */
 
+/* How well the blob's ellipse agrees with the image a marker m has at the
+ * floor position e placed it (docs/detection.md): 0..1, or -1 when it
+ * cannot tell (no diameter, no ellipse, not wholly in front). */
+static double
+gst_ipm_range_size_agreement (GstIpmRange * self,
+    const landmark::BlobObservation & obs, const landmark::MarkerSpec & m,
+    const landmark::RangeEstimate & e, landmark::ImageEllipse * predicted)
+{
+  State & st = self->priv->state;
+  if (!obs.has_ellipse || !landmark::predict_marker_image (st.geometry, m,
+          e.ground_x, e.ground_y, obs.sx, obs.sy, predicted, &st.outline))
+    return -1;
+  const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
+    obs.minor, obs.angle};
+  return landmark::ellipse_shape_iou (measured, *predicted);
+}
+
+/* The size evidence: a marker of known diameter at the floor position the
+ * blob was ranged to images at a known size and aspect; a blob that
+ * disagrees (a speck near by, a large patch far away, a stripe) is not
+ * that marker. A blob cut by the frame's edge may be smaller than the
+ * marker's image, never larger. Adds the test's fields to s; returns the
+ * reject reason or nullptr. */
+static const char *
+gst_ipm_range_check_size (GstIpmRange * self,
+    const landmark::BlobObservation & obs, const landmark::MarkerSpec & m,
+    const landmark::RangeEstimate & e, bool cut, GstStructure * s)
+{
+  landmark::ImageEllipse predicted;
+  const double agreement = gst_ipm_range_size_agreement (self, obs, m, e,
+      &predicted);
+  if (agreement < 0)
+    return nullptr;
+  gst_structure_set (s, "predicted-major", G_TYPE_DOUBLE, predicted.major,
+      "predicted-minor", G_TYPE_DOUBLE, predicted.minor, nullptr);
+  if (cut) {
+    const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
+      obs.minor, obs.angle};
+    return landmark::cut_blob_fits (measured, predicted) ? nullptr : "size";
+  }
+  const double threshold = landmark::size_agreement_threshold (predicted);
+  gst_structure_set (s, "size-agreement", G_TYPE_DOUBLE, agreement,
+      "size-threshold", G_TYPE_DOUBLE, threshold, nullptr);
+  return agreement < threshold ? "size" : nullptr;
+}
+
 static void
 gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     GstVideoRegionOfInterestMeta * roi)
@@ -879,22 +936,37 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
       || roi->y + roi->h >= fh;
   if (hypotheses && !cut) {
     /* One class, several kinds of marker (a yellow disc and a yellow
-     * ball): only the right spec makes the floor range and the size range
-     * agree, so keep the hypothesis with the smallest normalised
-     * disagreement. Without a size range nothing can choose: the
-     * properties' marker applies, as for a class the map lacks. */
-    double best = HUGE_VAL;
+     * ball): keep the one whose predicted image agrees best with the
+     * blob's ellipse in size and aspect (a disc on the floor is a flat
+     * ellipse, a ball round). Where no image can be predicted, the one
+     * whose floor range and size range agree best. Without either nothing
+     * can choose: the properties' marker applies, as for a class the map
+     * lacks. */
+    double best_agreement = -1, best_score = HUGE_VAL;
     for (const landmark::MarkerSpec & h : *hypotheses) {
       const landmark::RangeEstimate t = landmark::estimate_range
           (st.geometry, obs, h, cfg.s.pixel_sigma);
-      if (t.no_floor || !t.has_size)
+      if (t.no_floor)
+        continue;
+      landmark::ImageEllipse predicted;
+      const double agreement = gst_ipm_range_size_agreement (self, obs, h, t,
+          &predicted);
+      if (agreement >= 0 || best_agreement >= 0) {
+        if (agreement > best_agreement) {
+          best_agreement = agreement;
+          e = t;
+          chosen = &h;
+        }
+        continue;
+      }
+      if (!t.has_size)
         continue;
       const double spread = std::hypot (t.range_ground_sigma,
           t.range_size_sigma);
       const double score = std::fabs (t.range_ground - t.range_size) /
           (spread > 0 ? spread : 1e-9);
-      if (score < best) {
-        best = score;
+      if (score < best_score) {
+        best_score = score;
         e = t;
         chosen = &h;
       }
@@ -944,6 +1016,13 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
         chosen->ball ? "ball" : "disc", "marker-height", G_TYPE_DOUBLE,
         chosen->z, "marker-diameter", G_TYPE_DOUBLE, chosen->diameter,
         nullptr);
+  const char *reject = nullptr;
+  if (cfg.s.check_size)
+    reject = gst_ipm_range_check_size (self, obs, chosen ? *chosen : marker,
+        e, cut, s);
+  gst_structure_set (s, "kept", G_TYPE_BOOLEAN, reject == nullptr, nullptr);
+  if (reject)
+    gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);
   landmark_detection_add_param (buf, roi, s);
 }
 
@@ -1089,6 +1168,11 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
           "One-sigma error of a measured image point, pixels, for "
           "range-sigma, bearing-sigma and the fused weights", 0.0, 100.0,
           DEFAULT_PIXEL_SIGMA, flags));
+  g_object_class_install_property (gobject_class, PROP_CHECK_SIZE,
+      g_param_spec_boolean ("check-size", "Check size",
+          "Reject a detection (kept=false, reject-reason=size) whose image "
+          "disagrees in size or aspect with a marker of known diameter at "
+          "its floor position", DEFAULT_CHECK_SIZE, flags));
 
   gst_element_class_set_static_metadata (element_class,
       "Landmark range by inverse perspective mapping",

@@ -61,7 +61,9 @@
 GST_DEBUG_CATEGORY_STATIC (gst_lab_segment_debug);
 #define GST_CAT_DEFAULT gst_lab_segment_debug
 
-#define DEFAULT_MIN_CLASS_PIXELS 500
+/* blobroundness's default min-area: a class with fewer pixels cannot hold
+ * a blob it keeps, so the rule never hides a landmark (the seed used 500) */
+#define DEFAULT_MIN_CLASS_PIXELS 100
 #define DEFAULT_MAX_DISTANCE 1000.0
 #define DEFAULT_USE_LIGHTNESS TRUE
 #define DEFAULT_OUTPUT GST_LAB_SEGMENT_OUTPUT_PASSTHROUGH

@@ -81,7 +81,9 @@ GST_DEBUG_CATEGORY_STATIC (gst_trilaterate_debug);
 #define DEFAULT_GATE 0.5
 #define DEFAULT_INLIER_DISTANCE 0.25
 #define DEFAULT_MAX_AGE 1.0
-#define DEFAULT_POST_MESSAGES TRUE
+/* as labsegment: the metadata is the per-frame channel; a message per
+ * frame piles up on a bus nobody watches */
+#define DEFAULT_POST_MESSAGES FALSE
 /* frame interval assumed for buffers without timestamps */
 #define FALLBACK_FRAME_NS (GST_SECOND / 30)
 
@@ -482,10 +484,9 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
   std::vector<GstVideoRegionOfInterestMeta *> det_roi;
   std::vector<std::pair<GstVideoRegionOfInterestMeta *, const char *>> skip;
   for (GstVideoRegionOfInterestMeta * roi : rois) {
-    const GstStructure *blob = landmark_detection_get_param (buf, roi,
-        LANDMARK_BLOB_PARAMS);
-    gboolean kept = TRUE;
-    if (blob && gst_structure_get_boolean (blob, "kept", &kept) && !kept) {
+    /* rejected upstream: by shape (blobroundness) or size (ipmrange) */
+    const gchar *by, *why;
+    if (landmark_detection_rejected (buf, roi, &by, &why)) {
       skip.push_back ({ roi, "not-kept" });
       continue;
     }

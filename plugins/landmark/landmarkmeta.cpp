@@ -346,6 +346,44 @@ landmark_detection_get_param (GstBuffer * buffer,
       : nullptr;
 }
 
+gboolean
+landmark_detection_rejected (GstBuffer * buffer,
+    const GstVideoRegionOfInterestMeta * roi, const gchar ** element,
+    const gchar ** reason)
+{
+  static const struct
+  {
+    const gchar *param, *element;
+  } stages[] = {
+    {LANDMARK_BLOB_PARAMS, "blobroundness"},
+    {LANDMARK_RANGE_PARAMS, "ipmrange"},
+  };
+  for (const auto & stage : stages) {
+    const GstStructure *p = landmark_detection_get_param (buffer, roi,
+        stage.param);
+    gboolean kept = TRUE;
+    if (p && gst_structure_get_boolean (p, "kept", &kept) && !kept) {
+      *element = stage.element;
+      *reason = gst_structure_get_string (p, "reject-reason");
+      return TRUE;
+    }
+  }
+  const GstStructure *match = landmark_detection_get_param (buffer, roi,
+      LANDMARK_MATCH_PARAMS);
+  const gchar *why = match ? gst_structure_get_string (match, "reason") :
+      nullptr;
+  /* the map disagrees: no landmark of its class where it was seen, not
+   * in the consensus, or a colour the map has once seen twice (the other
+   * detection took the landmark) */
+  if (why && (g_str_equal (why, "outside-gate") || g_str_equal (why,
+              "outlier") || g_str_equal (why, "duplicate"))) {
+    *element = "trilaterate";
+    *reason = why;
+    return TRUE;
+  }
+  return FALSE;
+}
+
 GstVideoRegionOfInterestMeta *
 landmark_detection_get (GstBuffer * buffer, gint id)
 {

@@ -84,6 +84,16 @@ void landmark_detection_add_param (GstBuffer * buffer,
  * buffer's metas are unchanged. */
 const GstStructure *landmark_detection_get_param (GstBuffer * buffer,
     const GstVideoRegionOfInterestMeta * roi, const gchar * name);
+/* Whether a stage of the chain rejected a detection (docs/detection.md):
+ * blobroundness (landmark-blob kept=false: area or shape), ipmrange
+ * (landmark-range kept=false: size against range) or trilaterate
+ * (landmark-match reason outside-gate, outlier or duplicate: the map
+ * disagrees).
+ * TRUE with *element (the element's name) and *reason (its reject reason,
+ * may be NULL) set for the first stage that rejected it. */
+gboolean landmark_detection_rejected (GstBuffer * buffer,
+    const GstVideoRegionOfInterestMeta * roi, const gchar ** element,
+    const gchar ** reason);
 GstVideoRegionOfInterestMeta *landmark_detection_get (GstBuffer * buffer,
     gint id);
 guint landmark_detection_count (GstBuffer * buffer);

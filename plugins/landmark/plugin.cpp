@@ -9,6 +9,7 @@
 #include "gstlabsegment.h"
 #include "gstlandmarklog.h"
 #include "gstlandmarkoverlay.h"
+#include "gstlandmarkpublish.h"
 #include "gsttrilaterate.h"
 #include "landmarkmeta.h"
 
@@ -23,6 +24,7 @@ plugin_init (GstPlugin * plugin)
   ok |= GST_ELEMENT_REGISTER (ipmrange, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarklog, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarkoverlay, plugin);
+  ok |= GST_ELEMENT_REGISTER (landmarkpublish, plugin);
   ok |= GST_ELEMENT_REGISTER (trilaterate, plugin);
   return ok;
 }

@@ -240,6 +240,8 @@ COMMANDS = [
     _lazy("calibrate", "add_calibrate_parser"),
     _lazy("runner", "add_run_parser"),
     _lazy("soak", "add_soak_parser"),
+    _lazy("record", "add_record_parser"),
+    _lazy("fleet", "add_fleet_parser"),
     _lazy("sweep", "add_sweep_parser"),
 ]
 

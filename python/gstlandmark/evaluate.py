@@ -166,6 +166,7 @@ def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
         if t is None:
             continue
         ev.frames += 1
+        # the chain's verdict (landmarklog "accepted"); older logs: blob
         dets = [d for d in res.get("detections", [])
                 if detection_accepted(d)]
         marks = t.get("landmarks", [])

@@ -175,6 +175,28 @@ def iterate(description: str, timeout_s: float = 60.0,
         pipe.set_state(Gst.State.NULL)
 
 
+def run_to_eos(description: str, timeout_s: float = 60.0) -> None:
+    """Runs a launch line to its end (EOS). Raises PipelineError with the
+    element's message on an error, or when it has not ended after
+    ``timeout_s``."""
+    init()
+    pipe = Gst.parse_launch(description)
+    bus = pipe.get_bus()
+    pipe.set_state(Gst.State.PLAYING)
+    try:
+        msg = bus.timed_pop_filtered(
+            int(timeout_s * Gst.SECOND),
+            Gst.MessageType.EOS | Gst.MessageType.ERROR)
+        if msg is None:
+            raise PipelineError(f"not ended after {timeout_s} s: "
+                                f"{description}")
+        if msg.type == Gst.MessageType.ERROR:
+            err, dbg = msg.parse_error()
+            raise PipelineError(f"{err.message}: {dbg}")
+    finally:
+        pipe.set_state(Gst.State.NULL)
+
+
 def run_file(path: str, chain: str = "labsegment",
              **kwargs) -> Iterator[FrameResult]:
     """Per-frame results of ``chain`` on a video file::

@@ -180,7 +180,7 @@ def yuy2_to_rgb_float(packed, width, matrix="bt601", full_range=False):
     return yuv_to_rgb_float(y, u, v, matrix, full_range)
 
 
-def classify(lab, palette_lab, min_class_pixels=500, max_distance=1000.0,
+def classify(lab, palette_lab, min_class_pixels=100, max_distance=1000.0,
              use_lightness=True, rare_classes="unlabelled"):
     """Label every pixel with its nearest palette class.
 

@@ -113,6 +113,13 @@ test_pinhole ()
   test_projectpoints_roundtrip (p, 0.0, "pinhole with distortion");
   p.roll_deg = -12;
   test_projectpoints_roundtrip (p, 0.1, "distortion, roll -12, z=0.1");
+  /* the rational and thin-prism terms, which project() writes out */
+  p.dist = {-0.28, 0.09, 0.001, -0.0015, -0.012, 0.02, -0.01, 0.003};
+  test_projectpoints_roundtrip (p, 0.0, "distortion, rational (8)");
+  p.dist = {-0.28, 0.09, 0.001, -0.0015, -0.012, 0.02, -0.01, 0.003,
+    0.002, -0.001, 0.0015, 0.0005};
+  test_projectpoints_roundtrip (p, 0.0, "distortion, thin prism (12)");
+  p.dist = {-0.28, 0.09, 0.001, -0.0015, -0.012};
 
   /* analytic: straight ahead, image centre row -> h / tan(tilt) */
   CameraParams q;

@@ -2,6 +2,7 @@
 exactly), and a short rendered distractor clip scored against its ground
 truth with gstlandmark.evaluate."""
 
+import json
 import math
 
 import cv2
@@ -24,7 +25,8 @@ BLOB_FIELDS = {
     "centroid-x": float, "centroid-y": float, "equivalent-diameter": float,
     "ellipse-x": float, "ellipse-y": float, "ellipse-major": float,
     "ellipse-minor": float, "ellipse-angle": float, "ellipse-fit": float,
-    "kept": bool, "frame-width": int, "frame-height": int,
+    "ellipse-fit-threshold": float, "kept": bool, "frame-width": int,
+    "frame-height": int,
 }
 
 
@@ -181,11 +183,20 @@ def distractor_clip(tmp_path_factory, gst):
     return out
 
 
-def run_clip(clip, props, log):
+def run_clip(clip, props, log, ranged=False):
+    """blobroundness alone, or with ipmrange (the scene's camera and map)
+    adding the size evidence."""
+    ranging = ""
+    if ranged:
+        with open(clip / "scene.json") as f:
+            cam = json.load(f)["camera"]
+        ranging = (f"ipmrange camera-height={cam['height_m']} "
+                   f"tilt={cam['tilt_deg']} hfov={cam['hfov_deg']} "
+                   f"map={clip / 'map.json'} ! ")
     desc = (f"filesrc location={clip / 'clip.avi'} ! avidemux ! jpegdec ! "
             "videoconvert ! video/x-raw,format=BGR ! "
             f"labsegment palette={clip / 'palette.json'} "
-            f"min-class-pixels=0 ! blobroundness {props} ! "
+            f"min-class-pixels=0 ! blobroundness {props} ! {ranging}"
             f"landmarklog location={log} ! fakesink")
     _run(desc)
     return summary(evaluate(read_jsonl(str(log)),
@@ -194,24 +205,17 @@ def run_clip(clip, props, log):
 
 
 def _run(desc, timeout_s=60):
-    from gi.repository import Gst
-    pipe = Gst.parse_launch(desc)
-    bus = pipe.get_bus()
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        msg = bus.timed_pop_filtered(
-            timeout_s * Gst.SECOND,
-            Gst.MessageType.EOS | Gst.MessageType.ERROR)
-        assert msg is not None, f"timeout: {desc}"
-        if msg.type == Gst.MessageType.ERROR:
-            err, dbg = msg.parse_error()
-            raise AssertionError(f"{err.message}: {dbg}")
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    pipeline.run_to_eos(desc, timeout_s)
 
 
 def test_distractor_clip(distractor_clip, tmp_path):
-    ellipse = run_clip(distractor_clip, "", tmp_path / "ellipse.jsonl")
+    # the default shape test follows blob size and lets the size evidence
+    # (ipmrange) decide the rest; the fixed 0.92 alone decides too
+    ellipse = run_clip(distractor_clip, "", tmp_path / "ellipse.jsonl",
+                       ranged=True)
+    fixed = run_clip(distractor_clip, "min-ellipse-fit=0.92",
+                     tmp_path / "fixed.jsonl")
+    assert fixed["detection"]["all"]["fp"] == 0
     circle = run_clip(distractor_clip, "shape=circle",
                       tmp_path / "circle.jsonl")
     det = ellipse["detection"]

@@ -25,7 +25,7 @@ DOCS = os.path.join(SOURCE_ROOT, "docs")
 CLIP = os.path.join(SOURCE_ROOT, "tests", "files", "clips", "path-small")
 
 ELEMENTS = ["labsegment", "blobroundness", "ipmrange", "trilaterate",
-            "landmarkoverlay", "landmarklog"]
+            "landmarkoverlay", "landmarklog", "landmarkpublish"]
 SKIP = {"name", "parent", "qos"}
 
 # What each element reads and writes (docs/metadata.md); each entry is a set
@@ -43,6 +43,7 @@ METADATA = {
     "landmarklog": [{"GstLandmarkLabelsMeta"},
                     {"GstVideoRegionOfInterestMeta", "region-of-interest"},
                     {"GstLandmarkPoseMeta"}],
+    "landmarkpublish": [{"landmarklog"}],
 }
 
 SYMBOLS = {"G_MAXUINT": 4294967295.0, "G_MAXINT": 2147483647.0,

@@ -11,7 +11,7 @@ import os
 import numpy as np
 import pytest
 
-from gstlandmark import cli, evaluate as E
+from gstlandmark import cli, evaluate as E, pipeline
 from gstlandmark.regress import read_jsonl
 
 MAX_RANGE = 4.0
@@ -43,19 +43,7 @@ def camera_props(scene):
 
 
 def run(Gst, desc, timeout_s=120):
-    pipe = Gst.parse_launch(desc)
-    bus = pipe.get_bus()
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        msg = bus.timed_pop_filtered(
-            timeout_s * Gst.SECOND,
-            Gst.MessageType.ERROR | Gst.MessageType.EOS)
-        assert msg is not None, f"timeout: {desc}"
-        if msg.type == Gst.MessageType.ERROR:
-            err, dbg = msg.parse_error()
-            raise AssertionError(f"{err.message}: {dbg}")
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    pipeline.run_to_eos(desc, timeout_s)
 
 
 def range_run(Gst, sweep, kind, method, log):

@@ -488,13 +488,32 @@ CameraGeometry::project (const Vec3 & point, double *u, double *v) const
   const double zc = r_[2][0] * px + r_[2][1] * py + r_[2][2] * pz;
   if (!(zc > 1e-12))
     return false;
-  std::vector<cv::Point3d> obj {cv::Point3d (xc, yc, zc)};
-  std::vector<cv::Point2d> img;
-  const cv::Matx33d k (p_.fx, 0, p_.cx, 0, p_.fy, p_.cy, 0, 0, 1);
-  cv::projectPoints (obj, cv::Vec3d (0, 0, 0), cv::Vec3d (0, 0, 0), k,
-      p_.dist, img);
-  *u = img[0].x;
-  *v = img[0].y;
+  const std::vector<double> & d = p_.dist;
+  if (d.size () > 12) {
+    /* the tilted-sensor model: OpenCV's own code (allocates) */
+    std::vector<cv::Point3d> obj {cv::Point3d (xc, yc, zc)};
+    std::vector<cv::Point2d> img;
+    const cv::Matx33d k (p_.fx, 0, p_.cx, 0, p_.fy, p_.cy, 0, 0, 1);
+    cv::projectPoints (obj, cv::Vec3d (0, 0, 0), cv::Vec3d (0, 0, 0), k,
+        d, img);
+    *u = img[0].x;
+    *v = img[0].y;
+    return true;
+  }
+  /* OpenCV's distortion model (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4]]]),
+   * written out: called per outline point per detection, where
+   * cv::projectPoints would allocate */
+  auto c = [&d](size_t i) { return i < d.size () ? d[i] : 0.0; };
+  const double x = xc / zc, y = yc / zc;
+  const double r2 = x * x + y * y, r4 = r2 * r2, r6 = r4 * r2;
+  const double radial = (1 + c (0) * r2 + c (1) * r4 + c (4) * r6) /
+      (1 + c (5) * r2 + c (6) * r4 + c (7) * r6);
+  const double xd = x * radial + 2 * c (2) * x * y + c (3) * (r2 + 2 * x * x)
+      + c (8) * r2 + c (9) * r4;
+  const double yd = y * radial + c (2) * (r2 + 2 * y * y) + 2 * c (3) * x * y
+      + c (10) * r2 + c (11) * r4;
+  *u = p_.fx * xd + p_.cx;
+  *v = p_.fy * yd + p_.cy;
   return true;
 }
 

@@ -294,7 +294,7 @@ check_fields (const GstStructure * s, guint w, guint h)
   static const gchar *doubles[] = { "area", "perimeter", "roundness",
     "centroid-x", "centroid-y", "equivalent-diameter", "ellipse-x",
     "ellipse-y", "ellipse-major", "ellipse-minor", "ellipse-angle",
-    "ellipse-fit"
+    "ellipse-fit", "ellipse-fit-threshold"
   };
   guint i, fw = 0, fh = 0;
   gboolean k;
@@ -310,7 +310,7 @@ check_fields (const GstStructure * s, guint w, guint h)
   fail_unless (gst_structure_get_uint (s, "frame-height", &fh));
   fail_unless_equals_int (fw, w);
   fail_unless_equals_int (fh, h);
-  fail_unless_equals_int (gst_structure_n_fields (s), k ? 16 : 17);
+  fail_unless_equals_int (gst_structure_n_fields (s), k ? 17 : 18);
 }
 
 /* Pushes one plane through and reads what came out. */
@@ -366,8 +366,8 @@ GST_START_TEST (test_properties)
   fail_unless_equals_int (amin, 100);
   fail_unless_equals_int (amax, 0);
   fail_unless_equals_float (rmin, 0.85);
-  fail_unless_equals_float (fmin, 0.92);
-  fail_unless_equals_float (aspect, 10.0);
+  fail_unless_equals_float (fmin, -1.0);
+  fail_unless_equals_float (aspect, 0.0);
   fail_unless_equals_int (shape, 1);    /* ellipse */
   fail_unless (!keep);
   fail_unless (!qos);
@@ -706,7 +706,7 @@ GST_END_TEST;
 GST_START_TEST (test_area_and_aspect_limits)
 {
   GstHarness *hr = harness_new ("keep-rejected=true max-area=2000 "
-      "min-area=50", 200, 100);
+      "min-area=50 max-aspect=10", 200, 100);
   Plane *p = plane_new (200, 100, 200);
   const gdouble small[3] = { 30, 50, 12 }, large[3] = { 100, 50, 30 };
   const gdouble thin[5] = { 170, 50, 48, 4.2, 0.3 };

@@ -723,7 +723,8 @@ GST_START_TEST (test_detections)
 
   /* id 0: all three parameter structures, every field */
   d = json_array_get_object_element (dets, 0);
-  check_keys (d, "bbox,blob,class,id,match,range");
+  check_keys (d, "accepted,bbox,blob,class,id,match,range");
+  check_bool (d, "accepted", TRUE);
   check_string (d, "class", "red");
   a = get_array (d, "bbox", 4);
   fail_unless_equals_int (json_array_get_int_element (a, 0), 10);
@@ -759,7 +760,10 @@ GST_START_TEST (test_detections)
 
   /* id 1: a blob only; no range, match or params keys at all */
   d = json_array_get_object_element (dets, 1);
-  check_keys (d, "bbox,blob,class,id");
+  check_keys (d, "accepted,bbox,blob,class,id,reject-reason,rejected-by");
+  check_bool (d, "accepted", FALSE);
+  check_string (d, "rejected-by", "blobroundness");
+  check_string (d, "reject-reason", "too small");
   check_string (d, "class", "green");
   p = get_object (d, "blob");
   check_keys (p, "area,kept,reject-reason");
@@ -769,7 +773,8 @@ GST_START_TEST (test_detections)
 
   /* id 2: no landmark structure; the others under "params" */
   d = json_array_get_object_element (dets, 2);
-  check_keys (d, "bbox,class,id,params");
+  check_keys (d, "accepted,bbox,class,id,params");
+  check_bool (d, "accepted", TRUE);
   check_string (d, "class", "blue");
   p = get_object (d, "params");
   check_keys (p, "other,vendor-score");

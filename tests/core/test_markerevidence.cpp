@@ -1,0 +1,260 @@
+/* Tests of the detection evidence (plugins/landmark/core/markerevidence.h)
+ * against analytic geometry: moments of sampled ellipses, the overlap of an
+ * ellipse with itself turned a quarter (4ab atan(b/a)), a disc seen
+ * straight from above (f d / h), a ball on the optical axis
+ * (f tan(asin(r/D))) and a disc ahead projected by a pinhole written out
+ * here. */
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "markerevidence.h"
+
+using namespace landmark;
+
+static int passed = 0, failures = 0;
+
+#define CHECK(cond, ...) do { if (cond) { passed++; } else { failures++; \
+      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
+      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
+  } while (0)
+
+static std::vector<double>
+sampled_ellipse (double cx, double cy, double a, double b, double phi, int n)
+{
+  std::vector<double> uv;
+  for (int i = 0; i < n; i++) {
+    const double t = 2 * M_PI * i / n;
+    const double x = a * std::cos (t), y = b * std::sin (t);
+    uv.push_back (cx + x * std::cos (phi) - y * std::sin (phi));
+    uv.push_back (cy + x * std::sin (phi) + y * std::cos (phi));
+  }
+  return uv;
+}
+
+static CameraGeometry
+pinhole (double hfov, double height, double tilt, int w = 640, int h = 480)
+{
+  CameraParams p;
+  p.width = w;
+  p.height = h;
+  p.camera_height = height;
+  p.tilt_deg = tilt;
+  intrinsics_from_hfov (hfov, w, h, &p.fx, &p.fy, &p.cx, &p.cy);
+  CameraGeometry g;
+  std::string err;
+  if (!g.configure (p, &err))
+    std::fprintf (stderr, "configure: %s\n", err.c_str ());
+  return g;
+}
+
+static void
+test_boundary_share ()
+{
+  for (double r : {2.0, 6.0, 40.0}) {
+    const double s = ellipse_boundary_share (2 * r, 2 * r);
+    CHECK (std::fabs (s - 2 / r) < 1e-12, "circle r %g: %g", r, s);
+  }
+  CHECK (std::isinf (ellipse_boundary_share (10, 0)), "degenerate");
+  /* the tolerances: large blobs near the constants, small ones looser,
+   * never below the floors */
+  CHECK (std::fabs (shape_fit_threshold (400, 400) - 0.9195) < 1e-3, "%g",
+      shape_fit_threshold (400, 400));
+  CHECK (shape_fit_threshold (12, 12) < shape_fit_threshold (40, 40),
+      "smaller blob, looser shape test");
+  CHECK (shape_fit_threshold (1, 0.2) == kShapeFitFloor, "floor");
+  ImageEllipse big {0, 0, 400, 400, 0}, small {0, 0, 12, 12, 0};
+  CHECK (size_agreement_threshold (big) > 0.68, "%g",
+      size_agreement_threshold (big));
+  CHECK (size_agreement_threshold (small) < size_agreement_threshold (big),
+      "smaller blob, looser size test");
+  ImageEllipse tiny {0, 0, 2, 1, 0};
+  CHECK (size_agreement_threshold (tiny) == kSizeAgreementFloor, "floor");
+}
+
+static void
+test_polygon_moments ()
+{
+  const double phi = 0.3;
+  ImageEllipse e;
+  CHECK (polygon_moment_ellipse (sampled_ellipse (100, 50, 20, 10, phi,
+              720), &e), "ellipse");
+  CHECK (std::fabs (e.cx - 100) < 1e-9 && std::fabs (e.cy - 50) < 1e-9,
+      "centre %g %g", e.cx, e.cy);
+  CHECK (std::fabs (e.major - 40) < 0.01 && std::fabs (e.minor - 20) < 0.01,
+      "axes %g %g", e.major, e.minor);
+  CHECK (std::fabs (e.angle - phi) < 1e-6, "angle %g", e.angle);
+  /* clockwise order gives the same ellipse */
+  std::vector<double> cw = sampled_ellipse (0, 0, 20, 10, phi, 720), rev;
+  for (size_t i = cw.size () / 2; i-- > 0;) {
+    rev.push_back (cw[2 * i]);
+    rev.push_back (cw[2 * i + 1]);
+  }
+  ImageEllipse r;
+  CHECK (polygon_moment_ellipse (rev, &r) && std::fabs (r.major - 40) < 0.01,
+      "clockwise axes %g", r.major);
+  /* a square of side s: variance s^2 / 12, axes 4 sqrt (s^2 / 12) */
+  ImageEllipse sq;
+  CHECK (polygon_moment_ellipse ({0, 0, 6, 0, 6, 6, 0, 6}, &sq) &&
+      std::fabs (sq.major - 4 * std::sqrt (3.0)) < 1e-9 &&
+      std::fabs (sq.minor - sq.major) < 1e-9, "square %g %g", sq.major,
+      sq.minor);
+  CHECK (!polygon_moment_ellipse ({0, 0, 1, 1}, &sq), "two points");
+  CHECK (!polygon_moment_ellipse ({0, 0, 1, 1, 2, 2}, &sq), "no area");
+}
+
+static void
+test_shape_iou ()
+{
+  ImageEllipse a {0, 0, 40, 20, 0.2};
+  CHECK (std::fabs (ellipse_shape_iou (a, a) - 1) < 1e-12, "self");
+  ImageEllipse c1 {0, 0, 10, 10, 0}, c2 {5, 5, 20, 20, 1};
+  CHECK (std::fabs (ellipse_shape_iou (c1, c2) - 0.25) < 1e-9,
+      "circles %g", ellipse_shape_iou (c1, c2));
+  /* an ellipse and itself turned a quarter: intersection 4ab atan(b/a) */
+  const double sa = 20, sb = 10;
+  ImageEllipse b = a;
+  b.angle += M_PI / 2;
+  const double inter = 4 * sa * sb * std::atan (sb / sa);
+  const double expect = inter / (2 * M_PI * sa * sb - inter);
+  CHECK (std::fabs (ellipse_shape_iou (a, b) - expect) < 2e-3,
+      "quarter turn %g, expected %g", ellipse_shape_iou (a, b), expect);
+  ImageEllipse z {0, 0, 10, 0, 0};
+  CHECK (ellipse_shape_iou (a, z) == 0, "degenerate");
+}
+
+static void
+test_disc_from_above ()
+{
+  /* looking straight down from 0.5 m: a 0.1 m disc right below images as
+   * a circle f d / h across */
+  CameraGeometry g = pinhole (60, 0.5, 90);
+  CHECK (g.configured (), "geometry");
+  const double f = 320 / std::tan (M_PI / 6);
+  std::vector<double> scratch;
+  ImageEllipse e;
+  MarkerSpec disc;
+  disc.diameter = 0.1;
+  CHECK (predict_marker_image (g, disc, 0, 0, 1, 1, &e, &scratch), "disc");
+  CHECK (std::fabs (e.major - f * 0.1 / 0.5) < 0.01 * e.major &&
+      std::fabs (e.minor - e.major) < 0.01 * e.major, "axes %g %g, expected "
+      "%g", e.major, e.minor, f * 0.1 / 0.5);
+  CHECK (std::fabs (e.cx - 319.5) < 0.5 && std::fabs (e.cy - 239.5) < 0.5,
+      "centre %g %g", e.cx, e.cy);
+  /* a frame half the size: half the pixels */
+  ImageEllipse h;
+  CHECK (predict_marker_image (g, disc, 0, 0, 2, 2, &h, &scratch) &&
+      std::fabs (h.major - e.major / 2) < 1e-9, "scaled %g", h.major);
+  disc.diameter = 0;
+  CHECK (!predict_marker_image (g, disc, 0, 0, 1, 1, &e, &scratch),
+      "no diameter");
+}
+
+static void
+test_ball_on_axis ()
+{
+  /* a ball whose centre is on the optical axis images as a circle of
+   * angular radius asin (r / D) */
+  const double h = 0.2, r = 0.04, x = 1.5;
+  const double tilt = std::atan2 (h - r, x) * 180 / M_PI;
+  CameraGeometry g = pinhole (54, h, tilt);
+  const double f = 320 / std::tan (27 * M_PI / 180);
+  const double dist = std::hypot (x, h - r);
+  const double expect = 2 * f * std::tan (std::asin (r / dist));
+  MarkerSpec ball;
+  ball.ball = true;
+  ball.diameter = 2 * r;
+  ball.z = r;
+  ImageEllipse e;
+  std::vector<double> scratch;
+  CHECK (predict_marker_image (g, ball, x, 0, 1, 1, &e, &scratch), "ball");
+  CHECK (std::fabs (e.major - expect) < 0.005 * expect &&
+      std::fabs (e.minor - expect) < 0.005 * expect,
+      "axes %g %g, expected %g", e.major, e.minor, expect);
+  /* the camera inside the ball */
+  ball.diameter = 2 * h + 1;
+  CHECK (!predict_marker_image (g, ball, 0.01, 0, 1, 1, &e, &scratch),
+      "camera inside");
+}
+
+static void
+test_disc_ahead ()
+{
+  /* the seed's camera: 54 degrees, 0.2 m up, tilted 18 degrees; a 0.1 m
+   * disc 1.2 m ahead and 0.3 m left, projected here by the pinhole
+   * written out: x' = -y, y' = down the image, z' = the optical axis */
+  const double hgt = 0.2, tilt = 18 * M_PI / 180;
+  CameraGeometry g = pinhole (54, hgt, 18);
+  const double f = 320 / std::tan (27 * M_PI / 180);
+  std::vector<double> uv;
+  for (int i = 0; i < 2000; i++) {
+    const double t = 2 * M_PI * i / 2000;
+    const double px = 1.2 + 0.05 * std::cos (t), py = 0.3 + 0.05 *
+        std::sin (t), pz = -hgt;
+    const double xc = -py;
+    const double yc = -std::sin (tilt) * px - std::cos (tilt) * pz;
+    const double zc = std::cos (tilt) * px - std::sin (tilt) * pz;
+    uv.push_back (f * xc / zc + 319.5);
+    uv.push_back (f * yc / zc + 239.5);
+  }
+  ImageEllipse want, got;
+  polygon_moment_ellipse (uv, &want);
+  std::vector<double> scratch;
+  MarkerSpec disc;
+  disc.diameter = 0.1;
+  CHECK (predict_marker_image (g, disc, 1.2, 0.3, 1, 1, &got, &scratch),
+      "disc ahead");
+  CHECK (std::fabs (got.major - want.major) < 0.01 * want.major &&
+      std::fabs (got.minor - want.minor) < 0.01 * want.minor &&
+      std::fabs (got.cx - want.cx) < 0.3 && std::fabs (got.cy - want.cy) <
+      0.3, "predicted %g x %g at (%g, %g), expected %g x %g at (%g, %g)",
+      got.major, got.minor, got.cx, got.cy, want.major, want.minor, want.cx,
+      want.cy);
+  CHECK (ellipse_shape_iou (got, want) > 0.99, "iou %g",
+      ellipse_shape_iou (got, want));
+  /* the size test: the true marker passes, a speck of a fifth of its size
+   * and a blob three times as large fail */
+  const double thr = size_agreement_threshold (got);
+  ImageEllipse speck = want, large = want;
+  speck.major /= 5;
+  speck.minor /= 5;
+  large.major *= 3;
+  large.minor *= 3;
+  CHECK (ellipse_shape_iou (want, got) >= thr, "true marker");
+  CHECK (ellipse_shape_iou (speck, got) < thr, "speck %g vs %g",
+      ellipse_shape_iou (speck, got), thr);
+  CHECK (ellipse_shape_iou (large, got) < thr, "large %g vs %g",
+      ellipse_shape_iou (large, got), thr);
+  /* a stripe as long as the disc is wide but a third as tall */
+  ImageEllipse stripe = want;
+  stripe.minor = want.minor / 3;
+  stripe.major = want.major;
+  CHECK (ellipse_shape_iou (stripe, got) < thr, "stripe %g vs %g",
+      ellipse_shape_iou (stripe, got), thr);
+  /* cut by the frame edge: any smaller part fits, a larger blob not */
+  ImageEllipse half = want;
+  half.major = want.major / 2;
+  CHECK (cut_blob_fits (half, got), "half a marker");
+  CHECK (cut_blob_fits (want, got), "the whole marker");
+  CHECK (!cut_blob_fits (large, got), "three times as large");
+  ImageEllipse tall = want;
+  tall.minor = want.major;
+  CHECK (!cut_blob_fits (tall, got), "round where the disc is flat");
+  /* behind the camera: no image */
+  CHECK (!predict_marker_image (g, disc, -1, 0, 1, 1, &got, &scratch),
+      "behind");
+}
+
+int
+main ()
+{
+  test_boundary_share ();
+  test_polygon_moments ();
+  test_shape_iou ();
+  test_disc_from_above ();
+  test_ball_on_axis ();
+  test_disc_ahead ();
+  std::printf ("%d passed, %d failed\n", passed, failures);
+  return failures ? 1 : 0;
+}

@@ -1,0 +1,142 @@
+"""Each kind of evidence rejects what it should and accepts what it
+should (docs/detection.md): floor shapes of known size are ray-cast here
+through a pinhole written out in the test (the seed's robot: 640x480,
+54 degrees, 0.2 m up, tilted 18 degrees), JPEG-compressed, and run
+through labsegment ! blobroundness ! ipmrange ! landmarklog at default
+properties with a map that says red discs are 0.1 m across."""
+import json
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from gstlandmark import pipeline
+
+W, H, HFOV, CAM_H, TILT = 640, 480, 54.0, 0.2, 18.0
+RED, FLOOR = (200, 30, 30), (128, 128, 128)
+
+
+def floor_points(ss=4):
+    """Floor (x forward, y left) of every sub-pixel sample, NaN above the
+    horizon; shape (H*ss, W*ss)."""
+    f = (W / 2) / math.tan(math.radians(HFOV) / 2)
+    cx, cy = (W - 1) / 2, (H - 1) / 2
+    t = math.radians(TILT)
+    off = (np.arange(ss) + 0.5) / ss - 0.5
+    u = (np.arange(W)[:, None] + off[None, :]).reshape(-1)
+    v = (np.arange(H)[:, None] + off[None, :]).reshape(-1)
+    xc = (u[None, :] - cx) / f
+    yc = (v[:, None] - cy) / f
+    # camera x' = -y (right), y' = down the image, z' = optical axis
+    dx = (-math.sin(t) * yc + math.cos(t)) * np.ones_like(xc)
+    dy = -xc * np.ones_like(yc)
+    dz = (-math.cos(t) * yc - math.sin(t)) * np.ones_like(xc)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(dz < 0, CAM_H / -dz, np.nan)
+    return s * dx, s * dy
+
+
+def render(shapes, ss=4, quality=80):
+    """shapes: functions (x, y) -> bool mask on the floor, painted red;
+    anti-aliased by ss x ss samples, then JPEG at `quality`."""
+    gx, gy = floor_points(ss)
+    inside = np.zeros(gx.shape, bool)
+    for shape in shapes:
+        with np.errstate(invalid="ignore"):
+            inside |= shape(gx, gy)
+    cover = inside.reshape(H, ss, W, ss).mean(axis=(1, 3))[..., None]
+    img = (cover * np.array(RED) + (1 - cover) * np.array(FLOOR))
+    img = np.clip(img + 0.5, 0, 255).astype(np.uint8)
+    ok, jpg = cv2.imencode(".jpg", img[..., ::-1],
+                           [cv2.IMWRITE_JPEG_QUALITY, quality])
+    assert ok
+    return np.ascontiguousarray(cv2.imdecode(jpg, cv2.IMREAD_COLOR)[..., ::-1])
+
+
+def disc(x, y, d):
+    return lambda gx, gy: (gx - x) ** 2 + (gy - y) ** 2 <= (d / 2) ** 2
+
+
+def rect(x, y, along, across):
+    return lambda gx, gy: ((np.abs(gx - x) <= along / 2)
+                           & (np.abs(gy - y) <= across / 2))
+
+
+def verdicts(tmp_path, frame):
+    map_file = tmp_path / "map.json"
+    map_file.write_text(json.dumps({"landmarks": [
+        {"id": "L1", "class": "red", "x": 1.0, "y": 0.0, "z": 0.0,
+         "diameter": 0.1, "kind": "disc"}]}))
+    log = tmp_path / "log.jsonl"
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    pipeline.process_frames(
+        f"labsegment ! blobroundness ! ipmrange camera-height={CAM_H} "
+        f"tilt={TILT} hfov={HFOV} map={map_file} ! "
+        f"landmarklog location={log}", [frame], caps)
+    (line,) = log.read_text().splitlines()
+    return [d for d in json.loads(line)["detections"] if d["class"] == "red"]
+
+
+def nearest(dets, gx, gy):
+    """The detection ranged nearest the floor point (gx, gy)."""
+    ranged = [d for d in dets if "ground-x" in d.get("range", {})]
+    assert ranged, dets
+    return min(ranged, key=lambda d: math.hypot(
+        d["range"]["ground-x"] - gx, d["range"]["ground-y"] - gy))
+
+
+@pytest.mark.parametrize("x, y", [(0.6, 0.1), (1.0, -0.2), (1.5, 0.15)])
+def test_true_discs_accepted(gst, tmp_path, x, y):
+    # 1.5 m: a thin far disc, about 42 x 6 pixels, under JPEG 80
+    dets = verdicts(tmp_path, render([disc(x, y, 0.1)]))
+    assert len(dets) == 1, dets
+    d = dets[0]
+    assert d["accepted"], d
+    assert d["range"]["size-agreement"] >= d["range"]["size-threshold"]
+    assert abs(d["range"]["range"] - math.hypot(x, y)) < 0.03 * math.hypot(x, y)
+
+
+def test_wrong_sizes_rejected(gst, tmp_path):
+    # a speck a third of the size near by, a disc three times the size
+    # further away: both round, both the landmark's colour
+    frame = render([disc(0.5, 0.15, 0.033), disc(1.6, -0.3, 0.3)])
+    dets = verdicts(tmp_path, frame)
+    for gx, gy in ((0.5, 0.15), (1.6, -0.3)):
+        d = nearest(dets, gx, gy)
+        assert not d["accepted"], d
+        assert d["rejected-by"] == "ipmrange", d
+        assert d["reject-reason"] == "size"
+        assert d["range"]["size-agreement"] < d["range"]["size-threshold"]
+
+
+def test_square_and_stripe_rejected(gst, tmp_path):
+    # a 0.1 m square and a 0.1 m x 0.025 m stripe across the view: wrong
+    # outline (blobroundness drops it) or wrong aspect for a disc at that
+    # range (ipmrange rejects it)
+    frame = render([rect(0.7, 0.2, 0.1, 0.1), rect(1.0, -0.2, 0.025, 0.1)])
+    dets = verdicts(tmp_path, frame)
+    assert not [d for d in dets if d["accepted"]], dets
+    stripe = nearest(dets, 1.0, -0.2)
+    assert stripe["rejected-by"] == "ipmrange"
+    # the square alone is dropped too
+    assert not [d for d in verdicts(tmp_path, render([rect(0.7, 0.2, 0.1,
+                                                          0.1)]))
+                if d["accepted"]]
+
+
+def test_size_check_can_be_turned_off(gst, tmp_path):
+    frame = render([disc(0.5, 0.15, 0.033)])
+    map_file = tmp_path / "map.json"
+    map_file.write_text(json.dumps({"landmarks": [
+        {"id": "L1", "class": "red", "x": 1.0, "y": 0.0, "z": 0.0,
+         "diameter": 0.1, "kind": "disc"}]}))
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    log = tmp_path / "off.jsonl"
+    pipeline.process_frames(
+        f"labsegment ! blobroundness ! ipmrange camera-height={CAM_H} "
+        f"tilt={TILT} hfov={HFOV} map={map_file} check-size=false ! "
+        f"landmarklog location={log}", [frame], caps)
+    dets = json.loads(log.read_text())["detections"]
+    assert [d["accepted"] for d in dets] == [True]
+    assert "size-agreement" not in dets[0]["range"]

@@ -5,7 +5,9 @@ A palette file is JSON::
     {"classes": [{"name": "red", "lab": [41.25, 43.0, 32.0],
                   "marker": true}, ...]}
 
-with CIE L*a*b* values (L* 0..100).  The C++ labsegment element applies
+with CIE L*a*b* values (L* 0..100).  A class may list several reference
+colours in "references" (a ball's lit and shaded sides); a pixel takes the
+class of its nearest reference.  The C++ labsegment element applies
 exactly the same validation rules as ``parse_palette``; keep them in step.
 """
 
@@ -22,7 +24,9 @@ from gstlandmark import reference
 
 MAX_CLASSES = 64
 MAX_NAME_LENGTH = 32
-CLASS_KEYS = ("name", "lab", "marker")
+# Reference colours a class may list (the element's kMaxReferencesPerClass).
+MAX_REFERENCES = 8
+CLASS_KEYS = ("name", "lab", "references", "marker")
 _NAME_RE = re.compile(r"[A-Za-z0-9_.-]+")
 # Decimals written for L*a*b* values: far below any visible difference.
 LAB_DECIMALS = 4
@@ -34,9 +38,17 @@ class PaletteError(ValueError):
 
 @dataclass(frozen=True)
 class PaletteClass:
+    """One class.  ``lab`` is its colour (false-colour output, reported
+    sRGB) and its only reference when ``references`` is empty."""
     name: str
     lab: tuple[float, float, float]
     marker: bool = True
+    references: tuple[tuple[float, float, float], ...] = ()
+
+    @property
+    def reference_labs(self):
+        """The colours this class is classified by."""
+        return self.references or (self.lab,)
 
 
 @dataclass
@@ -69,6 +81,21 @@ class Palette:
         """float64 (K, 3) reference colours in label order."""
         return np.array([c.lab for c in self.classes],
                         dtype=np.float64).reshape(-1, 3)
+
+    def reference_arrays(self):
+        """float64 (R, 3) reference colours of all classes in label order,
+        and int (R,) the class index of each: what
+        ``reference.classify`` takes with ``ref_class``."""
+        refs = [lab for c in self.classes for lab in c.reference_labs]
+        owner = [k for k, c in enumerate(self.classes)
+                 for _ in c.reference_labs]
+        return (np.array(refs, dtype=np.float64).reshape(-1, 3),
+                np.array(owner, dtype=np.int64))
+
+    @property
+    def has_references(self):
+        """True if any class lists its own reference colours."""
+        return any(c.references for c in self.classes)
 
     def index(self, name):
         """Class index of ``name`` (its label is index + 1)."""
@@ -116,6 +143,32 @@ def _valid_name(name):
             and _NAME_RE.fullmatch(name) is not None)
 
 
+def _parse_lab(lab, what):
+    """A colour [L*, a*, b*] as floats; ``what`` starts the messages."""
+    if not isinstance(lab, (list, tuple)) or len(lab) != 3:
+        got = (f"{len(lab)} values" if isinstance(lab, (list, tuple))
+               else _json_type(lab))
+        raise PaletteError(f"{what} must be an array of 3 numbers "
+                           f"[L*, a*, b*], got {got}")
+    for i, value in enumerate(lab):
+        if not _is_number(value):
+            raise PaletteError(f"{what}[{i}] must be a number, "
+                               f"got {_json_type(value)}")
+        # A huge JSON integer is finite but does not fit a float.
+        if isinstance(value, float) and not math.isfinite(value):
+            raise PaletteError(f"{what}[{i}] must be finite, got "
+                               f"{_show(value)}")
+    lightness, a_star, b_star = lab
+    if not 0 <= lightness <= 100:
+        raise PaletteError(f"{what} L* must be within 0..100, "
+                           f"got {_show(lightness)}")
+    for label, value in (("a*", a_star), ("b*", b_star)):
+        if not -128 <= value <= 128:
+            raise PaletteError(f"{what} {label} must be within "
+                               f"-128..128, got {_show(value)}")
+    return (float(lightness), float(a_star), float(b_star))
+
+
 def _parse_class(entry, index, source):
     where = f"{source}: classes[{index}]"
     if not isinstance(entry, dict):
@@ -128,7 +181,8 @@ def _parse_class(entry, index, source):
     for key in entry:
         if key not in CLASS_KEYS:
             raise PaletteError(f"{where}: unknown key {json.dumps(key)} "
-                               f"(allowed: \"name\", \"lab\", \"marker\")")
+                               f"(allowed: \"name\", \"lab\", "
+                               f"\"references\", \"marker\")")
 
     if "name" not in entry:
         raise PaletteError(f"{where}: missing \"name\"")
@@ -146,37 +200,29 @@ def _parse_class(entry, index, source):
 
     if "lab" not in entry:
         raise PaletteError(f"{where}: missing \"lab\"")
-    lab = entry["lab"]
-    if not isinstance(lab, (list, tuple)) or len(lab) != 3:
-        got = (f"{len(lab)} values" if isinstance(lab, (list, tuple))
-               else _json_type(lab))
-        raise PaletteError(f"{where}: \"lab\" must be an array of 3 numbers "
-                           f"[L*, a*, b*], got {got}")
-    for i, value in enumerate(lab):
-        if not _is_number(value):
-            raise PaletteError(f"{where}: \"lab\"[{i}] must be a number, "
-                               f"got {_json_type(value)}")
-        # A huge JSON integer is finite but does not fit a float.
-        if isinstance(value, float) and not math.isfinite(value):
-            raise PaletteError(f"{where}: \"lab\"[{i}] must be finite, got "
-                               f"{_show(value)}")
-    lightness, a_star, b_star = lab
-    if not 0 <= lightness <= 100:
-        raise PaletteError(f"{where}: \"lab\" L* must be within 0..100, "
-                           f"got {_show(lightness)}")
-    for label, value in (("a*", a_star), ("b*", b_star)):
-        if not -128 <= value <= 128:
-            raise PaletteError(f"{where}: \"lab\" {label} must be within "
-                               f"-128..128, got {_show(value)}")
+    lab = _parse_lab(entry["lab"], f"{where}: \"lab\"")
+
+    references = ()
+    if "references" in entry:
+        refs = entry["references"]
+        if not isinstance(refs, (list, tuple)):
+            raise PaletteError(f"{where}: \"references\" must be an array "
+                               f"of [L*, a*, b*] arrays, got "
+                               f"{_json_type(refs)}")
+        if not 1 <= len(refs) <= MAX_REFERENCES:
+            raise PaletteError(f"{where}: \"references\" must hold 1 to "
+                               f"{MAX_REFERENCES} colours, got {len(refs)}")
+        references = tuple(
+            _parse_lab(ref, f"{where}: \"references\"[{i}]")
+            for i, ref in enumerate(refs))
 
     marker = entry.get("marker", True)
     if not isinstance(marker, bool):
         raise PaletteError(f"{where}: \"marker\" must be true or false, "
                            f"got {_show(marker)}")
 
-    return PaletteClass(name=name,
-                        lab=(float(lightness), float(a_star), float(b_star)),
-                        marker=marker)
+    return PaletteClass(name=name, lab=lab, marker=marker,
+                        references=references)
 
 
 def parse_palette(obj, source="<palette>"):
@@ -267,13 +313,18 @@ def palette_to_json(palette, **extra_top_level):
     if "classes" in extra_top_level:
         raise ValueError("\"classes\" is written from the palette itself")
     obj = dict(extra_top_level)
-    obj["classes"] = [
-        {"name": c.name,
-         "lab": [round(float(v), LAB_DECIMALS) for v in c.lab],
-         "marker": bool(c.marker)}
-        for c in palette.classes
-    ]
+    obj["classes"] = [_class_to_json(c) for c in palette.classes]
     return obj
+
+
+def _class_to_json(cls):
+    entry = {"name": cls.name,
+             "lab": [round(float(v), LAB_DECIMALS) for v in cls.lab]}
+    if cls.references:
+        entry["references"] = [[round(float(v), LAB_DECIMALS) for v in ref]
+                               for ref in cls.references]
+    entry["marker"] = bool(cls.marker)
+    return entry
 
 
 def _format_json(obj):

@@ -130,6 +130,34 @@ BAD_PALETTES = [
      'classes[0] ("red"): "marker" must be true or false, got "yes"'),
     (five_with(0, good_class("red", marker=1)),
      '"marker" must be true or false, got 1'),
+    # several reference colours per class
+    (five_with(2, good_class("yellow", references=[[90, -10, 80],
+                                                   [50, "5", 50]])),
+     'classes[2] ("yellow"): "references"[1][1] must be a number, '
+     'got string'),
+    (five_with(2, good_class("yellow", references=[[90, -10, 80],
+                                                   [50, 5]])),
+     'classes[2] ("yellow"): "references"[1] must be an array of 3 '
+     'numbers [L*, a*, b*], got 2 values'),
+    (five_with(2, good_class("yellow", references=[[50, 0, 0]] * 9)),
+     'classes[2] ("yellow"): "references" must hold 1 to 8 colours, got 9'),
+    (five_with(2, good_class("yellow", references=[])),
+     'classes[2] ("yellow"): "references" must hold 1 to 8 colours, got 0'),
+    (five_with(2, good_class("yellow", references=[50, 0, 0])),
+     'classes[2] ("yellow"): "references"[0] must be an array of 3 '
+     'numbers [L*, a*, b*], got number'),
+    (five_with(2, good_class("yellow", references={"lit": [50, 0, 0]})),
+     'classes[2] ("yellow"): "references" must be an array of [L*, a*, b*] '
+     'arrays, got object'),
+    (five_with(2, good_class("yellow", references=[[101, 0, 0]])),
+     'classes[2] ("yellow"): "references"[0] L* must be within 0..100, '
+     'got 101'),
+    (five_with(2, good_class("yellow", references=[[50, 0, 0],
+                                                   [50, -130, 0]])),
+     'classes[2] ("yellow"): "references"[1] a* must be within -128..128, '
+     'got -130'),
+    (five_with(2, good_class("yellow", references=[[50, float("nan"), 0]])),
+     '"references"[0][1] must be finite, got nan'),
 ]
 
 
@@ -240,6 +268,47 @@ def test_save_and_load_round_trip(tmp_path):
     assert loaded.markers == ["red"]
     np.testing.assert_allclose(loaded.lab_array(), palette.lab_array(),
                                atol=1e-4)
+
+
+def test_references_load_and_round_trip(tmp_path):
+    obj = {"classes": [
+        good_class("yellow", (75, -5, 70),
+                   references=[[90, -15, 80], [55.123456, 4, 55]]),
+        good_class("grey", (53.58, 0, 0), marker=False)]}
+    palette = load_palette(write_json(tmp_path / "p.json", obj))
+    yellow, grey = palette.classes
+    assert yellow.references == ((90.0, -15.0, 80.0), (55.123456, 4.0, 55.0))
+    assert yellow.reference_labs == yellow.references
+    assert grey.references == () and grey.reference_labs == (grey.lab,)
+    assert palette.has_references
+    refs, owner = palette.reference_arrays()
+    np.testing.assert_array_equal(refs, [[90, -15, 80], [55.123456, 4, 55],
+                                         [53.58, 0, 0]])
+    assert owner.tolist() == [0, 0, 1]
+    # lab stays the class colour
+    np.testing.assert_array_equal(palette.lab_array(), [[75, -5, 70],
+                                                        [53.58, 0, 0]])
+    path = tmp_path / "out.json"
+    save_palette(palette, path)
+    saved = json.loads(path.read_text())["classes"]
+    assert saved[0] == {"name": "yellow", "lab": [75.0, -5.0, 70.0],
+                        "references": [[90.0, -15.0, 80.0],
+                                       [55.1235, 4.0, 55.0]],
+                        "marker": True}
+    assert "references" not in saved[1]
+    assert load_palette(path).classes[0].references[1] == (55.1235, 4.0,
+                                                           55.0)
+
+
+def test_palette_without_references_is_unchanged():
+    """An old palette: one reference per class, the class colour."""
+    palette = default_palette()
+    assert not palette.has_references
+    refs, owner = palette.reference_arrays()
+    np.testing.assert_array_equal(refs, palette.lab_array())
+    assert owner.tolist() == list(range(len(palette)))
+    saved = palette_to_json(palette)["classes"]
+    assert all(list(entry) == ["name", "lab", "marker"] for entry in saved)
 
 
 def test_palette_to_json_keeps_extra_keys():
@@ -582,3 +651,39 @@ def test_cli_bad_input_exits_1(tmp_path, scene_files, capsys):
     assert status == 1 and "does not fit" in err
     assert err.startswith("gst-landmark: error: ")
     assert not out.exists()
+
+
+# ---------------------------------------------------------------------------
+# Several references per class in the element
+
+
+def test_element_classifies_by_every_reference(gst, tmp_path):
+    """labsegment with a multi-reference palette labels each pixel with the
+    class of its nearest reference, as the reference implementation does,
+    on random colours and on the two tones of a class."""
+    from gstlandmark import meta, pipeline
+    import frames as F
+
+    obj = {"classes": [
+        good_class("red", (45, 50, 40),
+                   references=[[45, 50, 40], [30, 40, 25]]),
+        good_class("yellow", (72, -2, 68),
+                   references=[[88, -8, 80], [55, 4, 55]]),
+        good_class("blue", (38, 30, -67)),
+        good_class("grey", (53.58, 0, 0), marker=False,
+                   references=[[53.58, 0, 0], [85, 0, 0], [25, 0, 0]])]}
+    path = write_json(tmp_path / "multi.json", obj)
+    pal = load_palette(path)
+    rng = np.random.default_rng(5)
+    img = F.random_rgb(rng, 48, 64)
+    tones = reference.lab_to_srgb8(np.array([[88, -8, 80], [55, 4, 55]]))
+    img[0, :2] = tones
+    caps = F.caps_string("RGB", 64, 48)
+    out = pipeline.process_frames(
+        f"labsegment palette={path} min-class-pixels=0", [img], caps)
+    lm = meta.labels(out[0])
+    seg = reference.segment_rgb(img, pal, min_class_pixels=0)
+    np.testing.assert_array_equal(lm.plane, seg.labels)
+    assert lm.plane[0, :2].tolist() == [2, 2]
+    # every class is used, so the test covers references of each
+    assert set(np.unique(lm.plane).tolist()) >= {1, 2, 3, 4}

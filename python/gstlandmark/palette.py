@@ -18,6 +18,7 @@ import math
 import re
 import sys
 
+import cv2
 import numpy as np
 
 from gstlandmark import reference
@@ -30,6 +31,23 @@ CLASS_KEYS = ("name", "lab", "references", "marker")
 _NAME_RE = re.compile(r"[A-Za-z0-9_.-]+")
 # Decimals written for L*a*b* values: far below any visible difference.
 LAB_DECIMALS = 4
+
+# Learning several references per class (docs/palette.md, "Several
+# reference colours"): k grows from 1 while each step keeps these.
+AUTO_MAX_REFERENCES = 4
+# every cluster holds at least this share of the class's pixels
+MIN_REFERENCE_SHARE = 0.10
+# the mean squared distance to the nearest reference at least halves: a
+# round blob of colour noise (a Gaussian in 2 or 3 of L*, a*, b*) loses at
+# most 32 % when split, two distinct tones or a shading gradient 75 % or
+# more
+MAX_SPREAD_RATIO = 0.5
+# and the RMS distance falls by at least one just-noticeable difference
+# (Delta E 2.3): noise along one axis only (loses 64 %) or quantisation
+# steps of a flat region never count as tones
+MIN_SPREAD_GAIN = 2.3
+# pixels clustered per class (a fixed-seed sample of larger regions)
+KMEANS_SAMPLE = 20000
 
 
 class PaletteError(ValueError):
@@ -385,10 +403,84 @@ def _marker_flags(names, markers, background):
     return [name not in listed for name in names]
 
 
-def _palette_from_masks(lab, names, masks, flags, allow_missing=False):
-    """Mean Lab of each class's pixels -> validated Palette.  Classes with
-    no pixels are an error, or with ``allow_missing`` are left out (with
-    a warning on stderr naming them)."""
+def _check_references(references):
+    """``references`` option: "auto" or a count 1..MAX_REFERENCES."""
+    if references == "auto":
+        return references
+    if (isinstance(references, bool) or not isinstance(references, int)
+            or not 1 <= references <= MAX_REFERENCES):
+        raise PaletteError(f"references must be \"auto\" or 1 to "
+                           f"{MAX_REFERENCES}, got {references!r}")
+    return references
+
+
+def _kmeans(pixels, k, seed):
+    """k-means of (N, 3) float32 pixels: (mean squared distance to the
+    nearest centre, labels (N,), centres (k, 3) float64)."""
+    cv2.setRNGSeed(seed)
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100,
+                1e-4)
+    compactness, labels, centres = cv2.kmeans(
+        pixels, k, None, criteria, 4, cv2.KMEANS_PP_CENTERS)
+    return (compactness / len(pixels), labels.ravel(),
+            centres.astype(np.float64))
+
+
+def cluster_references(pixels_lab, references="auto", seed=0):
+    """Reference colours of one class from its (N, 3) L*a*b* pixels.
+
+    ``references`` is a count, or "auto": k grows from 1 (the mean) to at
+    most AUTO_MAX_REFERENCES while the k-means step to k clusters
+    (OpenCV, fixed seed) gives every cluster at least MIN_REFERENCE_SHARE
+    of the pixels, cuts the mean squared distance of a pixel to its
+    nearest reference to at most MAX_SPREAD_RATIO of what k - 1 clusters
+    left, and cuts the RMS distance by at least MIN_SPREAD_GAIN.  Returns float64 (k, 3) centres, the
+    largest cluster first.
+    """
+    references = _check_references(references)
+    pixels = np.asarray(pixels_lab, dtype=np.float64).reshape(-1, 3)
+    mean = pixels.mean(axis=0)
+    if references == 1:
+        return mean[None, :]
+    if len(pixels) > KMEANS_SAMPLE:
+        rng = np.random.default_rng(seed)
+        pixels = pixels[rng.choice(len(pixels), KMEANS_SAMPLE,
+                                   replace=False)]
+    data = np.ascontiguousarray(pixels, dtype=np.float32)
+    distinct = len(np.unique(data, axis=0))
+
+    def ordered(labels, centres):
+        counts = np.bincount(labels, minlength=len(centres))
+        order = np.lexsort((centres[:, 0], -counts))
+        return centres[order]
+
+    if references != "auto":
+        if distinct < references:
+            raise PaletteError(f"{distinct} distinct colours cannot give "
+                               f"{references} references")
+        _, labels, centres = _kmeans(data, references, seed)
+        return ordered(labels, centres)
+
+    best = mean[None, :]
+    spread = float(np.mean(np.sum((data - mean) ** 2, axis=1)))
+    for k in range(2, min(AUTO_MAX_REFERENCES, distinct) + 1):
+        new_spread, labels, centres = _kmeans(data, k, seed)
+        shares = np.bincount(labels, minlength=k) / len(data)
+        if (shares.min() < MIN_REFERENCE_SHARE
+                or new_spread > MAX_SPREAD_RATIO * spread
+                or np.sqrt(spread) - np.sqrt(new_spread) < MIN_SPREAD_GAIN):
+            break
+        best, spread = ordered(labels, centres), new_spread
+    return best
+
+
+def _palette_from_masks(lab, names, masks, flags, allow_missing=False,
+                        references=1, seed=0):
+    """Mean Lab of each class's pixels (and its reference colours, see
+    ``cluster_references``) -> validated Palette.  Classes with no pixels
+    are an error, or with ``allow_missing`` are left out (with a warning
+    on stderr naming them)."""
+    references = _check_references(references)
     entries = []
     missing = []
     for name, mask, marker in zip(names, masks, flags):
@@ -400,10 +492,19 @@ def _palette_from_masks(lab, names, masks, flags, allow_missing=False):
             continue
         # Mean in float64 over the float32 Lab pixels; clip L* so float
         # rounding at pure white or black cannot fail validation.
-        mean = lab[mask].astype(np.float64).mean(axis=0)
+        pixels = lab[mask].astype(np.float64)
+        mean = pixels.mean(axis=0)
         mean[0] = min(max(mean[0], 0.0), 100.0)
-        entries.append({"name": name, "lab": [float(v) for v in mean],
-                        "marker": marker})
+        entry = {"name": name, "lab": [float(v) for v in mean],
+                 "marker": marker}
+        try:
+            refs = cluster_references(pixels, references, seed)
+        except PaletteError as err:
+            raise PaletteError(f"class {json.dumps(name)}: {err}") from None
+        if len(refs) > 1:
+            refs[:, 0] = np.clip(refs[:, 0], 0.0, 100.0)
+            entry["references"] = [[float(v) for v in r] for r in refs]
+        entries.append(entry)
     if missing:
         listed = ", ".join(json.dumps(n) for n in missing)
         if not entries:
@@ -414,7 +515,7 @@ def _palette_from_masks(lab, names, masks, flags, allow_missing=False):
 
 
 def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
-                    allow_missing=False):
+                    allow_missing=False, references=1):
     """Learn a palette from an image and a mask of class indices.
 
     Mask value 0 is ignored, value k (1..K) marks pixels of class k.  Names
@@ -423,7 +524,8 @@ def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
     Each class gets the mean L*a*b* of its pixels.  A class with no pixels
     is an error unless ``allow_missing`` is true: then it is left out of
     the palette (the others keep their order) and a warning on stderr
-    names it.
+    names it.  ``references``: reference colours per class, a count or
+    "auto" (``cluster_references``); 1 keeps the mean alone.
     """
     image = _check_image(image_bgr_uint8)
     mask = np.asarray(mask_uint8)
@@ -455,15 +557,18 @@ def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
     flags = _marker_flags(names, markers, None)
     masks = [mask == k for k in range(1, len(names) + 1)]
     return _palette_from_masks(_image_lab(image), names, masks, flags,
-                               allow_missing=allow_missing)
+                               allow_missing=allow_missing,
+                               references=references)
 
 
-def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None):
+def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None,
+                     references=1):
     """Learn a palette from rectangles ``[(name, x, y, w, h), ...]``.
 
     Several rectangles may share a name; their pixels are pooled.  Classes
     are in order of first appearance.  ``markers`` or ``background`` lists
     which names are markers or background (default: all markers).
+    ``references`` as for ``learn_from_mask``.
     """
     image = _check_image(image_bgr_uint8)
     height, width = image.shape[:2]
@@ -496,4 +601,5 @@ def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None):
                            f"are allowed")
     flags = _marker_flags(names, markers, background)
     masks = [class_masks[name] for name in names]
-    return _palette_from_masks(_image_lab(image), names, masks, flags)
+    return _palette_from_masks(_image_lab(image), names, masks, flags,
+                               references=references)

@@ -48,6 +48,11 @@ MAX_SPREAD_RATIO = 0.5
 MIN_SPREAD_GAIN = 2.3
 # pixels clustered per class (a fixed-seed sample of larger regions)
 KMEANS_SAMPLE = 20000
+# an extra reference nearer than this to a reference of another class
+# tells the classes apart by less than two just-noticeable differences
+# (Delta E 2 x 2.3) and is dropped: the black unlit side that balls of
+# every colour share
+MIN_REFERENCE_SEPARATION = 4.6
 
 
 class PaletteError(ValueError):
@@ -426,6 +431,42 @@ def _kmeans(pixels, k, seed):
             centres.astype(np.float64))
 
 
+def _sample(pixels, seed):
+    """At most KMEANS_SAMPLE of the pixels, chosen with a fixed seed."""
+    if len(pixels) <= KMEANS_SAMPLE:
+        return pixels
+    rng = np.random.default_rng(seed)
+    return pixels[rng.choice(len(pixels), KMEANS_SAMPLE, replace=False)]
+
+
+def prune_shared_references(class_refs):
+    """Drop learned references that do not tell the classes apart.
+
+    ``class_refs``: per class, (k, 3) references (k = 1: its mean).  Every
+    extra reference of a class (one of k > 1) that lies within
+    MIN_REFERENCE_SEPARATION of a reference of another class is dropped,
+    all of them at once (a colour several classes claim belongs to none of
+    them), until none is left; a class's last reference stays.  Returns
+    the kept references per class.
+    """
+    refs = [np.asarray(r, dtype=np.float64).reshape(-1, 3).copy()
+            for r in class_refs]
+    while True:
+        flat = np.vstack(refs)
+        owner = np.repeat(np.arange(len(refs)), [len(r) for r in refs])
+        dist = np.linalg.norm(flat[:, None, :] - flat[None, :, :], axis=2)
+        dist[owner[:, None] == owner[None, :]] = np.inf
+        close = dist.min(axis=1) < MIN_REFERENCE_SEPARATION
+        drop = close & np.array([len(refs[k]) > 1 for k in owner])
+        if not drop.any():
+            return refs
+        keep = ~drop
+        for k in range(len(refs)):
+            mine = keep[owner == k]
+            # if every reference of a class goes, its first one stays
+            refs[k] = refs[k][mine] if mine.any() else refs[k][:1]
+
+
 def cluster_references(pixels_lab, references="auto", seed=0):
     """Reference colours of one class from its (N, 3) L*a*b* pixels.
 
@@ -442,11 +483,7 @@ def cluster_references(pixels_lab, references="auto", seed=0):
     mean = pixels.mean(axis=0)
     if references == 1:
         return mean[None, :]
-    if len(pixels) > KMEANS_SAMPLE:
-        rng = np.random.default_rng(seed)
-        pixels = pixels[rng.choice(len(pixels), KMEANS_SAMPLE,
-                                   replace=False)]
-    data = np.ascontiguousarray(pixels, dtype=np.float32)
+    data = np.ascontiguousarray(_sample(pixels, seed), dtype=np.float32)
     distinct = len(np.unique(data, axis=0))
 
     def ordered(labels, centres):
@@ -483,6 +520,7 @@ def _palette_from_masks(lab, names, masks, flags, allow_missing=False,
     references = _check_references(references)
     entries = []
     missing = []
+    taught = []
     for name, mask, marker in zip(names, masks, flags):
         if not mask.any():
             if not allow_missing:
@@ -495,16 +533,21 @@ def _palette_from_masks(lab, names, masks, flags, allow_missing=False,
         pixels = lab[mask].astype(np.float64)
         mean = pixels.mean(axis=0)
         mean[0] = min(max(mean[0], 0.0), 100.0)
-        entry = {"name": name, "lab": [float(v) for v in mean],
-                 "marker": marker}
+        entries.append({"name": name, "lab": [float(v) for v in mean],
+                        "marker": marker})
         try:
             refs = cluster_references(pixels, references, seed)
         except PaletteError as err:
             raise PaletteError(f"class {json.dumps(name)}: {err}") from None
+        taught.append((pixels, mean[None, :] if len(refs) == 1 else refs))
+    if references == "auto" and len(taught) > 1:
+        kept = prune_shared_references([r for _, r in taught])
+    else:
+        kept = [r for _, r in taught]
+    for entry, refs in zip(entries, kept):
         if len(refs) > 1:
             refs[:, 0] = np.clip(refs[:, 0], 0.0, 100.0)
             entry["references"] = [[float(v) for v in r] for r in refs]
-        entries.append(entry)
     if missing:
         listed = ", ".join(json.dumps(n) for n in missing)
         if not entries:

@@ -878,3 +878,35 @@ def test_old_palette_files_load_unchanged(gst):
         old = reference.classify(reference.rgb_to_lab(img), pal.lab_array(),
                                  min_class_pixels=0)
         np.testing.assert_array_equal(meta.labels(out[0]).plane, old.labels)
+
+
+def test_learn_drops_references_classes_share():
+    """Two balls, red and blue, each black on its unlit 40 %: the black
+    tone is a reference of both, tells them apart by nothing and is
+    dropped from both; the two-tone yellow keeps both its tones."""
+    from gstlandmark.palette import (MIN_REFERENCE_SEPARATION,
+                                     prune_shared_references)
+    rng = np.random.default_rng(8)
+    black = (2.0, 0.0, 0.0)
+    parts = [(RED_LAB, 0), (black, 0), ((38.0, 30.0, -67.0), 1),
+             ((2.5, 0.5, -0.5), 1), (LIT_YELLOW, 2), (SHADED_YELLOW, 2)]
+    counts = [600, 400, 600, 400, 600, 400]
+    image = np.vstack([np.tile(lab_to_bgr(lab), (n, 1))
+                       for (lab, _), n in zip(parts, counts)])
+    image = image.astype(np.float64) + rng.normal(0, 1.0, image.shape)
+    image = np.clip(np.rint(image), 0, 255).astype(np.uint8)[:, None, :]
+    mask = np.concatenate([np.full(n, k + 1, np.uint8)
+                           for (_, k), n in zip(parts, counts)])[:, None]
+    learned = learn_from_mask(image, mask, names=["red", "blue", "yellow"],
+                              references="auto")
+    red, blue, yellow = learned.classes
+    assert red.references == () and blue.references == ()
+    assert len(yellow.references) == 2
+    # the rule alone: an extra reference near another class's goes, one
+    # far from every other class stays, a class's last one always stays
+    kept = prune_shared_references([
+        np.array([[50.0, 40, 30], [2.0, 0, 0]]),
+        np.array([[2.0 + MIN_REFERENCE_SEPARATION / 2, 0, 0]]),
+        np.array([[80.0, -20, 60], [40.0, -10, 30]])])
+    assert [len(r) for r in kept] == [1, 1, 2]
+    np.testing.assert_array_equal(kept[0], [[50.0, 40, 30]])

@@ -53,6 +53,11 @@ KMEANS_SAMPLE = 20000
 # (Delta E 2 x 2.3) and is dropped: the black unlit side that balls of
 # every colour share
 MIN_REFERENCE_SEPARATION = 4.6
+# an extra reference may take at most this share of another class's taught
+# pixels from that class (pixels the palette without it labels right):
+# backgrounds fill most of a frame, so a shaded-red reference that reaches
+# into the dark planks of a wooden floor costs more than it gains
+MAX_STOLEN_SHARE = 0.005
 
 
 class PaletteError(ValueError):
@@ -439,15 +444,55 @@ def _sample(pixels, seed):
     return pixels[rng.choice(len(pixels), KMEANS_SAMPLE, replace=False)]
 
 
-def prune_shared_references(class_refs):
+def prune_stealing_references(class_refs, class_pixels, seed=0):
+    """Drop extra references that take taught pixels of other classes.
+
+    ``class_refs``: per class, (k, 3) references (k = 1: its mean);
+    ``class_pixels``: per class, its taught (N, 3) L*a*b* pixels (a class
+    left with one reference is classified by its mean).  While
+    an extra reference (one of k > 1) is the nearest reference of more
+    than MAX_STOLEN_SHARE of some other class's pixels whose next nearest
+    reference is of their own class, the worst such reference is dropped.
+    """
+    refs = [np.asarray(r, dtype=np.float64).reshape(-1, 3).copy()
+            for r in class_refs]
+    pixels_all = [np.asarray(p, dtype=np.float64).reshape(-1, 3)
+                  for p in class_pixels]
+    means = [p.mean(axis=0, keepdims=True) for p in pixels_all]
+    samples = [_sample(p, seed) for p in pixels_all]
+    while any(len(r) > 1 for r in refs):
+        flat = np.vstack(refs)
+        owner = np.repeat(np.arange(len(refs)), [len(r) for r in refs])
+        slot = np.concatenate([np.arange(len(r)) for r in refs])
+        stolen = np.zeros(len(flat))
+        for k, pixels in enumerate(samples):
+            d2 = ((pixels[:, None, :] - flat[None, :, :]) ** 2).sum(axis=2)
+            two = np.argsort(d2, axis=1, kind="stable")[:, :2]
+            taken = (owner[two[:, 0]] != k) & (owner[two[:, 1]] == k)
+            share = np.bincount(two[taken, 0], minlength=len(flat)) \
+                / len(pixels)
+            stolen = np.maximum(stolen, share)
+        stolen[[len(refs[k]) == 1 for k in owner]] = 0.0
+        worst = int(np.argmax(stolen))
+        if stolen[worst] <= MAX_STOLEN_SHARE:
+            break
+        k = owner[worst]
+        refs[k] = np.delete(refs[k], slot[worst], axis=0)
+        if len(refs[k]) == 1:
+            refs[k] = means[k]
+    return refs
+
+
+def prune_shared_references(class_refs, class_means):
     """Drop learned references that do not tell the classes apart.
 
-    ``class_refs``: per class, (k, 3) references (k = 1: its mean).  Every
-    extra reference of a class (one of k > 1) that lies within
+    ``class_refs``: per class, (k, 3) references (k = 1: its mean);
+    ``class_means``: per class, the mean of its pixels.  Every extra
+    reference of a class (one of k > 1) that lies within
     MIN_REFERENCE_SEPARATION of a reference of another class is dropped,
     all of them at once (a colour several classes claim belongs to none of
-    them), until none is left; a class's last reference stays.  Returns
-    the kept references per class.
+    them), until none is left; a class left with one reference is
+    classified by its mean.  Returns the kept references per class.
     """
     refs = [np.asarray(r, dtype=np.float64).reshape(-1, 3).copy()
             for r in class_refs]
@@ -463,8 +508,11 @@ def prune_shared_references(class_refs):
         keep = ~drop
         for k in range(len(refs)):
             mine = keep[owner == k]
-            # if every reference of a class goes, its first one stays
-            refs[k] = refs[k][mine] if mine.any() else refs[k][:1]
+            if mine.sum() > 1:
+                refs[k] = refs[k][mine]
+            elif not mine.all():
+                refs[k] = np.asarray(class_means[k],
+                                     dtype=np.float64).reshape(1, 3)
 
 
 def cluster_references(pixels_lab, references="auto", seed=0):
@@ -541,7 +589,10 @@ def _palette_from_masks(lab, names, masks, flags, allow_missing=False,
             raise PaletteError(f"class {json.dumps(name)}: {err}") from None
         taught.append((pixels, mean[None, :] if len(refs) == 1 else refs))
     if references == "auto" and len(taught) > 1:
-        kept = prune_shared_references([r for _, r in taught])
+        kept = prune_stealing_references(
+            prune_shared_references([r for _, r in taught],
+                                    [p.mean(axis=0) for p, _ in taught]),
+            [p for p, _ in taught], seed)
     else:
         kept = [r for _, r in taught]
     for entry, refs in zip(entries, kept):

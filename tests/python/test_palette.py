@@ -904,9 +904,43 @@ def test_learn_drops_references_classes_share():
     assert len(yellow.references) == 2
     # the rule alone: an extra reference near another class's goes, one
     # far from every other class stays, a class's last one always stays
-    kept = prune_shared_references([
-        np.array([[50.0, 40, 30], [2.0, 0, 0]]),
-        np.array([[2.0 + MIN_REFERENCE_SEPARATION / 2, 0, 0]]),
-        np.array([[80.0, -20, 60], [40.0, -10, 30]])])
+    # (a class left with one reference is classified by its mean)
+    kept = prune_shared_references(
+        [np.array([[50.0, 40, 30], [2.0, 0, 0]]),
+         np.array([[2.0 + MIN_REFERENCE_SEPARATION / 2, 0, 0]]),
+         np.array([[80.0, -20, 60], [40.0, -10, 30]])],
+        [(30.0, 25, 20), (2.0 + MIN_REFERENCE_SEPARATION / 2, 0, 0),
+         (60.0, -15, 45)])
     assert [len(r) for r in kept] == [1, 1, 2]
-    np.testing.assert_array_equal(kept[0], [[50.0, 40, 30]])
+    np.testing.assert_array_equal(kept[0], [[30.0, 25, 20]])
+    np.testing.assert_array_equal(kept[2], [[80.0, -20, 60],
+                                            [40.0, -10, 30]])
+
+
+def test_learn_drops_references_that_take_another_class():
+    """A red ball whose shaded side (40 %) has the colour of the dark planks
+    that make 7 % of a wooden floor: a shaded-red reference would take
+    those floor pixels, so red keeps one reference; the floor's planks are
+    too few to be a tone of their own; yellow keeps both tones."""
+    from gstlandmark.palette import MAX_STOLEN_SHARE
+    rng = np.random.default_rng(10)
+    plank, shaded_red = (25.0, 24.0, 19.0), (24.0, 26.0, 20.0)
+    parts = [(RED_LAB, 1, 600), (shaded_red, 1, 400),
+             ((50.0, 5.0, 10.0), 2, 1860), (plank, 2, 140),
+             (LIT_YELLOW, 3, 600), (SHADED_YELLOW, 3, 400)]
+    image = np.vstack([np.tile(lab_to_bgr(lab), (n, 1))
+                       for lab, _, n in parts]).astype(np.float64)
+    image = np.clip(np.rint(image + rng.normal(0, 1.0, image.shape)), 0,
+                    255).astype(np.uint8)[:, None, :]
+    mask = np.concatenate([np.full(n, k, np.uint8)
+                           for _, k, n in parts])[:, None]
+    learned = learn_from_mask(image, mask, names=["red", "floor", "yellow"],
+                              markers=["red", "yellow"], references="auto")
+    red, floor, yellow = learned.classes
+    assert red.references == () and floor.references == ()
+    assert len(yellow.references) == 2
+    # on its own the red region has two tones: the drop is the rule's
+    alone = learn_from_mask(image[mask[:, 0] == 1], mask[mask == 1][:, None],
+                            names=["red"], references="auto")
+    assert len(alone.classes[0].references) == 2
+    assert 140 / 2000 > MAX_STOLEN_SHARE

@@ -944,3 +944,14 @@ def test_learn_drops_references_that_take_another_class():
                             names=["red"], references="auto")
     assert len(alone.classes[0].references) == 2
     assert 140 / 2000 > MAX_STOLEN_SHARE
+
+
+def test_cli_check_lists_references(tmp_path, capsys):
+    path = write_json(tmp_path / "p.json", {"classes": [
+        good_class("yellow", (75, -5, 70),
+                   references=[[90, -15, 80], [55, 4, 55]])]})
+    assert cli.main(["palette", "check", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    refs = [line.split() for line in lines if line.endswith("reference")]
+    assert refs == [["90.00", "-15.00", "80.00", "reference"],
+                    ["55.00", "4.00", "55.00", "reference"]]

@@ -62,7 +62,8 @@ def test_two_robots(gst, tmp_path, camera_file):
     out = tmp_path / "fleet.json"
     fleet = subprocess.Popen(
         [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
-         str(broker.port), "-o", str(out), "--write-every", "0.2"],
+         str(broker.port), "-o", str(out), "--write-every", "0.2",
+         "--path-every", "0"],
         stderr=subprocess.PIPE, text=True)
     try:
         assert wait_for(out.exists, 10), "the fleet wrote nothing"
@@ -150,3 +151,54 @@ def test_unreachable_broker_is_a_clear_error(tmp_path):
         capture_output=True, text=True, timeout=30)
     assert done.returncode == 1
     assert f"cannot reach the broker at 127.0.0.1:{port}" in done.stderr
+
+
+@needs_mosquitto
+def test_load_ten_robots(gst):
+    """10 robots x 30 frames/s for 10 s (`gst-landmark bench fleet`, the
+    short run): the fleet receives every frame message the broker
+    acknowledged, once and in order, within half a second, and its memory
+    does not grow over the last 6 s."""
+    from gstlandmark import fleetbench
+    r = fleetbench.run_fleet_bench(robots=10, rate=30, seconds=10,
+                                   window_s=6)
+    assert r["sent"] == 10 * 30 * 10
+    assert r["acked"] == r["received"] == r["sent"]
+    assert all(x["received"] == x["sent"] == 300 for x in r["per-robot"])
+    assert r["missed"] == r["out-of-sequence"] == 0
+    assert r["offline"] == 10
+    assert r["delay"]["messages"] == r["sent"]
+    assert r["delay"]["p95"] < 0.5 and r["delay"]["max"] < 2.0
+    # the chain's real messages: a few KB with detections and a pose
+    assert 2000 < r["frame-message-bytes"] < 8000
+    assert r["sample-frames-with-pose"] >= 40
+    assert len(r["rss"]) >= 9 and r["rss-window-s"] >= 5
+    # 10 robots add 2 path points a second, about 130 bytes each: 16 KB
+    # in 6 s; a leak of 64 bytes per message received (600 a second with
+    # the pose messages) would add 230 KB
+    assert r["rss-growth-bytes"] < 1 << 20
+    assert fleetbench.failures(r, 1 << 20, 2.0) == []
+
+
+def test_load_failures_are_reported():
+    """The bench's verdict names each way a fleet can fall short."""
+    from gstlandmark import fleetbench
+    good = {"sent": 6, "acked": 6, "received": 6, "missed": 0,
+            "out-of-sequence": 0, "offline": 2, "robots": 2,
+            "per-robot": [{"robot": "a", "sent": 3, "received": 3},
+                          {"robot": "b", "sent": 3, "received": 3}],
+            "delay": {"max": 0.01}, "rss-growth-bytes": 1000,
+            "rss-window-s": 40}
+    assert fleetbench.failures(good, 4 << 20, 2.0) == []
+    lost = dict(good, received=5, missed=1)
+    lost["per-robot"] = [{"robot": "a", "sent": 3, "received": 2},
+                         {"robot": "b", "sent": 3, "received": 3}]
+    text = " ".join(fleetbench.failures(lost, 4 << 20, 2.0))
+    assert "a: sent 3, the fleet received 2" in text
+    assert "received 5 of 6" in text and "1 frames missed" in text
+    late = dict(good, delay={"max": 3.5})
+    assert "arrived 3.5 s after" in fleetbench.failures(late, 4 << 20,
+                                                        2.0)[0]
+    grown = dict(good, **{"rss-growth-bytes": 5 << 20})
+    assert "memory grew by 5242880 bytes over the last 40 s" in \
+        fleetbench.failures(grown, 4 << 20, 2.0)[0]

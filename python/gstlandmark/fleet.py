@@ -216,8 +216,9 @@ class Fleet:
         self.topics = [(topic + k, 1) for k in ("frame", "pose", "status")]
         self.client.on_connect = self._on_connect
         self.client.on_subscribe = lambda *a: self.subscribed.set()
-        self.client.on_message = lambda c, u, m: self.state.handle(
-            m.topic, m.payload)
+        self.pose_topic = topic + "pose"
+        self.live_poses = False
+        self.client.on_message = self._on_message
 
     def _on_connect(self, client, userdata, flags, reason_code, properties):
         if reason_code.is_failure:
@@ -225,7 +226,19 @@ class Fleet:
                             f"the connection: {reason_code}")
             return
         self.problem = None
+        self.live_poses = False
         client.subscribe(self.topics)
+
+    def _on_message(self, client, userdata, m):
+        self.state.handle(m.topic, m.payload)
+        if (not m.retain and not self.live_poses
+                and m.topic.endswith("/pose")):
+            # The broker sends the retained poses (robots not sending now)
+            # right after the subscription, before anything live; a live
+            # pose repeats the pose of its frame message, and would double
+            # the messages handled: from here on frames are enough.
+            self.live_poses = True
+            client.unsubscribe(self.pose_topic)
 
     def start(self, timeout_s: float = 10.0) -> "Fleet":
         try:

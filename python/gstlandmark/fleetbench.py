@@ -445,6 +445,8 @@ def run_fleet_bench(robots: int = DEFAULT_ROBOTS, rate: float = DEFAULT_RATE,
                     stop.wait(1.0)
             sampler = threading.Thread(target=sample_rss, daemon=True)
             cpu0 = _cpu_seconds(fleet.pid)
+            broker_cpu0 = _cpu_seconds(broker.proc.pid)
+            load0 = os.getloadavg()[0]
             sampler.start()
             progress(f"{robots} robots x {rate:g} frames/s for {seconds:g} s"
                      f" (QoS {qos})")
@@ -452,6 +454,8 @@ def run_fleet_bench(robots: int = DEFAULT_ROBOTS, rate: float = DEFAULT_RATE,
             stop.set()
             sampler.join()
             cpu1 = _cpu_seconds(fleet.pid)
+            broker_cpu1 = _cpu_seconds(broker.proc.pid)
+            load1 = os.getloadavg()[0]
             sent = sum(sim.sent.values())
 
             def caught_up():
@@ -507,6 +511,10 @@ def run_fleet_bench(robots: int = DEFAULT_ROBOTS, rate: float = DEFAULT_RATE,
         "fleet-cpu-percent": (None if cpu0 is None or cpu1 is None else
                               100 * (cpu1 - cpu0) /
                               timing["publish-seconds"]),
+        "broker-cpu-percent": (None if broker_cpu0 is None or broker_cpu1
+                               is None else 100 * (broker_cpu1 - broker_cpu0)
+                               / timing["publish-seconds"]),
+        "load-average": [load0, load1],
         "rss": rss,
         "rss-window-s": min(window_s, end_t),
         "rss-growth-bytes": (in_window[-1] - in_window[0]
@@ -514,7 +522,6 @@ def run_fleet_bench(robots: int = DEFAULT_ROBOTS, rate: float = DEFAULT_RATE,
         "rss-window-range-bytes": (max(in_window) - min(in_window)
                                    if in_window else None),
         "broker": broker.settings,
-        "load-average": os.getloadavg(),
         "cores": os.cpu_count(),
     }
 
@@ -583,8 +590,11 @@ def format_result(result: Dict[str, Any]) -> str:
         f"messages",
     ]
     if result["fleet-cpu-percent"] is not None:
-        lines.append(f"fleet process CPU: {result['fleet-cpu-percent']:.0f}%"
-                     f" of one core")
+        lines.append(f"CPU: fleet process {result['fleet-cpu-percent']:.0f}%"
+                     f", mosquitto {result['broker-cpu-percent']:.0f}% of "
+                     f"one core; machine: {result['cores']} cores, load "
+                     f"average {result['load-average'][0]:.1f} at the "
+                     f"start, {result['load-average'][1]:.1f} at the end")
     if rss:
         lines.append(
             f"fleet RSS: {rss[0] / mib:.1f} MiB at the start, "

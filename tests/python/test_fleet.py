@@ -202,3 +202,50 @@ def test_load_failures_are_reported():
     grown = dict(good, **{"rss-growth-bytes": 5 << 20})
     assert "memory grew by 5242880 bytes over the last 40 s" in \
         fleetbench.failures(grown, 4 << 20, 2.0)[0]
+
+
+@needs_mosquitto
+def test_retained_pose_of_a_quiet_robot_then_frames_only(tmp_path):
+    """A fleet started late gets the retained pose of a robot that no
+    longer sends; once live poses flow it takes poses from the frame
+    messages alone (the pose topic is left), losing none."""
+    import paho.mqtt.client as mqtt
+    from gstlandmark.fleet import Fleet
+    broker = Broker(tmp_path).start()
+    pub = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id="pub",
+                      protocol=mqtt.MQTTv311)
+    pub.connect("127.0.0.1", broker.port)
+    pub.loop_start()
+    fleet = None
+    try:
+        def pose(i):
+            return {"x": 1.0 + i, "y": 2.0, "heading": 0.5}
+        pub.publish("landmark/quiet/pose", json.dumps(
+            {"robot": "quiet", "frame": 7, "wall-time": 50.0,
+             "pose": pose(0)}), qos=1, retain=True).wait_for_publish(5)
+        fleet = Fleet(port=broker.port, path_every=0).start()
+        assert wait_for(lambda: "quiet" in fleet.state.robots, 5)
+        assert not fleet.live_poses
+        for i in range(20):
+            body = {"robot": "live", "frame": i, "wall-time": 100.0 + i,
+                    "pose": pose(i), "detections": []}
+            pub.publish("landmark/live/frame", json.dumps(body), qos=1)
+            pub.publish("landmark/live/pose", json.dumps(
+                {k: body[k] for k in ("robot", "frame", "wall-time",
+                                      "pose")}), qos=1, retain=True)
+        assert wait_for(
+            lambda: fleet.state.robots.get("live", {}).get("frames") == 20,
+            10)
+        assert fleet.live_poses
+        snap = fleet.state.snapshot()
+    finally:
+        if fleet:
+            fleet.stop()
+        pub.disconnect()
+        pub.loop_stop()
+        broker.stop()
+    quiet, live = snap["robots"]["quiet"], snap["robots"]["live"]
+    assert quiet["pose"]["x"] == 1.0 and quiet["pose"]["frame"] == 7
+    assert quiet["frames"] == 0 and quiet["path"] == [[1.0, 2.0, 0.5, 50.0]]
+    assert [p[0] for p in live["path"]] == [1.0 + i for i in range(20)]
+    assert live["pose"]["frame"] == 19 and live["missed-frames"] == 0

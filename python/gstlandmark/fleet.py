@@ -104,19 +104,21 @@ class FleetState:
         return r
 
     def _pose(self, name: str, r: Dict[str, Any],
-              msg: Dict[str, Any]) -> None:
+              msg: Dict[str, Any]) -> bool:
+        """Keeps the pose; False when it was kept already."""
         pose = msg.get("pose")
         wall = msg.get("wall-time")
         if not isinstance(pose, dict) or not isinstance(wall, (int, float)):
-            return
+            return True
         last = r["pose"]["wall-time"] if r["pose"] else None
         if last is not None and wall <= last:
-            return          # the retained copy of a pose already kept
+            return False    # the pose message of a frame already seen
         r["pose"] = dict(pose, frame=msg.get("frame"), **{"wall-time": wall})
         if last is None or wall - r["path-wall-time"] >= self.path_every:
             r["path-wall-time"] = wall
             self.paths[name].append(json.dumps(
                 [pose.get("x"), pose.get("y"), pose.get("heading"), wall]))
+        return True
 
     def _frame(self, r: Dict[str, Any], msg: Dict[str, Any]) -> None:
         frame, last = msg.get("frame"), r["last-frame"]
@@ -136,11 +138,13 @@ class FleetState:
             self.delay.add(r["delay"])
         r["detections"] = msg.get("detections", [])
 
-    def handle(self, topic: str, payload: bytes) -> None:
+    def handle(self, topic: str, payload: bytes) -> bool:
+        """Takes one message in; True when it was a pose message that
+        repeated the pose of a frame message already handled."""
         parts = topic.split("/")
         head = self.prefix.split("/")
         if len(parts) != len(head) + 2 or parts[:len(head)] != head:
-            return
+            return False
         name, kind = parts[len(head)], parts[len(head) + 1]
         try:
             msg = json.loads(payload)
@@ -149,15 +153,17 @@ class FleetState:
         with self.lock:
             if not isinstance(msg, dict):
                 self.bad_messages += 1
-                return
+                return False
             r = self._robot(name)
             if kind == "frame":
                 self._frame(r, msg)
                 self._pose(name, r, msg)
             elif kind == "pose":
-                self._pose(name, r, msg)
+                kept = self._pose(name, r, msg)
+                return r["frames"] > 0 and not kept
             elif kind == "status":
                 r["status"] = msg.get("status")
+        return False
 
     def snapshot_text(self) -> str:
         """The fleet as JSON text: one robot per line."""
@@ -196,9 +202,11 @@ class Fleet:
                  password: Optional[str] = None,
                  tls_ca_file: Optional[str] = None,
                  path_length: int = DEFAULT_PATH_LENGTH,
-                 path_every: float = DEFAULT_PATH_EVERY):
+                 path_every: float = DEFAULT_PATH_EVERY,
+                 all_poses: bool = False):
         import paho.mqtt.client as mqtt
         self.state = FleetState(prefix, path_length, path_every)
+        self.all_poses = all_poses
         self.host, self.port = host, port
         self.subscribed = threading.Event()
         self.problem: Optional[str] = None
@@ -230,13 +238,15 @@ class Fleet:
         client.subscribe(self.topics)
 
     def _on_message(self, client, userdata, m):
-        self.state.handle(m.topic, m.payload)
-        if (not m.retain and not self.live_poses
-                and m.topic.endswith("/pose")):
-            # The broker sends the retained poses (robots not sending now)
-            # right after the subscription, before anything live; a live
-            # pose repeats the pose of its frame message, and would double
-            # the messages handled: from here on frames are enough.
+        repeat = self.state.handle(m.topic, m.payload)
+        if (repeat and not m.retain and not self.live_poses
+                and not self.all_poses):
+            # A live pose message that repeats its frame message's pose:
+            # robots send both, which doubles the messages to handle. The
+            # retained poses of quiet robots came right after the
+            # subscription, before anything live; from here on frames are
+            # enough. (--all-poses keeps the topic, for feeds where some
+            # robots send poses without frames.)
             self.live_poses = True
             client.unsubscribe(self.pose_topic)
 
@@ -263,13 +273,13 @@ class Fleet:
 def run(host, port, output, prefix="landmark", username=None, password=None,
         tls_ca_file=None, duration=None, write_every=1.0,
         path_length=DEFAULT_PATH_LENGTH, path_every=DEFAULT_PATH_EVERY,
-        stream=None) -> int:
+        all_poses=False, stream=None) -> int:
     stream = stream or sys.stderr
     out_dir = os.path.dirname(os.path.abspath(output))
     if not os.path.isdir(out_dir):
         raise CliError(f"{out_dir}: no such directory")
     fleet = Fleet(host, port, prefix, username, password, tls_ca_file,
-                  path_length, path_every).start()
+                  path_length, path_every, all_poses).start()
     stop = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *a: stop.set())
     previous_term = signal.signal(signal.SIGTERM, lambda *a: stop.set())
@@ -328,6 +338,10 @@ def add_fleet_parser(subparsers):
                    metavar="S",
                    help="least time between path points, by the robot's "
                         "wall-time (default %(default)s; 0: every pose)")
+    p.add_argument("--all-poses", action="store_true",
+                   help="keep every pose message (default: once a live "
+                        "pose message repeats its frame message, poses come "
+                        "from frame messages only)")
     p.set_defaults(handler=_handle, parser=p)
 
 
@@ -342,7 +356,7 @@ def _handle(args) -> int:
                    args.username,
                    args.password or os.environ.get("LANDMARK_MQTT_PASSWORD"),
                    args.tls_ca_file, args.duration, args.write_every,
-                   args.path_length, args.path_every)
+                   args.path_length, args.path_every, args.all_poses)
     except CliError as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)
         return err.status

@@ -207,8 +207,9 @@ def test_load_failures_are_reported():
 @needs_mosquitto
 def test_retained_pose_of_a_quiet_robot_then_frames_only(tmp_path):
     """A fleet started late gets the retained pose of a robot that no
-    longer sends; once live poses flow it takes poses from the frame
-    messages alone (the pose topic is left), losing none."""
+    longer sends, and live poses sent without frames; once a live pose
+    repeats its frame message, it takes poses from the frame messages
+    alone (the pose topic is left), losing none."""
     import paho.mqtt.client as mqtt
     from gstlandmark.fleet import Fleet
     broker = Broker(tmp_path).start()
@@ -225,6 +226,14 @@ def test_retained_pose_of_a_quiet_robot_then_frames_only(tmp_path):
              "pose": pose(0)}), qos=1, retain=True).wait_for_publish(5)
         fleet = Fleet(port=broker.port, path_every=0).start()
         assert wait_for(lambda: "quiet" in fleet.state.robots, 5)
+        # live poses without frames (a bridge that forwards poses only)
+        # keep the pose topic
+        for i in range(3):
+            pub.publish("landmark/bridged/pose", json.dumps(
+                {"robot": "bridged", "frame": i, "wall-time": 60.0 + i,
+                 "pose": pose(i)}), qos=1, retain=True)
+        assert wait_for(lambda: (fleet.state.robots.get("bridged", {})
+                                 .get("pose") or {}).get("frame") == 2, 5)
         assert not fleet.live_poses
         for i in range(20):
             body = {"robot": "live", "frame": i, "wall-time": 100.0 + i,
@@ -247,5 +256,6 @@ def test_retained_pose_of_a_quiet_robot_then_frames_only(tmp_path):
     quiet, live = snap["robots"]["quiet"], snap["robots"]["live"]
     assert quiet["pose"]["x"] == 1.0 and quiet["pose"]["frame"] == 7
     assert quiet["frames"] == 0 and quiet["path"] == [[1.0, 2.0, 0.5, 50.0]]
+    assert [p[0] for p in snap["robots"]["bridged"]["path"]] == [1, 2, 3]
     assert [p[0] for p in live["path"]] == [1.0 + i for i in range(20)]
     assert live["pose"]["frame"] == 19 and live["missed-frames"] == 0

@@ -173,6 +173,9 @@ def capture_messages(port: int, directory: str,
     from . import calibrate, goldens
     clip = os.path.join(goldens.ROOT, "tests", "files", "clips",
                         "path-small")
+    if not os.path.isdir(clip):
+        raise BenchError(f"{clip}: no such directory (the bench runs from "
+                         f"the source tree)")
     with open(os.path.join(clip, "scene.json")) as f:
         cam = json.load(f)["camera"]
     camera = {calibrate.K_WIDTH: cam["width"],

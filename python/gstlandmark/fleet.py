@@ -31,7 +31,7 @@ DEFAULT_PATH_EVERY = 0.5
 
 class DelayHistogram:
     """How late frame messages arrive: arrival time minus the robot's
-    ``wall-time``, in buckets 2 % wide from 0.1 ms to 100 s, so the
+    ``wall-time``, in buckets 2 % wide from 0.1 ms to 104 s, so the
     memory is fixed however long the fleet runs; percentiles are good to
     2 %, the maximum is exact."""
 
@@ -63,8 +63,9 @@ class DelayHistogram:
         for i, n in enumerate(self.counts):
             seen += n
             if seen >= rank and n:
-                edge = self.LOW_S * self.RATIO ** i
-                return min(edge, self.max)
+                if i == self.BUCKETS + 1:
+                    return self.max     # beyond the last bucket
+                return min(self.LOW_S * self.RATIO ** i, self.max)
         return self.max
 
     def summary(self) -> Dict[str, Any]:

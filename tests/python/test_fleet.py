@@ -259,3 +259,26 @@ def test_retained_pose_of_a_quiet_robot_then_frames_only(tmp_path):
     assert [p[0] for p in snap["robots"]["bridged"]["path"]] == [1, 2, 3]
     assert [p[0] for p in live["path"]] == [1.0 + i for i in range(20)]
     assert live["pose"]["frame"] == 19 and live["missed-frames"] == 0
+
+
+def test_delay_percentiles_against_numpy():
+    """The fleet's fixed histogram gives the delay percentiles to 2 %
+    (numpy's on the same values as the reference) and the exact maximum;
+    clocks apart (negative delays) and delays beyond 100 s are counted."""
+    import numpy as np
+    from gstlandmark.fleet import DelayHistogram
+    rng = np.random.default_rng(3)
+    values = np.exp(rng.normal(np.log(0.004), 1.5, 20000))
+    h = DelayHistogram()
+    for v in values:
+        h.add(float(v))
+    for q in (0.5, 0.95):
+        ref = float(np.quantile(values, q, method="inverted_cdf"))
+        assert ref <= h.quantile(q) <= ref * 1.0201, (q, ref)
+    assert h.summary()["max"] == float(values.max())
+    assert h.summary()["messages"] == 20000
+    h.add(-0.5)
+    h.add(250.0)
+    assert h.count == 20002 and h.max == 250.0
+    assert h.quantile(1.0) == 250.0
+    assert DelayHistogram().quantile(0.5) is None

@@ -142,6 +142,22 @@ def test_state_keeps_a_bounded_path_and_skips_retained_copies():
     assert snap["bad-messages"] == 1
 
 
+def test_state_thins_the_path_by_the_robots_clock():
+    """At 10 poses a second with --path-every 0.5 a point every fifth
+    pose; the latest pose is always the newest, kept in the path or not;
+    frame number gaps and repeats are counted."""
+    s = FleetState(path_every=0.5)
+    for i in list(range(23)) + [30, 30]:
+        body = {"robot": "a", "frame": i, "wall-time": 100.0 + i / 10,
+                "pose": {"x": float(i), "y": 0.0, "heading": 0.0},
+                "detections": []}
+        s.handle("landmark/a/frame", json.dumps(body).encode())
+    a = s.snapshot()["robots"]["a"]
+    assert [p[0] for p in a["path"]] == [0.0, 5.0, 10.0, 15.0, 20.0, 30.0]
+    assert a["pose"]["x"] == 30.0 and a["frames"] == 25
+    assert a["missed-frames"] == 7 and a["out-of-sequence"] == 1
+
+
 def test_unreachable_broker_is_a_clear_error(tmp_path):
     from mqttbroker import free_port
     port = free_port()

@@ -1,0 +1,573 @@
+#include "slam.h"
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+namespace landmark {
+
+namespace {
+
+/* regularised lower incomplete gamma P(a, x), by its series */
+double
+gamma_p (double a, double x)
+{
+  if (x <= 0)
+    return 0;
+  double term = 1.0 / a, sum = term;
+  for (int n = 1; n < 1000; n++) {
+    term *= x / (a + n);
+    sum += term;
+    if (term < sum * 1e-15)
+      break;
+  }
+  return std::min (1.0, std::exp (-x + a * std::log (x) - std::lgamma (a))
+      * sum);
+}
+
+constexpr int kPose = 6;      /* x y th vx vy w */
+
+}  // namespace
+
+double
+chi2_quantile (double p, int dof)
+{
+  double lo = 0, hi = 10.0 * dof + 100;
+  for (int i = 0; i < 200; i++) {
+    const double mid = 0.5 * (lo + hi);
+    if (gamma_p (0.5 * dof, 0.5 * mid) < p)
+      lo = mid;
+    else
+      hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+void
+Slam::reset ()
+{
+  init_ = false;
+  s_.clear ();
+  p_.clear ();
+  /* keep the anchors, drop what was learnt */
+  std::vector<SlamLandmark> keep;
+  for (const auto & l : lm_)
+    if (l.anchor)
+      keep.push_back (l);
+  lm_ = keep;
+  slot_.assign (lm_.size (), -1);
+  last_view_.assign (lm_.size (), Pose2 ());
+  unseen_.assign (lm_.size (), 0);
+}
+
+void
+Slam::set_map (const std::vector<MapPoint> & map)
+{
+  lm_.clear ();
+  for (const auto & m : map) {
+    SlamLandmark l;
+    l.id = m.id;
+    l.class_name = m.class_name;
+    l.x = m.x;
+    l.y = m.y;
+    l.z = m.z;
+    l.diameter = m.diameter;
+    l.ball = m.ball;
+    l.anchor = l.confirmed = true;
+    lm_.push_back (l);
+  }
+  anchored_ = !lm_.empty ();
+  next_id_ = 1;
+  reset ();
+}
+
+Pose2
+Slam::pose () const
+{
+  Pose2 p;
+  if (init_) {
+    p.x = s_[0];
+    p.y = s_[1];
+    p.heading = s_[2];
+  }
+  return p;
+}
+
+void
+Slam::pose_cov (double cov[9]) const
+{
+  const size_t N = n ();
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      cov[i * 3 + j] = init_ ? p_[i * N + j] : 0;
+}
+
+void
+Slam::init_pose (const Pose2 & p, const double cov[9])
+{
+  s_.assign (kPose, 0);
+  s_[0] = p.x;
+  s_[1] = p.y;
+  s_[2] = wrap_angle (p.heading);
+  p_.assign (kPose * kPose, 0);
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      p_[i * kPose + j] = cov[i * 3 + j];
+  /* the robot may start moving: velocities unknown within these sigmas */
+  p_[3 * kPose + 3] = p_[4 * kPose + 4] = 0.5 * 0.5;
+  p_[5 * kPose + 5] = 1.0;
+  init_ = true;
+}
+
+void
+Slam::predict (double dt)
+{
+  if (!init_ || !(dt > 0))
+    return;
+  const int N = (int) n ();
+  cv::Mat P (N, N, CV_64F, p_.data ());
+  /* only the pose rows and columns change: P = F P F' + Q with F the
+   * identity but for x += vx dt (and y, heading) */
+  for (int k = 0; k < 3; k++) {
+    s_[k] += dt * s_[k + 3];
+    P.row (k) += dt * P.row (k + 3);
+  }
+  for (int k = 0; k < 3; k++)
+    P.col (k) += dt * P.col (k + 3);
+  s_[2] = wrap_angle (s_[2]);
+  const double qa = opt.accel_sigma * opt.accel_sigma;
+  const double qw = opt.alpha_sigma * opt.alpha_sigma;
+  const double t3 = dt * dt * dt / 3, t2 = dt * dt / 2;
+  for (int k = 0; k < 3; k++) {
+    const double q = k < 2 ? qa : qw;
+    P.at<double> (k, k) += t3 * q;
+    P.at<double> (k, k + 3) += t2 * q;
+    P.at<double> (k + 3, k) += t2 * q;
+    P.at<double> (k + 3, k + 3) += dt * q;
+  }
+}
+
+void
+Slam::predict_odometry (double dx, double dy, double dth, double dt)
+{
+  if (!init_)
+    return;
+  const int N = (int) n ();
+  const double c = std::cos (s_[2]), s = std::sin (s_[2]);
+  cv::Mat P (N, N, CV_64F, p_.data ());
+  /* Jacobian of the pose part: x' = x + R(th) d */
+  cv::Mat F = cv::Mat::eye (3, 3, CV_64F);
+  F.at<double> (0, 2) = -s * dx - c * dy;
+  F.at<double> (1, 2) = c * dx - s * dy;
+  cv::Mat rows = F * P.rowRange (0, 3);
+  rows.copyTo (P.rowRange (0, 3));
+  cv::Mat cols = P.colRange (0, 3) * F.t ();
+  cols.copyTo (P.colRange (0, 3));
+  const double d = std::hypot (dx, dy);
+  const double st = opt.odo_trans_sigma * d + 1e-4;
+  const double sr = opt.odo_rot_sigma * std::fabs (dth)
+      + opt.odo_rot_per_m * d + 1e-4;
+  cv::Mat G = cv::Mat::eye (3, 3, CV_64F);
+  G.at<double> (0, 0) = c;
+  G.at<double> (0, 1) = -s;
+  G.at<double> (1, 0) = s;
+  G.at<double> (1, 1) = c;
+  cv::Mat Qd = cv::Mat::diag ((cv::Mat_<double> (3, 1) << st * st, st * st,
+          sr * sr));
+  cv::Mat Q = G * Qd * G.t ();
+  P (cv::Rect (0, 0, 3, 3)) += Q;
+  s_[0] += c * dx - s * dy;
+  s_[1] += s * dx + c * dy;
+  s_[2] = wrap_angle (s_[2] + dth);
+  if (dt > 0) {
+    /* the velocity states follow the odometry (robot-frame turned into
+     * world frame) for a later constant-velocity prediction */
+    s_[3] = (c * dx - s * dy) / dt;
+    s_[4] = (s * dx + c * dy) / dt;
+    s_[5] = dth / dt;
+  }
+}
+
+void
+Slam::add_landmark (const SlamObservation & o, SlamLandmark lm)
+{
+  const int N = (int) n ();
+  const double r = o.obs.range (), b = o.obs.bearing ();
+  double sr = o.obs.range_sigma > 0 ? o.obs.range_sigma :
+      default_range_sigma (r);
+  double sb = o.obs.bearing_sigma > 0 ? o.obs.bearing_sigma :
+      default_bearing_sigma ();
+  const double a = s_[2] + b, ca = std::cos (a), sa = std::sin (a);
+  lm.x = s_[0] + r * ca;
+  lm.y = s_[1] + r * sa;
+  /* Jacobians of the landmark position w.r.t. the pose and (r, b) */
+  cv::Mat Gx = (cv::Mat_<double> (2, 3) << 1, 0, -r * sa, 0, 1, r * ca);
+  cv::Mat Gz = (cv::Mat_<double> (2, 2) << ca, -r * sa, sa, r * ca);
+  cv::Mat R = (cv::Mat_<double> (2, 2) << sr * sr, 0, 0, sb * sb);
+  cv::Mat P (N, N, CV_64F, p_.data ());
+  cv::Mat Plx = Gx * P.rowRange (0, 3);         /* 2 x N */
+  cv::Mat Pll = Gx * P (cv::Rect (0, 0, 3, 3)) * Gx.t () + Gz * R * Gz.t ();
+  cv::Mat Pn = cv::Mat::zeros (N + 2, N + 2, CV_64F);
+  P.copyTo (Pn (cv::Rect (0, 0, N, N)));
+  Plx.copyTo (Pn (cv::Rect (0, N, N, 2)));
+  cv::Mat Pxl = Plx.t ();
+  Pxl.copyTo (Pn (cv::Rect (N, 0, 2, N)));
+  Pll.copyTo (Pn (cv::Rect (N, N, 2, 2)));
+  p_.assign ((double *) Pn.data, (double *) Pn.data + (N + 2) * (N + 2));
+  s_.push_back (lm.x);
+  s_.push_back (lm.y);
+  lm.views = 1;
+  lm.confirmed = opt.confirm_views <= 1;
+  if (lm.id.empty ()) {
+    /* ids not taken by the given map */
+    for (;;) {
+      std::string id = "S" + std::to_string (next_id_++);
+      bool taken = false;
+      for (const auto & l : lm_)
+        taken |= l.id == id;
+      if (!taken) {
+        lm.id = id;
+        break;
+      }
+    }
+  }
+  lm_.push_back (lm);
+  slot_.push_back (N);
+  last_view_.push_back (pose ());
+  unseen_.push_back (0);
+}
+
+void
+Slam::remove_landmark (size_t k)
+{
+  const int N = (int) n (), sl = slot_[k];
+  if (sl >= 0) {
+    std::vector<int> keep;
+    for (int i = 0; i < N; i++)
+      if (i != sl && i != sl + 1)
+        keep.push_back (i);
+    std::vector<double> s2, p2;
+    for (int i : keep) {
+      s2.push_back (s_[i]);
+      for (int j : keep)
+        p2.push_back (p_[i * N + j]);
+    }
+    s_ = s2;
+    p_ = p2;
+    for (auto & o : slot_)
+      if (o > sl)
+        o -= 2;
+  }
+  lm_.erase (lm_.begin () + k);
+  slot_.erase (slot_.begin () + k);
+  last_view_.erase (last_view_.begin () + k);
+  unseen_.erase (unseen_.begin () + k);
+}
+
+void
+Slam::sync_landmarks ()
+{
+  const size_t N = n ();
+  for (size_t k = 0; k < lm_.size (); k++) {
+    const int sl = slot_[k];
+    if (sl < 0)
+      continue;
+    lm_[k].x = s_[sl];
+    lm_[k].y = s_[sl + 1];
+    lm_[k].cov[0] = p_[sl * N + sl];
+    lm_[k].cov[1] = p_[sl * N + sl + 1];
+    lm_[k].cov[2] = p_[(sl + 1) * N + sl];
+    lm_[k].cov[3] = p_[(sl + 1) * N + sl + 1];
+  }
+}
+
+namespace {
+
+/* A detection-landmark pairing: innovation, Jacobian, P H'. */
+struct Pairing {
+  int obs = -1, lm = -1;
+  cv::Vec2d nu;
+  cv::Mat H;        /* 2 x N */
+  cv::Mat PHt;      /* N x 2 */
+  cv::Matx22d R;
+  double d2 = 0;    /* individual Mahalanobis distance squared */
+};
+
+}  // namespace
+
+SlamFrame
+Slam::update (const std::vector<SlamObservation> & obs)
+{
+  SlamFrame f;
+  f.match.assign (obs.size (), -1);
+  f.reasons.assign (obs.size (), "");
+  if (!init_) {
+    if (anchored_) {
+      /* the given map places the first pose */
+      std::vector<MapPoint> map;
+      for (const auto & l : lm_)
+        map.push_back ({ l.id, l.class_name, l.x, l.y, l.z, l.diameter,
+                l.ball });
+      std::vector<Detection> dets;
+      for (const auto & o : obs) {
+        Detection d;
+        d.class_name = o.class_name;
+        d.obs = o.obs;
+        dets.push_back (d);
+      }
+      const LocaliseResult r = localise (map, dets, LocaliseOptions ());
+      if (!r.ok) {
+        f.why = "no-pose";
+        for (auto & s : f.reasons)
+          s = "no-pose";
+        return f;
+      }
+      init_pose (r.solution.pose, r.solution.cov);
+    } else {
+      /* no map: the first pose defines the frame */
+      const double zero[9] = { 0 };
+      init_pose (Pose2 (), zero);
+    }
+  }
+  const int N = (int) n ();
+  cv::Mat P (N, N, CV_64F, p_.data ());
+
+  auto make_pairing = [&](int i, int k, Pairing * pr) {
+    const auto & o = obs[i];
+    const SlamLandmark & l = lm_[k];
+    const int sl = slot_[k];
+    const double lx = sl >= 0 ? s_[sl] : l.x, ly = sl >= 0 ? s_[sl + 1] : l.y;
+    const double dx = lx - s_[0], dy = ly - s_[1];
+    const double q = dx * dx + dy * dy;
+    if (q < 1e-12)
+      return false;
+    const double r = std::sqrt (q);
+    const double zr = o.obs.range (), zb = o.obs.bearing ();
+    const double sr = o.obs.range_sigma > 0 ? o.obs.range_sigma :
+        default_range_sigma (zr);
+    const double sb = o.obs.bearing_sigma > 0 ? o.obs.bearing_sigma :
+        default_bearing_sigma ();
+    pr->obs = i;
+    pr->lm = k;
+    /* bearing innovation wrapped: a landmark behind the robot is near
+     * +-pi and must not look 2 pi away */
+    pr->nu = cv::Vec2d (zr - r, wrap_angle (zb -
+            wrap_angle (std::atan2 (dy, dx) - s_[2])));
+    pr->H = cv::Mat::zeros (2, (int) n (), CV_64F);
+    double *h0 = pr->H.ptr<double> (0), *h1 = pr->H.ptr<double> (1);
+    h0[0] = -dx / r;
+    h0[1] = -dy / r;
+    h1[0] = dy / q;
+    h1[1] = -dx / q;
+    h1[2] = -1;
+    if (sl >= 0) {
+      h0[sl] = dx / r;
+      h0[sl + 1] = dy / r;
+      h1[sl] = -dy / q;
+      h1[sl + 1] = dx / q;
+    }
+    pr->R = cv::Matx22d (sr * sr, 0, 0, sb * sb);
+    pr->PHt = P * pr->H.t ();
+    cv::Mat S = pr->H * pr->PHt + cv::Mat (pr->R);
+    cv::Mat nu (pr->nu);
+    cv::Mat d = nu.t () * S.inv (cv::DECOMP_CHOLESKY) * nu;
+    pr->d2 = d.at<double> (0);
+    return true;
+  };
+
+  /* individually compatible pairings, by class */
+  std::vector<std::vector<Pairing>> cand (obs.size ());
+  std::vector<double> min_d2 (obs.size (),
+      std::numeric_limits<double>::infinity ());
+  for (size_t i = 0; i < obs.size (); i++) {
+    for (size_t k = 0; k < lm_.size (); k++) {
+      if (lm_[k].class_name != obs[i].class_name)
+        continue;
+      Pairing pr;
+      if (!make_pairing ((int) i, (int) k, &pr))
+        continue;
+      min_d2[i] = std::min (min_d2[i], pr.d2);
+      if (pr.d2 < opt.gate_chi2)
+        cand[i].push_back (std::move (pr));
+    }
+    std::sort (cand[i].begin (), cand[i].end (),
+        [](const Pairing & a, const Pairing & b) { return a.d2 < b.d2; });
+  }
+
+  /* joint NIS of a set of pairings */
+  auto joint_nis = [&](const std::vector<const Pairing *> &h) {
+    const int m = (int) h.size ();
+    cv::Mat S (2 * m, 2 * m, CV_64F), nu (2 * m, 1, CV_64F);
+    for (int a = 0; a < m; a++) {
+      nu.at<double> (2 * a) = h[a]->nu[0];
+      nu.at<double> (2 * a + 1) = h[a]->nu[1];
+      for (int b = 0; b < m; b++) {
+        cv::Mat blk = h[a]->H * h[b]->PHt;
+        if (a == b)
+          blk += cv::Mat (h[a]->R);
+        blk.copyTo (S (cv::Rect (2 * b, 2 * a, 2, 2)));
+      }
+    }
+    cv::Mat d = nu.t () * S.inv (cv::DECOMP_CHOLESKY) * nu;
+    return d.at<double> (0);
+  };
+
+  /* JCBB: most pairings, then least joint NIS */
+  std::vector<const Pairing *> best, cur;
+  double best_nis = 0;
+  int nodes = 0;
+  std::vector<bool> used (lm_.size (), false);
+  std::vector<double> thresholds (2 * obs.size () + 2, 0);
+  for (size_t m = 1; m <= obs.size (); m++)
+    thresholds[m] = chi2_quantile (opt.joint_probability, 2 * (int) m);
+  std::function<void (size_t, double)> search = [&](size_t i, double nis) {
+    if (++nodes > opt.max_jcbb_nodes)
+      return;
+    if (i == obs.size ()) {
+      if (cur.size () > best.size () || (cur.size () == best.size ()
+              && nis < best_nis)) {
+        best = cur;
+        best_nis = nis;
+      }
+      return;
+    }
+    size_t remaining = 0;
+    for (size_t j = i; j < obs.size (); j++)
+      remaining += cand[j].empty ()? 0 : 1;
+    if (cur.size () + remaining < best.size ())
+      return;
+    for (const Pairing & pr : cand[i]) {
+      if (used[pr.lm])
+        continue;
+      cur.push_back (&pr);
+      const double d = joint_nis (cur);
+      if (d < thresholds[cur.size ()]) {
+        used[pr.lm] = true;
+        search (i + 1, d);
+        used[pr.lm] = false;
+      }
+      cur.pop_back ();
+    }
+    /* leave detection i unpaired */
+    if (cur.size () + remaining - (cand[i].empty ()? 0 : 1) >= best.size ())
+      search (i + 1, nis);
+  };
+  search (0, 0);
+
+  /* the update over the jointly compatible set */
+  if (!best.empty ()) {
+    const int m = (int) best.size ();
+    cv::Mat H (2 * m, N, CV_64F), R = cv::Mat::zeros (2 * m, 2 * m, CV_64F),
+        nu (2 * m, 1, CV_64F);
+    for (int a = 0; a < m; a++) {
+      best[a]->H.copyTo (H.rowRange (2 * a, 2 * a + 2));
+      cv::Mat (best[a]->R).copyTo (R (cv::Rect (2 * a, 2 * a, 2, 2)));
+      nu.at<double> (2 * a) = best[a]->nu[0];
+      nu.at<double> (2 * a + 1) = best[a]->nu[1];
+    }
+    cv::Mat PHt = P * H.t ();
+    cv::Mat S = H * PHt + R;
+    cv::Mat K = PHt * S.inv (cv::DECOMP_CHOLESKY);
+    cv::Mat dx = K * nu;
+    for (int i = 0; i < N; i++)
+      s_[i] += dx.at<double> (i);
+    s_[2] = wrap_angle (s_[2]);
+    /* Joseph form keeps P symmetric and positive */
+    cv::Mat IKH = cv::Mat::eye (N, N, CV_64F) - K * H;
+    cv::Mat Pn = IKH * P * IKH.t () + K * R * K.t ();
+    Pn = 0.5 * (Pn + Pn.t ());
+    Pn.copyTo (P);
+    f.joint_nis = best_nis;
+    for (const Pairing *pr : best) {
+      f.match[pr->obs] = pr->lm;
+      f.n_matched++;
+    }
+  }
+  sync_landmarks ();
+
+  /* views, confirmation, the unseen count */
+  const Pose2 now = pose ();
+  for (size_t k = 0; k < lm_.size (); k++) {
+    bool seen = false;
+    for (int mi : f.match)
+      seen |= mi == (int) k;
+    if (!seen) {
+      unseen_[k]++;
+      continue;
+    }
+    unseen_[k] = 0;
+    if (std::hypot (now.x - last_view_[k].x, now.y - last_view_[k].y)
+        >= opt.confirm_baseline) {
+      lm_[k].views++;
+      last_view_[k] = now;
+    }
+    if (lm_[k].views >= opt.confirm_views)
+      lm_[k].confirmed = true;
+  }
+
+  /* residuals of the matched, with the updated pose */
+  double sum = 0;
+  for (size_t i = 0; i < obs.size (); i++) {
+    if (f.match[i] < 0)
+      continue;
+    const auto & l = lm_[f.match[i]];
+    double gx, gy;
+    world_to_robot (now, l.x, l.y, &gx, &gy);
+    sum += std::pow (gx - obs[i].obs.gx, 2) + std::pow (gy - obs[i].obs.gy, 2);
+  }
+  f.residual = f.n_matched ? std::sqrt (sum / f.n_matched) : 0;
+
+  /* new landmarks: unmatched and far from every landmark of the class */
+  for (size_t i = 0; i < obs.size (); i++) {
+    if (f.match[i] >= 0)
+      continue;
+    double d2 = std::numeric_limits<double>::infinity ();
+    {
+      const int N2 = (int) n ();
+      P = cv::Mat (N2, N2, CV_64F, p_.data ());
+      for (size_t k = 0; k < lm_.size (); k++) {
+        if (lm_[k].class_name != obs[i].class_name)
+          continue;
+        Pairing pr;
+        if (make_pairing ((int) i, (int) k, &pr))
+          d2 = std::min (d2, pr.d2);
+        else
+          d2 = 0;
+      }
+    }
+    if (d2 < opt.new_chi2) {
+      f.reasons[i] = "ambiguous";
+      continue;
+    }
+    if (lm_.size () >= opt.max_landmarks) {
+      f.reasons[i] = "map-full";
+      continue;
+    }
+    SlamLandmark l;
+    l.class_name = obs[i].class_name;
+    add_landmark (obs[i], l);
+    f.match[i] = (int) lm_.size () - 1;
+    f.reasons[i] = "new-landmark";
+    f.n_new++;
+    sync_landmarks ();
+  }
+
+  /* tentative landmarks unseen too long: a spurious detection */
+  for (size_t k = lm_.size (); k-- > 0;) {
+    if (!lm_[k].confirmed && !lm_[k].anchor
+        && unseen_[k] > opt.tentative_frames) {
+      for (auto & mi : f.match)
+        if (mi > (int) k)
+          mi--;
+      remove_landmark (k);
+    }
+  }
+  sync_landmarks ();
+  f.ok = true;
+  return f;
+}
+
+}  // namespace landmark

@@ -1,0 +1,122 @@
+/* Landmark SLAM (docs/landmarkslam.md): an extended Kalman filter over the
+ * robot's pose and velocity and the positions of the landmarks it has
+ * seen, with range-bearing measurements.
+ *
+ * - Motion: constant velocity, or robot-frame odometry increments.
+ * - A landmark starts from one range and bearing, with the covariance that
+ *   the pose's and the measurement's uncertainties give it; it stays
+ *   tentative until seen `confirm_views` times from poses at least
+ *   `confirm_baseline` apart, and a tentative landmark unseen for
+ *   `tentative_frames` updates is dropped.
+ * - Association: by class, each detection gated against each landmark by
+ *   Mahalanobis distance, then joint compatibility branch and bound (JCBB):
+ *   the largest one-to-one set of pairings whose joint innovation passes
+ *   the chi-square test, so two landmarks of one colour are never fed the
+ *   same detection and one detection never feeds two. A detection starts
+ *   a new landmark only when it is far (`new_chi2`) from every landmark of
+ *   its class; one between the gates is left out of the frame.
+ * - Frame: landmarks of a given map are anchors (exact); without any, the
+ *   first pose is the origin with heading 0.
+ *
+ * No GStreamer types: tested on its own (suite 'core'). Frames and units as
+ * docs/conventions.md. */
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "posesolver.h"
+
+namespace landmark {
+
+struct SlamOptions {
+  double accel_sigma = 1.0;       /* m/s^2, constant-velocity process noise */
+  double alpha_sigma = 3.0;       /* rad/s^2 */
+  double gate_chi2 = 13.82;       /* per pairing, 2 dof (99.9 %) */
+  double joint_probability = 0.999;   /* JCBB joint test */
+  double new_chi2 = 40.0;         /* farther than this from all: new */
+  int confirm_views = 3;
+  double confirm_baseline = 0.25; /* metres between counted views */
+  int tentative_frames = 30;      /* updates a tentative one may go unseen */
+  unsigned max_landmarks = 128;
+  /* odometry noise: one sigma per metre travelled / per radian turned */
+  double odo_trans_sigma = 0.05;  /* m per m */
+  double odo_rot_sigma = 0.05;    /* rad per rad */
+  double odo_rot_per_m = 0.02;    /* rad per m */
+  int max_jcbb_nodes = 2000;      /* bounds the search per frame */
+};
+
+struct SlamLandmark {
+  std::string id, class_name;
+  double x = 0, y = 0;
+  double cov[4] = { 0 };          /* row-major, x y */
+  int views = 0;                  /* counted views (distinct poses) */
+  bool confirmed = false;
+  bool anchor = false;            /* from the given map: fixed */
+  /* the given map's marker (written back by map-out) */
+  double z = 0, diameter = 0;
+  bool ball = false;
+};
+
+struct SlamObservation {
+  std::string class_name;
+  RangeBearing obs;
+};
+
+struct SlamFrame {
+  bool ok = false;                /* a pose exists */
+  std::string why;                /* when !ok */
+  std::vector<int> match;         /* per observation: landmark index, -1 */
+  /* per observation: "new-landmark", "ambiguous", "no-pose",
+   * "map-full", empty when matched */
+  std::vector<std::string> reasons;
+  int n_matched = 0;
+  int n_new = 0;
+  double joint_nis = 0;           /* of the matched set */
+  double residual = 0;            /* RMS position residual, m (after) */
+};
+
+/* Chi-square quantile for `dof` degrees of freedom (even or odd). */
+double chi2_quantile (double p, int dof);
+
+class Slam {
+public:
+  explicit Slam (const SlamOptions & o = SlamOptions ()) : opt (o) {}
+  SlamOptions opt;
+
+  /* Anchors: landmarks of a known map. Resets the state. */
+  void set_map (const std::vector<MapPoint> & map);
+  void reset ();
+
+  bool has_pose () const { return init_; }
+  Pose2 pose () const;
+  void pose_cov (double cov[9]) const;
+  const std::vector<SlamLandmark> & landmarks () const { return lm_; }
+
+  /* Constant-velocity prediction over dt seconds. */
+  void predict (double dt);
+  /* Odometry: a robot-frame increment (forward, left, turn) replaces the
+   * motion model for that interval; velocities follow it over dt. */
+  void predict_odometry (double dx, double dy, double dheading, double dt);
+  /* One frame of observations: associate, update, add landmarks. */
+  SlamFrame update (const std::vector<SlamObservation> & obs);
+
+private:
+  bool init_ = false;
+  bool anchored_ = false;
+  std::vector<double> s_;         /* x y th vx vy w, then free landmarks */
+  std::vector<double> p_;         /* covariance, n x n row-major */
+  std::vector<SlamLandmark> lm_;
+  std::vector<int> slot_;         /* per landmark: state index, -1 anchor */
+  std::vector<Pose2> last_view_;  /* per landmark: pose of counted view */
+  std::vector<int> unseen_;       /* per landmark: updates since seen */
+  int next_id_ = 1;
+
+  size_t n () const { return s_.size (); }
+  void init_pose (const Pose2 & p, const double cov[9]);
+  void add_landmark (const SlamObservation & o, SlamLandmark lm);
+  void remove_landmark (size_t k);
+  void sync_landmarks ();
+};
+
+}  // namespace landmark

@@ -1,0 +1,519 @@
+/* Landmark SLAM (plugins/landmark/core/slam.h) against simulated truth
+ * with fixed seeds: a robot drives loops through a field of landmarks with
+ * repeated colours; observations are made here from docs/conventions.md
+ * with known Gaussian noise. Checked: map and path error bounds, no merged
+ * or duplicated landmark, bearings beyond +-90 degrees, consistency
+ * (NEES), a partial map anchoring the frame, odometry, a stationary robot
+ * and a spurious detection. */
+#include "slam.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace landmark;
+
+static int failures = 0;
+
+#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
+      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
+      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
+  } while (0)
+
+struct TruthLandmark {
+  std::string cls;
+  double x, y;
+};
+
+/* 13 landmarks, four classes, each colour repeated; two red discs only
+ * 0.3 m apart. Centred on the robot's circle (0, 1.2). */
+static std::vector<TruthLandmark>
+field ()
+{
+  std::vector<TruthLandmark> f;
+  const char *cls[] = { "red", "blue", "green" };
+  for (int i = 0; i < 12; i++) {
+    const double a = 2 * M_PI * i / 12, r = i % 2 ? 2.4 : 2.9;
+    f.push_back ({ cls[i % 3], r * std::cos (a), 1.2 + r * std::sin (a) });
+  }
+  f.push_back ({ "red", f[0].x, f[0].y + 0.3 });
+  return f;
+}
+
+struct SimOptions {
+  double fov = 40 * M_PI / 180;   /* half field of view */
+  double max_range = 3.5;
+  double radius = 1.2;            /* of the robot's circle */
+  double speed = 0.3;             /* m/s; 0: stationary */
+  double spin = 0;                /* rad/s turning in place (speed 0) */
+  int frames = 1260;              /* two loops at 30 fps */
+  unsigned seed = 1;
+  bool odometry = false;
+  double odo_scale = 1.02, odo_drift = M_PI / 180;   /* rad per metre */
+  Pose2 start;
+  SlamOptions slam;
+};
+
+struct SimResult {
+  std::vector<double> pose_err, nees;
+  std::vector<Pose2> est, true_path;
+  std::vector<int> seen;          /* per truth landmark: frames seen */
+  Slam slam;
+};
+
+static Pose2
+truth_pose (const SimOptions & o, int k)
+{
+  const double t = k / 30.0;
+  Pose2 p;
+  if (o.speed > 0) {
+    const double w = o.speed / o.radius, a = w * t;
+    /* starts at the origin heading +x, turning left around (0, r) */
+    p.x = o.radius * std::sin (a);
+    p.y = o.radius * (1 - std::cos (a));
+    p.heading = wrap_angle (a);
+  } else {
+    p.heading = wrap_angle (o.spin * t);
+  }
+  const double c = std::cos (o.start.heading), s = std::sin (o.start.heading);
+  Pose2 q;
+  q.x = o.start.x + c * p.x - s * p.y;
+  q.y = o.start.y + s * p.x + c * p.y;
+  q.heading = wrap_angle (o.start.heading + p.heading);
+  return q;
+}
+
+static void
+run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
+    SimResult * res, const std::vector<MapPoint> & map = {})
+{
+  std::mt19937 rng (o.seed);
+  std::normal_distribution<double> g (0, 1);
+  res->slam.opt = o.slam;
+  res->slam.set_map (map);
+  res->seen.assign (truth.size (), 0);
+  Pose2 prev = truth_pose (o, 0);
+  /* without a map the estimate is in the first pose's frame */
+  const Pose2 origin = map.empty ()? prev : Pose2 ();
+  for (int k = 0; k < o.frames; k++) {
+    const Pose2 p = truth_pose (o, k);
+    if (k > 0) {
+      if (o.odometry) {
+        /* the true robot-frame increment, scaled and drifting */
+        const double dxw = p.x - prev.x, dyw = p.y - prev.y;
+        const double c = std::cos (prev.heading), s = std::sin (prev.heading);
+        const double dx = c * dxw + s * dyw, dy = -s * dxw + c * dyw;
+        const double d = std::hypot (dx, dy);
+        res->slam.predict_odometry (dx * o.odo_scale, dy * o.odo_scale,
+            wrap_angle (p.heading - prev.heading) + o.odo_drift * d,
+            1 / 30.0);
+      } else {
+        res->slam.predict (1 / 30.0);
+      }
+    }
+    prev = p;
+    std::vector<SlamObservation> obs;
+    for (size_t i = 0; i < truth.size (); i++) {
+      const double dx = truth[i].x - p.x, dy = truth[i].y - p.y;
+      const double r = std::hypot (dx, dy);
+      const double b = wrap_angle (std::atan2 (dy, dx) - p.heading);
+      if (r > o.max_range || r < 0.3 || std::fabs (b) > o.fov)
+        continue;
+      const double sr = 0.01 + 0.01 * r, sb = 0.01;
+      const double rn = r + sr * g (rng), bn = b + sb * g (rng);
+      SlamObservation ob;
+      ob.class_name = truth[i].cls;
+      ob.obs.gx = rn * std::cos (bn);
+      ob.obs.gy = rn * std::sin (bn);
+      ob.obs.range_sigma = sr;
+      ob.obs.bearing_sigma = sb;
+      obs.push_back (ob);
+      res->seen[i]++;
+    }
+    res->slam.update (obs);
+    if (!res->slam.has_pose ())
+      continue;
+    const Pose2 e = res->slam.pose ();
+    Pose2 pt;
+    world_to_robot (origin, p.x, p.y, &pt.x, &pt.y);
+    pt.heading = wrap_angle (p.heading - origin.heading);
+    res->est.push_back (e);
+    res->true_path.push_back (pt);
+    const double ex = e.x - pt.x, ey = e.y - pt.y,
+        eh = wrap_angle (e.heading - pt.heading);
+    res->pose_err.push_back (std::hypot (ex, ey));
+    double c[9];
+    res->slam.pose_cov (c);
+    /* NEES = e' C^-1 e over x, y, heading */
+    const double a = c[0], b = c[1], cc = c[2], d = c[4], ee = c[5], f = c[8];
+    const double det = a * (d * f - ee * ee) - b * (b * f - ee * cc)
+        + cc * (b * ee - d * cc);
+    if (det <= 0)
+      continue;
+    const double i00 = (d * f - ee * ee) / det, i01 = -(b * f - cc * ee) / det,
+        i02 = (b * ee - cc * d) / det, i11 = (a * f - cc * cc) / det,
+        i12 = -(a * ee - b * cc) / det, i22 = (a * d - b * b) / det;
+    res->nees.push_back (ex * ex * i00 + ey * ey * i11 + eh * eh * i22
+        + 2 * (ex * ey * i01 + ex * eh * i02 + ey * eh * i12));
+  }
+}
+
+/* Best rigid alignment (2-D Procrustes, no scale) of a onto b. */
+struct Rigid {
+  double c = 1, s = 0, tx = 0, ty = 0;
+  void apply (double x, double y, double *ox, double *oy) const {
+    *ox = c * x - s * y + tx;
+    *oy = s * x + c * y + ty;
+  }
+};
+
+static Rigid
+align (const std::vector<double> &ax, const std::vector<double> &ay,
+    const std::vector<double> &bx, const std::vector<double> &by)
+{
+  const size_t n = ax.size ();
+  double max = 0, may = 0, mbx = 0, mby = 0;
+  for (size_t i = 0; i < n; i++) {
+    max += ax[i] / n;
+    may += ay[i] / n;
+    mbx += bx[i] / n;
+    mby += by[i] / n;
+  }
+  double sxx = 0, sxy = 0;
+  for (size_t i = 0; i < n; i++) {
+    const double px = ax[i] - max, py = ay[i] - may, qx = bx[i] - mbx,
+        qy = by[i] - mby;
+    sxx += px * qx + py * qy;
+    sxy += px * qy - py * qx;
+  }
+  const double a = std::atan2 (sxy, sxx);
+  Rigid r;
+  r.c = std::cos (a);
+  r.s = std::sin (a);
+  r.tx = mbx - (r.c * max - r.s * may);
+  r.ty = mby - (r.s * max + r.c * may);
+  return r;
+}
+
+/* Absolute trajectory error after the best rigid alignment, per frame. */
+static std::vector<double>
+aligned_path_error (const SimResult & r)
+{
+  std::vector<double> ax, ay, bx, by, err;
+  for (size_t k = 0; k < r.est.size (); k++) {
+    ax.push_back (r.est[k].x);
+    ay.push_back (r.est[k].y);
+    bx.push_back (r.true_path[k].x);
+    by.push_back (r.true_path[k].y);
+  }
+  const Rigid t = align (ax, ay, bx, by);
+  for (size_t k = 0; k < ax.size (); k++) {
+    double x, y;
+    t.apply (ax[k], ay[k], &x, &y);
+    err.push_back (std::hypot (x - bx[k], y - by[k]));
+  }
+  return err;
+}
+
+/* RMS landmark error after the best rigid alignment of the confirmed
+ * landmarks onto their truth (matched by map_error's nearest rule). */
+static double aligned_map_rms (const Slam & slam,
+    const std::vector<TruthLandmark> & truth);
+
+static double
+percentile (std::vector<double> v, double q)
+{
+  if (v.empty ())
+    return NAN;
+  std::sort (v.begin (), v.end ());
+  return v[std::min (v.size () - 1, (size_t) (q * v.size ()))];
+}
+
+/* For each truth landmark seen in 90 frames or more (three seconds, enough
+ * to confirm): its one estimate (same class, within
+ * `tol`). Returns the RMS error; counts missing and extra confirmed. */
+static double
+map_error (const Slam & slam, const std::vector<TruthLandmark> & truth,
+    const std::vector<int> &seen, double tol, int *missing, int *extra,
+    int *merged)
+{
+  *missing = *extra = *merged = 0;
+  double sum = 0;
+  int n = 0;
+  std::vector<int> owner (slam.landmarks ().size (), -1);
+  for (size_t i = 0; i < truth.size (); i++) {
+    int best = -1;
+    double bd = tol;
+    for (size_t k = 0; k < slam.landmarks ().size (); k++) {
+      const auto & l = slam.landmarks ()[k];
+      if (!l.confirmed || l.class_name != truth[i].cls)
+        continue;
+      const double d = std::hypot (l.x - truth[i].x, l.y - truth[i].y);
+      if (d < bd) {
+        bd = d;
+        best = (int) k;
+      }
+    }
+    if (best < 0) {
+      if (seen[i] >= 90)
+        (*missing)++;
+      continue;
+    }
+    if (owner[best] >= 0)
+      (*merged)++;
+    owner[best] = (int) i;
+    sum += bd * bd;
+    n++;
+  }
+  for (size_t k = 0; k < owner.size (); k++)
+    if (owner[k] < 0 && slam.landmarks ()[k].confirmed)
+      (*extra)++;
+  return n ? std::sqrt (sum / n) : NAN;
+}
+
+static double
+aligned_map_rms (const Slam & slam, const std::vector<TruthLandmark> & truth)
+{
+  std::vector<double> ax, ay, bx, by;
+  for (const auto & t : truth) {
+    int best = -1;
+    double bd = 0.3;
+    for (size_t k = 0; k < slam.landmarks ().size (); k++) {
+      const auto & l = slam.landmarks ()[k];
+      const double d = std::hypot (l.x - t.x, l.y - t.y);
+      if (l.confirmed && l.class_name == t.cls && d < bd) {
+        bd = d;
+        best = (int) k;
+      }
+    }
+    if (best < 0)
+      continue;
+    ax.push_back (slam.landmarks ()[best].x);
+    ay.push_back (slam.landmarks ()[best].y);
+    bx.push_back (t.x);
+    by.push_back (t.y);
+  }
+  if (ax.size () < 2)
+    return NAN;
+  const Rigid r = align (ax, ay, bx, by);
+  double sum = 0;
+  for (size_t i = 0; i < ax.size (); i++) {
+    double x, y;
+    r.apply (ax[i], ay[i], &x, &y);
+    sum += std::pow (x - bx[i], 2) + std::pow (y - by[i], 2);
+  }
+  return std::sqrt (sum / ax.size ());
+}
+
+static void
+test_chi2 ()
+{
+  CHECK (std::fabs (chi2_quantile (0.95, 2) - 5.991) < 1e-3, "%f",
+      chi2_quantile (0.95, 2));
+  CHECK (std::fabs (chi2_quantile (0.95, 3) - 7.815) < 1e-3, "%f",
+      chi2_quantile (0.95, 3));
+  CHECK (std::fabs (chi2_quantile (0.999, 10) - 29.588) < 1e-2, "%f",
+      chi2_quantile (0.999, 10));
+}
+
+/* no map, constant-velocity model: the first pose (truth's origin)
+ * defines the frame, so truth and estimate compare directly */
+static void
+test_loops_no_map ()
+{
+  const auto truth = field ();
+  for (unsigned seed = 1; seed <= 3; seed++) {
+    SimOptions o;
+    o.seed = seed;
+    SimResult r;
+    run (o, truth, &r);
+    int missing, extra, merged;
+    const double rms = map_error (r.slam, truth, r.seen, 0.15, &missing,
+        &extra, &merged);
+    /* the first-pose frame carries the first observations' errors:
+     * compare after the best rigid alignment, as gst-landmark evaluate */
+    const double arms = aligned_map_rms (r.slam, truth);
+    const auto ate = aligned_path_error (r);
+    const double med = percentile (ate, 0.5), p95 = percentile (ate, 0.95);
+    const double chi95 = chi2_quantile (0.95, 3);
+    const double inside = std::count_if (r.nees.begin (), r.nees.end (),
+        [&](double v) { return v <= chi95; }) / (double) r.nees.size ();
+    std::printf ("loops seed %u: map rms %.4f m (aligned %.4f), aligned path "
+        "median %.4f p95 %.4f m,"
+        " NEES<=%.2f on %.1f %% of frames, %zu landmarks, missing %d extra "
+        "%d merged %d\n", seed, rms, arms, med, p95, chi95, 100 * inside,
+        r.slam.landmarks ().size (), missing, extra, merged);
+    CHECK (missing == 0 && extra == 0 && merged == 0, "seed %u: missing %d "
+        "extra %d merged %d", seed, missing, extra, merged);
+    CHECK (rms < 0.1, "seed %u: map rms %f", seed, rms);
+    CHECK (arms < 0.03, "seed %u: aligned map rms %f", seed, arms);
+    CHECK (med < 0.03 && p95 < 0.08, "seed %u: path %f %f", seed, med, p95);
+    CHECK (inside >= 0.9, "seed %u: NEES inside on %f", seed, inside);
+  }
+}
+
+/* 360 degree sensor turning in place: landmarks pass through +-180
+ * degrees of bearing; a wrong wrap would gate them out and add copies */
+static void
+test_bearing_wrap ()
+{
+  const auto truth = field ();
+  SimOptions o;
+  o.speed = 0;
+  o.spin = 0.8;
+  o.fov = M_PI;
+  o.max_range = 10;
+  o.frames = 600;
+  o.start.x = 0;
+  o.start.y = 1.2;
+  /* turning in place gives no baseline: count every view */
+  o.slam.confirm_baseline = 0;
+  SimResult r;
+  /* no map: the frame is the first pose, here at (0, 1.2) heading 0 */
+  run (o, truth, &r);
+  std::vector<TruthLandmark> shifted = truth;
+  for (auto & t : shifted)
+    t.y -= 1.2;
+  int missing, extra, merged;
+  const double rms = map_error (r.slam, shifted, r.seen, 0.15, &missing,
+      &extra, &merged);
+  std::printf ("bearing wrap: %zu landmarks (truth %zu), rms %.4f m\n",
+      r.slam.landmarks ().size (), truth.size (), rms);
+  CHECK (r.slam.landmarks ().size () == truth.size (), "%zu landmarks",
+      r.slam.landmarks ().size ());
+  CHECK (missing == 0 && extra == 0 && merged == 0, "%d %d %d", missing,
+      extra, merged);
+  CHECK (percentile (r.pose_err, 1.0) < 0.05, "pose error %f",
+      percentile (r.pose_err, 1.0));
+}
+
+/* half the field as a map, the robot starting elsewhere: the anchors give
+ * the frame, the others are added with new ids */
+static void
+test_partial_map ()
+{
+  const auto truth = field ();
+  std::vector<MapPoint> map;
+  for (size_t i = 0; i < truth.size (); i += 2) {
+    MapPoint m;
+    m.id = "L" + std::to_string (i);
+    m.class_name = truth[i].cls;
+    m.x = truth[i].x;
+    m.y = truth[i].y;
+    map.push_back (m);
+  }
+  SimOptions o;
+  o.start.x = 0.2;
+  o.start.y = -0.1;
+  o.start.heading = 0.0;
+  o.frames = 1260;
+  std::vector<TruthLandmark> moved = truth;
+  SimResult r;
+  run (o, moved, &r, map);
+  int anchors = 0, added = 0;
+  for (const auto & l : r.slam.landmarks ()) {
+    if (l.anchor) {
+      anchors++;
+      CHECK (l.id[0] == 'L', "anchor id %s", l.id.c_str ());
+    } else {
+      added++;
+      CHECK (l.id[0] == 'S', "added id %s", l.id.c_str ());
+    }
+  }
+  int missing, extra, merged;
+  const double rms = map_error (r.slam, truth, r.seen, 0.15, &missing,
+      &extra, &merged);
+  std::printf ("partial map: %d anchors, %d added, rms %.4f m, path median "
+      "%.4f m\n", anchors, added, rms, percentile (r.pose_err, 0.5));
+  CHECK (anchors == (int) map.size (), "%d anchors", anchors);
+  CHECK (missing == 0 && extra == 0 && merged == 0, "%d %d %d", missing,
+      extra, merged);
+  CHECK (percentile (r.pose_err, 0.5) < 0.03, "path median %f",
+      percentile (r.pose_err, 0.5));
+}
+
+/* odometry with 2 % scale error and 1 degree per metre heading drift */
+static void
+test_odometry ()
+{
+  const auto truth = field ();
+  SimOptions o;
+  o.odometry = true;
+  SimResult r;
+  run (o, truth, &r);
+  int missing, extra, merged;
+  const double rms = map_error (r.slam, truth, r.seen, 0.15, &missing,
+      &extra, &merged);
+  const double med = percentile (r.pose_err, 0.5);
+  std::printf ("odometry: map rms %.4f m, path median %.4f m\n", rms, med);
+  CHECK (missing == 0 && extra == 0 && merged == 0, "%d %d %d", missing,
+      extra, merged);
+  CHECK (rms < 0.05 && med < 0.03, "rms %f median %f", rms, med);
+}
+
+/* a stationary robot: the pose stays at the origin, no copies appear, and
+ * with the default views needing a baseline the landmarks stay tentative */
+static void
+test_stationary ()
+{
+  const auto truth = field ();
+  SimOptions o;
+  o.speed = 0;
+  o.frames = 300;
+  SimResult r;
+  run (o, truth, &r);
+  size_t visible = 0;
+  for (int s : r.seen)
+    visible += s > 0;
+  bool confirmed = false;
+  for (const auto & l : r.slam.landmarks ())
+    confirmed |= l.confirmed;
+  CHECK (r.slam.landmarks ().size () == visible, "%zu landmarks, %zu seen",
+      r.slam.landmarks ().size (), visible);
+  CHECK (!confirmed, "confirmed without a baseline");
+  /* the pose wanders with its covariance (three landmarks in view) */
+  CHECK (percentile (r.pose_err, 1.0) < 0.15, "pose drift %f",
+      percentile (r.pose_err, 1.0));
+  const double inside = std::count_if (r.nees.begin (), r.nees.end (),
+      [](double v) { return v <= chi2_quantile (0.95, 3); })
+      / (double) r.nees.size ();
+  CHECK (inside >= 0.9, "NEES inside on %f", inside);
+}
+
+/* a detection seen once is dropped after tentative_frames */
+static void
+test_spurious_dropped ()
+{
+  Slam slam;
+  SlamObservation a;
+  a.class_name = "red";
+  a.obs.gx = 1.0;
+  a.obs.gy = 0.2;
+  slam.update ({ a });
+  CHECK (slam.landmarks ().size () == 1, "%zu", slam.landmarks ().size ());
+  for (int k = 0; k <= slam.opt.tentative_frames; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({});
+  }
+  CHECK (slam.landmarks ().empty (), "%zu", slam.landmarks ().size ());
+}
+
+int
+main ()
+{
+  test_chi2 ();
+  test_loops_no_map ();
+  test_bearing_wrap ();
+  test_partial_map ();
+  test_odometry ();
+  test_stationary ();
+  test_spurious_dropped ();
+  if (failures)
+    std::fprintf (stderr, "%d failures\n", failures);
+  else
+    std::printf ("all passed\n");
+  return failures ? 1 : 0;
+}

@@ -493,6 +493,10 @@ put_frame_fields (std::string & o, GstBuffer * buf, guint64 frame,
     o += ", \"pose\": ";
     put_structure (o, pose);
   }
+  if (const GstStructure * map = landmark_map_meta_get (buf)) {
+    o += ", \"landmark_map\": ";
+    put_structure (o, map);
+  }
 }
 
 }  // namespace landmark_json

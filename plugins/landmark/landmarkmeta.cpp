@@ -208,9 +208,38 @@ gst_landmark_detections_meta_get_info (void)
   return info;
 }
 
+static gboolean
+map_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
+    GstBuffer * src, GQuark type, gpointer data, gpointer)
+{
+  (void) src;
+  (void) data;
+  if (gst_buffer_get_custom_meta (dst, GST_LANDMARK_MAP_META_NAME))
+    return TRUE;
+  /* like the pose: world coordinates, unchanged by copies and scaling */
+  if (GST_META_TRANSFORM_IS_COPY (type) ||
+      GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
+    copy_fields (gst_custom_meta_get_structure (meta),
+        landmark_map_meta_add (dst));
+    return TRUE;
+  }
+  return FALSE;
+}
+
+const GstMetaInfo *
+gst_landmark_map_meta_get_info (void)
+{
+  static const gchar *tags[] = { nullptr };
+  static const GstMetaInfo *info = gst_meta_register_custom (
+      GST_LANDMARK_MAP_META_NAME, tags, map_meta_transform, nullptr,
+      nullptr);
+  return info;
+}
+
 void
 landmark_meta_register (void)
 {
+  gst_landmark_map_meta_get_info ();
   gst_landmark_labels_meta_get_info ();
   gst_landmark_pose_meta_get_info ();
   gst_landmark_detections_meta_get_info ();
@@ -412,6 +441,19 @@ const GstStructure *
 landmark_pose_meta_get (GstBuffer * buffer)
 {
   return custom_structure (buffer, GST_LANDMARK_POSE_META_NAME);
+}
+
+GstStructure *
+landmark_map_meta_add (GstBuffer * buffer)
+{
+  gst_landmark_map_meta_get_info ();
+  return replace_custom_meta (buffer, GST_LANDMARK_MAP_META_NAME);
+}
+
+const GstStructure *
+landmark_map_meta_get (GstBuffer * buffer)
+{
+  return custom_structure (buffer, GST_LANDMARK_MAP_META_NAME);
 }
 
 static std::string

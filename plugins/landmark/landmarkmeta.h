@@ -16,6 +16,7 @@ G_BEGIN_DECLS
 #define GST_LANDMARK_LABELS_META_NAME "GstLandmarkLabelsMeta"
 #define GST_LANDMARK_POSE_META_NAME "GstLandmarkPoseMeta"
 #define GST_LANDMARK_DETECTIONS_META_NAME "GstLandmarkDetectionsMeta"
+#define GST_LANDMARK_MAP_META_NAME "GstLandmarkMapMeta"
 
 #define LANDMARK_BLOB_PARAMS "landmark-blob"
 #define LANDMARK_RANGE_PARAMS "landmark-range"
@@ -42,6 +43,7 @@ G_BEGIN_DECLS
 const GstMetaInfo *gst_landmark_labels_meta_get_info (void);
 const GstMetaInfo *gst_landmark_pose_meta_get_info (void);
 const GstMetaInfo *gst_landmark_detections_meta_get_info (void);
+const GstMetaInfo *gst_landmark_map_meta_get_info (void);
 
 /* Registers every meta of the contract; called from plugin_init. */
 void landmark_meta_register (void);
@@ -102,6 +104,13 @@ guint landmark_detection_count (GstBuffer * buffer);
  * its structure to fill. */
 GstStructure *landmark_pose_meta_add (GstBuffer * buffer);
 const GstStructure *landmark_pose_meta_get (GstBuffer * buffer);
+
+/* Landmark map (landmarkslam): parallel arrays over the landmarks, `ids`,
+ * `classes` (strings), `x`, `y` (metres), `covariance` (4 doubles per
+ * landmark, row-major over x, y), `confirmed` (booleans), `views` (guint).
+ * Adds an empty map meta, replacing any the buffer had. */
+GstStructure *landmark_map_meta_add (GstBuffer * buffer);
+const GstStructure *landmark_map_meta_get (GstBuffer * buffer);
 
 G_END_DECLS
 

@@ -8,6 +8,7 @@
 #include "gstipmrange.h"
 #include "gstlabsegment.h"
 #include "gstlandmarklog.h"
+#include "gstlandmarkslam.h"
 #include "gstlandmarkoverlay.h"
 #include "gstlandmarkpublish.h"
 #include "gsttrilaterate.h"
@@ -26,6 +27,7 @@ plugin_init (GstPlugin * plugin)
   ok |= GST_ELEMENT_REGISTER (landmarkoverlay, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarkpublish, plugin);
   ok |= GST_ELEMENT_REGISTER (trilaterate, plugin);
+  ok |= GST_ELEMENT_REGISTER (landmarkslam, plugin);
   return ok;
 }
 

@@ -538,6 +538,12 @@ Slam::update (const std::vector<SlamObservation> & obs)
           d2 = 0;
       }
     }
+    double wx, wy;
+    robot_to_world (pose (), obs[i].obs.gx, obs[i].obs.gy, &wx, &wy);
+    for (const auto & l : lm_)
+      if (l.class_name == obs[i].class_name
+          && std::hypot (l.x - wx, l.y - wy) < opt.min_separation)
+        d2 = 0;
     if (d2 < opt.new_chi2) {
       f.reasons[i] = "ambiguous";
       continue;
@@ -548,6 +554,9 @@ Slam::update (const std::vector<SlamObservation> & obs)
     }
     SlamLandmark l;
     l.class_name = obs[i].class_name;
+    l.z = obs[i].marker_z;
+    l.diameter = obs[i].marker_diameter;
+    l.ball = obs[i].marker_ball;
     add_landmark (obs[i], l);
     f.match[i] = (int) lm_.size () - 1;
     f.reasons[i] = "new-landmark";

@@ -35,6 +35,10 @@ struct SlamOptions {
   double gate_chi2 = 13.82;       /* per pairing, 2 dof (99.9 %) */
   double joint_probability = 0.999;   /* JCBB joint test */
   double new_chi2 = 40.0;         /* farther than this from all: new */
+  /* and no nearer than this (metres) to a landmark of its class: ranges
+   * biased beyond their sigmas (a disc cut by the image border) must not
+   * add copies; two same-coloured markers closer than this are one */
+  double min_separation = 0.2;
   int confirm_views = 3;
   double confirm_baseline = 0.25; /* metres between counted views */
   int tentative_frames = 30;      /* updates a tentative one may go unseen */
@@ -61,6 +65,9 @@ struct SlamLandmark {
 struct SlamObservation {
   std::string class_name;
   RangeBearing obs;
+  /* the marker the range assumed (ipmrange), kept by a new landmark */
+  double marker_z = 0, marker_diameter = 0;
+  bool marker_ball = false;
 };
 
 struct SlamFrame {

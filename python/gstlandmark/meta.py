@@ -8,6 +8,7 @@ structure fields by hand::
     for det in meta.detections(buf):
         det.class_name, det.bbox, det.params["landmark-blob"]
     meta.pose(buf)                 # Pose or None
+    meta.landmark_map(buf)         # list of MapLandmark (landmarkslam) or None
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from .messages import structure_to_dict  # noqa: E402
 LABELS_META = "GstLandmarkLabelsMeta"
 POSE_META = "GstLandmarkPoseMeta"
 DETECTIONS_META = "GstLandmarkDetectionsMeta"
+MAP_META = "GstLandmarkMapMeta"
 PARAM_NAMES = ("landmark-blob", "landmark-range", "landmark-match")
 
 
@@ -222,3 +224,31 @@ def pose(buf: Gst.Buffer) -> Optional[Pose]:
     if meta is None:
         return None
     return Pose(fields=structure_to_dict(meta.get_structure()))
+
+
+@dataclass
+class MapLandmark:
+    """One landmark of landmarkslam's map meta: world position (metres),
+    its 2x2 covariance (row-major), whether it is confirmed, and from how
+    many distinct poses it was seen."""
+    id: str
+    class_name: str
+    x: float
+    y: float
+    covariance: List[float]
+    confirmed: bool
+    views: int
+
+
+def landmark_map(buf: Gst.Buffer) -> Optional[List[MapLandmark]]:
+    """The landmark map meta of a buffer (landmarkslam), or None."""
+    meta = buf.get_custom_meta(MAP_META)
+    if meta is None:
+        return None
+    f = structure_to_dict(meta.get_structure())
+    return [MapLandmark(id=f["ids"][i], class_name=f["classes"][i],
+                        x=f["x"][i], y=f["y"][i],
+                        covariance=list(f["covariance"][4 * i:4 * i + 4]),
+                        confirmed=bool(f["confirmed"][i]),
+                        views=int(f["views"][i]))
+            for i in range(len(f["ids"]))]

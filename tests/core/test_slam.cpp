@@ -61,6 +61,9 @@ struct SimResult {
   std::vector<double> pose_err, nees;
   std::vector<Pose2> est, true_path;
   std::vector<int> seen;          /* per truth landmark: frames seen */
+  /* observations at bearings beyond +-90 degrees after the first frame,
+   * and how many of them were paired with a landmark */
+  int behind = 0, behind_paired = 0;
   Slam slam;
 };
 
@@ -133,7 +136,13 @@ run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
       obs.push_back (ob);
       res->seen[i]++;
     }
-    res->slam.update (obs);
+    const SlamFrame fr = res->slam.update (obs);
+    for (size_t i = 0; k > 0 && i < obs.size (); i++) {
+      if (std::fabs (obs[i].obs.bearing ()) > M_PI / 2) {
+        res->behind++;
+        res->behind_paired += fr.match[i] >= 0 && fr.reasons[i].empty ();
+      }
+    }
     if (!res->slam.has_pose ())
       continue;
     const Pose2 e = res->slam.pose ();
@@ -382,6 +391,11 @@ test_bearing_wrap ()
       &extra, &merged);
   std::printf ("bearing wrap: %zu landmarks (truth %zu), rms %.4f m\n",
       r.slam.landmarks ().size (), truth.size (), rms);
+  /* and they are used, not gated out */
+  std::printf ("bearing wrap: %d of %d observations behind paired\n",
+      r.behind_paired, r.behind);
+  CHECK (r.behind > 1000 && r.behind_paired >= 0.99 * r.behind, "%d of %d",
+      r.behind_paired, r.behind);
   CHECK (r.slam.landmarks ().size () == truth.size (), "%zu landmarks",
       r.slam.landmarks ().size ());
   CHECK (missing == 0 && extra == 0 && merged == 0, "%d %d %d", missing,

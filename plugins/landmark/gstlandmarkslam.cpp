@@ -490,6 +490,19 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
         skip.push_back ({ roi, "not-kept" });
         continue;
       }
+      /* A blob cut by the image border has a biased centre, so a biased
+       * range and bearing with the sigmas of a whole one: an anchor
+       * can absorb that, a landmark being mapped cannot. */
+      const GstStructure *blob = landmark_detection_get_param (buf, roi,
+          LANDMARK_BLOB_PARAMS);
+      guint fw = 0, fh = 0;
+      if (blob && gst_structure_get_uint (blob, "frame-width", &fw)
+          && gst_structure_get_uint (blob, "frame-height", &fh)
+          && (roi->x == 0 || roi->y == 0 || roi->x + roi->w >= fw
+              || roi->y + roi->h >= fh)) {
+        skip.push_back ({ roi, "cut-by-border" });
+        continue;
+      }
       const GstStructure *r = landmark_detection_get_param (buf, roi,
           LANDMARK_RANGE_PARAMS);
       gboolean no_floor = FALSE;

@@ -30,6 +30,16 @@ gamma_p (double a, double x)
 
 constexpr int kPose = 6;      /* x y th vx vy w */
 
+/* The sigmas of an observation: its own, else the defaults. */
+void
+obs_sigmas (const RangeBearing & o, double *sr,
+    double *sb)
+{
+  const double r = o.range ();
+  *sr = o.range_sigma > 0 ? o.range_sigma : default_range_sigma (r);
+  *sb = o.bearing_sigma > 0 ? o.bearing_sigma : default_bearing_sigma ();
+}
+
 }  // namespace
 
 double
@@ -196,10 +206,8 @@ Slam::add_landmark (const SlamObservation & o, SlamLandmark lm)
 {
   const int N = (int) n ();
   const double r = o.obs.range (), b = o.obs.bearing ();
-  double sr = o.obs.range_sigma > 0 ? o.obs.range_sigma :
-      default_range_sigma (r);
-  double sb = o.obs.bearing_sigma > 0 ? o.obs.bearing_sigma :
-      default_bearing_sigma ();
+  double sr, sb;
+  obs_sigmas (o.obs, &sr, &sb);
   const double a = s_[2] + b, ca = std::cos (a), sa = std::sin (a);
   lm.x = s_[0] + r * ca;
   lm.y = s_[1] + r * sa;
@@ -346,10 +354,8 @@ Slam::update (const std::vector<SlamObservation> & obs)
       return false;
     const double r = std::sqrt (q);
     const double zr = o.obs.range (), zb = o.obs.bearing ();
-    const double sr = o.obs.range_sigma > 0 ? o.obs.range_sigma :
-        default_range_sigma (zr);
-    const double sb = o.obs.bearing_sigma > 0 ? o.obs.bearing_sigma :
-        default_bearing_sigma ();
+    double sr, sb;
+    obs_sigmas (o.obs, &sr, &sb);
     pr->obs = i;
     pr->lm = k;
     /* bearing innovation wrapped: a landmark behind the robot is near

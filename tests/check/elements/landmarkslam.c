@@ -3,7 +3,8 @@
  * built within centimetres; two red discs stay two; a given map's ids are
  * kept in map-out; an unwritable map-out and a bad odometry file are clear
  * errors; odometry carries the pose through frames without landmarks; a
- * bad map set while PLAYING is refused with a warning. */
+ * bad map set while PLAYING is refused with a warning; a blob cut by the
+ * image border is left out. */
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -327,6 +328,37 @@ GST_START_TEST (test_bad_map_while_playing_keeps_previous)
 
 GST_END_TEST;
 
+/* a blob touching the image border is left out of the estimate */
+GST_START_TEST (test_cut_blob_left_out)
+{
+  GstHarness *h = harness ("");
+  GstBuffer *b = frame (0);
+  add_seen (b, 0, 0, 0, 0, 0);
+  add_seen (b, 1, 2, 0, 0, 0);
+  GstVideoRegionOfInterestMeta *cut =
+      gst_buffer_get_video_region_of_interest_meta_id (b, 1);
+  cut->x = 0;
+  gst_video_region_of_interest_meta_add_param (cut,
+      gst_structure_new ("landmark-blob", "kept", G_TYPE_BOOLEAN, TRUE,
+          "frame-width", G_TYPE_UINT, 64, "frame-height", G_TYPE_UINT, 48,
+          NULL));
+  GstBuffer *out = gst_harness_push_and_pull (h, b);
+  const GstStructure *map = meta (out, "GstLandmarkMapMeta");
+  fail_unless_equals_int (gst_value_array_get_size (gst_structure_get_value
+          (map, "ids")), 1);
+  GstVideoRegionOfInterestMeta *roi =
+      gst_buffer_get_video_region_of_interest_meta_id (out, 1);
+  const GstStructure *m = gst_video_region_of_interest_meta_get_param (roi,
+      "landmark-match");
+  fail_unless (m != NULL);
+  fail_unless_equals_string (gst_structure_get_string (m, "reason"),
+      "cut-by-border");
+  gst_buffer_unref (out);
+  gst_harness_teardown (h);
+}
+
+GST_END_TEST;
+
 static Suite *
 landmarkslam_suite (void)
 {
@@ -339,6 +371,7 @@ landmarkslam_suite (void)
   tcase_add_test (tc, test_bad_odometry_fails_ready);
   tcase_add_test (tc, test_odometry_bridges);
   tcase_add_test (tc, test_bad_map_while_playing_keeps_previous);
+  tcase_add_test (tc, test_cut_blob_left_out);
   return s;
 }
 

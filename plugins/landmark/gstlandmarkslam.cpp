@@ -19,8 +19,8 @@
  * - a `GstLandmarkMapMeta`: the landmarks, their covariances, confirmed
  *   or tentative (docs/metadata.md);
  * - on each detection a `landmark-match` structure: `matched`,
- *   `landmark-id`, or `reason` (`no-range`, `not-kept`, `ambiguous`,
- *   `map-full`, `no-pose`).
+ *   `landmark-id`, or `reason` (`no-range`, `not-kept`, `cut-by-border`,
+ *   `ambiguous`, `map-full`, `no-pose`).
  *
  * `odometry=PATH` reads a JSON-lines file of robot-frame increments
  * (`{"t": s, "dx": m, "dy": m, "dheading": rad}`, stream time) in place of

@@ -22,6 +22,9 @@
  *   `landmark-id`, or `reason` (`no-range`, `not-kept`, `cut-by-border`,
  *   `ambiguous`, `map-full`, `no-pose`).
  *
+ * Placed after `trilaterate` it uses the detections trilaterate accepted,
+ * leaves trilaterate's `landmark-match` in place and replaces its pose.
+ *
  * `odometry=PATH` reads a JSON-lines file of robot-frame increments
  * (`{"t": s, "dx": m, "dy": m, "dheading": rad}`, stream time) in place of
  * the constant-velocity model. `map-out=PATH` writes the anchors and the
@@ -531,8 +534,16 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
 
   const landmark::SlamFrame f = slam.update (obs);
 
+  /* After trilaterate, its landmark-match stays the detections' verdict
+   * (a second one would reach only some readers). */
+  auto add_match = [&](GstVideoRegionOfInterestMeta * roi, GstStructure * m) {
+    if (landmark_detection_get_param (buf, roi, LANDMARK_MATCH_PARAMS))
+      gst_structure_free (m);
+    else
+      landmark_detection_add_param (buf, roi, m);
+  };
   for (const auto & sk : skip)
-    landmark_detection_add_param (buf, sk.first,
+    add_match (sk.first,
         gst_structure_new (LANDMARK_MATCH_PARAMS,
             "matched", G_TYPE_BOOLEAN, FALSE,
             "reason", G_TYPE_STRING, sk.second, nullptr));
@@ -551,7 +562,7 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
       gst_structure_set (s, "reason", G_TYPE_STRING, f.reasons[k].c_str (),
           nullptr);
     }
-    landmark_detection_add_param (buf, obs_roi[k], s);
+    add_match (obs_roi[k], s);
   }
 
   if (f.ok) {

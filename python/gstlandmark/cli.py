@@ -240,6 +240,7 @@ COMMANDS = [
     _lazy("calibrate", "add_calibrate_parser"),
     _lazy("runner", "add_run_parser"),
     _lazy("soak", "add_soak_parser"),
+    _lazy("console", "add_console_parser"),
 ]
 
 

@@ -301,9 +301,10 @@ function onState(s) {
 }
 
 function connect() {
-  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
-  const dir = location.pathname.replace(/[^/]*$/, "");
-  const ws = new WebSocket(withToken(scheme + location.host + dir + "ws"));
+  const url = new URL("ws", location.href);        // beside the page
+  url.protocol = url.protocol.replace("http", "ws");
+  url.search = "";
+  const ws = new WebSocket(withToken(url.href));
   ws.onmessage = (ev) => {
     const m = JSON.parse(ev.data);
     if (m.type === "frame") onFrame(m);

@@ -493,3 +493,50 @@ def test_console_command_refuses_a_short_token(gst, capsys):
                  "--token", "short"]) == 1
     assert "--token must be at least 16 characters" in \
         capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------
+# controls and several browsers
+
+
+def test_pause_stop_start_and_several_browsers(gst, tmp_path):
+    engine = clip_engine(tmp_path, loop_file=True)
+    Gst = pytest.importorskip("gstlandmark.pipeline").Gst
+
+    async def check(client):
+        a = await client.ws_connect("/ws")
+        b = await client.ws_connect("/ws")
+
+        async def next_frame(ws):
+            while True:
+                msg = await ws.receive_json()
+                if msg["type"] == "frame":
+                    return msg
+
+        fa, fb = await next_frame(a), await next_frame(b)
+        assert fa["type"] == fb["type"] == "frame"
+        # one browser closing its tab stops nothing for the other
+        await a.close()
+        await next_frame(b)
+        status, reply = await post(client, "/api/control",
+                                   {"action": "pause"})
+        assert status == 200 and reply == {"state": "paused"}
+        assert engine.pipe.get_state(5 * Gst.SECOND)[1] == Gst.State.PAUSED
+        await asyncio.sleep(0.2)        # frames already on their way
+        count = engine.frame_index
+        await asyncio.sleep(0.5)
+        assert engine.frame_index == count
+        status, reply = await post(client, "/api/control",
+                                   {"action": "stop"})
+        assert reply == {"state": "stopped"}
+        assert engine.pipe.get_state(0)[1] == Gst.State.NULL
+        status, reply = await post(client, "/api/control",
+                                   {"action": "start"})
+        assert reply == {"state": "playing"}
+        f = await next_frame(b)
+        # stopped means the file starts again from its beginning
+        while f["pts"] > 0.5:
+            f = await next_frame(b)
+        await b.close()
+
+    serve(engine, check)

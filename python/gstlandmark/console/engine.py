@@ -158,7 +158,8 @@ def source_fragment(input_path: Optional[str] = None,
     if camera is not None:
         if not os.path.exists(camera):
             raise ConsoleError(f"{camera}: no such device")
-        return f"v4l2src device={runner.quote(camera)}"
+        # decodebin passes raw video through and decodes MJPEG cameras
+        return f"v4l2src device={runner.quote(camera)} ! decodebin"
     return "videotestsrc is-live=true pattern=ball ! video/x-raw,width=640," \
            "height=480,framerate=30/1"
 
@@ -199,6 +200,7 @@ class Engine:
         self.jpeg: Optional[bytes] = None
         self.jpeg_seq = 0
         self.jpeg_time = 0.0
+        self.jpeg_pts: Optional[float] = None
         self._jpeg_waiter: Optional[asyncio.Future] = None
         self.frame_bgr: Optional[np.ndarray] = None
         self.frame_index = 0
@@ -272,6 +274,8 @@ class Engine:
         self.loop = asyncio.get_running_loop()
         if self.pipe is None:
             self.build()
+        if self.state == "ended" or self.error is not None:
+            await self.stop()           # from the beginning
         self.error = None
         ret = self.pipe.set_state(Gst.State.PLAYING)
         if ret == Gst.StateChangeReturn.FAILURE:
@@ -291,13 +295,22 @@ class Engine:
         self.state = "paused"
 
     async def stop(self) -> None:
-        """NULL: the source closes; start plays from the beginning."""
+        """NULL: the source closes; start plays from the beginning.
+        A new pipeline with the same settings replaces the old one
+        (decodebin's delayed link from the launch line is not made a
+        second time)."""
         if self.pipe is not None:
+            settings = self.current_properties()
             self.pipe.set_state(Gst.State.NULL)
+            self.pipe = None
+            self.initial_properties = settings
+            self.build()
         self.state = "stopped"
 
     async def close(self) -> None:
-        await self.stop()
+        if self.pipe is not None:
+            self.pipe.set_state(Gst.State.NULL)
+        self.state = "stopped"
         if self._bus_task is not None:
             self._bus_task.cancel()
             self._bus_task = None
@@ -315,10 +328,10 @@ class Engine:
                 await asyncio.sleep(0.05)
                 continue
             if msg.type == Gst.MessageType.ERROR:
-                self.error = runner._error_text(msg)
-                pipe.set_state(Gst.State.NULL)
-                self.state = "stopped"
-                self._notify({"type": "error", "error": self.error})
+                error = runner._error_text(msg)
+                await self.stop()
+                self.error = error
+                self._notify({"type": "error", "error": error})
             elif self.loop_file and "filesrc" in self.source:
                 self.path.clear()
                 pipe.seek_simple(Gst.Format.TIME, Gst.SeekFlags.FLUSH, 0)
@@ -335,8 +348,10 @@ class Engine:
         buf = sample.get_buffer()
         data = buf.extract_dup(0, buf.get_size())
         now = time.time()
+        pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
         if self.loop is not None:
-            self.loop.call_soon_threadsafe(self._publish_jpeg, data, now)
+            self.loop.call_soon_threadsafe(self._publish_jpeg, data, now,
+                                           pts)
         return Gst.FlowReturn.OK
 
     def _on_results(self, sink) -> Gst.FlowReturn:
@@ -418,20 +433,22 @@ class Engine:
 
     # -- on the loop -----------------------------------------------------
 
-    def _publish_jpeg(self, data: bytes, now: float) -> None:
-        self.jpeg, self.jpeg_time = data, now
+    def _publish_jpeg(self, data: bytes, now: float,
+                      pts: Optional[float]) -> None:
+        self.jpeg, self.jpeg_time, self.jpeg_pts = data, now, pts
         self.jpeg_seq += 1
         waiter, self._jpeg_waiter = self._jpeg_waiter, None
         if waiter is not None and not waiter.done():
             waiter.set_result(None)
 
-    async def next_jpeg(self, after_seq: int) -> Tuple[int, bytes, float]:
+    async def next_jpeg(self, after_seq: int
+                        ) -> Tuple[int, bytes, float, Optional[float]]:
         """The newest JPEG newer than ``after_seq`` (waits for one)."""
         while self.jpeg_seq <= after_seq or self.jpeg is None:
             if self._jpeg_waiter is None:
                 self._jpeg_waiter = self.loop.create_future()
             await asyncio.shield(self._jpeg_waiter)
-        return self.jpeg_seq, self.jpeg, self.jpeg_time
+        return self.jpeg_seq, self.jpeg, self.jpeg_time, self.jpeg_pts
 
     def _publish_results(self, result: Dict[str, Any],
                          frame: Optional[np.ndarray]) -> None:

@@ -213,11 +213,15 @@ def make_app(engine: Engine, token: Optional[str] = None,
         seq = 0
         try:
             while True:
-                seq, data, stamp = await engine.next_jpeg(seq)
+                seq, data, stamp, pts = await engine.next_jpeg(seq)
+                # X-Timestamp: wall time the JPEG was ready; X-Pts: the
+                # frame's (matches "pts" on the WebSocket)
                 await response.write(
                     f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
                     f"Content-Length: {len(data)}\r\n"
-                    f"X-Timestamp: {stamp:.6f}\r\n\r\n".encode()
+                    f"X-Timestamp: {stamp:.6f}\r\n"
+                    f"X-Pts: {pts if pts is not None else ''}\r\n"
+                    "\r\n".encode()
                     + data + b"\r\n")
         except (ConnectionError, RuntimeError):
             pass        # the browser went away

@@ -287,13 +287,21 @@ def test_token_required_off_loopback(gst, tmp_path):
                 ({}, "?token=" + TOKEN, 200)):
             for route in ("/", "/api/state", "/static/console.js",
                           "/download/palette.json"):
+                client.session.cookie_jar.clear()
                 r = await client.get(route + query, headers=headers)
                 assert r.status == status, (route, headers, query)
                 if status == 401:
                     assert "token" in (await r.json())["error"]
+        client.session.cookie_jar.clear()
         r = await client.post("/api/control", json={"action": "stop"})
         assert r.status == 401
         assert engine.state == "playing"
+        # the page's address sets a cookie its files and video then use
+        r = await client.get("/?token=" + TOKEN)
+        assert r.status == 200
+        r = await client.get("/static/console.css")
+        assert r.status == 200
+        client.session.cookie_jar.clear()
         for query in ("", "?token=nope"):
             with pytest.raises(aiohttp.WSServerHandshakeError) as err:
                 await client.ws_connect("/ws" + query)

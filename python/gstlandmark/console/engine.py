@@ -225,7 +225,8 @@ class Engine:
             f"labsegment name=labsegment{palette} ! "
             "blobroundness name=blobroundness ! "
             f"ipmrange name=ipmrange{camera}{maps}{pose} ! "
-            f"landmarklog location={q(self.log_path)} ! "
+            # every line on disk at once: the download is current
+            f"landmarklog location={q(self.log_path)} flush-every=1 ! "
             # real-time pacing for files; the branches then drop rather
             # than wait
             "clocksync ! tee name=t "

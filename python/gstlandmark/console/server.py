@@ -56,6 +56,11 @@ def _host_name(host_header: str) -> str:
         else host_header
 
 
+def cookie_name(request: web.Request) -> str:
+    # cookies are per host, not per port: one name per console
+    return f"landmark-console-{request.url.port}"
+
+
 def make_app(engine: Engine, token: Optional[str] = None,
              loopback: bool = True) -> web.Application:
     """The application. ``token``: required on every request when set;
@@ -64,10 +69,17 @@ def make_app(engine: Engine, token: Optional[str] = None,
 
     @web.middleware
     async def guard(request: web.Request, handler):
+        from_query = False
         if token is not None:
+            # a header (scripts), the address (the first page load), or
+            # the cookie that load set (the page's own files, the video)
             given = request.headers.get("Authorization", "")
-            given = given[7:] if given.startswith("Bearer ") else \
-                request.query.get("token", "")
+            if given.startswith("Bearer "):
+                given = given[7:]
+            elif "token" in request.query:
+                given, from_query = request.query["token"], True
+            else:
+                given = request.cookies.get(cookie_name(request), "")
             if not hmac.compare_digest(given.encode(), token.encode()):
                 return _error(401, "missing or wrong token: open the "
                               "address printed at start (it ends in "
@@ -81,7 +93,11 @@ def make_app(engine: Engine, token: Optional[str] = None,
                 "application/json":
             return _error(415, "POST bodies must be application/json")
         try:
-            return await handler(request)
+            response = await handler(request)
+            if from_query and not response.prepared:
+                response.set_cookie(cookie_name(request), token,
+                                    httponly=True, samesite="Strict")
+            return response
         except ConsoleError as err:
             return _error(400, str(err))
         except web.HTTPException as err:

@@ -251,7 +251,10 @@ function tuneControl(element, spec) {
   input.id = `tune-${element}-${spec.name}`;
   input.addEventListener("change", async () => {
     let value = input.type === "checkbox" ? input.checked : input.value;
-    if (spec.type === "integer" || spec.type === "number") value = Number(value);
+    if (spec.type === "integer" || spec.type === "number") {
+      if (value.trim() === "") return;       // being edited (or not a number)
+      value = Number(value);
+    }
     const r = await post("api/tune", { element, property: spec.name, value });
     if (r) showMessage(`${element}.${spec.name} = ${JSON.stringify(r.applied[0].value)}`, false);
   });

@@ -6,6 +6,8 @@
 set -euo pipefail
 # valgrind for tests/python/test_valgrind.py
 LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} valgrind"
+# headless Chromium for tests/python/test_console_browser.py
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT} chromium chromium-driver python3-selenium"
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 status=0

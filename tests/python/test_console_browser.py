@@ -1,7 +1,7 @@
 """gst-landmark console in a real browser: Debian's headless Chromium driven
-by Selenium through Debian's chromedriver (nothing downloaded). Skipped
-when they are not installed (``LANDMARK_EXTRA_APT="chromium
-chromium-driver python3-selenium" bash scripts/test.sh`` installs them).
+by Selenium through Debian's chromedriver (nothing downloaded at run
+time). scripts/test.sh installs them; elsewhere the tests are skipped
+when they are missing.
 
 The page on the shipped clip: frames arrive (the readouts change, the
 canvases are drawn), the detections table shows ranges as XX.XXXX m equal

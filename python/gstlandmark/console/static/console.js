@@ -131,10 +131,13 @@ function drawHistogram(f) {
   g.clearRect(0, 0, c.width, c.height);
   const n = f.classes.length;
   if (!n) return;
-  const top = Math.max(1, f.threshold || 0, ...f.classes.map((k) => k.count));
+  // log scale, as the overlay draws it: the floor's tens of thousands of
+  // pixels and a far marker's few dozen on one chart
+  const scale = (v) => Math.log10(1 + v);
+  const top = scale(Math.max(1, f.threshold || 0, ...f.classes.map((k) => k.count)));
   const bw = (c.width - 10) / n, base = c.height - 20;
   f.classes.forEach((k, i) => {
-    const h = (k.count / top) * (base - 5);
+    const h = (scale(k.count) / top) * (base - 5);
     g.fillStyle = k.rgb;
     g.globalAlpha = k.active ? 1 : 0.45;
     g.fillRect(5 + i * bw + 2, base - h, bw - 4, h);
@@ -143,7 +146,7 @@ function drawHistogram(f) {
     g.fillText(k.name, 5 + (i + 0.5) * bw, c.height - 6);
   });
   if (f.threshold) {
-    const y = base - (f.threshold / top) * (base - 5);
+    const y = base - (scale(f.threshold) / top) * (base - 5);
     g.strokeStyle = "#ff5252"; g.setLineDash([5, 3]); g.beginPath();
     g.moveTo(0, y); g.lineTo(c.width, y); g.stroke(); g.setLineDash([]);
     g.fillStyle = "#ff5252"; g.textAlign = "left"; g.fillText("min-class-pixels " + f.threshold, 6, y - 3);
@@ -261,7 +264,8 @@ function tuneControl(element, spec) {
   row.append(label, input);
   if (spec.minimum !== undefined) {
     const range = document.createElement("span");
-    range.className = "range"; range.textContent = `${spec.minimum} .. ${spec.maximum}`;
+    const show = (v) => (Math.abs(v) >= 1e9 ? "no limit" : String(v));
+    range.className = "range"; range.textContent = `${show(spec.minimum)} .. ${show(spec.maximum)}`;
     row.append(range);
   }
   return row;

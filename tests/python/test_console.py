@@ -175,6 +175,10 @@ def test_websocket_results_match_landmarklog(gst, tmp_path):
         for key in ("frame", "time", "fps", "threshold", "classes", "lamps",
                     "detections", "pose", "width", "height"):
             assert key in f
+        # every element of the chain timed on every frame
+        assert set(f["cost_ms"]) == {"labsegment", "blobroundness",
+                                     "ipmrange", "trilaterate"}
+        assert all(0 < ms < 1000 for ms in f["cost_ms"].values())
         line = log[round(f["pts"], 6)]
         assert f["threshold"] == 50
         assert [c["name"] for c in f["classes"]] == \
@@ -546,5 +550,39 @@ def test_pause_stop_start_and_several_browsers(gst, tmp_path):
         while f["pts"] > 0.5:
             f = await next_frame(b)
         await b.close()
+
+    serve(engine, check)
+
+
+def test_labels_view_shows_the_classes_in_their_colours(gst, tmp_path):
+    rgb = (51, 102, 170)
+    engine = solid_engine(tmp_path, rgb)
+
+    async def check(client):
+        # nobody watching: no false-colour frames are made
+        await frames(client, 3)
+        assert engine.views["labels"].seq == 0
+        r = await client.get("/stream.mjpg", params={"view": "labels"})
+        assert r.status == 200
+        reader = aiohttp.MultipartReader(r.headers, r.content)
+        part = await reader.next()
+        image = cv2.imdecode(np.frombuffer(await part.read(), np.uint8),
+                             cv2.IMREAD_COLOR)
+        r.close()
+        # every pixel is nearest to the built-in blue: its class colour
+        blue = pal.default_palette().index("blue")
+        state = await (await client.get("/api/state")).json()
+        got = await frames(client, 1)
+        colour = got[0]["classes"][blue]["rgb"]
+        assert got[0]["classes"][blue]["count"] == 160 * 120
+        expected = [int(colour[i:i + 2], 16) for i in (5, 3, 1)]   # BGR
+        assert image.shape == (120, 160, 3)
+        assert np.abs(image.reshape(-1, 3).astype(int) -
+                      expected).max() <= 3
+        assert state["palette"]["classes"][blue]["name"] == "blue"
+        r = await client.get("/stream.mjpg", params={"view": "x"})
+        assert r.status == 400
+        assert "view must be one of overlay, labels" in \
+            (await r.json())["error"]
 
     serve(engine, check)

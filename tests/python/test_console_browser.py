@@ -83,6 +83,8 @@ class ServerThread:
     def __exit__(self, *exc):
         self.loop.call_soon_threadsafe(self.stop.set)
         self.thread.join(WAIT)
+        # the server stops promptly with a browser still watching
+        assert not self.thread.is_alive(), "the server did not stop"
 
 
 @pytest.fixture

@@ -13,9 +13,11 @@ import asyncio
 import json
 import math
 import os
+import threading
 import time
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
+import cv2
 import numpy as np
 
 from .. import meta, palette as pal, pipeline, runner
@@ -164,6 +166,49 @@ def source_fragment(input_path: Optional[str] = None,
            "height=480,framerate=30/1"
 
 
+class LatestJpeg:
+    """The newest JPEG of one video view, for any number of MJPEG
+    readers on the loop (each takes the newest, skipping what it
+    missed)."""
+
+    def __init__(self):
+        self.data: Optional[bytes] = None
+        self.seq = 0
+        self.time = 0.0
+        self.pts: Optional[float] = None
+        self.readers = 0
+        self.closed = False
+        self._waiter: Optional[asyncio.Future] = None
+
+    def publish(self, data: bytes, now: float,
+                pts: Optional[float]) -> None:
+        self.data, self.time, self.pts = data, now, pts
+        self.seq += 1
+        self._wake()
+
+    def close(self) -> None:
+        """Ends every reader (the server is shutting down)."""
+        self.closed = True
+        self._wake()
+
+    def _wake(self) -> None:
+        waiter, self._waiter = self._waiter, None
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    async def next(self, after_seq: int
+                   ) -> Tuple[int, bytes, float, Optional[float]]:
+        """The newest JPEG newer than ``after_seq`` (waits for one);
+        EOFError once closed."""
+        while self.seq <= after_seq or self.data is None:
+            if self.closed:
+                raise EOFError("closed")
+            if self._waiter is None:
+                self._waiter = asyncio.get_running_loop().create_future()
+            await asyncio.shield(self._waiter)
+        return self.seq, self.data, self.time, self.pts
+
+
 class Engine:
     """The running chain and what the server needs from it.
 
@@ -197,17 +242,20 @@ class Engine:
         self.state = "stopped"
         self.error: Optional[str] = None
         # latest results, shared with the handlers on the loop
-        self.jpeg: Optional[bytes] = None
-        self.jpeg_seq = 0
-        self.jpeg_time = 0.0
-        self.jpeg_pts: Optional[float] = None
-        self._jpeg_waiter: Optional[asyncio.Future] = None
+        # the overlay video, and the false-colour classes (made only
+        # while someone watches them)
+        self.views = {"overlay": LatestJpeg(), "labels": LatestJpeg()}
         self.frame_bgr: Optional[np.ndarray] = None
         self.frame_index = 0
         self.path: List[Tuple[float, float]] = []
         self.listeners: List[Callable[[Dict[str, Any]], None]] = []
         self._times: List[float] = []
         self._bus_task: Optional[asyncio.Task] = None
+        # per-element processing time of recent frames, by pts (written
+        # by the chain's streaming thread, read by the results branch)
+        self._cost_start: Dict[str, float] = {}
+        self._costs: Dict[Any, Dict[str, float]] = {}
+        self._costs_lock = threading.Lock()
 
     # -- the pipeline ------------------------------------------------------
 
@@ -260,6 +308,9 @@ class Engine:
         self.pipe.get_by_name("results").connect("new-sample",
                                                  self._on_results)
         self.pipe.get_by_name("jpeg").connect("new-sample", self._on_jpeg)
+        for name, element in self.elements().items():
+            if name != "landmarkoverlay":   # after the tee, not the chain
+                self._probe_cost(name, element)
         errors = []
         for element_name, props in self.initial_properties.items():
             for prop, value in props.items():
@@ -351,9 +402,31 @@ class Engine:
         now = time.time()
         pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
         if self.loop is not None:
-            self.loop.call_soon_threadsafe(self._publish_jpeg, data, now,
-                                           pts)
+            self.loop.call_soon_threadsafe(self.views["overlay"].publish,
+                                           data, now, pts)
         return Gst.FlowReturn.OK
+
+    def _probe_cost(self, name: str, element: Gst.Element) -> None:
+        """Wall time from a buffer entering ``element`` to leaving it."""
+        def entering(pad, info):
+            self._cost_start[name] = time.perf_counter()
+            return Gst.PadProbeReturn.OK
+
+        def leaving(pad, info):
+            start = self._cost_start.pop(name, None)
+            if start is not None:
+                pts = info.get_buffer().pts
+                with self._costs_lock:
+                    costs = self._costs.setdefault(pts, {})
+                    costs[name] = 1000 * (time.perf_counter() - start)
+                    while len(self._costs) > 64:    # frames dropped later
+                        self._costs.pop(next(iter(self._costs)))
+            return Gst.PadProbeReturn.OK
+
+        element.get_static_pad("sink").add_probe(Gst.PadProbeType.BUFFER,
+                                                 entering)
+        element.get_static_pad("src").add_probe(Gst.PadProbeType.BUFFER,
+                                                leaving)
 
     def _on_results(self, sink) -> Gst.FlowReturn:
         sample = sink.emit("pull-sample")
@@ -375,10 +448,29 @@ class Engine:
             finally:
                 buf.unmap(info)
         result = self.frame_json(buf, width, height, now)
+        if self.views["labels"].readers > 0:
+            self._labels_jpeg(buf, now)
+        with self._costs_lock:
+            result["cost_ms"] = self._costs.pop(buf.pts, {})
         if self.loop is not None:
             self.loop.call_soon_threadsafe(self._publish_results, result,
                                            frame)
         return Gst.FlowReturn.OK
+
+    def _labels_jpeg(self, buf: Gst.Buffer, now: float) -> None:
+        """The label plane in class colours (black: no class) as JPEG."""
+        labels = meta.labels(buf)
+        if labels is None or self.loop is None:
+            return
+        lut = np.zeros((256, 3), np.uint8)
+        for c in labels.classes:
+            lut[c.label] = c.rgb[::-1]      # BGR for OpenCV
+        ok, jpg = cv2.imencode(".jpg", lut[labels.plane],
+                               [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+        if ok:
+            pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
+            self.loop.call_soon_threadsafe(self.views["labels"].publish,
+                                           jpg.tobytes(), now, pts)
 
     @staticmethod
     def frame_json(buf: Gst.Buffer, width: int, height: int,
@@ -433,23 +525,6 @@ class Engine:
                 "detections": detections, "pose": pose_json}
 
     # -- on the loop -----------------------------------------------------
-
-    def _publish_jpeg(self, data: bytes, now: float,
-                      pts: Optional[float]) -> None:
-        self.jpeg, self.jpeg_time, self.jpeg_pts = data, now, pts
-        self.jpeg_seq += 1
-        waiter, self._jpeg_waiter = self._jpeg_waiter, None
-        if waiter is not None and not waiter.done():
-            waiter.set_result(None)
-
-    async def next_jpeg(self, after_seq: int
-                        ) -> Tuple[int, bytes, float, Optional[float]]:
-        """The newest JPEG newer than ``after_seq`` (waits for one)."""
-        while self.jpeg_seq <= after_seq or self.jpeg is None:
-            if self._jpeg_waiter is None:
-                self._jpeg_waiter = self.loop.create_future()
-            await asyncio.shield(self._jpeg_waiter)
-        return self.jpeg_seq, self.jpeg, self.jpeg_time, self.jpeg_pts
 
     def _publish_results(self, result: Dict[str, Any],
                          frame: Optional[np.ndarray]) -> None:

@@ -12,12 +12,13 @@ small.
 from __future__ import annotations
 
 import asyncio
+import collections
 import hmac
 import importlib.resources
 import ipaddress
 import json
 import os
-from typing import Any, Dict, Optional
+from typing import Any, Dict, List, Optional
 
 from aiohttp import WSMsgType, web
 
@@ -205,9 +206,10 @@ def make_app(engine: Engine, token: Optional[str] = None,
                                      "attachment; filename=log.jsonl"})
 
     async def download_snapshot(request):
-        if engine.jpeg is None:
+        data = engine.views["overlay"].data
+        if data is None:
             raise ConsoleError("no frame yet: start the pipeline")
-        return web.Response(body=engine.jpeg, content_type="image/jpeg",
+        return web.Response(body=data, content_type="image/jpeg",
                             headers={"Content-Disposition":
                                      "attachment; filename=snapshot.jpg"})
 
@@ -219,17 +221,24 @@ def make_app(engine: Engine, token: Optional[str] = None,
                      "attachment; filename=palette.json"})
 
     async def stream(request):
-        """MJPEG: one JPEG part per overlay frame, newest first (a slow
-        client skips frames, it never delays others)."""
+        """MJPEG: one JPEG part per frame of a view (``?view=overlay``,
+        the default, or ``labels``), newest first (a slow client skips
+        frames, it never delays others)."""
+        name = request.query.get("view", "overlay")
+        if name not in engine.views:
+            raise ConsoleError(f"view must be one of "
+                               f"{', '.join(engine.views)}, got {name!r}")
+        view = engine.views[name]
         response = web.StreamResponse(headers={
             "Content-Type":
                 f"multipart/x-mixed-replace; boundary={BOUNDARY}",
             "Cache-Control": "no-store"})
         await response.prepare(request)
-        seq = 0
+        seq = 0         # the newest frame at once, then each new one
+        view.readers += 1
         try:
             while True:
-                seq, data, stamp, pts = await engine.next_jpeg(seq)
+                seq, data, stamp, pts = await view.next(seq)
                 # X-Timestamp: wall time the JPEG was ready; X-Pts: the
                 # frame's (matches "pts" on the WebSocket)
                 await response.write(
@@ -239,25 +248,38 @@ def make_app(engine: Engine, token: Optional[str] = None,
                     f"X-Pts: {pts if pts is not None else ''}\r\n"
                     "\r\n".encode()
                     + data + b"\r\n")
-        except (ConnectionError, RuntimeError):
-            pass        # the browser went away
+        except (ConnectionError, RuntimeError, EOFError):
+            pass        # the browser went away, or the server stops
+        finally:
+            view.readers -= 1
         return response
 
     async def websocket(request):
         ws = web.WebSocketResponse(heartbeat=20)
         await ws.prepare(request)
-        queue: asyncio.Queue = asyncio.Queue(maxsize=CLIENT_QUEUE)
+        # frames may be dropped for a slow browser (the newest are
+        # kept), state changes and errors never are
+        frames: collections.deque = collections.deque(maxlen=CLIENT_QUEUE)
+        others: List[Dict[str, Any]] = []
+        wake = asyncio.Event()
 
         def listener(message):
-            if queue.full():
-                queue.get_nowait()
-            queue.put_nowait(message)
+            if message["type"] == "frame":
+                frames.append(message)
+            else:
+                others.append(message)
+            wake.set()
 
         async def send():
             try:
                 await ws.send_json(state())
                 while True:
-                    await ws.send_json(await queue.get())
+                    await wake.wait()
+                    wake.clear()
+                    while others or frames:
+                        message = others.pop(0) if others else \
+                            frames.popleft()
+                        await ws.send_json(message)
             except (ConnectionError, RuntimeError):
                 pass    # the browser went away; the reader ends too
 
@@ -275,6 +297,8 @@ def make_app(engine: Engine, token: Optional[str] = None,
         return ws
 
     async def on_shutdown(app):
+        for view in engine.views.values():
+            view.close()
         for ws in list(sockets):
             await ws.close()
         await engine.close()

@@ -40,6 +40,11 @@ async function post(route, body) {
 // ---- the video and the teach box ------------------------------------------
 
 $("video").src = withToken("stream.mjpg");
+for (const radio of document.querySelectorAll("input[name=view]")) {
+  radio.addEventListener("change", () => {
+    $("video").src = withToken("stream.mjpg?view=" + radio.value);
+  });
+}
 for (const id of ["dl-log", "dl-snapshot", "dl-palette"]) $(id).href = withToken($(id).getAttribute("href"));
 
 const layer = $("box-layer");
@@ -181,6 +186,8 @@ function drawDetections(f) {
       (p.sigma_x !== null ? `  \u03c3 ${p.sigma_x.toFixed(3)}, ${p.sigma_y.toFixed(3)} m` : "") +
       `  (${p.solver})`
     : "pose: -";
+  $("cost").textContent = "cost: " + (Object.entries(f.cost_ms || {})
+    .map(([e, ms]) => `${e} ${ms.toFixed(1)}`).join(", ") || "-") + " ms";
 }
 
 function drawMinimap(f) {

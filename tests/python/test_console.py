@@ -586,3 +586,50 @@ def test_labels_view_shows_the_classes_in_their_colours(gst, tmp_path):
             (await r.json())["error"]
 
     serve(engine, check)
+
+
+def test_a_file_can_be_scrubbed(gst, tmp_path):
+    engine = clip_engine(tmp_path, loop_file=True)
+
+    async def check(client):
+        await frames(client, 2)
+        state = await (await client.get("/api/state")).json()
+        assert state["duration"] == pytest.approx(CLIP_FRAMES / 30, abs=0.04)
+        for seconds in (1.2, 0.3):
+            status, reply = await post(client, "/api/seek",
+                                       {"seconds": seconds})
+            assert status == 200, reply
+            got = await frames(client, 1, lambda f: abs(
+                f["pts"] - seconds) < 0.02)
+            assert got
+        # paused: the frame sought to still arrives (the socket is open
+        # before the seek: no other frame follows it)
+        await post(client, "/api/control", {"action": "pause"})
+        await asyncio.sleep(0.3)
+        async with client.ws_connect("/ws") as ws:
+            await post(client, "/api/seek", {"seconds": 0.9})
+            while True:
+                msg = await ws.receive_json()
+                if msg["type"] == "frame" and abs(msg["pts"] - 0.9) < 0.02:
+                    break
+        for body, expected in (({"seconds": -1}, "outside 0..1.500 s"),
+                               ({"seconds": 99}, "outside 0..1.500 s"),
+                               ({"seconds": "1"}, "must be a number"),
+                               ({}, "missing seconds")):
+            status, reply = await post(client, "/api/seek", body)
+            assert status == 400 and expected in reply["error"], reply
+
+    serve(engine, check)
+
+
+def test_only_a_file_can_be_scrubbed(gst, tmp_path):
+    engine = solid_engine(tmp_path, (0, 0, 0))
+
+    async def check(client):
+        status, reply = await post(client, "/api/seek", {"seconds": 0})
+        assert status == 400
+        assert reply["error"] == "seek: only a file can be scrubbed"
+        state = await (await client.get("/api/state")).json()
+        assert state["duration"] is None
+
+    serve(engine, check)

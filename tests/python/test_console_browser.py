@@ -148,6 +148,9 @@ def test_page_shows_live_results_tunes_and_teaches(gst, tmp_path, browser):
         assert cell in logged
         assert browser.find_element(By.ID, "pose").text.startswith(
             "pose: x ")
+        # a file: the scrubber shows the clip's length
+        wait_for(browser, lambda d: d.find_element(
+            By.ID, "position").text.endswith("/ 1.50 s"), "the scrubber")
 
         # tune: a value typed on the page reaches the element
         box = browser.find_element(By.ID, "tune-labsegment-min-class-pixels")

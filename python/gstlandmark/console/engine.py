@@ -268,6 +268,9 @@ class Engine:
                    if self.palette_path else "")
         pose = (f" ! trilaterate name=trilaterate{maps} post-messages=false"
                 if self.map_path else "")
+        queue = "queue max-size-buffers=2 max-size-bytes=0 max-size-time=0"
+        sink = ("emit-signals=true max-buffers=1 drop=true sync="
+                + ("true" if self.is_file else "false"))
         return (
             f"{self.source} ! videoconvert ! video/x-raw,format=BGR ! "
             f"labsegment name=labsegment{palette} ! "
@@ -275,18 +278,17 @@ class Engine:
             f"ipmrange name=ipmrange{camera}{maps}{pose} ! "
             # every line on disk at once: the download is current
             f"landmarklog location={q(self.log_path)} flush-every=1 ! "
-            # real-time pacing for files; the branches then drop rather
-            # than wait
-            "clocksync ! tee name=t "
-            # the newest frame only: a slow reader never holds the chain
-            "t. ! queue leaky=downstream max-size-buffers=1 ! "
-            "appsink name=results emit-signals=true max-buffers=1 drop=true "
-            "sync=false "
-            "t. ! queue leaky=downstream max-size-buffers=2 ! "
-            f"landmarkoverlay name=landmarkoverlay{maps} ! videoconvert ! "
-            f"jpegenc quality={JPEG_QUALITY} ! "
-            "appsink name=jpeg emit-signals=true max-buffers=1 drop=true "
-            "sync=false")
+            "tee name=t "
+            # For a file both sinks keep the clock (it plays at its own
+            # rate, results and video together) and preroll (a frame
+            # sought to while paused is shown). A live source keeps its
+            # own pace: its frames go on as soon as they are done. A
+            # browser never holds the sinks: the server hands it the
+            # newest frame.
+            f"t. ! {queue} ! appsink name=results {sink} "
+            f"t. ! {queue} ! landmarkoverlay name=landmarkoverlay{maps} ! "
+            f"videoconvert ! jpegenc quality={JPEG_QUALITY} ! "
+            f"appsink name=jpeg {sink}")
 
     def elements(self) -> Dict[str, Gst.Element]:
         if self.pipe is None:
@@ -305,9 +307,12 @@ class Engine:
         except Exception as err:    # GLib.Error: unknown element, syntax
             raise ConsoleError(f"cannot build the pipeline: "
                                f"{getattr(err, 'message', err)}") from None
-        self.pipe.get_by_name("results").connect("new-sample",
-                                                 self._on_results)
-        self.pipe.get_by_name("jpeg").connect("new-sample", self._on_jpeg)
+        # preroll too: a frame sought to while paused is shown
+        for sink, handler in (("results", self._on_results),
+                              ("jpeg", self._on_jpeg)):
+            element = self.pipe.get_by_name(sink)
+            element.connect("new-sample", handler, "pull-sample")
+            element.connect("new-preroll", handler, "pull-preroll")
         for name, element in self.elements().items():
             if name != "landmarkoverlay":   # after the tee, not the chain
                 self._probe_cost(name, element)
@@ -393,8 +398,8 @@ class Engine:
 
     # -- streaming-thread callbacks -------------------------------------
 
-    def _on_jpeg(self, sink) -> Gst.FlowReturn:
-        sample = sink.emit("pull-sample")
+    def _on_jpeg(self, sink, pull: str) -> Gst.FlowReturn:
+        sample = sink.emit(pull)
         if sample is None:
             return Gst.FlowReturn.OK
         buf = sample.get_buffer()
@@ -428,8 +433,8 @@ class Engine:
         element.get_static_pad("src").add_probe(Gst.PadProbeType.BUFFER,
                                                 leaving)
 
-    def _on_results(self, sink) -> Gst.FlowReturn:
-        sample = sink.emit("pull-sample")
+    def _on_results(self, sink, pull: str) -> Gst.FlowReturn:
+        sample = sink.emit(pull)
         if sample is None:
             return Gst.FlowReturn.OK
         now = time.time()
@@ -450,12 +455,26 @@ class Engine:
         result = self.frame_json(buf, width, height, now)
         if self.views["labels"].readers > 0:
             self._labels_jpeg(buf, now)
+        result["delay_ms"] = self._delay_ms(sample)
         with self._costs_lock:
-            result["cost_ms"] = self._costs.pop(buf.pts, {})
+            # get, not pop: a prerolled frame comes again as a sample
+            result["cost_ms"] = dict(self._costs.get(buf.pts, {}))
         if self.loop is not None:
             self.loop.call_soon_threadsafe(self._publish_results, result,
                                            frame)
         return Gst.FlowReturn.OK
+
+    def _delay_ms(self, sample) -> Optional[float]:
+        """How far behind its time on the pipeline clock the frame
+        reached the results (for a live source: from capture)."""
+        pipe, buf = self.pipe, sample.get_buffer()
+        clock = pipe.get_clock() if pipe is not None else None
+        if clock is None or buf.pts == Gst.CLOCK_TIME_NONE:
+            return None
+        running = sample.get_segment().to_running_time(Gst.Format.TIME,
+                                                       buf.pts)
+        now = clock.get_time() - pipe.get_base_time()
+        return (now - running) / 1e6
 
     def _labels_jpeg(self, buf: Gst.Buffer, now: float) -> None:
         """The label plane in class colours (black: no class) as JPEG."""
@@ -547,6 +566,40 @@ class Engine:
             listener(message)
 
     # -- tuning ----------------------------------------------------------
+
+    # -- scrubbing a file --------------------------------------------
+
+    @property
+    def is_file(self) -> bool:
+        return self.source.startswith("filesrc")
+
+    def duration(self) -> Optional[float]:
+        """Seconds, for a file whose length is known."""
+        if not self.is_file or self.pipe is None:
+            return None
+        ok, value = self.pipe.query_duration(Gst.Format.TIME)
+        return value / 1e9 if ok and value > 0 else None
+
+    def seek(self, seconds) -> None:
+        if not self.is_file:
+            raise ConsoleError("seek: only a file can be scrubbed")
+        if self.state not in ("playing", "paused"):
+            raise ConsoleError("seek: start first")
+        if not _is_number(seconds) or not math.isfinite(seconds):
+            raise ConsoleError(f"seek: seconds must be a number, got "
+                               f"{json.dumps(seconds)}")
+        duration = self.duration()
+        if duration is None:
+            raise ConsoleError("seek: the file's duration is not known")
+        if not 0 <= seconds <= duration:
+            raise ConsoleError(f"seek: {seconds!r} is outside "
+                               f"0..{duration:.3f} s")
+        self.path.clear()
+        if not self.pipe.seek_simple(
+                Gst.Format.TIME,
+                Gst.SeekFlags.FLUSH | Gst.SeekFlags.ACCURATE,
+                int(seconds * Gst.SECOND)):
+            raise ConsoleError("seek: refused by the pipeline")
 
     def tunables(self) -> Dict[str, List[Dict[str, Any]]]:
         out = {}

@@ -128,6 +128,7 @@ def make_app(engine: Engine, token: Optional[str] = None,
                 "error": engine.error, "tunables": engine.tunables(),
                 "palette": engine.palette_json(),
                 "landmarks": engine.landmarks, "path": engine.path,
+                "duration": engine.duration(),
                 "can_undo": bool(engine.undo_stack)}
 
     def broadcast_state() -> None:
@@ -172,6 +173,14 @@ def make_app(engine: Engine, token: Optional[str] = None,
         applied = engine.tune(changes)
         broadcast_state()
         return web.json_response({"applied": applied})
+
+    async def api_seek(request):
+        data = await body(request)
+        if "seconds" not in data:
+            raise ConsoleError("seek: missing seconds")
+        engine.seek(data["seconds"])
+        broadcast_state()
+        return web.json_response({"seconds": data["seconds"]})
 
     async def api_save_config(request):
         path = engine.save_config()
@@ -311,6 +320,7 @@ def make_app(engine: Engine, token: Optional[str] = None,
     app.router.add_get("/api/state", api_state)
     app.router.add_post("/api/control", api_control)
     app.router.add_post("/api/tune", api_tune)
+    app.router.add_post("/api/seek", api_seek)
     app.router.add_post("/api/save-config", api_save_config)
     app.router.add_post("/api/teach", api_teach)
     app.router.add_post("/api/undo", api_undo)

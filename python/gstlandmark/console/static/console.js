@@ -116,6 +116,23 @@ for (const b of document.querySelectorAll("button[data-action]")) {
   });
 }
 
+// ---- scrubbing a file ------------------------------------------------------
+
+let duration = null;
+let scrubbing = false;
+let stateAsked = false;
+$("scrub").addEventListener("input", () => { scrubbing = true; });
+$("scrub").addEventListener("change", async () => {
+  scrubbing = false;
+  await post("api/seek", { seconds: Number($("scrub").value) });
+});
+
+function showDuration(d) {
+  duration = d;
+  $("scrubber").hidden = !d;
+  if (d) $("scrub").max = d;
+}
+
 // ---- the results ---------------------------------------------------------
 
 function labToHex(lab) {   // CIE L*a*b* (D65) -> sRGB hex, for swatches
@@ -232,6 +249,16 @@ function drawMinimap(f) {
 
 function onFrame(f) {
   lastFrame = f;
+  if (duration === null && !stateAsked) {
+    // a file's length is known once it plays: ask for it once
+    stateAsked = true;
+    const headers = token ? { Authorization: "Bearer " + token } : {};
+    fetch("api/state", { headers }).then((r) => r.json()).then((s) => showDuration(s.duration));
+  }
+  if (duration && f.pts !== null) {
+    if (!scrubbing) $("scrub").value = f.pts;
+    $("position").textContent = `${f.pts.toFixed(2)} / ${duration.toFixed(2)} s`;
+  }
   frameSize = [f.width, f.height];
   for (const k of f.classes) classColours[k.name] = k.rgb;
   if (f.pose && f.pose.x !== null) { path.push([f.pose.x, f.pose.y]); if (path.length > 2000) path.shift(); }
@@ -290,6 +317,7 @@ function onState(s) {
   badge.className = "badge " + s.state;
   if (s.error) showMessage(s.error, true);
   landmarks = s.landmarks || [];
+  if (s.duration) showDuration(s.duration);
   if (s.path) path = s.path.slice();
   const shape = JSON.stringify(Object.entries(s.tunables).map(([e, l]) => [e, l.map((p) => p.name)]));
   if (shape !== tunablesShape) {

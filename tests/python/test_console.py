@@ -633,3 +633,61 @@ def test_only_a_file_can_be_scrubbed(gst, tmp_path):
         assert state["duration"] is None
 
     serve(engine, check)
+
+
+# ---------------------------------------------------------------------------
+# the command
+
+
+def run_command(args, tmp_path):
+    """Starts ``gst-landmark console ARGS``; returns (process, address)."""
+    import subprocess
+    import sys
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "gstlandmark.cli", "console", *args,
+         "--port", "0", "--out", str(tmp_path / "out")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    line = proc.stdout.readline()
+    match = re.match(r"gst-landmark console: (http://\S+)", line)
+    if match is None:
+        proc.kill()
+        raise AssertionError(f"no address: {line!r} {proc.stderr.read()}")
+    return proc, match.group(1)
+
+
+def test_command_prints_its_address_and_stops_on_ctrl_c(gst, tmp_path):
+    import signal
+    import urllib.error
+    import urllib.request
+    proc, url = run_command(["--testsrc"], tmp_path)
+    try:
+        assert url.startswith("http://127.0.0.1:") and "token" not in url
+        with urllib.request.urlopen(url + "api/state", timeout=10) as r:
+            assert json.load(r)["state"] == "playing"
+        # an open video stream does not keep the server from stopping
+        stream = urllib.request.urlopen(url + "stream.mjpg", timeout=10)
+        assert stream.read(100).startswith(b"--landmarkframe")
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=10) == 0
+        stream.close()
+    finally:
+        proc.kill()
+        proc.wait()
+
+    # off loopback: a token is made and printed, and required
+    proc, url = run_command(["--testsrc", "--listen", "0.0.0.0"], tmp_path)
+    try:
+        token = re.search(r"\?token=([\w-]+)$", url).group(1)
+        assert len(token) >= 16
+        base = url.split("?")[0].replace("0.0.0.0", "127.0.0.1")
+        with pytest.raises(urllib.error.HTTPError) as err:
+            urllib.request.urlopen(base + "api/state", timeout=10)
+        assert err.value.code == 401
+        with urllib.request.urlopen(base + "api/state?token=" + token,
+                                    timeout=10) as r:
+            assert r.status == 200
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0
+    finally:
+        proc.kill()
+        proc.wait()

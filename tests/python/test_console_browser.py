@@ -17,7 +17,6 @@ import os
 import re
 import shutil
 import threading
-import time
 
 import pytest
 
@@ -27,7 +26,7 @@ from selenium.webdriver.common.action_chains import ActionChains  # noqa
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 
-from test_console import CLIP, clip_engine  # noqa: E402
+from test_console import clip_engine  # noqa: E402
 
 CHROMIUM = shutil.which("chromium")
 CHROMEDRIVER = shutil.which("chromedriver")

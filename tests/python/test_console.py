@@ -141,6 +141,9 @@ def test_mjpeg_stream_yields_jpeg_parts_of_the_frame_size(gst, tmp_path):
         # the snapshot is the newest of them, a JPEG too
         r = await client.get("/download/snapshot.jpg")
         assert r.status == 200 and (await r.read())[:2] == b"\xff\xd8"
+        r = await client.get("/download/map.json")
+        with open(os.path.join(CLIP, "map.json"), "rb") as f:
+            assert await r.read() == f.read()
 
     serve(clip_engine(tmp_path, loop_file=True), check)
 
@@ -627,6 +630,9 @@ def test_only_a_file_can_be_scrubbed(gst, tmp_path):
     engine = solid_engine(tmp_path, (0, 0, 0))
 
     async def check(client):
+        r = await client.get("/download/map.json")
+        assert r.status == 400
+        assert "no map" in (await r.json())["error"]
         status, reply = await post(client, "/api/seek", {"seconds": 0})
         assert status == 400
         assert reply["error"] == "seek: only a file can be scrubbed"

@@ -143,6 +143,27 @@ def check_value(element_name: str, spec: Dict[str, Any], value):
     raise ConsoleError(f"{where}: cannot be set from the console")
 
 
+def read_landmarks(map_path: Optional[str]) -> List[Dict[str, Any]]:
+    """The map's landmarks for the page's mini-map ([] without a map; a
+    map the elements cannot read stops the pipeline with its error)."""
+    if not map_path:
+        return []
+    try:
+        with open(map_path, encoding="utf-8") as f:
+            landmarks = json.load(f).get("landmarks", [])
+    except (OSError, ValueError, AttributeError):
+        return []
+    return [_plain(lm) for lm in landmarks if isinstance(lm, dict)]
+
+
+def error_text(msg: Gst.Message) -> str:
+    """An error message as "element: message (debug)"."""
+    err, debug = msg.parse_error()
+    source = msg.src.get_name() if msg.src is not None else "?"
+    text = f"{source}: {err.message}"
+    return f"{text} ({debug})" if debug else text
+
+
 def source_fragment(input_path: Optional[str] = None,
                     camera: Optional[str] = None,
                     testsrc: bool = False) -> str:
@@ -235,14 +256,13 @@ class Engine:
         self.undo_stack: List[Tuple[pal.Palette, Optional[str]]] = []
         self._live_palettes: List[str] = []
         self._palette_serial = 0
-        self.landmarks = runner._read_landmarks(map_path)
+        self.landmarks = read_landmarks(map_path)
         self.initial_properties = properties or {}
         self.loop: Optional[asyncio.AbstractEventLoop] = None
         self.pipe: Optional[Gst.Pipeline] = None
         self.state = "stopped"
         self.error: Optional[str] = None
-        # latest results, shared with the handlers on the loop
-        # the overlay video, and the false-colour classes (made only
+        # the newest overlay JPEG and false-colour classes (made only
         # while someone watches them)
         self.views = {"overlay": LatestJpeg(), "labels": LatestJpeg()}
         self.frame_bgr: Optional[np.ndarray] = None
@@ -337,7 +357,7 @@ class Engine:
         ret = self.pipe.set_state(Gst.State.PLAYING)
         if ret == Gst.StateChangeReturn.FAILURE:
             msg = self.pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
-            text = runner._error_text(msg) if msg else "could not start"
+            text = error_text(msg) if msg else "could not start"
             self.pipe.set_state(Gst.State.NULL)
             self.error = text
             raise ConsoleError(f"the pipeline could not start: {text}")
@@ -385,11 +405,11 @@ class Engine:
                 await asyncio.sleep(0.05)
                 continue
             if msg.type == Gst.MessageType.ERROR:
-                error = runner._error_text(msg)
+                error = error_text(msg)
                 await self.stop()
                 self.error = error
                 self._notify({"type": "error", "error": error})
-            elif self.loop_file and "filesrc" in self.source:
+            elif self.loop_file and self.is_file:
                 self.path.clear()
                 pipe.seek_simple(Gst.Format.TIME, Gst.SeekFlags.FLUSH, 0)
             else:

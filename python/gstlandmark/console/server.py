@@ -229,6 +229,13 @@ def make_app(engine: Engine, token: Optional[str] = None,
             headers={"Content-Disposition":
                      "attachment; filename=palette.json"})
 
+    async def download_map(request):
+        if not engine.map_path:
+            raise ConsoleError("no map: start the console with --map")
+        return web.FileResponse(engine.map_path, headers={
+            "Content-Type": "application/json",
+            "Content-Disposition": "attachment; filename=map.json"})
+
     async def stream(request):
         """MJPEG: one JPEG part per frame of a view (``?view=overlay``,
         the default, or ``labels``), newest first (a slow client skips
@@ -328,4 +335,5 @@ def make_app(engine: Engine, token: Optional[str] = None,
     app.router.add_get("/download/log.jsonl", download_log)
     app.router.add_get("/download/snapshot.jpg", download_snapshot)
     app.router.add_get("/download/palette.json", download_palette)
+    app.router.add_get("/download/map.json", download_map)
     return app

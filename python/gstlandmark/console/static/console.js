@@ -45,7 +45,7 @@ for (const radio of document.querySelectorAll("input[name=view]")) {
     $("video").src = withToken("stream.mjpg?view=" + radio.value);
   });
 }
-for (const id of ["dl-log", "dl-snapshot", "dl-palette"]) $(id).href = withToken($(id).getAttribute("href"));
+for (const id of ["dl-log", "dl-snapshot", "dl-palette", "dl-map"]) $(id).href = withToken($(id).getAttribute("href"));
 
 const layer = $("box-layer");
 let dragStart = null;

@@ -766,3 +766,44 @@ def test_ten_browsers_keep_up_and_memory_stays_flat(gst, tmp_path):
             await engine.start()
             await asyncio.wait_for(check(client), seconds + 60)
     asyncio.run(main())
+
+
+def disc_clip(path, rgb, centre=(160, 120), radius=30, frames=30):
+    """An MJPEG clip of one still disc of ``rgb`` on mid grey."""
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"),
+                             30, (320, 240))
+    assert writer.isOpened()
+    image = np.full((240, 320, 3), 128, np.uint8)
+    cv2.circle(image, centre, radius, rgb[::-1], -1, cv2.LINE_AA)
+    for _ in range(frames):
+        writer.write(image)
+    writer.release()
+
+
+def test_a_taught_marker_class_is_detected(gst, tmp_path):
+    """An orange disc (no class of the built-in palette): teach "orange"
+    from a box inside it, then the disc is detected as orange where it
+    was drawn."""
+    clip = tmp_path / "disc.avi"
+    disc_clip(clip, (255, 140, 0))
+    engine = Engine(f"filesrc location={clip} ! decodebin",
+                    str(tmp_path / "out"),
+                    properties={"labsegment": {"min-class-pixels": 50},
+                                "blobroundness": {"min-area": 30}})
+
+    async def check(client):
+        before = (await frames(client, 1))[0]
+        assert "orange" not in before["lamps"]
+        status, reply = await post(client, "/api/teach", {
+            "class": "orange", "x": 150, "y": 110, "w": 20, "h": 20})
+        assert status == 200, reply
+        after = (await frames(client, 1, lambda f: "orange" in f["lamps"]))[0]
+        found = [d for d in after["detections"]
+                 if d["kept"] and d["class"] == "orange"]
+        assert len(found) == 1, after["detections"]
+        x, y, w, h = found[0]["bbox"]
+        assert abs(x + w / 2 - 160) <= 1 and abs(y + h / 2 - 120) <= 1
+        assert 58 <= w <= 62 and 58 <= h <= 62
+        assert after["lamps"]["orange"] is True
+
+    serve(engine, check)

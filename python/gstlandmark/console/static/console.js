@@ -242,6 +242,11 @@ function drawMinimap(f) {
   }
   if (f && f.pose) {
     const [u, v] = px(f.pose.x, f.pose.y), h = (f.pose.heading_deg * Math.PI) / 180;
+    if (f.pose.sigma_x !== null && f.pose.sigma_y !== null) {   // 3-sigma position
+      g.strokeStyle = "#ffeb3b"; g.beginPath();
+      g.ellipse(u, v, Math.max(3 * f.pose.sigma_x * s, 1), Math.max(3 * f.pose.sigma_y * s, 1), 0, 0, 2 * Math.PI);
+      g.stroke();
+    }
     g.fillStyle = "#fff"; g.beginPath(); g.arc(u, v, 4, 0, 2 * Math.PI); g.fill();
     g.strokeStyle = "#fff"; g.beginPath(); g.moveTo(u, v); g.lineTo(u + 16 * Math.cos(h), v - 16 * Math.sin(h)); g.stroke();
   }

@@ -271,7 +271,8 @@ def make_app(engine: Engine, token: Optional[str] = None,
         return response
 
     async def websocket(request):
-        ws = web.WebSocketResponse(heartbeat=20)
+        # the page sends nothing on its socket: refuse anything large
+        ws = web.WebSocketResponse(heartbeat=20, max_msg_size=4096)
         await ws.prepare(request)
         # frames may be dropped for a slow browser (the newest are
         # kept), state changes and errors never are

@@ -145,8 +145,18 @@ def test_page_shows_live_results_tunes_and_teaches(gst, tmp_path, browser):
                       for line in f for d in json.loads(line)["detections"]
                       if "range" in d.get("range", {})}
         assert cell in logged
-        assert browser.find_element(By.ID, "pose").text.startswith(
-            "pose: x ")
+        # (a few frames of the clip have no pose)
+        wait_for(browser, lambda d: d.find_element(By.ID, "pose").text
+                 .startswith("pose: x "), "a pose")
+        # the classes view: its own stream, made while watched
+        browser.find_element(By.CSS_SELECTOR,
+                             "input[name=view][value=labels]").click()
+        wait_for(browser, lambda d: engine.views["labels"].seq > 3,
+                 "false-colour frames")
+        assert "view=labels" in browser.find_element(
+            By.ID, "video").get_attribute("src")
+        browser.find_element(By.CSS_SELECTOR,
+                             "input[name=view][value=overlay]").click()
         # a file: the scrubber shows the clip's length
         wait_for(browser, lambda d: d.find_element(
             By.ID, "position").text.endswith("/ 1.50 s"), "the scrubber")

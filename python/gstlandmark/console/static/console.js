@@ -39,11 +39,14 @@ async function post(route, body) {
 
 // ---- the video and the teach box ------------------------------------------
 
-$("video").src = withToken("stream.mjpg");
+let view = "overlay";
+function showVideo() {     // a fresh address: the browser opens a new stream
+  $("video").src = withToken(`stream.mjpg?view=${view}&n=${Date.now()}`);
+}
+showVideo();
+$("video").addEventListener("error", () => setTimeout(showVideo, 1000));   // broke: again
 for (const radio of document.querySelectorAll("input[name=view]")) {
-  radio.addEventListener("change", () => {
-    $("video").src = withToken("stream.mjpg?view=" + radio.value);
-  });
+  radio.addEventListener("change", () => { view = radio.value; showVideo(); });
 }
 for (const id of ["dl-log", "dl-snapshot", "dl-palette", "dl-map"]) $(id).href = withToken($(id).getAttribute("href"));
 

@@ -807,3 +807,25 @@ def test_a_taught_marker_class_is_detected(gst, tmp_path):
         assert after["lamps"]["orange"] is True
 
     serve(engine, check)
+
+
+def test_a_loop_that_falls_behind_gets_the_newest_item_only():
+    """1,000 frames handed over while the loop is busy: one callback, the
+    newest frame; nothing piles up."""
+    import threading
+    from gstlandmark.console.engine import Handoff
+
+    async def main():
+        got = []
+        handoff = Handoff(asyncio.get_running_loop(), got.append)
+        thread = threading.Thread(
+            target=lambda: [handoff.put(i) for i in range(1000)])
+        thread.start()
+        thread.join()           # the loop was busy all along (this test)
+        await asyncio.sleep(0.05)
+        assert got == [999] and handoff.dropped == 999
+        handoff.put(1000)
+        await asyncio.sleep(0.05)
+        assert got == [999, 1000]
+
+    asyncio.run(main())

@@ -3,8 +3,8 @@ with a tee to two appsinks (the raw frame with its metadata, and the
 overlay as JPEG), live tuning checked against the elements' own
 GParamSpecs, and palette teaching.
 
-Streaming threads only hand results to the asyncio loop
-(``call_soon_threadsafe``); everything else runs on the loop.
+Streaming threads only hand results to the asyncio loop (``Handoff``:
+the newest one, never a queue); everything else runs on the loop.
 """
 
 from __future__ import annotations
@@ -187,6 +187,34 @@ def source_fragment(input_path: Optional[str] = None,
            "height=480,framerate=30/1"
 
 
+class Handoff:
+    """From a streaming thread to the loop, the newest item only: at most
+    one callback waits on the loop per channel, so a loop that falls
+    behind skips items instead of piling them up in memory."""
+
+    def __init__(self, loop: asyncio.AbstractEventLoop,
+                 consumer: Callable[..., None]):
+        self.loop, self.consumer = loop, consumer
+        self.lock = threading.Lock()
+        self.item: Optional[tuple] = None
+        self.dropped = 0
+
+    def put(self, *item) -> None:
+        with self.lock:
+            waiting = self.item is not None
+            if waiting:
+                self.dropped += 1
+            self.item = item
+        if not waiting:
+            self.loop.call_soon_threadsafe(self._deliver)
+
+    def _deliver(self) -> None:
+        with self.lock:
+            item, self.item = self.item, None
+        if item is not None:
+            self.consumer(*item)
+
+
 class LatestJpeg:
     """The newest JPEG of one video view, for any number of MJPEG
     readers on the loop (each takes the newest, skipping what it
@@ -259,6 +287,7 @@ class Engine:
         self.landmarks = read_landmarks(map_path)
         self.initial_properties = properties or {}
         self.loop: Optional[asyncio.AbstractEventLoop] = None
+        self._handoffs: Dict[str, Handoff] = {}
         self.pipe: Optional[Gst.Pipeline] = None
         self.state = "stopped"
         self.error: Optional[str] = None
@@ -348,7 +377,12 @@ class Engine:
 
     async def start(self) -> None:
         """PLAYING (building the pipeline when needed)."""
-        self.loop = asyncio.get_running_loop()
+        if self.loop is None:
+            self.loop = asyncio.get_running_loop()
+            self._handoffs = {
+                "results": Handoff(self.loop, self._publish_results),
+                "overlay": Handoff(self.loop, self.views["overlay"].publish),
+                "labels": Handoff(self.loop, self.views["labels"].publish)}
         if self.pipe is None:
             self.build()
         if self.state == "ended" or self.error is not None:
@@ -427,8 +461,7 @@ class Engine:
         now = time.time()
         pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
         if self.loop is not None:
-            self.loop.call_soon_threadsafe(self.views["overlay"].publish,
-                                           data, now, pts)
+            self._handoffs["overlay"].put(data, now, pts)
         return Gst.FlowReturn.OK
 
     def _probe_cost(self, name: str, element: Gst.Element) -> None:
@@ -480,8 +513,7 @@ class Engine:
             # get, not pop: a prerolled frame comes again as a sample
             result["cost_ms"] = dict(self._costs.get(buf.pts, {}))
         if self.loop is not None:
-            self.loop.call_soon_threadsafe(self._publish_results, result,
-                                           frame)
+            self._handoffs["results"].put(result, frame)
         return Gst.FlowReturn.OK
 
     def _delay_ms(self, sample) -> Optional[float]:
@@ -508,8 +540,7 @@ class Engine:
                                [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
         if ok:
             pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
-            self.loop.call_soon_threadsafe(self.views["labels"].publish,
-                                           jpg.tobytes(), now, pts)
+            self._handoffs["labels"].put(jpg.tobytes(), now, pts)
 
     @staticmethod
     def frame_json(buf: Gst.Buffer, width: int, height: int,

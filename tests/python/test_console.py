@@ -829,3 +829,44 @@ def test_a_loop_that_falls_behind_gets_the_newest_item_only():
         assert got == [999, 1000]
 
     asyncio.run(main())
+
+
+def test_the_source_is_chosen_by_id_never_by_path(gst, tmp_path):
+    engine = clip_engine(tmp_path, loop_file=True)
+    (tmp_path / "out" / "clips").mkdir(parents=True)
+    disc_clip(tmp_path / "out" / "clips" / "disc.avi", (255, 140, 0))
+    os.symlink(os.path.join(CLIP, "clip.avi"),
+               tmp_path / "out" / "outside.avi")     # a link out: not listed
+
+    async def check(client):
+        r = await client.get("/api/sources")
+        listing = await r.json()
+        ids = [s["id"] for s in listing["sources"]]
+        assert listing["current"] == "start"
+        assert ids[:2] == ["start", "testsrc"]
+        assert "file:clips/disc.avi" in ids
+        assert not [i for i in ids if "outside" in i]
+        for bad in ("/etc/passwd", "file:../../clip.avi", "file:outside.avi",
+                    f"file:{CLIP}/clip.avi", 3, None):
+            status, reply = await post(client, "/api/source", {"id": bad})
+            assert status == 400 and "unknown source" in reply["error"]
+        assert engine.source_id == "start" and engine.state == "playing"
+        # tuned settings survive a change of source
+        await post(client, "/api/tune", {"element": "labsegment",
+                                          "property": "min-class-pixels",
+                                          "value": 42})
+        status, reply = await post(client, "/api/source", {"id": "testsrc"})
+        assert status == 200 and reply == {"current": "testsrc",
+                                           "state": "playing"}
+        got = await frames(client, 1, lambda f: f["width"] == 640)
+        assert got[0]["threshold"] == 42
+        status, reply = await post(client, "/api/source",
+                                   {"id": "file:clips/disc.avi"})
+        assert status == 200
+        await frames(client, 1, lambda f: f["width"] == 320 and
+                     f["pts"] is not None)
+        state = await (await client.get("/api/state")).json()
+        assert state["source"] == "file:clips/disc.avi"
+        assert state["duration"] == pytest.approx(1.0, abs=0.04)
+
+    serve(engine, check)

@@ -10,6 +10,7 @@ the newest one, never a queue); everything else runs on the loop.
 from __future__ import annotations
 
 import asyncio
+import glob
 import json
 import math
 import os
@@ -187,6 +188,37 @@ def source_fragment(input_path: Optional[str] = None,
            "height=480,framerate=30/1"
 
 
+VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".webm", ".mjpeg",
+                  ".mjpg")
+
+
+def list_sources(out_dir: str, start_source: str
+                 ) -> Dict[str, Dict[str, str]]:
+    """The sources a browser may choose, by id: the one given at start,
+    the test source, every V4L2 camera, and video files under the output
+    folder (nothing else: a client names an id, never a path)."""
+    sources = {"start": {"label": "as started", "fragment": start_source},
+               "testsrc": {"label": "test source",
+                           "fragment": source_fragment(testsrc=True)}}
+    for device in sorted(glob.glob("/dev/video*")):
+        sources[f"camera:{device}"] = {
+            "label": device, "fragment": source_fragment(camera=device)}
+    root = os.path.realpath(out_dir)
+    for folder, dirs, files in os.walk(root):
+        if folder[len(root):].count(os.sep) >= 2:
+            dirs[:] = []            # two levels below the output folder
+        for name in sorted(files):
+            path = os.path.join(folder, name)
+            # a link out of the folder is not under it
+            if not name.lower().endswith(VIDEO_SUFFIXES) or \
+                    not os.path.realpath(path).startswith(root + os.sep):
+                continue
+            rel = os.path.relpath(path, root)
+            sources[f"file:{rel}"] = {
+                "label": rel, "fragment": source_fragment(input_path=path)}
+    return sources
+
+
 class Handoff:
     """From a streaming thread to the loop, the newest item only: at most
     one callback waits on the loop per channel, so a loop that falls
@@ -272,6 +304,7 @@ class Engine:
                  properties: Optional[Dict[str, Dict[str, Any]]] = None,
                  loop_file: bool = True):
         self.source = source
+        self.start_source, self.source_id = source, "start"
         self.out_dir = os.path.abspath(out_dir)
         os.makedirs(self.out_dir, exist_ok=True)
         self.map_path = map_path
@@ -417,6 +450,28 @@ class Engine:
             self.initial_properties = settings
             self.build()
         self.state = "stopped"
+
+    def sources(self) -> Dict[str, Dict[str, str]]:
+        return list_sources(self.out_dir, self.start_source)
+
+    async def set_source(self, source_id) -> None:
+        """Plays the source ``source_id`` (an id of ``sources()``) with
+        the same settings and palette."""
+        sources = self.sources()
+        if not isinstance(source_id, str) or source_id not in sources:
+            raise ConsoleError(f"unknown source {json.dumps(source_id)}; "
+                               f"one of {', '.join(sources)}")
+        settings = self.current_properties() if self.pipe else \
+            self.initial_properties
+        if self.pipe is not None:
+            self.pipe.set_state(Gst.State.NULL)
+            self.pipe = None
+        self.source, self.source_id = sources[source_id]["fragment"], \
+            source_id
+        self.initial_properties = settings
+        self.path.clear()
+        self.state = "stopped"
+        await self.start()
 
     async def close(self) -> None:
         if self.pipe is not None:

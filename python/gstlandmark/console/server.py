@@ -129,6 +129,7 @@ def make_app(engine: Engine, token: Optional[str] = None,
                 "palette": engine.palette_json(),
                 "landmarks": engine.landmarks, "path": engine.path,
                 "duration": engine.duration(),
+                "source": engine.source_id,
                 "can_undo": bool(engine.undo_stack)}
 
     def broadcast_state() -> None:
@@ -173,6 +174,19 @@ def make_app(engine: Engine, token: Optional[str] = None,
         applied = engine.tune(changes)
         broadcast_state()
         return web.json_response({"applied": applied})
+
+    async def api_sources(request):
+        return web.json_response({
+            "current": engine.source_id,
+            "sources": [{"id": k, "label": v["label"]}
+                        for k, v in engine.sources().items()]})
+
+    async def api_source(request):
+        data = await body(request)
+        await engine.set_source(data.get("id"))
+        broadcast_state()
+        return web.json_response({"current": engine.source_id,
+                                  "state": engine.state})
 
     async def api_seek(request):
         data = await body(request)
@@ -329,6 +343,8 @@ def make_app(engine: Engine, token: Optional[str] = None,
     app.router.add_post("/api/control", api_control)
     app.router.add_post("/api/tune", api_tune)
     app.router.add_post("/api/seek", api_seek)
+    app.router.add_get("/api/sources", api_sources)
+    app.router.add_post("/api/source", api_source)
     app.router.add_post("/api/save-config", api_save_config)
     app.router.add_post("/api/teach", api_teach)
     app.router.add_post("/api/undo", api_undo)

@@ -119,6 +119,28 @@ for (const b of document.querySelectorAll("button[data-action]")) {
   });
 }
 
+// ---- the source -------------------------------------------------------------
+
+let currentSource = "start";
+async function listSources() {
+  const headers = token ? { Authorization: "Bearer " + token } : {};
+  const reply = await (await fetch("api/sources", { headers })).json();
+  $("source").replaceChildren(...reply.sources.map((src) => {
+    const o = document.createElement("option");
+    o.value = src.id; o.textContent = src.label;
+    return o;
+  }));
+  currentSource = reply.current;
+  $("source").value = currentSource;
+}
+listSources();
+$("source").addEventListener("focus", listSources);      // cameras and files come and go
+$("source").addEventListener("change", async () => {
+  const r = await post("api/source", { id: $("source").value });
+  if (r) { path = []; duration = null; stateAsked = false; showMessage("playing " + r.current, false); }
+  else $("source").value = currentSource;
+});
+
 // ---- scrubbing a file ------------------------------------------------------
 
 let duration = null;
@@ -325,7 +347,8 @@ function onState(s) {
   badge.className = "badge " + s.state;
   if (s.error) showMessage(s.error, true);
   landmarks = s.landmarks || [];
-  if (s.duration) showDuration(s.duration);
+  showDuration(s.duration || null);
+  if (s.source && s.source !== currentSource) { currentSource = s.source; $("source").value = s.source; }
   if (s.path) path = s.path.slice();
   const shape = JSON.stringify(Object.entries(s.tunables).map(([e, l]) => [e, l.map((p) => p.name)]));
   if (shape !== tunablesShape) {

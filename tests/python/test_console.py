@@ -730,7 +730,9 @@ def test_ten_browsers_keep_up_and_memory_stays_flat(gst, tmp_path):
 
         async def stream(i):
             view = "labels" if i % 2 else "overlay"
-            r = await client.get("/stream.mjpg", params={"view": view})
+            # (the client's default limit is 300 s for a whole response)
+            r = await client.get("/stream.mjpg", params={"view": view},
+                                 timeout=aiohttp.ClientTimeout(total=None))
             reader = aiohttp.MultipartReader(r.headers, r.content)
             while True:
                 part = await reader.next()

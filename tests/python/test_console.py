@@ -758,9 +758,9 @@ def test_ten_browsers_keep_up_and_memory_stays_flat(gst, tmp_path):
         # nobody starves (the clip is 30 frames/s; a loaded machine may
         # make a reader skip frames, never stop)
         assert min(rates.values()) > 5, rates
-        # glibc's arenas grow in steps of about 1 MiB early on: 600 s
-        # measured 3.8 MiB in all, flat over the last 300 s
-        assert growth < 8, f"RSS grew {growth:.2f} MiB in {elapsed:.0f} s"
+        # 600 s measured 0.41 MiB in all: 0.32 in the first 5 s, then
+        # flat; the margin is for other allocators and loaded machines
+        assert growth < 4, f"RSS grew {growth:.2f} MiB in {elapsed:.0f} s"
 
     async def main():
         app = server.make_app(engine)

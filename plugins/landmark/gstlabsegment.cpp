@@ -321,20 +321,20 @@ load32 (const guint8 * p)
 }
 
 void
-classify_packed4 (const ClassTable::View table, const guint8 * row, int shift,
+classify_packed4 (const guint8 * table, const guint8 * row, int shift,
     guint width, guint8 * labels)
 {
   for (guint x = 0; x < width; x++)
-    labels[x] = table ((load32 (row + x * 4) >> shift) & 0xffffff);
+    labels[x] = table[(load32 (row + x * 4) >> shift) & 0xffffff];
 }
 
 void
-classify_packed3 (const ClassTable::View table, const guint8 * row,
-    guint width, guint8 * labels)
+classify_packed3 (const guint8 * table, const guint8 * row, guint width,
+    guint8 * labels)
 {
   for (guint x = 0; x < width; x++) {
     const guint8 *p = row + x * 3;
-    labels[x] = table (p[0] | (p[1] << 8) | ((guint32) p[2] << 16));
+    labels[x] = table[p[0] | (p[1] << 8) | ((guint32) p[2] << 16)];
   }
 }
 
@@ -343,7 +343,7 @@ void
 classify_frame (const ClassTable & table, PixelReader & reader,
     guint width, guint height, guint8 * labels)
 {
-  const ClassTable::View t = table.view ();
+  const guint8 *t = table.labels ();
   const FrameLayout & layout = reader.layout;
   for (guint y = 0; y < height; y++) {
     reader.set_row (y);
@@ -361,7 +361,7 @@ classify_frame (const ClassTable & table, PixelReader & reader,
         for (guint x = 0; x < width; x++) {
           const guint32 uv = (ur[(x >> 1) * ps] << 8) |
               ((guint32) vr[(x >> 1) * ps] << 16);
-          out[x] = t (yr[x] | uv);
+          out[x] = t[yr[x] | uv];
         }
         break;
       }
@@ -371,12 +371,12 @@ classify_frame (const ClassTable & table, PixelReader & reader,
         for (; x + 2 <= width; x += 2) {
           const guint32 w = load32 (r + x * 2);   /* Y0 U Y1 V */
           const guint32 uv = (w & 0xff00) | ((w >> 8) & 0xff0000);
-          out[x] = t ((w & 0xff) | uv);
-          out[x + 1] = t (((w >> 16) & 0xff) | uv);
+          out[x] = t[(w & 0xff) | uv];
+          out[x + 1] = t[((w >> 16) & 0xff) | uv];
         }
         if (x < width) {
           const guint8 *p = r + x * 2;
-          out[x] = t (p[0] | (p[1] << 8) | ((guint32) p[3] << 16));
+          out[x] = t[p[0] | (p[1] << 8) | ((guint32) p[3] << 16)];
         }
         break;
       }

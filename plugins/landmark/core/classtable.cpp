@@ -7,6 +7,9 @@
 #include <new>
 #include <stdexcept>
 
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 #include <limits>
 
 namespace landmark {
@@ -94,8 +97,7 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
   max_d2_ = cfg.max_distance * cfg.max_distance;
   const size_t n = cfg.refs.size ();
   std::vector<double> dist (n);
-  coarse_.assign (32 * 32 * 32, 0);
-  slot_.assign (32 * 32 * 32, 0);
+  std::vector<uint8_t> cell_label (32 * 32 * 32, 0);
   pending_.assign (32 * 32 * 32, 0);
   boundary_cells_ = 0;
 
@@ -112,10 +114,7 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
   for (int i = 0; i < 32; i++) {
     for (int j = 0; j < 32; j++) {
       for (int k = 0; k < 32; k++) {
-        /* cells are stored in key order: component 0 is the key's low
-         * byte with C0_LOW, its high byte with C0_HIGH */
-        const size_t cell = order == KeyOrder::C0_LOW ?
-            ((size_t) k << 10) | (j << 5) | i : ((size_t) i << 10) | (j << 5) | k;
+        const size_t cell = ((size_t) i << 10) | (j << 5) | k;
         const Lab centre = input_to_lab_exact (cfg.model, i * 8 + 4,
             j * 8 + 4, k * 8 + 4);
         /* Labels come from OpenCV's conversion g, within kConversionError
@@ -151,12 +150,11 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
             d2 = dist[r];
         }
         if (k1 < 0 || d1 - radius > cfg.max_distance) {
-          coarse_[cell] = 0;  /* every colour of the cell is beyond reach */
+          cell_label[cell] = 0;  /* every colour of the cell is beyond reach */
         } else if (d2 - d1 > 2.0 * radius && d1 + radius < cfg.max_distance) {
-          coarse_[cell] = (uint8_t) (k1 + 1);
+          cell_label[cell] = (uint8_t) (k1 + 1);
         } else {
-          coarse_[cell] = kFine;
-          slot_[cell] = (uint16_t) boundary_cells_;
+          cell_label[cell] = kPending;
           pending_[cell] = 1;
           boundary_cells_++;
         }
@@ -164,16 +162,45 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
     }
   }
   filled_ = 0;
-  /* boundary cells read kPending until a pixel falls in them */
-  fine_.assign (boundary_cells_ * 512, kPending);
+
+  /* Fill the keys in memory order: each row of 256 keys (fixed high and
+   * middle bytes) is 32 runs of 8 keys in one cell. */
+  constexpr size_t kTableSize = (size_t) 1 << 24;
+  if (!direct_) {
+    void *p = nullptr;
+    /* 2 MB aligned, so the table can sit in eight huge pages */
+    if (posix_memalign (&p, (size_t) 2 << 20, kTableSize) != 0)
+      throw std::bad_alloc ();
+#ifdef MADV_HUGEPAGE
+    madvise (p, kTableSize, MADV_HUGEPAGE);
+#endif
+    direct_.reset ((uint8_t *) p);
+  }
+  uint8_t *out = direct_.get ();
+  for (int hi = 0; hi < 256; hi++) {
+    for (int mid = 0; mid < 256; mid++) {
+      for (int run = 0; run < 32; run++, out += 8) {
+        /* the run's low-byte component is run * 8 .. run * 8 + 7 */
+        const int c0 = order == KeyOrder::C0_LOW ? run : hi >> 3;
+        const int c2 = order == KeyOrder::C0_LOW ? hi >> 3 : run;
+        const uint8_t label = cell_label[(c0 << 10) | ((mid >> 3) << 5) | c2];
+        memset (out, label, 8);
+      }
+    }
+  }
+}
+
+void
+ClassTable::FreeTable::operator() (uint8_t * p) const
+{
+  free (p);
 }
 
 uint8_t
 ClassTable::resolve (uint8_t c0, uint8_t c1, uint8_t c2)
 {
-  const uint32_t cell = cell_of_key (key (c0, c1, c2));
+  const size_t cell = ((c0 >> 3) << 10) | ((c1 >> 3) << 5) | (c2 >> 3);
   if (pending_[cell]) {
-    uint8_t *block = fine_.data () + ((size_t) slot_[cell] << 9);
     const int b0 = c0 & ~7, b1 = c1 & ~7, b2 = c2 & ~7;
     float *comp = comps_;
     for (int u = 0; u < 8; u++)
@@ -189,8 +216,8 @@ ClassTable::resolve (uint8_t c0, uint8_t c1, uint8_t c2)
     for (int u = 0; u < 8; u++)
       for (int v = 0; v < 8; v++)
         for (int w = 0; w < 8; w++, i++)
-          block[offset_in_cell (key (b0 + u, b1 + v, b2 + w))] =
-              nearest (lab_ + 3 * i, nullptr);
+          direct_.get ()[key (b0 + u, b1 + v, b2 + w)] = nearest (lab_ + 3 * i,
+              nullptr);
     pending_[cell] = 0;
     filled_++;
   }

@@ -1,0 +1,410 @@
+/* Floor boundary and Radial Obstacle Profile (core/floorprofile.h) against
+ * analytic geometry: label planes ray-cast here with the pinhole model of
+ * docs/conventions.md written out independently of camerageometry.cpp. */
+#include "floorprofile.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace landmark;
+
+static int failures = 0;
+
+#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
+      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
+      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
+  } while (0)
+
+static const int W = 640, H = 480;
+static const double HFOV = 60, TILT = 25, CAM_H = 0.3;
+static const double F = (W / 2.0) / std::tan (HFOV / 2 * M_PI / 180);
+static const double CX = (W - 1) / 2.0, CY = (H - 1) / 2.0;
+
+enum : uint8_t { NONE = 0, FLOOR = 1, BOX = 2, MARKER = 3, SHADOW = 4 };
+
+static void
+roles (LabelRole r[256])
+{
+  for (int i = 0; i < 256; i++)
+    r[i] = LabelRole::Obstacle;
+  r[FLOOR] = LabelRole::Floor;
+  r[MARKER] = LabelRole::Marker;
+}
+
+static CameraGeometry
+camera ()
+{
+  CameraParams p;
+  p.width = W;
+  p.height = H;
+  p.camera_height = CAM_H;
+  p.tilt_deg = TILT;
+  p.fx = p.fy = F;
+  p.cx = CX;
+  p.cy = CY;
+  CameraGeometry g;
+  std::string err;
+  if (!g.configure (p, &err))
+    std::fprintf (stderr, "camera: %s\n", err.c_str ());
+  return g;
+}
+
+/* The ray of pixel (u, v), robot frame (tilt only, roll 0). */
+static void
+ray (double u, double v, double d[3])
+{
+  const double t = TILT * M_PI / 180;
+  const double xn = (u - CX) / F, yn = (v - CY) / F;
+  /* x_c = (0,-1,0), y_c = (-sin t, 0, -cos t), z_c = (cos t, 0, -sin t) */
+  d[0] = -std::sin (t) * yn + std::cos (t);
+  d[1] = -xn;
+  d[2] = -std::cos (t) * yn - std::sin (t);
+}
+
+/* A box standing on the floor: front face at x = x0, y in [y0, y1],
+ * z in [0, top], depth along x. */
+struct Box {
+  double x0, y0, y1, top, depth;
+};
+
+/* Ray-casts the label of each pixel centre: the box when its front face or
+ * top is hit before the floor, floor below the horizon, NONE above. */
+static std::vector<uint8_t>
+render (const std::vector<Box> & boxes)
+{
+  std::vector<uint8_t> plane ((size_t) W * H, NONE);
+  for (int v = 0; v < H; v++)
+    for (int u = 0; u < W; u++) {
+      double d[3];
+      ray (u, v, d);
+      double t_floor = d[2] < 0 ? CAM_H / -d[2] : INFINITY;
+      uint8_t label = std::isfinite (t_floor) ? FLOOR : NONE;
+      double best = t_floor;
+      for (const Box & b : boxes) {
+        if (d[0] > 0) {
+          const double t = b.x0 / d[0];
+          const double y = t * d[1], z = CAM_H + t * d[2];
+          if (t < best && y >= b.y0 && y <= b.y1 && z >= 0 && z <= b.top) {
+            best = t;
+            label = BOX;
+          }
+        }
+        if (d[2] < 0 && b.top < CAM_H) {
+          const double t = (b.top - CAM_H) / d[2];
+          const double x = t * d[0], y = t * d[1];
+          if (t < best && x >= b.x0 && x <= b.x0 + b.depth && y >= b.y0 &&
+              y <= b.y1) {
+            best = t;
+            label = BOX;
+          }
+        }
+      }
+      plane[(size_t) v * W + u] = label;
+    }
+  return plane;
+}
+
+/* Row (pixel-centre coordinates) where the floor point at distance x
+ * ahead appears in the centre column. */
+static double
+row_of_distance (double x)
+{
+  const double below = std::atan2 (CAM_H, x);    /* below the horizontal */
+  return CY + F * std::tan (below - TILT * M_PI / 180);
+}
+
+/* A wall across the whole view at x = X: an image row when roll is 0. The
+ * floor ends exactly on a pixel edge: every column's range is X / cos b. */
+static void
+test_wall_on_a_pixel_edge ()
+{
+  CameraGeometry g = camera ();
+  FloorProfileParams fp;
+  fp.max_range = 5.0;
+  fp.bearing_bins = 360;
+  FloorProfile prof;
+  std::string err;
+  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  LabelRole r[256];
+  roles (r);
+  for (int edge : {60, 150, 240, 330}) {
+    std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
+    std::fill (plane.begin (), plane.begin () + (size_t) edge * W, BOX);
+    prof.scan (plane.data (), W, r);
+    /* the floor point of the edge at v = edge - 1/2, by hand: h / tan */
+    const double below = TILT * M_PI / 180 + std::atan ((edge - 0.5 - CY) / F);
+    const double X = CAM_H / std::tan (below);
+    double worst = 0;
+    for (int u = 0; u < W; u++) {
+      const ColumnBoundary & c = prof.columns ()[u];
+      CHECK (c.state == FreeState::Obstacle, "edge %d col %d: %s", edge, u,
+          free_state_name (c.state));
+      worst = std::max (worst, std::fabs (c.x - X) / X);
+      const double truth = X / std::cos (std::atan2 (c.y, c.x));
+      CHECK (std::fabs (c.range - truth) <= 1e-5 * truth, "col %d %g vs %g",
+          u, c.range, truth);
+    }
+    CHECK (worst < 1e-5, "edge %d: x off by %g relative", edge, worst);
+    /* bins: between X / cos of the bin's nearest and farthest bearing */
+    const double d = 2 * M_PI / fp.bearing_bins;
+    int obstacle_bins = 0;
+    for (int k = 0; k < fp.bearing_bins; k++) {
+      const RopBin & b = prof.bins ()[k];
+      const double bk = std::fabs (prof.bin_bearing (k));
+      if (bk > 45 * M_PI / 180) {
+        CHECK (b.state == FreeState::NotSeen, "bin %d outside the view: %s",
+            k, free_state_name (b.state));
+        continue;
+      }
+      if (b.state != FreeState::Obstacle)
+        continue;
+      obstacle_bins++;
+      const double lo = X / std::cos (std::max (0.0, bk - d / 2));
+      const double hi = X / std::cos (bk + d / 2);
+      CHECK (b.range >= lo - 1e-4 && b.range <= hi + 1e-4,
+          "bin %d: %g not in [%g, %g]", k, b.range, lo, hi);
+    }
+    /* the view's bearings: hfov 60 at the bottom, wider up the image */
+    CHECK (obstacle_bins >= 58, "edge %d: %d obstacle bins", edge,
+        obstacle_bins);
+    std::printf ("wall at %.3f m (edge %d): %d bins, x error %.2e\n", X,
+        edge, obstacle_bins, worst);
+  }
+}
+
+/* A box of known footprint ray-cast at pixel centres: the boundary is
+ * within half a pixel of the true contact line. Specks, thin shadows and a
+ * marker disc on the floor change nothing. */
+static void
+test_box_specks_shadows_markers ()
+{
+  CameraGeometry g = camera ();
+  FloorProfileParams fp;
+  fp.max_range = 4.0;
+  fp.min_obstacle_rows = 6;
+  FloorProfile prof;
+  std::string err;
+  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  LabelRole r[256];
+  roles (r);
+  const Box box {1.37, -0.3, 0.2, 0.4, 0.5};
+  std::vector<uint8_t> plane = render ({box});
+  prof.scan (plane.data (), W, r);
+  const std::vector<ColumnBoundary> clean = prof.columns ();
+  const std::vector<RopBin> clean_bins = prof.bins ();
+
+  double worst_box = 0, worst_free = 0;
+  int box_cols = 0;
+  for (int u = 0; u < W; u++) {
+    const ColumnBoundary & c = clean[u];
+    const double bearing = std::atan2 (c.y, c.x);
+    const double b0 = std::atan2 (box.y0, box.x0), b1 =
+        std::atan2 (box.y1, box.x0);
+    if (bearing > b0 + 0.01 && bearing < b1 - 0.01) {
+      CHECK (c.state == FreeState::Obstacle, "col %d: %s", u,
+          free_state_name (c.state));
+      /* truth: the front face's bottom edge at this bearing */
+      const double truth = box.x0 / std::cos (bearing);
+      worst_box = std::max (worst_box, std::fabs (c.range - truth) / truth);
+      box_cols++;
+    } else if (bearing < b0 - 0.03 || bearing > b1 + 0.03) {
+      /* beside the box the floor reaches max-range (4 m) */
+      CHECK (c.state == FreeState::Free && c.range == 4.0f,
+          "col %d beside the box: %s %g", u, free_state_name (c.state),
+          c.range);
+      worst_free = std::max (worst_free, (double) std::fabs (c.range - 4.0f));
+    }
+  }
+  /* half a pixel at 1.5 m: h / (x^2 + h^2) rad per metre, 1/F rad per px */
+  const double half_px = 0.5 / F * (box.x0 * box.x0 + CAM_H * CAM_H) /
+      CAM_H / box.x0;
+  CHECK (worst_box <= half_px + 1e-6, "box: %g relative, half a pixel is %g",
+      worst_box, half_px);
+  CHECK (box_cols > 100, "%d box columns", box_cols);
+  std::printf ("box at %.2f m: %d columns, worst range error %.3f%% "
+      "(half a pixel: %.3f%%)\n", box.x0, box_cols, 100 * worst_box,
+      100 * half_px);
+
+  /* specks (1-3 px), two-row shadow lines, a marker disc on the floor */
+  std::mt19937 rng (7);
+  std::uniform_int_distribution<int> ru (0, W - 4), rv (0, H - 4), rs (1, 3);
+  for (int i = 0; i < 400; i++) {
+    const int u = ru (rng), v = rv (rng), s = rs (rng);
+    /* not touching an obstacle, which it would merely extend */
+    bool alone = true;
+    for (int dv = -1; dv <= s && alone; dv++)
+      for (int du = -1; du <= s && alone; du++) {
+        const int x = u + du, y = v + dv;
+        alone = x < 0 || y < 0 || x >= W || y >= H ||
+            plane[(size_t) y * W + x] == FLOOR;
+      }
+    if (!alone)
+      continue;
+    for (int dv = 0; dv < s; dv++)
+      for (int du = 0; du < s; du++)
+        if (plane[(size_t) (v + dv) * W + u + du] == FLOOR)
+          plane[(size_t) (v + dv) * W + u + du] = (i % 2) ? NONE : SHADOW;
+  }
+  for (int v : {300, 380, 440})
+    for (int u = 0; u < W; u++)
+      for (int dv = 0; dv < 2; dv++)
+        plane[(size_t) (v + dv) * W + u] = SHADOW;
+  cv::Mat m (H, W, CV_8UC1, plane.data ());
+  const double mv = row_of_distance (0.9);
+  cv::ellipse (m, cv::Point (120, (int) mv), cv::Size (40, 12), 0, 0, 360,
+      cv::Scalar (MARKER), -1);
+  prof.scan (plane.data (), W, r);
+  int changed = 0, marked = 0;
+  for (int u = 0; u < W; u++) {
+    const ColumnBoundary & a = clean[u], &b = prof.columns ()[u];
+    const bool differs = a.state != b.state ||
+        std::fabs (a.range - b.range) > 1e-6;
+    if (differs)
+      std::fprintf (stderr, "col %d: %s %g row %g -> %s %g row %g\n", u,
+          free_state_name (a.state), a.range, a.row,
+          free_state_name (b.state), b.range, b.row);
+    changed += differs;
+    if (u >= 90 && u <= 150) {
+      marked++;
+      CHECK (b.marker_range > 0.8 && b.marker_range < 1.0,
+          "col %d: marker range %g", u, b.marker_range);
+    }
+  }
+  CHECK (changed == 0, "%d columns changed by specks, shadows, a marker",
+      changed);
+  CHECK (marked > 0, "no marker columns");
+
+  /* a run at least min-obstacle-rows tall does end the floor */
+  for (int u = 0; u < W; u++)
+    for (int v = 300; v < 306; v++)
+      plane[(size_t) v * W + u] = SHADOW;
+  prof.scan (plane.data (), W, r);
+  CHECK (prof.columns ()[W / 2].state == FreeState::Obstacle &&
+      std::fabs (prof.columns ()[W / 2].row - 305.5f) < 1e-4,
+      "6-row band: %s at row %g", free_state_name (prof.columns ()[W /
+              2].state), prof.columns ()[W / 2].row);
+}
+
+/* The border cuts the view: floor to the top row within max-range is a
+ * view edge at the top row's range; a column with no floor at the bottom
+ * is not seen; bins behind the robot are not seen. */
+static void
+test_border_cut ()
+{
+  CameraGeometry g = camera ();
+  FloorProfileParams fp;
+  fp.max_range = 50.0;
+  FloorProfile prof;
+  std::string err;
+  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  LabelRole r[256];
+  roles (r);
+  std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
+  /* the left quarter: something right in front of the lens */
+  for (int v = 0; v < H; v++)
+    for (int u = 0; u < W / 4; u++)
+      plane[(size_t) v * W + u] = BOX;
+  prof.scan (plane.data (), W, r);
+  const double top_x = CAM_H / std::tan (TILT * M_PI / 180 +
+      std::atan ((-0.5 - CY) / F));
+  for (int u = 0; u < W; u++) {
+    const ColumnBoundary & c = prof.columns ()[u];
+    if (u < W / 4) {
+      CHECK (c.state == FreeState::NotSeen, "col %d: %s", u,
+          free_state_name (c.state));
+    } else {
+      CHECK (c.state == FreeState::ViewEdge, "col %d: %s", u,
+          free_state_name (c.state));
+      CHECK (std::fabs (c.x - top_x) < 1e-4 * top_x, "col %d: %g vs %g", u,
+          c.x, top_x);
+    }
+  }
+  int behind = 0;
+  for (int k = 0; k < fp.bearing_bins; k++)
+    if (std::fabs (prof.bin_bearing (k)) > M_PI / 2) {
+      behind++;
+      CHECK (prof.bins ()[k].state == FreeState::NotSeen, "bin %d", k);
+    }
+  CHECK (behind > 0, "no bins behind");
+  /* left of the view (positive bearings) is where the image's left
+   * quarter looks: not seen there */
+  CHECK (prof.bins ()[prof.bin_of (25 * M_PI / 180)].state ==
+      FreeState::NotSeen, "bin at +25 deg: %s",
+      free_state_name (prof.bins ()[prof.bin_of (25 * M_PI / 180)].state));
+  CHECK (prof.bins ()[prof.bin_of (-20 * M_PI / 180)].state ==
+      FreeState::ViewEdge, "bin at -20 deg");
+
+  /* a camera looking above the horizon sees no floor at all */
+  CameraParams p = g.params ();
+  p.tilt_deg = -40;
+  CameraGeometry up;
+  if (up.configure (p, &err)) {
+    FloorProfile none;
+    CHECK (!none.configure (up, fp, &err), "a camera seeing no floor");
+  }
+}
+
+/* bin_of / bin_bearing: bin 0 straight ahead, positive to the left. */
+static void
+test_bins ()
+{
+  CameraGeometry g = camera ();
+  FloorProfileParams fp;
+  fp.bearing_bins = 8;
+  FloorProfile prof;
+  std::string err;
+  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  CHECK (prof.bin_of (0) == 0, "0");
+  CHECK (prof.bin_of (M_PI / 4) == 1, "45 deg left");
+  CHECK (prof.bin_of (-M_PI / 4) == 7, "45 deg right");
+  CHECK (prof.bin_of (M_PI / 8 - 1e-9) == 0 && prof.bin_of (M_PI / 8) == 1,
+      "edges");
+  CHECK (prof.bin_of (M_PI) == 4 && prof.bin_of (-M_PI) == 4, "behind");
+  CHECK (std::fabs (prof.bin_bearing (7) + M_PI / 4) < 1e-12, "bearing 7");
+}
+
+/* Per-frame cost of a scan at 640x480 (the box scene). */
+static void
+bench_scan ()
+{
+  CameraGeometry g = camera ();
+  FloorProfileParams fp;
+  FloorProfile prof;
+  std::string err;
+  auto t0 = std::chrono::steady_clock::now ();
+  prof.configure (g, fp, &err);
+  auto t1 = std::chrono::steady_clock::now ();
+  LabelRole r[256];
+  roles (r);
+  std::vector<uint8_t> plane = render ({{1.5, -0.3, 0.2, 0.4, 0.5},
+      {2.5, 0.4, 0.9, 0.3, 0.3}});
+  const int n = 200;
+  for (int i = 0; i < 10; i++)
+    prof.scan (plane.data (), W, r);
+  auto t2 = std::chrono::steady_clock::now ();
+  for (int i = 0; i < n; i++)
+    prof.scan (plane.data (), W, r);
+  auto t3 = std::chrono::steady_clock::now ();
+  std::printf ("configure %.1f ms, scan %.3f ms per 640x480 frame\n",
+      std::chrono::duration<double, std::milli> (t1 - t0).count (),
+      std::chrono::duration<double, std::milli> (t3 - t2).count () / n);
+}
+
+int
+main ()
+{
+  test_bins ();
+  test_wall_on_a_pixel_edge ();
+  test_box_specks_shadows_markers ();
+  test_border_cut ();
+  bench_scan ();
+  if (failures)
+    std::fprintf (stderr, "%d failures\n", failures);
+  return failures ? 1 : 0;
+}

@@ -5,6 +5,7 @@
 #include <gst/gst.h>
 
 #include "gstblobroundness.h"
+#include "gstfloorboundary.h"
 #include "gstipmrange.h"
 #include "gstlabsegment.h"
 #include "gstlandmarklog.h"
@@ -26,6 +27,7 @@ plugin_init (GstPlugin * plugin)
   ok |= GST_ELEMENT_REGISTER (landmarkoverlay, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarkpublish, plugin);
   ok |= GST_ELEMENT_REGISTER (trilaterate, plugin);
+  ok |= GST_ELEMENT_REGISTER (floorboundary, plugin);
   return ok;
 }
 

@@ -1,0 +1,134 @@
+"""floorboundary through labsegment on a ray-cast colour frame: a grey
+floor, a white box standing on it and a red disc lying on it, seen by the
+pinhole camera of docs/conventions.md (written out here with numpy)."""
+
+import json
+import math
+
+import numpy as np
+
+from gstlandmark import meta, pipeline
+
+W, H = 640, 480
+CAM_H, TILT, HFOV = 0.3, 25.0, 60.0
+F = (W / 2) / math.tan(math.radians(HFOV / 2))
+CX, CY = (W - 1) / 2, (H - 1) / 2
+GREY, WHITE, RED = (0x80, 0x80, 0x80), (0xEB, 0xEB, 0xEB), (0xFF, 0x00, 0x00)
+
+# the box's front face at x = 1.37 m, from y = -0.45 to 0.05 m (left
+# positive), 0.4 m tall and 0.5 m deep; the disc (0.15 m radius) at
+# (0.9, 0.45) on the floor
+BOX = dict(x0=1.37, y0=-0.45, y1=0.05, top=0.4, depth=0.5)
+DISC = dict(x=0.9, y=0.45, r=0.15)
+
+
+def rays():
+    """Robot-frame ray of every pixel centre: (H, W, 3)."""
+    t = math.radians(TILT)
+    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    xn, yn = (u - CX) / F, (v - CY) / F
+    d = np.empty((H, W, 3))
+    d[..., 0] = -math.sin(t) * yn + math.cos(t)
+    d[..., 1] = -xn
+    d[..., 2] = -math.cos(t) * yn - math.sin(t)
+    return d
+
+
+def render(noise_rng=None):
+    """RGB frame and the label of each pixel (0 floor, 1 box, 2 disc)."""
+    d = rays()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_floor = np.where(d[..., 2] < 0, CAM_H / -d[..., 2], np.inf)
+        t_face = np.where(d[..., 0] > 0, BOX["x0"] / d[..., 0], np.inf)
+        t_top = np.where(d[..., 2] < 0, (BOX["top"] - CAM_H) / d[..., 2],
+                         np.inf)
+    fy, fz = t_face * d[..., 1], CAM_H + t_face * d[..., 2]
+    face = ((t_face < t_floor) & (fy >= BOX["y0"]) & (fy <= BOX["y1"]) &
+            (fz >= 0) & (fz <= BOX["top"]))
+    tx, ty = t_top * d[..., 0], t_top * d[..., 1]
+    top = ((t_top < t_floor) & (tx >= BOX["x0"]) &
+           (tx <= BOX["x0"] + BOX["depth"]) & (ty >= BOX["y0"]) &
+           (ty <= BOX["y1"]))
+    gx, gy = t_floor * d[..., 0], t_floor * d[..., 1]
+    disc = np.hypot(gx - DISC["x"], gy - DISC["y"]) <= DISC["r"]
+    label = np.zeros((H, W), np.uint8)
+    label[disc] = 2
+    label[face | top] = 1
+    rgb = np.empty((H, W, 3), np.float64)
+    rgb[:] = GREY
+    rgb[label == 1] = WHITE
+    rgb[label == 2] = RED
+    if noise_rng is not None:
+        rgb += noise_rng.normal(0, 4, rgb.shape)
+    return np.clip(rgb, 0, 255).astype(np.uint8), label
+
+
+CHAIN = ("labsegment min-class-pixels=0 ! floorboundary floor-classes=grey "
+         "camera-height=0.3 tilt=25 hfov=60 max-range=4")
+
+
+def test_box_disc_and_free_floor(gst, tmp_path):
+    rgb, truth = render(np.random.default_rng(3))
+    log = tmp_path / "log.jsonl"
+    out = pipeline.process_frames(
+        f"{CHAIN} ! landmarklog location={log}", [rgb],
+        f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1")
+    fm = meta.floor(out[0])
+    assert fm is not None
+    assert (fm.width, fm.height, fm.bearing_bins) == (W, H, 360)
+
+    bearings = np.arctan2(fm.boundary_y, fm.boundary_x)
+    b0 = math.atan2(BOX["y0"], BOX["x0"])
+    b1 = math.atan2(BOX["y1"], BOX["x0"])
+    inside = (bearings > b0 + 0.01) & (bearings < b1 - 0.01)
+    assert inside.sum() > 150
+    assert (fm.boundary_state[inside] == 2).all()
+    # the front face's foot at each column's bearing: x0 / cos(bearing);
+    # the boundary is a pixel edge, within half a pixel (0.43 % here)
+    want = BOX["x0"] / np.cos(bearings[inside])
+    got = np.hypot(fm.boundary_x[inside], fm.boundary_y[inside])
+    rel = np.abs(got - want) / want
+    print(f"box columns: {inside.sum()}, range error max {rel.max():.4%}, "
+          f"median {np.median(rel):.4%}")
+    assert rel.max() < 0.006
+
+    # every bin between the box's edges reports it, at its range
+    for k in range(fm.bearing_bins):
+        b = fm.bin_bearing(k)
+        if b0 + 0.01 < b < b1 - 0.01:
+            assert fm.state_name(k) == "obstacle"
+            lo = BOX["x0"] / math.cos(max(0.0, abs(b) - fm.bin_width / 2))
+            hi = BOX["x0"] / math.cos(abs(b) + fm.bin_width / 2)
+            assert lo * 0.994 <= fm.rop_range[k] <= hi * 1.006, k
+
+    # the disc lies on the floor: not an obstacle, but reported
+    bd = math.atan2(DISC["y"], DISC["x"])
+    k = fm.bin_of(bd)
+    assert fm.state_name(k) == "free" and fm.rop_range[k] == 4.0
+    near_edge = math.hypot(DISC["x"], DISC["y"]) - DISC["r"]
+    assert abs(fm.rop_marker_range[k] - near_edge) < 0.02
+    # bins that do not see the floor, behind the robot
+    assert fm.state_name(fm.bin_of(math.pi)) == "not-seen"
+    assert fm.nearest_range is not None
+    assert abs(fm.nearest_range - BOX["x0"]) < 0.01
+
+    line = json.loads(log.read_text().splitlines()[0])
+    floor = line["floor"]
+    assert floor["bearing-bins"] == 360
+    assert np.allclose(floor["range"], fm.rop_range)
+    assert floor["state"] == fm.rop_state.tolist()
+    assert [m is None for m in floor["marker-range"]] == \
+        (fm.rop_marker_range < 0).tolist()
+
+
+def test_ball_with_markers_are_obstacles(gst):
+    """The same disc counted as an obstacle (a field of landmark balls)."""
+    rgb, _ = render()
+    out = pipeline.process_frames(
+        CHAIN + " markers-are-obstacles=true", [rgb],
+        f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1")
+    fm = meta.floor(out[0])
+    k = fm.bin_of(math.atan2(DISC["y"], DISC["x"]))
+    assert fm.state_name(k) == "obstacle"
+    near_edge = math.hypot(DISC["x"], DISC["y"]) - DISC["r"]
+    assert abs(fm.rop_range[k] - near_edge) < 0.02

@@ -63,24 +63,12 @@
 
 #include "fileutil.h"
 #include "floorprofile.h"
-#include "gstipmrange.h"
+#include "cameraprops.h"
 #include "landmarkmeta.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_floor_boundary_debug);
 #define GST_CAT_DEFAULT gst_floor_boundary_debug
 
-#define DEFAULT_MODEL GST_IPM_RANGE_MODEL_PINHOLE
-#define DEFAULT_CAMERA_HEIGHT 0.3
-#define DEFAULT_TILT 25.0
-#define DEFAULT_ROLL 0.0
-#define DEFAULT_HFOV 60.0
-#define DEFAULT_FX 0.0
-#define DEFAULT_FY 0.0
-#define DEFAULT_CX -1.0
-#define DEFAULT_CY -1.0
-#define DEFAULT_BLIND 0.0
-#define DEFAULT_DEPTH 0.0
-#define DEFAULT_HALF_WIDTH 0.0
 #define DEFAULT_FLOOR_CLASSES nullptr
 #define DEFAULT_MARKERS_ARE_OBSTACLES FALSE
 #define DEFAULT_MIN_OBSTACLE_ROWS 6
@@ -93,20 +81,8 @@ GST_DEBUG_CATEGORY_STATIC (gst_floor_boundary_debug);
 enum
 {
   PROP_0,
-  PROP_MODEL,
-  PROP_CAMERA_HEIGHT,
-  PROP_TILT,
-  PROP_ROLL,
-  PROP_HFOV,
-  PROP_FX,
-  PROP_FY,
-  PROP_CX,
-  PROP_CY,
-  PROP_CALIBRATION,
-  PROP_BLIND_DISTANCE,
-  PROP_VIEW_DEPTH,
-  PROP_HALF_WIDTH,
-  PROP_FLOOR_CLASSES,
+  PROP_CAMERA_FIRST,            /* cameraprops.h: CAMERA_PROP_COUNT ids */
+  PROP_FLOOR_CLASSES = PROP_CAMERA_FIRST + CAMERA_PROP_COUNT,
   PROP_MARKERS_ARE_OBSTACLES,
   PROP_MIN_OBSTACLE_ROWS,
   PROP_BEARING_BINS,
@@ -124,7 +100,6 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
 namespace {
 
 struct Settings {
-  GstIpmRangeModel model = DEFAULT_MODEL;
   landmark::CameraSettings camera;
   std::string floor_classes;    /* empty: every non-marker class */
   gboolean markers_are_obstacles = DEFAULT_MARKERS_ARE_OBSTACLES;
@@ -190,9 +165,8 @@ floor_boundary_parse (const Settings & s, Config * cfg,
     const char **property, std::string * why)
 {
   *cfg = Config ();
-  landmark::CameraSettings cam = s.camera;
-  cam.seed = s.model == GST_IPM_RANGE_MODEL_SEED;
-  if (!landmark::camera_setup_resolve (cam, &cfg->camera, property, why))
+  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera, property,
+          why))
     return FALSE;
   if (!s.floor_classes.empty ()) {
     gchar **parts = g_strsplit (s.floor_classes.c_str (), ",", -1);
@@ -269,49 +243,11 @@ gst_floor_boundary_set_property (GObject * object, guint prop_id,
   auto priv = GST_FLOOR_BOUNDARY (object)->priv;
   std::lock_guard<std::mutex> lk (priv->lock);
   Settings & s = priv->settings;
-  landmark::CameraSettings & c = s.camera;
+  if (camera_props_set (&s.camera, PROP_CAMERA_FIRST, prop_id, value)) {
+    s.generation++;
+    return;
+  }
   switch (prop_id) {
-    case PROP_MODEL:
-      s.model = (GstIpmRangeModel) g_value_get_enum (value);
-      break;
-    case PROP_CAMERA_HEIGHT:
-      c.camera_height = g_value_get_double (value);
-      break;
-    case PROP_TILT:
-      c.tilt_deg = g_value_get_double (value);
-      break;
-    case PROP_ROLL:
-      c.roll_deg = g_value_get_double (value);
-      break;
-    case PROP_HFOV:
-      c.hfov_deg = g_value_get_double (value);
-      break;
-    case PROP_FX:
-      c.fx = g_value_get_double (value);
-      break;
-    case PROP_FY:
-      c.fy = g_value_get_double (value);
-      break;
-    case PROP_CX:
-      c.cx = g_value_get_double (value);
-      break;
-    case PROP_CY:
-      c.cy = g_value_get_double (value);
-      break;
-    case PROP_CALIBRATION:{
-      const gchar *v = g_value_get_string (value);
-      c.calibration = v ? v : "";
-      break;
-    }
-    case PROP_BLIND_DISTANCE:
-      c.blind_distance = g_value_get_double (value);
-      break;
-    case PROP_VIEW_DEPTH:
-      c.view_depth = g_value_get_double (value);
-      break;
-    case PROP_HALF_WIDTH:
-      c.half_width = g_value_get_double (value);
-      break;
     case PROP_FLOOR_CLASSES:{
       const gchar *v = g_value_get_string (value);
       s.floor_classes = v ? v : "";
@@ -346,48 +282,9 @@ gst_floor_boundary_get_property (GObject * object, guint prop_id,
   auto priv = GST_FLOOR_BOUNDARY (object)->priv;
   std::lock_guard<std::mutex> lk (priv->lock);
   const Settings & s = priv->settings;
-  const landmark::CameraSettings & c = s.camera;
+  if (camera_props_get (s.camera, PROP_CAMERA_FIRST, prop_id, value))
+    return;
   switch (prop_id) {
-    case PROP_MODEL:
-      g_value_set_enum (value, s.model);
-      break;
-    case PROP_CAMERA_HEIGHT:
-      g_value_set_double (value, c.camera_height);
-      break;
-    case PROP_TILT:
-      g_value_set_double (value, c.tilt_deg);
-      break;
-    case PROP_ROLL:
-      g_value_set_double (value, c.roll_deg);
-      break;
-    case PROP_HFOV:
-      g_value_set_double (value, c.hfov_deg);
-      break;
-    case PROP_FX:
-      g_value_set_double (value, c.fx);
-      break;
-    case PROP_FY:
-      g_value_set_double (value, c.fy);
-      break;
-    case PROP_CX:
-      g_value_set_double (value, c.cx);
-      break;
-    case PROP_CY:
-      g_value_set_double (value, c.cy);
-      break;
-    case PROP_CALIBRATION:
-      g_value_set_string (value, c.calibration.empty ()? nullptr :
-          c.calibration.c_str ());
-      break;
-    case PROP_BLIND_DISTANCE:
-      g_value_set_double (value, c.blind_distance);
-      break;
-    case PROP_VIEW_DEPTH:
-      g_value_set_double (value, c.view_depth);
-      break;
-    case PROP_HALF_WIDTH:
-      g_value_set_double (value, c.half_width);
-      break;
     case PROP_FLOOR_CLASSES:
       g_value_set_string (value, s.floor_classes.empty ()? nullptr :
           s.floor_classes.c_str ());
@@ -793,64 +690,7 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
   const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
       G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
   /* the camera: ipmrange's properties, the same meanings */
-  g_object_class_install_property (gobject_class, PROP_MODEL,
-      g_param_spec_enum ("model", "Camera model",
-          "How pixels map to the floor", GST_TYPE_IPM_RANGE_MODEL,
-          DEFAULT_MODEL, flags));
-  g_object_class_install_property (gobject_class, PROP_CAMERA_HEIGHT,
-      g_param_spec_double ("camera-height", "Camera height",
-          "Height of the camera's optical centre above the floor, metres "
-          "(must be > 0)", 0.0, 1000.0, DEFAULT_CAMERA_HEIGHT, flags));
-  g_object_class_install_property (gobject_class, PROP_TILT,
-      g_param_spec_double ("tilt", "Tilt",
-          "model=pinhole: degrees below the horizontal",
-          -90.0, 90.0, DEFAULT_TILT, flags));
-  g_object_class_install_property (gobject_class, PROP_ROLL,
-      g_param_spec_double ("roll", "Roll",
-          "model=pinhole: degrees about the optical axis, clockwise as seen "
-          "from behind the camera", -360.0, 360.0, DEFAULT_ROLL, flags));
-  g_object_class_install_property (gobject_class, PROP_HFOV,
-      g_param_spec_double ("hfov", "Horizontal field of view",
-          "model=pinhole: degrees, (0, 180), principal point at the image "
-          "centre; unused when fx or calibration is set", 0.0, 180.0,
-          DEFAULT_HFOV, flags));
-  g_object_class_install_property (gobject_class, PROP_FX,
-      g_param_spec_double ("fx", "Focal length x",
-          "model=pinhole: pixels; 0: from hfov", 0.0, G_MAXDOUBLE,
-          DEFAULT_FX, flags));
-  g_object_class_install_property (gobject_class, PROP_FY,
-      g_param_spec_double ("fy", "Focal length y",
-          "model=pinhole: pixels; 0: as fx", 0.0, G_MAXDOUBLE, DEFAULT_FY,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_CX,
-      g_param_spec_double ("cx", "Principal point x",
-          "model=pinhole with fx: pixels; < 0: (width - 1) / 2", -1.0,
-          G_MAXDOUBLE, DEFAULT_CX, flags));
-  g_object_class_install_property (gobject_class, PROP_CY,
-      g_param_spec_double ("cy", "Principal point y",
-          "model=pinhole with fx: pixels; < 0: (height - 1) / 2", -1.0,
-          G_MAXDOUBLE, DEFAULT_CY, flags));
-  g_object_class_install_property (gobject_class, PROP_CALIBRATION,
-      g_param_spec_string ("calibration", "Calibration file",
-          "Camera file (OpenCV FileStorage YAML or XML, as gst-landmark "
-          "calibrate writes it): camera_matrix and distortion_coefficients "
-          "(model pinhole), or model: seed with its four lengths (model "
-          "seed); what the file holds (also camera_height, tilt_deg, "
-          "roll_deg) overrides the properties", nullptr, flags));
-  g_object_class_install_property (gobject_class, PROP_BLIND_DISTANCE,
-      g_param_spec_double ("blind-distance", "Blind distance",
-          "model=seed: metres along the floor from the camera's floor point "
-          "to the first visible floor point (b)", 0.0, 1000.0,
-          DEFAULT_BLIND, flags));
-  g_object_class_install_property (gobject_class, PROP_VIEW_DEPTH,
-      g_param_spec_double ("view-depth", "View depth",
-          "model=seed: metres of floor from the first visible point to the "
-          "point seen at the image centre line (d)", 0.0, 1000.0,
-          DEFAULT_DEPTH, flags));
-  g_object_class_install_property (gobject_class, PROP_HALF_WIDTH,
-      g_param_spec_double ("half-width", "Half width",
-          "model=seed: half-width of the visible floor at distance b + d, "
-          "metres (w)", 0.0, 1000.0, DEFAULT_HALF_WIDTH, flags));
+  camera_props_install (gobject_class, PROP_CAMERA_FIRST, flags);
   /* the floor */
   g_object_class_install_property (gobject_class, PROP_FLOOR_CLASSES,
       g_param_spec_string ("floor-classes", "Floor classes",

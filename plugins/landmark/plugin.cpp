@@ -4,6 +4,7 @@
 
 #include <gst/gst.h>
 
+#include "gstbirdseye.h"
 #include "gstblobroundness.h"
 #include "gstfloorboundary.h"
 #include "gstipmrange.h"
@@ -28,6 +29,7 @@ plugin_init (GstPlugin * plugin)
   ok |= GST_ELEMENT_REGISTER (landmarkpublish, plugin);
   ok |= GST_ELEMENT_REGISTER (trilaterate, plugin);
   ok |= GST_ELEMENT_REGISTER (floorboundary, plugin);
+  ok |= GST_ELEMENT_REGISTER (birdseye, plugin);
   return ok;
 }
 

@@ -409,6 +409,84 @@ bench_scan ()
       "p90 %.3f ms (thread CPU time)\n", t1 - t0, t[n / 2], t[n * 9 / 10]);
 }
 
+/* The bird's-eye remap of a floor with grid lines every 0.5 m (3 cm wide),
+ * ray-cast here: the lines come out straight, along output rows and
+ * columns, at 100 px per metre from the camera's floor point. */
+static void
+test_birdseye_grid ()
+{
+  CameraGeometry g = camera ();
+  std::vector<uint8_t> img ((size_t) W * H, 0);
+  for (int v = 0; v < H; v++)
+    for (int u = 0; u < W; u++) {
+      double d[3];
+      ray (u, v, d);
+      if (d[2] >= 0)
+        continue;
+      const double t = CAM_H / -d[2], x = t * d[0], y = t * d[1];
+      auto near_line = [](double a) {
+        return std::fabs (a - 0.5 * std::round (a / 0.5)) < 0.015;
+      };
+      img[(size_t) v * W + u] = near_line (x) || near_line (y) ? 255 : 20;
+    }
+  BirdsEyeParams b;             /* 400x400, 100 px/m, origin bottom centre */
+  std::vector<float> mx, my;
+  std::string err;
+  CHECK (birdseye_maps (g, b, &mx, &my, &err), "%s", err.c_str ());
+  cv::Mat fx (b.out_h, b.out_w, CV_32FC1, mx.data ());
+  cv::Mat fy (b.out_h, b.out_w, CV_32FC1, my.data ());
+  cv::Mat src (H, W, CV_8UC1, img.data ()), dst;
+  cv::remap (src, dst, fx, fy, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  /* share of the seen pixels of an output row / column that are bright,
+   * leaving out where the crossing lines run */
+  auto on_grid = [](double metres) {
+    return std::fabs (metres - 0.5 * std::round (metres / 0.5)) < 0.03;
+  };
+  auto row_share = [&](int j) {
+    int seen = 0, bright = 0;
+    for (int i = 0; i < b.out_w; i++)
+      if (mx[(size_t) j * b.out_w + i] >= -1 &&
+          !on_grid ((b.origin_u - i) / 100)) {
+        seen++;
+        bright += dst.at<uint8_t> (j, i) > 128;
+      }
+    return seen ? (double) bright / seen : -1.0;
+  };
+  auto col_share = [&](int i, int j0, int j1) {
+    int seen = 0, bright = 0;
+    for (int j = j0; j <= j1; j++)
+      if (mx[(size_t) j * b.out_w + i] >= -1 &&
+          !on_grid ((b.origin_v - j) / 100)) {
+        seen++;
+        bright += dst.at<uint8_t> (j, i) > 128;
+      }
+    return seen ? (double) bright / seen : -1.0;
+  };
+  for (double x = 1.0; x <= 2.51; x += 0.5) {
+    /* output row of x: origin_v - 100 x, between two pixel rows */
+    const int j = (int) std::floor (b.origin_v - 100 * x);
+    const double on = std::min (row_share (j), row_share (j + 1));
+    const double off = row_share (j - 25);
+    CHECK (on > 0.9, "line x = %.1f m: %.2f of row %d bright", x, on, j);
+    CHECK (off >= 0 && off < 0.05, "between lines at x = %.2f m: %.2f",
+        x + 0.25, off);
+    std::printf ("bird's-eye: line x = %.1f m on rows %d-%d: %.0f%% bright, "
+        "25 px off it %.0f%%\n", x, j, j + 1, 100 * on, 100 * off);
+  }
+  for (double y = -1.0; y <= 1.01; y += 0.5) {
+    const int i = (int) std::floor (b.origin_u - 100 * y);
+    /* from 1 m to 3 m ahead, where the view is wider than 1 m each side */
+    const double on = std::min (col_share (i, 100, 300),
+        col_share (i + 1, 100, 300));
+    const double off = col_share (i + 25, 100, 300);
+    CHECK (on > 0.9, "line y = %.1f m: %.2f of column %d bright", y, on, i);
+    CHECK (off >= 0 && off < 0.05, "beside line y = %.1f m: %.2f", y, off);
+  }
+  /* points the camera does not see (behind the bottom row) stay black */
+  CHECK (mx[(size_t) (b.out_h - 1) * b.out_w + b.out_w / 2] < -1,
+      "the floor under the camera is not in view");
+}
+
 int
 main ()
 {
@@ -416,6 +494,7 @@ main ()
   test_wall_on_a_pixel_edge ();
   test_box_specks_shadows_markers ();
   test_border_cut ();
+  test_birdseye_grid ();
   bench_scan ();
   if (failures)
     std::fprintf (stderr, "%d failures\n", failures);

@@ -484,8 +484,9 @@ birdseye_maps (const CameraGeometry & g, const BirdsEyeParams & b,
     return false;
   }
   const int w = g.params ().width, h = g.params ().height;
-  map_x->assign ((size_t) b.out_w * b.out_h, -1.f);
-  map_y->assign ((size_t) b.out_w * b.out_h, -1.f);
+  /* far outside: cv::remap's bilinear weights see only the border */
+  map_x->assign ((size_t) b.out_w * b.out_h, -10.f);
+  map_y->assign ((size_t) b.out_w * b.out_h, -10.f);
   for (int j = 0; j < b.out_h; j++)
     for (int i = 0; i < b.out_w; i++) {
       /* up is forward (+x), left is left (+y) */

@@ -150,8 +150,8 @@ private:
 /* The floor seen from above: an out_w x out_h image at pixels_per_metre,
  * robot forward up, left to the left, the camera's floor point at output
  * pixel (origin_u, origin_v). map_x, map_y (CV_32F layouts, row-major)
- * give for each output pixel the source pixel (-1: not on the image or
- * above the horizon) for cv::remap. */
+ * give for each output pixel the source pixel for cv::remap (-10: not on
+ * the image, or no floor there). */
 struct BirdsEyeParams {
   int out_w = 400, out_h = 400;
   double pixels_per_metre = 100;

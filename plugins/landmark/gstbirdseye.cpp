@@ -124,7 +124,7 @@ birds_eye_params (const Settings & s)
   b.out_w = (int) std::lround (s.pixels_per_metre * 2 * s.side);
   b.out_h = (int) std::lround (s.pixels_per_metre * (s.forward + s.behind));
   b.origin_u = b.out_w / 2.0 - 0.5;
-  b.origin_v = b.out_h - 0.5 + s.behind * s.pixels_per_metre;
+  b.origin_v = b.out_h - 0.5 - s.behind * s.pixels_per_metre;
   return b;
 }
 

@@ -459,7 +459,7 @@ gst_birds_eye_class_init (GstBirdsEyeClass * klass)
           DEFAULT_SIDE, ready));
 
   gst_element_class_set_static_metadata (element_class,
-      "Bird's-eye view of the floor", "Filter/Effect/Video",
+      "Bird's-eye view of the floor", "Filter/Converter/Video",
       "Shows the floor seen from above at a chosen scale, through the "
       "camera model of ipmrange, by a remap table built once per caps or "
       "camera change", "gst-landmark developers");

@@ -488,13 +488,17 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
   return TRUE;
 }
 
-/* A new buffer holding n elements of size bytes copied from data. */
+/* A new buffer of n values of T, filled by fill (T *) while mapped. */
+template <typename T, typename Fill>
 static GstBuffer *
-array_buffer (const void *data, gsize bytes)
+array_buffer (gsize n, Fill fill)
 {
-  GstBuffer *b = gst_buffer_new_allocate (nullptr, bytes, nullptr);
-  if (bytes)
-    gst_buffer_fill (b, 0, data, bytes);
+  GstBuffer *b = gst_buffer_new_allocate (nullptr, n * sizeof (T), nullptr);
+  GstMapInfo map;
+  if (gst_buffer_map (b, &map, GST_MAP_WRITE)) {
+    fill ((T *) map.data);
+    gst_buffer_unmap (b, &map);
+  }
   return b;
 }
 
@@ -506,36 +510,32 @@ gst_floor_boundary_attach (GstFloorBoundary * self, GstBuffer * buf)
   const auto & cols = prof.columns ();
   const auto & bins = prof.bins ();
   const guint w = prof.width (), nb = bins.size ();
-  std::vector<float> rrange (nb), rmarker (nb), brow (w), bx (w), by (w);
-  std::vector<guint8> rstate (nb), bstate (w);
   double nearest = -1, nearest_bearing = 0;
-  for (guint k = 0; k < nb; k++) {
-    rrange[k] = bins[k].range;
-    rmarker[k] = bins[k].marker_range;
-    rstate[k] = (guint8) bins[k].state;
+  for (guint k = 0; k < nb; k++)
     if (bins[k].state == landmark::FreeState::Obstacle &&
         (nearest < 0 || bins[k].range < nearest)) {
       nearest = bins[k].range;
       nearest_bearing = prof.bin_bearing (k);
     }
-  }
-  for (guint u = 0; u < w; u++) {
-    brow[u] = cols[u].row;
-    bx[u] = cols[u].x;
-    by[u] = cols[u].y;
-    bstate[u] = (guint8) cols[u].state;
-  }
   GstStructure *s = landmark_floor_meta_add (buf);
   if (!s)
     return;
+  /* written straight into the meta's buffers: no other per-frame copy */
   GstBuffer *b[7] = {
-    array_buffer (rrange.data (), nb * sizeof (float)),
-    array_buffer (rstate.data (), nb),
-    array_buffer (rmarker.data (), nb * sizeof (float)),
-    array_buffer (brow.data (), w * sizeof (float)),
-    array_buffer (bx.data (), w * sizeof (float)),
-    array_buffer (by.data (), w * sizeof (float)),
-    array_buffer (bstate.data (), w),
+    array_buffer<float> (nb, [&](float *o) {
+          for (guint k = 0; k < nb; k++) o[k] = bins[k].range;}),
+    array_buffer<guint8> (nb, [&](guint8 * o) {
+          for (guint k = 0; k < nb; k++) o[k] = (guint8) bins[k].state;}),
+    array_buffer<float> (nb, [&](float *o) {
+          for (guint k = 0; k < nb; k++) o[k] = bins[k].marker_range;}),
+    array_buffer<float> (w, [&](float *o) {
+          for (guint u = 0; u < w; u++) o[u] = cols[u].row;}),
+    array_buffer<float> (w, [&](float *o) {
+          for (guint u = 0; u < w; u++) o[u] = cols[u].x;}),
+    array_buffer<float> (w, [&](float *o) {
+          for (guint u = 0; u < w; u++) o[u] = cols[u].y;}),
+    array_buffer<guint8> (w, [&](guint8 * o) {
+          for (guint u = 0; u < w; u++) o[u] = (guint8) cols[u].state;}),
   };
   gst_structure_set (s,
       LANDMARK_FLOOR_WIDTH, G_TYPE_UINT, w,

@@ -38,10 +38,14 @@ roles (LabelRole r[256])
   r[MARKER] = LabelRole::Marker;
 }
 
+/* roll of the camera the tests ray-cast with, degrees */
+static double roll_deg = 0;
+
 static CameraGeometry
 camera ()
 {
   CameraParams p;
+  p.roll_deg = roll_deg;
   p.width = W;
   p.height = H;
   p.camera_height = CAM_H;
@@ -60,12 +64,17 @@ camera ()
 static void
 ray (double u, double v, double d[3])
 {
-  const double t = TILT * M_PI / 180;
+  const double t = TILT * M_PI / 180, r = roll_deg * M_PI / 180;
   const double xn = (u - CX) / F, yn = (v - CY) / F;
-  /* x_c = (0,-1,0), y_c = (-sin t, 0, -cos t), z_c = (cos t, 0, -sin t) */
-  d[0] = -std::sin (t) * yn + std::cos (t);
-  d[1] = -xn;
-  d[2] = -std::cos (t) * yn - std::sin (t);
+  /* x_c = (0,-1,0), y_c = (-sin t, 0, -cos t), z_c = (cos t, 0, -sin t);
+   * roll turns x_c, y_c about z_c */
+  const double xc[3] = {0, -1, 0}, yc[3] = {-std::sin (t), 0, -std::cos (t)},
+      zc[3] = {std::cos (t), 0, -std::sin (t)};
+  for (int k = 0; k < 3; k++) {
+    const double x2 = std::cos (r) * xc[k] + std::sin (r) * yc[k];
+    const double y2 = -std::sin (r) * xc[k] + std::cos (r) * yc[k];
+    d[k] = xn * x2 + yn * y2 + zc[k];
+  }
 }
 
 /* A box standing on the floor: front face at x = x0, y in [y0, y1],
@@ -487,6 +496,83 @@ test_birdseye_grid ()
       "the floor under the camera is not in view");
 }
 
+/* A rolled camera: image rows are no longer floor lines. A wall at 1.2 m
+ * ray-cast at pixel centres: every column within half a pixel of it. */
+static void
+test_rolled_camera ()
+{
+  roll_deg = 8;
+  CameraGeometry g = camera ();
+  FloorProfileParams fp;
+  FloorProfile prof;
+  std::string err;
+  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  LabelRole r[256];
+  roles (r);
+  const double X = 1.2;
+  std::vector<uint8_t> plane = render ({{X, -5, 5, 1.0, 1.0}});
+  prof.scan (plane.data (), W, r);
+  double worst = 0;
+  int n = 0;
+  for (const ColumnBoundary & c : prof.columns ()) {
+    if (c.state != FreeState::Obstacle)
+      continue;
+    worst = std::max (worst, std::fabs (c.x - X) / X);
+    n++;
+  }
+  /* half a pixel at 1.2 m, and a little for the slant of the rows */
+  const double half_px = 0.5 / F * (X * X + CAM_H * CAM_H) / CAM_H / X;
+  CHECK (n == W, "%d of %d columns see the wall", n, W);
+  CHECK (worst <= 1.2 * half_px, "rolled: %g relative, half a pixel %g",
+      worst, half_px);
+  std::printf ("roll 8 deg, wall at %.1f m: %d columns, worst %.3f%% "
+      "(half a pixel %.3f%%)\n", X, n, 100 * worst, 100 * half_px);
+  roll_deg = 0;
+}
+
+/* The seed's angle-linear model: the floor ending on the edge above row
+ * e is h tan(gamma + 2 alpha (n - 1 - v) / (n - 1)) ahead (eq. 3.5) at
+ * v = e - 1/2, in the centre of the image. */
+static void
+test_seed_model ()
+{
+  CameraParams p;
+  p.model = CameraModel::Seed;
+  p.width = W;
+  p.height = H;
+  p.camera_height = 0.3;
+  p.blind_distance = 0.3;
+  p.view_depth = 0.9;
+  p.half_width = 0.6;
+  CameraGeometry g;
+  std::string err;
+  CHECK (g.configure (p, &err), "%s", err.c_str ());
+  FloorProfileParams fp;
+  fp.max_range = 10;
+  FloorProfile prof;
+  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  LabelRole r[256];
+  roles (r);
+  /* the seed's angles from b, d and h, by hand: the bottom row looks
+   * gamma from the vertical (to b), the centre row gamma + alpha (to
+   * b + d) */
+  const double h = 0.3, b = 0.3, d = 0.9;
+  const double gamma = std::atan (b / h);
+  const double alpha = std::atan ((b + d) / h) - gamma;
+  for (int e : {240, 300, 400}) {
+    std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
+    std::fill (plane.begin (), plane.begin () + (size_t) e * W, BOX);
+    prof.scan (plane.data (), W, r);
+    const double v = e - 0.5;
+    const double want = h * std::tan (gamma + 2 * alpha * (H - 1 - v) /
+        (H - 1));
+    const ColumnBoundary & c = prof.columns ()[W / 2];
+    CHECK (c.state == FreeState::Obstacle && std::fabs (c.x - want) <
+        1e-4 * want, "seed, edge %d: %s x %g, want %g", e,
+        free_state_name (c.state), c.x, want);
+  }
+}
+
 int
 main ()
 {
@@ -495,6 +581,8 @@ main ()
   test_box_specks_shadows_markers ();
   test_border_cut ();
   test_birdseye_grid ();
+  test_rolled_camera ();
+  test_seed_model ();
   bench_scan ();
   if (failures)
     std::fprintf (stderr, "%d failures\n", failures);

@@ -1,9 +1,11 @@
-"""floorboundary through labsegment on a ray-cast colour frame: a grey
+"""floorboundary through labsegment: on a ray-cast colour frame (a grey
 floor, a white box standing on it and a red disc lying on it, seen by the
-pinhole camera of docs/conventions.md (written out here with numpy)."""
+pinhole camera of docs/conventions.md written out here with numpy), and on
+the shipped synthetic clip against its walls and true poses."""
 
 import json
 import math
+import os
 
 import numpy as np
 
@@ -132,3 +134,69 @@ def test_ball_with_markers_are_obstacles(gst):
     assert fm.state_name(k) == "obstacle"
     near_edge = math.hypot(DISC["x"], DISC["y"]) - DISC["r"]
     assert abs(fm.rop_range[k] - near_edge) < 0.02
+
+
+CLIP_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(
+    __file__))), "files", "clips", "path-small")
+
+
+def field_distance(walls, x, y, heading):
+    """Distance from (x, y) along heading to the square field's walls."""
+    c, s = math.cos(heading), math.sin(heading)
+    ds = []
+    if c > 1e-9:
+        ds.append((walls["x1"] - x) / c)
+    if c < -1e-9:
+        ds.append((walls["x0"] - x) / c)
+    if s > 1e-9:
+        ds.append((walls["y1"] - y) / s)
+    if s < -1e-9:
+        ds.append((walls["y0"] - y) / s)
+    return min(ds)
+
+
+def test_rendered_walls_of_the_path_clip(gst, tmp_path):
+    """The shipped synthetic clip (45 frames, 320x240, a walled 6 m field,
+    discs on the floor) with its scene camera: every seen bin against the
+    nearest wall over the bin's bearings from the true pose."""
+    with open(os.path.join(CLIP_DIR, "scene.json")) as f:
+        scene = json.load(f)
+    cam, walls = scene["camera"], scene["walls"]
+    with open(os.path.join(CLIP_DIR, "truth.jsonl")) as f:
+        truth = {t["frame"]: t["robot"] for t in map(json.loads, f)}
+    log = tmp_path / "log.jsonl"
+    max_range = 4.0
+    desc = (
+        f"filesrc location={os.path.join(CLIP_DIR, 'clip.avi')} ! "
+        "decodebin ! videoconvert ! labsegment palette="
+        f"{os.path.join(CLIP_DIR, 'palette.json')} ! floorboundary "
+        f"floor-classes=floor camera-height={cam['height_m']} "
+        f"tilt={cam['tilt_deg']} roll={cam['roll_deg']} fx={cam['fx']} "
+        f"fy={cam['fy']} cx={cam['cx']} cy={cam['cy']} "
+        f"max-range={max_range} ! landmarklog location={log} ! fakesink")
+    pipeline.run_to_eos(desc)
+    lines = [json.loads(ln) for ln in log.read_text().splitlines()]
+    assert len(lines) == 45
+    errors, ok = [], 0
+    for ln in lines:
+        fl, robot = ln["floor"], truth[ln["frame"]]
+        width = fl["bin-width"]
+        for k, state in enumerate(fl["state"]):
+            if state == 0:
+                continue
+            b = k * width
+            want = min(field_distance(walls, robot["x"], robot["y"],
+                                      robot["heading"] + b + o * width)
+                       for o in np.linspace(-0.5, 0.5, 11))
+            want = min(want, max_range)
+            got = fl["range"][k]
+            errors.append(abs(got - want) / want)
+            ok += abs(got - want) <= max(0.03 * want, 0.03)
+            # no disc on the floor is ever an obstacle: walls only
+            assert state != 2 or want < max_range * 1.03, (ln["frame"], k)
+    share = ok / len(errors)
+    print(f"{len(errors)} seen bins: {share:.1%} within 3 % or 3 cm; "
+          f"median {np.median(errors):.2%}, p95 "
+          f"{np.percentile(errors, 95):.2%}")
+    assert len(errors) > 3000
+    assert share >= 0.95

@@ -305,10 +305,29 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
   end_edge_.assign (w, -1);
   state_.assign (w, FreeState::NotSeen);
   uint8_t obst_of[256], marker_of[256];
+  /* the labels that are not obstacles, for SSE2 compares when few */
+  uint8_t not_obst[16] = { 0 }, markers[16] = { 0 };
+  int n_not_obst = 0, n_markers = 0;
   for (int i = 0; i < 256; i++) {
     obst_of[i] = role[i] == LabelRole::Obstacle ? 0xff : 0;
     marker_of[i] = role[i] == LabelRole::Marker;
+    if (role[i] != LabelRole::Obstacle) {
+      if (n_not_obst < 16)
+        not_obst[n_not_obst] = (uint8_t) i;
+      n_not_obst++;
+    }
+    if (role[i] == LabelRole::Marker && n_markers < 16)
+      markers[n_markers++] = (uint8_t) i;
   }
+  const bool few = n_not_obst <= 16;
+  (void) few;
+#ifdef __SSE2__
+  __m128i not_obst_v[16], markers_v[16];
+  for (int k = 0; k < 16; k++) {
+    not_obst_v[k] = _mm_set1_epi8 ((char) not_obst[k]);
+    markers_v[k] = _mm_set1_epi8 ((char) markers[k]);
+  }
+#endif
   int walking = 0;
   for (int u = 0; u < w; u++) {
     walking_[u] = stop_edge_[u] >= 0 ? 0xff : 0;
@@ -326,7 +345,28 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
       beyond[by_stop_[k]] = 0xff;
     const uint8_t *row = labels + (size_t) v * stride;
     uint8_t any_marker = 0;
-    for (int u = 0; u < w; u++) {
+    int u0 = 0;
+#ifdef __SSE2__
+    if (few) {
+      /* a handful of floor and marker labels: compare 16 pixels at once
+       * instead of 16 table loads */
+      __m128i any = _mm_setzero_si128 ();
+      for (; u0 + 16 <= w; u0 += 16) {
+        const __m128i px = _mm_loadu_si128 ((const __m128i *) (row + u0));
+        __m128i free_px = _mm_setzero_si128 (), mark = free_px;
+        for (int k = 0; k < n_not_obst; k++)
+          free_px = _mm_or_si128 (free_px, _mm_cmpeq_epi8 (px,
+                  not_obst_v[k]));
+        for (int k = 0; k < n_markers; k++)
+          mark = _mm_or_si128 (mark, _mm_cmpeq_epi8 (px, markers_v[k]));
+        _mm_storeu_si128 ((__m128i *) (obst + u0), _mm_xor_si128 (free_px,
+                _mm_set1_epi8 ((char) 0xff)));
+        any = _mm_or_si128 (any, mark);
+      }
+      any_marker = _mm_movemask_epi8 (any) != 0;
+    }
+#endif
+    for (int u = u0; u < w; u++) {
       obst[u] = obst_of[row[u]];
       any_marker |= marker_of[row[u]];
     }

@@ -14,9 +14,11 @@
  * The floor is the classes named in `floor-classes` (unset: every class the
  * palette does not mark as a marker). Marker classes are walked over as
  * floor (a landmark disc on the floor is not an obstacle); the nearest
- * marker pixel per bin is reported in `rop-marker-range`, and
- * `markers-are-obstacles=true` makes markers end the floor like any
- * obstacle (landmark balls).
+ * marker pixel per bin is reported in `rop-marker-range`.
+ * `markers=detections` walks over marker pixels only inside the boxes of
+ * accepted detections (floorboundary after blobroundness): a box of a
+ * marker's colour is then an obstacle. `markers=obstacles` makes markers
+ * end the floor like any obstacle (landmark balls).
  *
  * Each frame with labels gets a `GstLandmarkFloorMeta` (docs/metadata.md):
  * `width`, `height` (the analysed label plane), `bearing-bins`,
@@ -70,7 +72,7 @@ GST_DEBUG_CATEGORY_STATIC (gst_floor_boundary_debug);
 #define GST_CAT_DEFAULT gst_floor_boundary_debug
 
 #define DEFAULT_FLOOR_CLASSES nullptr
-#define DEFAULT_MARKERS_ARE_OBSTACLES FALSE
+#define DEFAULT_MARKERS GST_FLOOR_BOUNDARY_MARKERS_FLOOR
 #define DEFAULT_MIN_OBSTACLE_ROWS 6
 #define DEFAULT_BEARING_BINS 360
 #define DEFAULT_MAX_RANGE 4.0
@@ -83,7 +85,7 @@ enum
   PROP_0,
   PROP_CAMERA_FIRST,            /* cameraprops.h: CAMERA_PROP_COUNT ids */
   PROP_FLOOR_CLASSES = PROP_CAMERA_FIRST + CAMERA_PROP_COUNT,
-  PROP_MARKERS_ARE_OBSTACLES,
+  PROP_MARKERS,
   PROP_MIN_OBSTACLE_ROWS,
   PROP_BEARING_BINS,
   PROP_MAX_RANGE,
@@ -102,7 +104,7 @@ namespace {
 struct Settings {
   landmark::CameraSettings camera;
   std::string floor_classes;    /* empty: every non-marker class */
-  gboolean markers_are_obstacles = DEFAULT_MARKERS_ARE_OBSTACLES;
+  GstFloorBoundaryMarkers markers = DEFAULT_MARKERS;
   guint min_obstacle_rows = DEFAULT_MIN_OBSTACLE_ROWS;
   guint bearing_bins = DEFAULT_BEARING_BINS;
   gdouble max_range = DEFAULT_MAX_RANGE;
@@ -114,7 +116,7 @@ struct Settings {
 struct Config {
   landmark::CameraSetup camera;
   std::vector<std::string> floor_classes;
-  bool markers_are_obstacles = false;
+  GstFloorBoundaryMarkers markers = DEFAULT_MARKERS;
   landmark::FloorProfileParams profile;
   bool post_messages = false;
 };
@@ -132,6 +134,9 @@ struct State {
   std::vector<bool> palette_markers;
   landmark::LabelRole role[256];
   bool roles_valid = false;
+
+  std::vector<landmark::MarkerBox> marker_boxes;   /* markers=detections */
+  gint video_width = 0, video_height = 0;   /* from the caps, 0: unknown */
 
   bool warned_no_meta = false;
   bool warned_bad_plane = false;
@@ -157,6 +162,27 @@ G_DEFINE_TYPE_WITH_CODE (GstFloorBoundary, gst_floor_boundary,
         "Floor boundary and radial obstacle profile"));
 GST_ELEMENT_REGISTER_DEFINE (floorboundary, "floorboundary", GST_RANK_NONE,
     GST_TYPE_FLOOR_BOUNDARY);
+
+GType
+gst_floor_boundary_markers_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {GST_FLOOR_BOUNDARY_MARKERS_FLOOR, "Marker pixels are walked over as "
+          "floor and reported in rop-marker-range", "floor"},
+    {GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS, "Marker pixels are floor "
+          "inside the boxes of accepted detections, obstacles elsewhere",
+        "detections"},
+    {GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES, "Marker pixels end the floor "
+          "like any obstacle", "obstacles"},
+    {0, nullptr, nullptr},
+  };
+  if (g_once_init_enter (&type)) {
+    GType t = g_enum_register_static ("GstFloorBoundaryMarkers", values);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -188,7 +214,7 @@ floor_boundary_parse (const Settings & s, Config * cfg,
         landmark::number_text (s.max_range);
     return FALSE;
   }
-  cfg->markers_are_obstacles = s.markers_are_obstacles;
+  cfg->markers = s.markers;
   cfg->profile.min_obstacle_rows = (int) s.min_obstacle_rows;
   cfg->profile.bearing_bins = (int) s.bearing_bins;
   cfg->profile.max_range = s.max_range;
@@ -253,8 +279,8 @@ gst_floor_boundary_set_property (GObject * object, guint prop_id,
       s.floor_classes = v ? v : "";
       break;
     }
-    case PROP_MARKERS_ARE_OBSTACLES:
-      s.markers_are_obstacles = g_value_get_boolean (value);
+    case PROP_MARKERS:
+      s.markers = (GstFloorBoundaryMarkers) g_value_get_enum (value);
       break;
     case PROP_MIN_OBSTACLE_ROWS:
       s.min_obstacle_rows = g_value_get_uint (value);
@@ -289,8 +315,8 @@ gst_floor_boundary_get_property (GObject * object, guint prop_id,
       g_value_set_string (value, s.floor_classes.empty ()? nullptr :
           s.floor_classes.c_str ());
       break;
-    case PROP_MARKERS_ARE_OBSTACLES:
-      g_value_set_boolean (value, s.markers_are_obstacles);
+    case PROP_MARKERS:
+      g_value_set_enum (value, s.markers);
       break;
     case PROP_MIN_OBSTACLE_ROWS:
       g_value_set_uint (value, s.min_obstacle_rows);
@@ -376,6 +402,23 @@ gst_floor_boundary_stop (GstBaseTransform * trans)
   return TRUE;
 }
 
+static gboolean
+gst_floor_boundary_set_caps (GstBaseTransform * trans, GstCaps * incaps,
+    GstCaps * outcaps)
+{
+  State & st = GST_FLOOR_BOUNDARY (trans)->priv->state;
+  (void) outcaps;
+  GstVideoInfo info;
+  /* any caps; the size only scales detection boxes to the label plane */
+  if (gst_video_info_from_caps (&info, incaps)) {
+    st.video_width = GST_VIDEO_INFO_WIDTH (&info);
+    st.video_height = GST_VIDEO_INFO_HEIGHT (&info);
+  } else {
+    st.video_width = st.video_height = 0;
+  }
+  return TRUE;
+}
+
 /* ---- streaming ------------------------------------------------------ */
 
 /* Brings the state up to date with settings changed while running. A bad
@@ -411,7 +454,7 @@ gst_floor_boundary_sync_settings (GstFloorBoundary * self)
     return;
   }
   if (cfg.floor_classes != st.config.floor_classes ||
-      cfg.markers_are_obstacles != st.config.markers_are_obstacles)
+      cfg.markers != st.config.markers)
     st.roles_valid = false;
   st.config = std::move (cfg);
   st.generation = s.generation;
@@ -454,7 +497,8 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
   for (auto & r : st.role)
     r = landmark::LabelRole::Obstacle;
   const Config & cfg = st.config;
-  const landmark::LabelRole marker_role = cfg.markers_are_obstacles ?
+  const landmark::LabelRole marker_role =
+      cfg.markers == GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES ?
       landmark::LabelRole::Obstacle : landmark::LabelRole::Marker;
   guint floors = 0;
   for (guint k = 0; k < n; k++) {
@@ -593,6 +637,35 @@ gst_floor_boundary_attach (GstFloorBoundary * self, GstBuffer * buf)
       gst_message_new_element (GST_OBJECT_CAST (self), m));
 }
 
+/* The boxes of the accepted detections (not rejected by any stage), in
+ * pixels of the label plane, one pixel wider on each side. */
+static void
+gst_floor_boundary_marker_boxes (GstFloorBoundary * self, GstBuffer * buf,
+    guint plane_w, guint plane_h)
+{
+  State & st = self->priv->state;
+  st.marker_boxes.clear ();
+  const double sx = st.video_width > 0 ? (double) plane_w / st.video_width :
+      1.0;
+  const double sy = st.video_height > 0 ? (double) plane_h /
+      st.video_height : 1.0;
+  gpointer iter = nullptr;
+  GstMeta *meta;
+  while ((meta = gst_buffer_iterate_meta_filtered (buf, &iter,
+              GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE))) {
+    auto roi = (GstVideoRegionOfInterestMeta *) meta;
+    const gchar *element = nullptr, *reason = nullptr;
+    if (landmark_detection_rejected (buf, roi, &element, &reason))
+      continue;
+    landmark::MarkerBox b;
+    b.u0 = (int) std::floor (roi->x * sx) - 1;
+    b.v0 = (int) std::floor (roi->y * sy) - 1;
+    b.u1 = (int) std::ceil ((roi->x + roi->w) * sx) + 1;
+    b.v1 = (int) std::ceil ((roi->y + roi->h) * sy) + 1;
+    st.marker_boxes.push_back (b);
+  }
+}
+
 static GstFlowReturn
 gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
     const GstStructure * labels)
@@ -641,7 +714,12 @@ gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
         ("Could not read the label plane."), (nullptr));
     return GST_FLOW_ERROR;
   }
-  st.profile.scan (map.data, stride, st.role);
+  const std::vector<landmark::MarkerBox> *boxes = nullptr;
+  if (st.config.markers == GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS) {
+    gst_floor_boundary_marker_boxes (self, buf, w, h);
+    boxes = &st.marker_boxes;
+  }
+  st.profile.scan (map.data, stride, st.role, boxes);
   gst_buffer_unmap (plane, &map);
   gst_buffer_unref (plane);
   gst_floor_boundary_attach (self, buf);
@@ -697,12 +775,12 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
           "Comma-separated class names that are floor (unset: every class "
           "the palette does not mark as a marker)", DEFAULT_FLOOR_CLASSES,
           flags));
-  g_object_class_install_property (gobject_class, PROP_MARKERS_ARE_OBSTACLES,
-      g_param_spec_boolean ("markers-are-obstacles", "Markers are obstacles",
-          "Marker classes end the floor like any obstacle (landmark balls); "
-          "false: they are walked over as floor (discs on the floor) and "
-          "reported in rop-marker-range", DEFAULT_MARKERS_ARE_OBSTACLES,
-          flags));
+  g_object_class_install_property (gobject_class, PROP_MARKERS,
+      g_param_spec_enum ("markers", "Markers",
+          "What pixels of marker classes are for the walk: floor (landmark "
+          "discs lie on it), floor only inside accepted detections (put "
+          "floorboundary after blobroundness), or obstacles (landmark "
+          "balls)", GST_TYPE_FLOOR_BOUNDARY_MARKERS, DEFAULT_MARKERS, flags));
   g_object_class_install_property (gobject_class, PROP_MIN_OBSTACLE_ROWS,
       g_param_spec_uint ("min-obstacle-rows", "Minimum obstacle rows",
           "Rows of non-floor pixels in a column, one above the other, that "
@@ -735,6 +813,10 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
       GST_DEBUG_FUNCPTR (gst_floor_boundary_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);
+  trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_floor_boundary_transform_ip);
+
+  gst_type_mark_as_plugin_api (GST_TYPE_FLOOR_BOUNDARY_MARKERS,
+      (GstPluginAPIFlags) 0);
 }

@@ -36,7 +36,7 @@ def rays():
     return d
 
 
-def render(noise_rng=None):
+def render(noise_rng=None, box_colour=WHITE):
     """RGB frame and the label of each pixel (0 floor, 1 box, 2 disc)."""
     d = rays()
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -58,7 +58,7 @@ def render(noise_rng=None):
     label[face | top] = 1
     rgb = np.empty((H, W, 3), np.float64)
     rgb[:] = GREY
-    rgb[label == 1] = WHITE
+    rgb[label == 1] = box_colour
     rgb[label == 2] = RED
     if noise_rng is not None:
         rgb += noise_rng.normal(0, 4, rgb.shape)
@@ -123,11 +123,11 @@ def test_box_disc_and_free_floor(gst, tmp_path):
         (fm.rop_marker_range < 0).tolist()
 
 
-def test_ball_with_markers_are_obstacles(gst):
+def test_ball_with_markers_obstacles(gst):
     """The same disc counted as an obstacle (a field of landmark balls)."""
     rgb, _ = render()
     out = pipeline.process_frames(
-        CHAIN + " markers-are-obstacles=true", [rgb],
+        CHAIN + " markers=obstacles", [rgb],
         f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1")
     fm = meta.floor(out[0])
     k = fm.bin_of(math.atan2(DISC["y"], DISC["x"]))
@@ -200,3 +200,34 @@ def test_rendered_walls_of_the_path_clip(gst, tmp_path):
           f"{np.percentile(errors, 95):.2%}")
     assert len(errors) > 3000
     assert share >= 0.95
+
+
+def test_box_of_a_marker_colour(gst):
+    """A red box: with markers=detections (after blobroundness) only the
+    accepted disc is walked over and the box, no landmark shape, is an
+    obstacle; with markers=floor the box would be walked over."""
+    rgb, _ = render(box_colour=RED)
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    chain = CHAIN.replace("labsegment min-class-pixels=0 !",
+                          "labsegment min-class-pixels=0 ! blobroundness !")
+    b0 = math.atan2(BOX["y0"], BOX["x0"])
+    b1 = math.atan2(BOX["y1"], BOX["x0"])
+    disc_near = math.hypot(DISC["x"], DISC["y"]) - DISC["r"]
+    results = {}
+    for mode in ("detections", "floor"):
+        out = pipeline.process_frames(f"{chain} markers={mode}", [rgb], caps)
+        fm = meta.floor(out[0])
+        inside = [k for k in range(fm.bearing_bins)
+                  if b0 + 0.01 < fm.bin_bearing(k) < b1 - 0.01]
+        results[mode] = [fm.state_name(k) for k in inside]
+        if mode == "detections":
+            for k in inside:
+                b = abs(fm.bin_bearing(k))
+                lo = BOX["x0"] / math.cos(max(0.0, b - fm.bin_width / 2))
+                hi = BOX["x0"] / math.cos(b + fm.bin_width / 2)
+                assert lo * 0.994 <= fm.rop_range[k] <= hi * 1.006, k
+            k = fm.bin_of(math.atan2(DISC["y"], DISC["x"]))
+            assert fm.state_name(k) == "free"
+            assert abs(fm.rop_marker_range[k] - disc_near) < 0.02
+    assert set(results["detections"]) == {"obstacle"}
+    assert "obstacle" not in results["floor"]

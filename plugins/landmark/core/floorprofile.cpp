@@ -283,7 +283,7 @@ FloorProfile::bin_bearing (int k) const
 
 void
 FloorProfile::scan (const uint8_t * labels, size_t stride,
-    const LabelRole role[256])
+    const LabelRole role[256], const std::vector<MarkerBox> *marker_boxes)
 {
   const int w = width_, h = height_;
   const int need = params_.min_obstacle_rows;
@@ -370,6 +370,20 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
       obst[u] = obst_of[row[u]];
       any_marker |= marker_of[row[u]];
     }
+    if (any_marker && marker_boxes) {
+      /* marker colours are floor only inside the given boxes (accepted
+       * landmarks); elsewhere something of a marker's colour stands */
+      for (int u = 0; u < w; u++) {
+        if (!marker_of[row[u]])
+          continue;
+        bool inside = false;
+        for (const MarkerBox & b : *marker_boxes)
+          inside = inside || (u >= b.u0 && u < b.u1 && v >= b.v0 &&
+              v < b.v1);
+        if (!inside)
+          obst[u] = 0xff;
+      }
+    }
     bool finish = false;
 #ifdef __SSE2__
     {
@@ -418,7 +432,7 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
     }
     if (any_marker)
       for (int u = 0; u < w; u++)
-        if (walk[u] && marker_of[row[u]] && marker_edge_[u] < 0)
+        if (walk[u] && marker_of[row[u]] && !obst[u] && marker_edge_[u] < 0)
           marker_edge_[u] = v + 1;
   }
   for (int u = 0; u < w; u++) {

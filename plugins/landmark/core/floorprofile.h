@@ -91,6 +91,11 @@ struct RopBin {
   float marker_range = -1;     /* nearest marker floor point, -1: none */
 };
 
+/* A box of the label plane, [u0, u1) x [v0, v1) pixels. */
+struct MarkerBox {
+  int u0 = 0, v0 = 0, u1 = 0, v1 = 0;
+};
+
 /* Per-column floor points of every pixel edge are tabulated once per
  * geometry (configure), so a frame costs one pass over the rows walked. */
 class FloorProfile {
@@ -105,9 +110,12 @@ public:
   const FloorProfileParams & params () const { return params_; }
 
   /* Walks every column of a width x height label plane (stride bytes per
-   * row); role maps each label to its role. Then builds the ROP. */
+   * row); role maps each label to its role. With marker_boxes, Marker
+   * pixels are walked over only inside those boxes (the accepted
+   * landmarks) and are obstacles elsewhere. Then builds the ROP. */
   void scan (const uint8_t * labels, size_t stride,
-      const LabelRole role[256]);
+      const LabelRole role[256],
+      const std::vector<MarkerBox> *marker_boxes = nullptr);
 
   const std::vector<ColumnBoundary> & columns () const { return cols_; }
   const std::vector<RopBin> & bins () const { return bins_; }

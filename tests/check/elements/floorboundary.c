@@ -249,7 +249,7 @@ GST_START_TEST (test_free_and_view_edge)
 GST_END_TEST;
 
 /* A red disc lying on the floor is walked over and reported in
- * rop-marker-range; with markers-are-obstacles it ends the floor. Specks
+ * rop-marker-range; with markers=obstacles it ends the floor. Specks
  * and a two-row shadow change nothing. */
 GST_START_TEST (test_markers_specks_shadows)
 {
@@ -278,7 +278,7 @@ GST_START_TEST (test_markers_specks_shadows)
       "marker %g vs %g", f.marker[0], edge_distance (dv + 12));
   gst_buffer_unref (out);
 
-  g_object_set (hr->element, "markers-are-obstacles", TRUE, NULL);
+  gst_util_set_object_arg (G_OBJECT (hr->element), "markers", "obstacles");
   out = push (hr, p);
   floor_read (out, &f);
   fail_unless_equals_int (f.state[0], 2);

@@ -633,8 +633,7 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
 {
   State & st = *self->state;
   landmark::ClassifierConfig cfg;
-  for (const auto & c : st.palette.classes)
-    cfg.refs.push_back (c.lab);
+  landmark::palette_references (st.palette, &cfg.refs, &cfg.ref_class);
   cfg.use_lightness = use_lightness;
   cfg.max_distance = max_distance;
   cfg.model = st.model;

@@ -81,7 +81,9 @@ GST_DEBUG_CATEGORY_STATIC (gst_trilaterate_debug);
 #define DEFAULT_GATE 0.5
 #define DEFAULT_INLIER_DISTANCE 0.25
 #define DEFAULT_MAX_AGE 1.0
-#define DEFAULT_POST_MESSAGES TRUE
+/* as labsegment: the metadata is the per-frame channel; a message per
+ * frame piles up on a bus nobody watches */
+#define DEFAULT_POST_MESSAGES FALSE
 /* frame interval assumed for buffers without timestamps */
 #define FALLBACK_FRAME_NS (GST_SECOND / 30)
 

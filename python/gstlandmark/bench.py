@@ -567,7 +567,8 @@ def segmentation_accuracy(out_dir, scenarios=("backgrounds", "distractors"),
     for scenario in scenarios:
         folder = os.path.join(out_dir, scenario)
         synth.render_scenario(scenario, folder, seed=seed, frames=frames,
-                              size=size, masks="all", progress=False)
+                              size=size, masks="all", progress=False,
+                              robot="comfortable")
         with open(os.path.join(folder, "scene.json")) as f:
             scene = json.load(f)
         classes = scene["palette"]["classes"]

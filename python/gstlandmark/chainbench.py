@@ -69,7 +69,8 @@ class Scenario:
 
         self.width, self.height = width, height
         self.scene, n_frames = synth.build_scenario(
-            "path", seed=seed, size=(width, height), frames=300)
+            "path", seed=seed, size=(width, height), frames=300,
+            robot="comfortable")
         cam = self.scene.camera
         self.camera = cam
         period = self.scene.trajectory.period_s

@@ -17,7 +17,8 @@ import numpy as np
 
 from gstlandmark import __version__
 from gstlandmark import reference
-from gstlandmark.palette import (PaletteError, default_palette,
+from gstlandmark.palette import (MAX_REFERENCES, PaletteError,
+                                 default_palette,
                                  default_palette_text, learn_from_mask,
                                  learn_from_rects, load_palette,
                                  save_palette)
@@ -98,6 +99,9 @@ def format_palette_table(palette):
         lines.append(f"{cls.name:<{width}}  {lightness:7.2f}  "
                      f"{a_star:7.2f}  {b_star:7.2f}  "
                      f"{'yes' if cls.marker else 'no':<6}  {hex_colour}")
+        for ref in cls.references:
+            lines.append(f"{'':<{width}}  {ref[0]:7.2f}  {ref[1]:7.2f}  "
+                         f"{ref[2]:7.2f}  reference")
     return "\n".join(lines)
 
 
@@ -122,6 +126,20 @@ def _parse_rect(text):
     return (name, x, y, w, h)
 
 
+def _parse_references(text):
+    """argparse type for --references N|auto."""
+    if text == "auto":
+        return text
+    try:
+        count = int(text)
+    except ValueError:
+        count = 0
+    if not 1 <= count <= MAX_REFERENCES:
+        raise argparse.ArgumentTypeError(
+            f"expected auto or 1 to {MAX_REFERENCES}, got {text!r}")
+    return count
+
+
 def _palette_learn(args):
     if args.mask is not None:
         if args.background is not None:
@@ -131,7 +149,8 @@ def _palette_learn(args):
         mask = _read_mask(args.mask)
         palette = learn_from_mask(image, mask, names=_split_list(args.names),
                                   markers=_split_list(args.markers),
-                                  allow_missing=args.allow_missing)
+                                  allow_missing=args.allow_missing,
+                                  references=args.references)
         description = (f"Learned by '{PROG} palette learn' from the class "
                        f"mask {args.mask}.")
     else:
@@ -141,7 +160,8 @@ def _palette_learn(args):
                               "with --mask; with --rect use --background")
         image = _read_image(args.image)
         palette = learn_from_rects(image, args.rect,
-                                   background=_split_list(args.background))
+                                   background=_split_list(args.background),
+                                   references=args.references)
         description = (f"Learned by '{PROG} palette learn' from "
                        f"{len(args.rect)} rectangle(s).")
     try:
@@ -180,7 +200,8 @@ def add_palette_parser(subparsers):
         "learn", help="learn a palette from an image",
         description="Learn a palette: each class gets the mean L*a*b* of "
                     "its pixels, marked either by a class-index mask or by "
-                    "rectangles.")
+                    "rectangles, and as many reference colours as its "
+                    "pixels show tones (a ball lit and shaded).")
     learn.add_argument("--allow-missing", action="store_true",
                        help="with --mask: leave out classes with no pixels "
                             "(with a warning) instead of failing")
@@ -200,6 +221,11 @@ def add_palette_parser(subparsers):
                        help="with --mask: the marker classes (default all)")
     learn.add_argument("--background", metavar="N1,N2,...",
                        help="with --rect: the non-marker classes")
+    learn.add_argument("--references", metavar="N|auto",
+                       type=_parse_references, default="auto",
+                       help="reference colours per class: auto (default: "
+                            "k-means in L*a*b*, adding one while it halves "
+                            "the spread, up to 4; docs/palette.md) or N")
     learn.add_argument("-o", "--output", metavar="OUT.json", required=True,
                        help="palette file to write")
     learn.set_defaults(handler=_palette_learn, parser=learn)
@@ -242,6 +268,7 @@ COMMANDS = [
     _lazy("soak", "add_soak_parser"),
     _lazy("record", "add_record_parser"),
     _lazy("fleet", "add_fleet_parser"),
+    _lazy("sweep", "add_sweep_parser"),
 ]
 
 

@@ -92,13 +92,14 @@ def renderer_version() -> str:
 
 
 def synthetic_clip(folder: str, width: int, height: int,
-                   frames: int = None, seed: int = 0) -> str:
+                   frames: int = None, seed: int = 0,
+                   robot: str = "seed") -> str:
     """The ``path`` scenario rendered into ``folder`` once, reused after."""
     from . import synth
     done = os.path.join(folder, "scene.json")
     if not os.path.exists(done):
         synth.render_scenario("path", folder, seed=seed, frames=frames,
-                              size=(width, height))
+                              size=(width, height), robot=robot)
     return folder
 
 
@@ -120,19 +121,18 @@ def learn_chart_palette(folder: str, out: str) -> str:
 
 def chain_description(folder: str, palette: str, log: str,
                       video: str) -> str:
-    """The whole chain on the clip in ``folder``, with the scene's true
-    camera and map (as a user would with their calibrated camera)."""
-    with open(os.path.join(folder, "scene.json")) as f:
-        cam = json.load(f)["camera"]
+    """The whole chain on the clip in ``folder``, with the scene's camera
+    file and map (as a user would with their calibrated camera) and every
+    other property at its default but trilaterate's EKF."""
     clip = os.path.join(folder, "clip.avi")
+    camera = os.path.join(folder, "camera.yml")
     map_file = os.path.join(folder, "map.json")
     return (
         f"filesrc location={clip} ! decodebin ! videoconvert ! "
         "video/x-raw,format=RGB ! "
-        f"labsegment palette={palette} min-class-pixels=0 ! blobroundness ! "
-        f"ipmrange camera-height={cam['height_m']} tilt={cam['tilt_deg']} "
-        f"hfov={cam['hfov_deg']} map={map_file} ! "
-        f"trilaterate map={map_file} filter=ekf post-messages=false ! "
+        f"labsegment palette={palette} ! blobroundness ! "
+        f"ipmrange calibration={camera} map={map_file} ! "
+        f"trilaterate map={map_file} filter=ekf ! "
         f"landmarklog location={log} ! "
         f"landmarkoverlay name=overlay map={map_file} ! videoconvert ! "
         f"jpegenc quality=90 ! avimux ! filesink location={video}")
@@ -166,15 +166,15 @@ def run_chain(description: str, preview_frame: int) -> Dict:
 
 def run_demo(out_dir: str, width: int = 640, height: int = 480,
              frames: int = None, palette: str = None,
-             clips_dir: str = "out/clips") -> Dict:
+             clips_dir: str = "out/clips", robot: str = "seed") -> Dict:
     from . import evaluate
     from .regress import read_jsonl
     os.makedirs(out_dir, exist_ok=True)
     t0 = time.perf_counter()
     folder = synthetic_clip(
-        os.path.join(clips_dir, f"path-{width}x{height}-{frames or 'all'}-"
-                                f"{renderer_version()}"),
-        width, height, frames)
+        os.path.join(clips_dir, f"path-{robot}-{width}x{height}-"
+                                f"{frames or 'all'}-{renderer_version()}"),
+        width, height, frames, robot=robot)
     if palette is None:
         palette = learn_chart_palette(folder,
                                       os.path.join(out_dir, "palette.json"))
@@ -190,7 +190,7 @@ def run_demo(out_dir: str, width: int = 640, height: int = 480,
 
     truth = os.path.join(folder, "truth.jsonl")
     results = read_jsonl(log)
-    ev = evaluate.evaluate(results, read_jsonl(truth))
+    ev = evaluate.evaluate(results, read_jsonl(truth), min_pixels=113)
     accuracy = evaluate.summary(ev)
     with open(os.path.join(out_dir, "accuracy.json"), "w") as f:
         json.dump(accuracy, f, indent=2)
@@ -230,7 +230,11 @@ def add_demo_parser(subparsers):
     p.add_argument("--frames", type=int,
                    help="frames of the clip (default: the whole path)")
     p.add_argument("--size", default="640x480", help="WIDTHxHEIGHT")
-    p.add_argument("--palette", help="palette JSON (default: built-in)")
+    p.add_argument("--palette", help="palette JSON (default: learned from "
+                   "the clip's colour chart)")
+    p.add_argument("--robot", choices=("seed", "comfortable"), default="seed",
+                   help="the synthetic robot (gst-landmark synth --robot; "
+                        "default: the seed's small robot)")
     p.set_defaults(handler=_handle, parser=p)
 
 
@@ -239,7 +243,8 @@ def _handle(args) -> int:
         width, height = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
         args.parser.error(f"--size must be WIDTHxHEIGHT, got {args.size!r}")
-    s = run_demo(args.out, width, height, args.frames, args.palette)
+    s = run_demo(args.out, width, height, args.frames, args.palette,
+                 robot=args.robot)
     pos, head, det = (s["position_error_m"], s["heading_error_deg"],
                       s["detection"])
     print(f"{s['frames']} frames of {width}x{height} through labsegment ! "

@@ -84,6 +84,33 @@ def wrap_angle(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
+# landmark-match reasons that mean the map's consensus rejected it
+REJECTED_MATCH_REASONS = ("outlier", "outside-gate")
+
+
+def detection_accepted(det: Dict[str, Any]) -> bool:
+    """Whether a landmarklog detection counts as a detection.
+
+    When the chain decides (``accepted`` present), its word holds;
+    otherwise a blob that ``blobroundness`` did not keep is a rejected
+    candidate.  Either way a range that ``ipmrange`` did not keep, or a
+    match that ``trilaterate`` rejected as an outlier or outside its
+    gate, rejects it."""
+    if "accepted" in det:
+        if not det.get("accepted"):
+            return False
+    elif not det.get("blob", {}).get("kept", True):
+        return False
+    rng = det.get("range")
+    if isinstance(rng, dict) and rng.get("kept") is False:
+        return False
+    match = det.get("match")
+    if isinstance(match, dict) and \
+            match.get("reason") in REJECTED_MATCH_REASONS:
+        return False
+    return True
+
+
 def detection_centre(det: Dict[str, Any]) -> Tuple[float, float]:
     blob = det.get("blob", {})
     if "centroid-x" in blob and "centroid-y" in blob:
@@ -141,7 +168,7 @@ def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
         ev.frames += 1
         # the chain's verdict (landmarklog "accepted"); older logs: blob
         dets = [d for d in res.get("detections", [])
-                if d.get("accepted", d.get("blob", {}).get("kept", True))]
+                if detection_accepted(d)]
         marks = t.get("landmarks", [])
         pairs = match_frame(dets, marks, match_px)
         matched_d = {i for i, _ in pairs}

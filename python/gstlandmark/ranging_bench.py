@@ -105,7 +105,7 @@ def run_sweep(out_dir):
     from gstlandmark.regress import read_jsonl
     if not os.path.exists(os.path.join(out_dir, "clip.avi")):
         if cli.main(["synth", "range-sweep", "--out", out_dir,
-                     "--no-progress"]) != 0:
+                     "--robot", "comfortable", "--no-progress"]) != 0:
             raise RuntimeError("synth range-sweep failed")
     scene = json.load(open(os.path.join(out_dir, "scene.json")))
     cam = scene["camera"]

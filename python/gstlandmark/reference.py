@@ -181,11 +181,15 @@ def yuy2_to_rgb_float(packed, width, matrix="bt601", full_range=False):
 
 
 def classify(lab, palette_lab, min_class_pixels=100, max_distance=1000.0,
-             use_lightness=True, rare_classes="unlabelled"):
+             use_lightness=True, rare_classes="unlabelled", ref_class=None):
     """Label every pixel with its nearest palette class.
 
     lab          (H, W, 3) L*a*b* image (float32 as from ``rgb_to_lab``).
-    palette_lab  (K, 3) reference colours.
+    palette_lab  (K, 3) reference colours, one per class; or with
+                 ``ref_class``, (R, 3) reference colours of which
+                 reference r belongs to class ref_class[r] (ascending class
+                 indices): a pixel's class is that of its nearest
+                 reference.
     min_class_pixels  dominant-colour rule: only classes with at least this
                  many pixels in the first pass take part in the final
                  labelling; 0 turns the rule off.
@@ -205,10 +209,18 @@ def classify(lab, palette_lab, min_class_pixels=100, max_distance=1000.0,
     if refs.ndim != 2 or refs.shape[1] != 3 or len(refs) == 0:
         raise ValueError(f"expected (K, 3) palette colours, got "
                          f"{refs.shape}")
-    if len(refs) > 255:
+    if ref_class is None:
+        ref_class = np.arange(len(refs))
+    ref_class = np.asarray(ref_class)
+    if (ref_class.shape != (len(refs),)
+            or not np.issubdtype(ref_class.dtype, np.integer)
+            or ref_class.min() < 0 or np.any(np.diff(ref_class) < 0)):
+        raise ValueError("ref_class must give an ascending class index "
+                         "for each reference")
+    num_classes = int(ref_class.max()) + 1
+    if num_classes > 255:
         raise ValueError("at most 255 classes fit in a uint8 label")
     height, width = lab.shape[:2]
-    num_classes = len(refs)
 
     # Distances are computed in float64 from the float32 Lab values.
     pixels = lab.reshape(-1, 3).astype(np.float64)
@@ -216,11 +228,13 @@ def classify(lab, palette_lab, min_class_pixels=100, max_distance=1000.0,
     pixels = pixels[:, channels]
     refs = refs[:, channels]
 
-    # dist[i, k]: Euclidean distance of pixel i to class k.
-    dist = np.empty((len(pixels), num_classes))
-    for k in range(num_classes):
-        diff = pixels - refs[k]
-        dist[:, k] = np.sqrt(np.sum(diff * diff, axis=1))
+    # dist[i, k]: Euclidean distance of pixel i to the nearest reference
+    # of class k.
+    dist = np.full((len(pixels), num_classes), np.inf)
+    for r, k in enumerate(ref_class):
+        diff = pixels - refs[r]
+        np.minimum(dist[:, k], np.sqrt(np.sum(diff * diff, axis=1)),
+                   out=dist[:, k])
 
     # First pass over all classes: the per-frame class histogram.
     # argmin picks the lowest class index on ties.
@@ -267,9 +281,14 @@ def _palette_lab(palette):
 def segment_rgb(rgb, palette, **kwargs):
     """Convert an 8-bit RGB image to Lab and ``classify`` it.
 
-    ``palette`` is a ``gstlandmark.palette.Palette`` or a (K, 3) array;
-    keyword arguments go to ``classify``.
+    ``palette`` is a ``gstlandmark.palette.Palette`` (all references of
+    each class count) or a (K, 3) array; keyword arguments go to
+    ``classify``.
     """
+    if hasattr(palette, "reference_arrays"):
+        refs, ref_class = palette.reference_arrays()
+        return classify(rgb_to_lab(rgb), refs, ref_class=ref_class,
+                        **kwargs)
     return classify(rgb_to_lab(rgb), _palette_lab(palette), **kwargs)
 
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
@@ -191,6 +192,116 @@ test_table_exact ()
   random.max_distance = 25.0;
   random.model = InputModel::yuv (0.299, 0.114, false);
   check_table_exact ("24 random bt601 limited", random);
+
+  /* several references per class: the default palette with a lit and a
+   * shaded yellow and three reds, through the palette parser */
+  Palette multi;
+  std::string err;
+  CHECK (palette_parse ("{\"classes\": ["
+          "{\"name\": \"red\", \"lab\": [41, 43, 32], \"references\": "
+          "[[41, 43, 32], [30, 35, 20], [55, 50, 40]]},"
+          "{\"name\": \"green\", \"lab\": [81.88, -48.6, 46.6]},"
+          "{\"name\": \"yellow\", \"lab\": [75, -5, 70], \"references\": "
+          "[[90, -15, 80], [55, 4, 55]]},"
+          "{\"name\": \"white\", \"lab\": [92.91, 0, 0], \"marker\": false},"
+          "{\"name\": \"grey\", \"lab\": [53.58, 0, 0], \"marker\": false,"
+          " \"references\": [[53.58, 0, 0], [30, 0, 0]]}]}", "multi.json",
+          &multi, &err), "%s", err.c_str ());
+  ClassifierConfig multi_cfg;
+  palette_references (multi, &multi_cfg.refs, &multi_cfg.ref_class);
+  CHECK (multi_cfg.refs.size () == 9, "%zu references",
+      multi_cfg.refs.size ());
+  check_table_exact ("multi-reference rgb", multi_cfg);
+  multi_cfg.max_distance = 15.0;
+  check_table_exact ("multi-reference rgb max-distance=15", multi_cfg,
+      KeyOrder::C0_HIGH);
+
+  /* 8 classes of 1 to 4 random references each */
+  ClassifierConfig random_multi;
+  std::uniform_int_distribution<int> count (1, 4);
+  for (int k = 0; k < 8; k++) {
+    const int m = count (rng);
+    for (int i = 0; i < m; i++) {
+      random_multi.refs.push_back (Lab { L (rng), ab_ (rng), ab_ (rng) });
+      random_multi.ref_class.push_back (k);
+    }
+  }
+  random_multi.max_distance = 30.0;
+  random_multi.model = InputModel::yuv (0.2126, 0.0722, false);
+  check_table_exact ("8 classes x 1-4 random refs bt709", random_multi);
+}
+
+/* A palette without "references" gives the table it gave before they
+ * existed: one reference per class, reference k being class k. */
+static void
+test_single_reference_table_unchanged ()
+{
+  const Palette & def = palette_default ();
+  ClassifierConfig before, now;
+  for (const auto & c : def.classes)
+    before.refs.push_back (c.lab);
+  palette_references (def, &now.refs, &now.ref_class);
+  CHECK (now.refs.size () == def.classes.size (), "%zu references",
+      now.refs.size ());
+  for (size_t k = 0; k < now.ref_class.size (); k++)
+    CHECK (now.ref_class[k] == (int) k, "reference %zu is class %d", k,
+        now.ref_class[k]);
+  ClassTable a, b;
+  a.build (before, KeyOrder::C0_LOW);
+  b.build (now, KeyOrder::C0_LOW);
+  CHECK (memcmp (a.labels (), b.labels (), (size_t) 1 << 24) == 0,
+      "tables differ");
+  CHECK (a.boundary_cells () == b.boundary_cells (), "%zu vs %zu boundary "
+      "cells", a.boundary_cells (), b.boundary_cells ());
+}
+
+static uint8_t
+label_of_lab (ClassTable & table, const Lab & lab)
+{
+  double rgb[3];
+  lab_to_srgb (lab, rgb);
+  return table.resolve ((uint8_t) std::lround (rgb[0] * 255),
+      (uint8_t) std::lround (rgb[1] * 255), (uint8_t) std::lround (rgb[2] * 255));
+}
+
+/* A ball lit and shaded: with both tones as references of "yellow", both
+ * tones and a colour 40 % of the way from the shaded tone to red are
+ * yellow; with the one mean colour the shaded tone and that colour are
+ * not (they go to red). */
+static void
+test_two_tone_class ()
+{
+  const Lab lit { 88, -8, 80 }, shaded { 55, 4, 55 }, red { 45, 50, 40 };
+  const Lab mean { (lit.L + shaded.L) / 2, (lit.a + shaded.a) / 2,
+    (lit.b + shaded.b) / 2 };
+  const Lab toward_red { shaded.L + 0.4 * (red.L - shaded.L),
+    shaded.a + 0.4 * (red.a - shaded.a), shaded.b + 0.4 * (red.b - shaded.b) };
+  ClassifierConfig two;
+  two.refs = { red, lit, shaded, Lab { 53.58, 0, 0 } };
+  two.ref_class = { 0, 1, 1, 2 };
+  ClassifierConfig one;
+  one.refs = { red, mean, Lab { 53.58, 0, 0 } };
+  ClassTable t2, t1;
+  t2.build (two, KeyOrder::C0_LOW);
+  t1.build (one, KeyOrder::C0_LOW);
+  CHECK (label_of_lab (t2, lit) == 2, "lit: %d", label_of_lab (t2, lit));
+  CHECK (label_of_lab (t2, shaded) == 2, "shaded: %d",
+      label_of_lab (t2, shaded));
+  CHECK (label_of_lab (t2, toward_red) == 2, "toward red: %d",
+      label_of_lab (t2, toward_red));
+  CHECK (label_of_lab (t1, lit) == 2, "one reference, lit: %d",
+      label_of_lab (t1, lit));
+  CHECK (label_of_lab (t1, toward_red) == 1, "one reference, toward red: %d",
+      label_of_lab (t1, toward_red));
+  /* the class subset follows classes, not references */
+  const uint8_t no_yellow[3] = { 1, 0, 1 };
+  double rgb[3];
+  lab_to_srgb (shaded, rgb);
+  const uint8_t px[3] = { (uint8_t) std::lround (rgb[0] * 255),
+    (uint8_t) std::lround (rgb[1] * 255), (uint8_t) std::lround (rgb[2] * 255) };
+  uint8_t label = 255;
+  t2.classify_exact (px, 1, no_yellow, &label);
+  CHECK (label == 1 || label == 3, "without yellow, shaded is %d", label);
 }
 
 static void
@@ -275,6 +386,40 @@ test_palette_parsing ()
   many += "]}";
   expect_palette_error (many.c_str (), "at most 64");
 
+  /* references */
+  CHECK (palette_parse ("{\"classes\": [{\"name\": \"y\", \"lab\": [70, 0, 60],"
+          " \"references\": [[90, -10, 80], [50, 5, 50]]}]}", "t", &p, &err),
+      "%s", err.c_str ());
+  CHECK (p.classes[0].references.size () == 2 &&
+      p.classes[0].references[1].L == 50 && p.classes[0].lab.L == 70,
+      "parsed references");
+  expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
+      " \"references\": [[50, \"0\", 0]]}]}",
+      "classes[0] (\"y\"): \"references\"[0] must be an array of 3 finite");
+  expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
+      " \"references\": [[50, 0, 0], [50, 0]]}]}",
+      "classes[0] (\"y\"): \"references\"[1] must be an array of 3");
+  expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
+      " \"references\": [[50, 0, 0], [50, 0, 130]]}]}",
+      "classes[0] (\"y\"): \"references\"[1] b* must be within -128..128");
+  expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
+      " \"references\": [[-1, 0, 0]]}]}",
+      "\"references\"[0] L* must be within 0..100");
+  expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
+      " \"references\": []}]}",
+      "classes[0] (\"y\"): \"references\" must hold 1 to 8 colours, got 0");
+  expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
+      " \"references\": [50, 0, 0]}]}", "\"references\"[0] must be an array");
+  expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
+      " \"references\": {}}]}", "\"references\" must be an array of");
+  std::string nine = "{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
+      " \"references\": [";
+  for (int i = 0; i < 9; i++)
+    nine += std::string (i ? "," : "") + "[50, 0, 0]";
+  nine += "]}]}";
+  expect_palette_error (nine.c_str (),
+      "classes[0] (\"y\"): \"references\" must hold 1 to 8 colours, got 9");
+
   CHECK (!palette_load_file ("/nonexistent/palette.json", &p, &err) &&
       err.find ("/nonexistent/palette.json: cannot read") == 0, "%s",
       err.c_str ());
@@ -323,6 +468,8 @@ main ()
   test_subset_classification ();
   test_palette_parsing ();
   test_map_bounds ();
+  test_single_reference_table_unchanged ();
+  test_two_tone_class ();
   test_table_exact ();
   printf ("%d passed, %d failed\n", checks - failures, failures);
   return failures ? 1 : 0;

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "fuzzcheck.h"
 #include "palette.h"
@@ -36,12 +37,28 @@ LLVMFuzzerTestOneInput (const uint8_t * data, size_t size)
       FUZZ_CHECK (g_ascii_isalnum (*p) || strchr ("_.-", *p), "name \"%s\"",
           name);
     FUZZ_CHECK (names.insert (c.name).second, "duplicate \"%s\"", name);
-    FUZZ_CHECK (std::isfinite (c.lab.L) && c.lab.L >= 0 && c.lab.L <= 100,
-        "L* %g", c.lab.L);
-    FUZZ_CHECK (std::isfinite (c.lab.a) && std::fabs (c.lab.a) <= 128,
-        "a* %g", c.lab.a);
-    FUZZ_CHECK (std::isfinite (c.lab.b) && std::fabs (c.lab.b) <= 128,
-        "b* %g", c.lab.b);
+    FUZZ_CHECK (c.references.size () <= landmark::kMaxReferencesPerClass,
+        "%zu references", c.references.size ());
+    std::vector<landmark::Lab> colours = c.references;
+    colours.push_back (c.lab);
+    for (const auto & lab : colours) {
+      FUZZ_CHECK (std::isfinite (lab.L) && lab.L >= 0 && lab.L <= 100,
+          "L* %g", lab.L);
+      FUZZ_CHECK (std::isfinite (lab.a) && std::fabs (lab.a) <= 128,
+          "a* %g", lab.a);
+      FUZZ_CHECK (std::isfinite (lab.b) && std::fabs (lab.b) <= 128,
+          "b* %g", lab.b);
+    }
   }
+  /* the classifier's view: every class keeps at least one reference */
+  std::vector<landmark::Lab> refs;
+  std::vector<int> ref_class;
+  landmark::palette_references (palette, &refs, &ref_class);
+  FUZZ_CHECK (refs.size () == ref_class.size () && refs.size () >= n,
+      "%zu references for %zu classes", refs.size (), n);
+  for (size_t r = 0; r < ref_class.size (); r++)
+    FUZZ_CHECK (ref_class[r] >= 0 && (size_t) ref_class[r] < n &&
+        (r == 0 || ref_class[r] >= ref_class[r - 1]), "ref_class[%zu] = %d",
+        r, ref_class[r]);
   return 0;
 }

@@ -179,7 +179,7 @@ def distractor_clip(tmp_path_factory, gst):
     out = tmp_path_factory.mktemp("distractors")
     # the scenario (seed 0), its first 12 frames
     render_scenario("distractors", str(out), seed=0, frames=12,
-                    progress=False)
+                    progress=False, robot="comfortable")
     return out
 
 

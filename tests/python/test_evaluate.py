@@ -101,3 +101,46 @@ def test_cli_prints_and_writes_json(tmp_path, capsys):
     assert "red" in text and "precision" in text and "pose: 1 of 2" in text
     assert json.loads(out.read_text())["frames"] == 2
     assert cli.main(["evaluate", str(tmp_path / "none"), str(t)]) == 2
+
+
+# -- which detections count ---------------------------------------------------
+
+@pytest.mark.parametrize("detection, counts", [
+    # today's chain: blobroundness's kept decides
+    ({"blob": {"kept": True}}, True),
+    ({"blob": {"kept": False}}, False),
+    ({}, True),
+    # the chain's own decision wins over the blob's when present
+    ({"accepted": True, "blob": {"kept": False}}, True),
+    ({"accepted": False, "blob": {"kept": True}}, False),
+    ({"accepted": None}, False),
+    # a later element's rejection
+    ({"blob": {"kept": True}, "range": {"range": 1.0, "kept": False}},
+     False),
+    ({"blob": {"kept": True}, "range": {"range": 1.0, "kept": True}}, True),
+    ({"blob": {"kept": True}, "range": {"range": 1.0}}, True),
+    ({"accepted": True, "match": {"matched": False, "reason": "outlier"}},
+     False),
+    ({"blob": {"kept": True},
+      "match": {"matched": False, "reason": "outside-gate"}}, False),
+    ({"blob": {"kept": True},
+      "match": {"matched": False, "reason": "no-landmark-of-class"}},
+     True),
+    ({"blob": {"kept": True}, "match": {"matched": True,
+                                        "landmark-id": "L1"}}, True),
+])
+def test_detection_accepted(detection, counts):
+    assert E.detection_accepted(detection) is counts
+
+
+def test_evaluate_counts_only_accepted_detections():
+    truth = [{"frame": 0, "landmarks": [mark("red", 100, 100, 1.0)]}]
+    found = det("red", 100, 100)
+    vetoed = dict(det("red", 100, 100), accepted=False)
+    outlier = dict(det("red", 100, 100),
+                   match={"matched": False, "reason": "outlier"})
+    for dets, tp, fn in (([found], 1, 0), ([vetoed], 0, 1),
+                         ([outlier], 0, 1), ([vetoed, found], 1, 0)):
+        s = E.summary(E.evaluate([{"frame": 0, "detections": dets}],
+                                 truth))["detection"]["all"]
+        assert (s["tp"], s["fp"], s["fn"]) == (tp, 0, fn), dets

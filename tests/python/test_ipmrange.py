@@ -24,7 +24,7 @@ BANDS = ((0.3, 0.5), (0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0))
 def sweep(tmp_path_factory):
     out = tmp_path_factory.mktemp("range-sweep")
     assert cli.main(["synth", "range-sweep", "--out", str(out),
-                     "--no-progress"]) == 0
+                     "--robot", "comfortable", "--no-progress"]) == 0
     return out
 
 
@@ -381,7 +381,7 @@ def render_and_range(gst, tmp_path, landmarks, ipm_props):
     out = tmp_path / "synth"
     assert cli.main(["synth", "custom", "--map", str(tmp_path / "map.json"),
                      "--pose", "0,0,0", "--frames", "1", "--out", str(out),
-                     "--no-progress"]) == 0
+                     "--robot", "comfortable", "--no-progress"]) == 0
     scene = json.loads((out / "scene.json").read_text())
     log = tmp_path / "log.jsonl"
     run(gst, f"filesrc location={out / 'clip.avi'} ! avidemux ! jpegdec ! "

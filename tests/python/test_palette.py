@@ -130,6 +130,34 @@ BAD_PALETTES = [
      'classes[0] ("red"): "marker" must be true or false, got "yes"'),
     (five_with(0, good_class("red", marker=1)),
      '"marker" must be true or false, got 1'),
+    # several reference colours per class
+    (five_with(2, good_class("yellow", references=[[90, -10, 80],
+                                                   [50, "5", 50]])),
+     'classes[2] ("yellow"): "references"[1][1] must be a number, '
+     'got string'),
+    (five_with(2, good_class("yellow", references=[[90, -10, 80],
+                                                   [50, 5]])),
+     'classes[2] ("yellow"): "references"[1] must be an array of 3 '
+     'numbers [L*, a*, b*], got 2 values'),
+    (five_with(2, good_class("yellow", references=[[50, 0, 0]] * 9)),
+     'classes[2] ("yellow"): "references" must hold 1 to 8 colours, got 9'),
+    (five_with(2, good_class("yellow", references=[])),
+     'classes[2] ("yellow"): "references" must hold 1 to 8 colours, got 0'),
+    (five_with(2, good_class("yellow", references=[50, 0, 0])),
+     'classes[2] ("yellow"): "references"[0] must be an array of 3 '
+     'numbers [L*, a*, b*], got number'),
+    (five_with(2, good_class("yellow", references={"lit": [50, 0, 0]})),
+     'classes[2] ("yellow"): "references" must be an array of [L*, a*, b*] '
+     'arrays, got object'),
+    (five_with(2, good_class("yellow", references=[[101, 0, 0]])),
+     'classes[2] ("yellow"): "references"[0] L* must be within 0..100, '
+     'got 101'),
+    (five_with(2, good_class("yellow", references=[[50, 0, 0],
+                                                   [50, -130, 0]])),
+     'classes[2] ("yellow"): "references"[1] a* must be within -128..128, '
+     'got -130'),
+    (five_with(2, good_class("yellow", references=[[50, float("nan"), 0]])),
+     '"references"[0][1] must be finite, got nan'),
 ]
 
 
@@ -240,6 +268,47 @@ def test_save_and_load_round_trip(tmp_path):
     assert loaded.markers == ["red"]
     np.testing.assert_allclose(loaded.lab_array(), palette.lab_array(),
                                atol=1e-4)
+
+
+def test_references_load_and_round_trip(tmp_path):
+    obj = {"classes": [
+        good_class("yellow", (75, -5, 70),
+                   references=[[90, -15, 80], [55.123456, 4, 55]]),
+        good_class("grey", (53.58, 0, 0), marker=False)]}
+    palette = load_palette(write_json(tmp_path / "p.json", obj))
+    yellow, grey = palette.classes
+    assert yellow.references == ((90.0, -15.0, 80.0), (55.123456, 4.0, 55.0))
+    assert yellow.reference_labs == yellow.references
+    assert grey.references == () and grey.reference_labs == (grey.lab,)
+    assert palette.has_references
+    refs, owner = palette.reference_arrays()
+    np.testing.assert_array_equal(refs, [[90, -15, 80], [55.123456, 4, 55],
+                                         [53.58, 0, 0]])
+    assert owner.tolist() == [0, 0, 1]
+    # lab stays the class colour
+    np.testing.assert_array_equal(palette.lab_array(), [[75, -5, 70],
+                                                        [53.58, 0, 0]])
+    path = tmp_path / "out.json"
+    save_palette(palette, path)
+    saved = json.loads(path.read_text())["classes"]
+    assert saved[0] == {"name": "yellow", "lab": [75.0, -5.0, 70.0],
+                        "references": [[90.0, -15.0, 80.0],
+                                       [55.1235, 4.0, 55.0]],
+                        "marker": True}
+    assert "references" not in saved[1]
+    assert load_palette(path).classes[0].references[1] == (55.1235, 4.0,
+                                                           55.0)
+
+
+def test_palette_without_references_is_unchanged():
+    """An old palette: one reference per class, the class colour."""
+    palette = default_palette()
+    assert not palette.has_references
+    refs, owner = palette.reference_arrays()
+    np.testing.assert_array_equal(refs, palette.lab_array())
+    assert owner.tolist() == list(range(len(palette)))
+    saved = palette_to_json(palette)["classes"]
+    assert all(list(entry) == ["name", "lab", "marker"] for entry in saved)
 
 
 def test_palette_to_json_keeps_extra_keys():
@@ -582,3 +651,307 @@ def test_cli_bad_input_exits_1(tmp_path, scene_files, capsys):
     assert status == 1 and "does not fit" in err
     assert err.startswith("gst-landmark: error: ")
     assert not out.exists()
+
+
+# ---------------------------------------------------------------------------
+# Several references per class in the element
+
+
+def test_element_classifies_by_every_reference(gst, tmp_path):
+    """labsegment with a multi-reference palette labels each pixel with the
+    class of its nearest reference, as the reference implementation does,
+    on random colours and on the two tones of a class."""
+    from gstlandmark import meta, pipeline
+    import frames as F
+
+    obj = {"classes": [
+        good_class("red", (45, 50, 40),
+                   references=[[45, 50, 40], [30, 40, 25]]),
+        good_class("yellow", (72, -2, 68),
+                   references=[[88, -8, 80], [55, 4, 55]]),
+        good_class("blue", (38, 30, -67)),
+        good_class("grey", (53.58, 0, 0), marker=False,
+                   references=[[53.58, 0, 0], [85, 0, 0], [25, 0, 0]])]}
+    path = write_json(tmp_path / "multi.json", obj)
+    pal = load_palette(path)
+    rng = np.random.default_rng(5)
+    img = F.random_rgb(rng, 48, 64)
+    tones = reference.lab_to_srgb8(np.array([[88, -8, 80], [55, 4, 55]]))
+    img[0, :2] = tones
+    caps = F.caps_string("RGB", 64, 48)
+    out = pipeline.process_frames(
+        f"labsegment palette={path} min-class-pixels=0", [img], caps)
+    lm = meta.labels(out[0])
+    seg = reference.segment_rgb(img, pal, min_class_pixels=0)
+    np.testing.assert_array_equal(lm.plane, seg.labels)
+    assert lm.plane[0, :2].tolist() == [2, 2]
+    # every class is used, so the test covers references of each
+    assert set(np.unique(lm.plane).tolist()) >= {1, 2, 3, 4}
+
+
+def test_element_refuses_bad_references(gst, tmp_path):
+    """A palette with a bad "references" fails labsegment's start with a
+    message naming the file and the class."""
+    from gstlandmark import pipeline
+    Gst = pipeline.Gst
+    path = write_json(tmp_path / "bad.json", five_with(
+        2, good_class("yellow", references=[[50, 0, 0]] * 9)))
+    pipe = Gst.parse_launch(f"videotestsrc num-buffers=1 ! labsegment "
+                            f"palette={path} ! fakesink")
+    try:
+        pipe.set_state(Gst.State.PLAYING)
+        msg = pipe.get_bus().timed_pop_filtered(
+            10 * Gst.SECOND, Gst.MessageType.ERROR | Gst.MessageType.EOS)
+        assert msg is not None and msg.type == Gst.MessageType.ERROR
+        err, debug = msg.parse_error()
+        assert str(path) in err.message
+        assert (f'{path}: classes[2] ("yellow"): "references" must hold 1 '
+                f'to 8 colours, got 9') in debug
+    finally:
+        pipe.set_state(Gst.State.NULL)
+
+
+# ---------------------------------------------------------------------------
+# Learning several references per class
+
+LIT_YELLOW = (88.0, -8.0, 80.0)
+SHADED_YELLOW = (55.0, 4.0, 55.0)
+RED_LAB = (45.0, 50.0, 40.0)
+
+
+def lab_to_bgr(lab):
+    return reference.lab_to_srgb8(np.array([lab], np.float64))[0][::-1]
+
+
+def two_tone_scene(seed=3, noise=2.0):
+    """A 'ball' (mask 1) lit on its upper 60 % and shaded below, a red
+    square (mask 2) and a grey floor (mask 3), 8-bit noise of ``noise``."""
+    height, width = 120, 160
+    image = np.zeros((height, width, 3), np.float64)
+    mask = np.full((height, width), 3, np.uint8)
+    image[:] = lab_to_bgr((53.58, 0.0, 0.0))
+    yy, xx = np.mgrid[:height, :width]
+    ball = (yy - 60) ** 2 + (xx - 50) ** 2 <= 40 ** 2
+    image[ball & (yy < 68)] = lab_to_bgr(LIT_YELLOW)
+    image[ball & (yy >= 68)] = lab_to_bgr(SHADED_YELLOW)
+    mask[ball] = 1
+    image[20:60, 110:150] = lab_to_bgr(RED_LAB)
+    mask[20:60, 110:150] = 2
+    rng = np.random.default_rng(seed)
+    image += rng.normal(0.0, noise, image.shape)
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8), mask
+
+
+def labels_of(palette_path, colours_lab):
+    """labsegment's labels for the given L*a*b* colours (as 8-bit sRGB)."""
+    from gstlandmark import meta, pipeline
+    import frames as F
+    rgb = reference.lab_to_srgb8(np.array(colours_lab, np.float64))
+    img = np.ascontiguousarray(rgb[None, :, :])
+    out = pipeline.process_frames(
+        f"labsegment palette={palette_path} min-class-pixels=0", [img],
+        F.caps_string("RGB", len(colours_lab), 1))
+    return meta.labels(out[0]).plane[0].tolist()
+
+
+def test_learn_two_tone_ball_gives_two_references(gst, tmp_path):
+    image, mask = two_tone_scene()
+    cv2.imwrite(str(tmp_path / "ball.png"), image)
+    cv2.imwrite(str(tmp_path / "ball-mask.png"), mask)
+    paths = {}
+    for refs in ("auto", "1"):
+        paths[refs] = tmp_path / f"palette-{refs}.json"
+        assert cli.main(["palette", "learn", str(tmp_path / "ball.png"),
+                         "--mask", str(tmp_path / "ball-mask.png"),
+                         "--names", "yellow,red,grey", "--markers",
+                         "yellow,red", "--references", refs,
+                         "-o", str(paths[refs])]) == 0
+    learned = load_palette(paths["auto"])
+    yellow, red, grey = learned.classes
+    # the ball: its two tones, the lit (larger) side first
+    assert len(yellow.references) == 2
+    np.testing.assert_allclose(yellow.references[0], LIT_YELLOW, atol=1.5)
+    np.testing.assert_allclose(yellow.references[1], SHADED_YELLOW,
+                               atol=1.5)
+    # lab stays the mean of the region (60:40 of lit and shaded)
+    assert SHADED_YELLOW[0] + 5 < yellow.lab[0] < LIT_YELLOW[0] - 5
+    # uniform regions: one reference, written as before
+    assert red.references == () and grey.references == ()
+    np.testing.assert_allclose(red.lab, RED_LAB, atol=1.0)
+    saved = json.loads(paths["auto"].read_text())["classes"]
+    assert "references" not in saved[1] and "references" not in saved[2]
+    assert not load_palette(paths["1"]).has_references
+
+    # both tones are yellow; a colour 40 % of the way from the shaded tone
+    # to red stays yellow with two references, and goes to red with the
+    # one mean colour
+    toward_red = tuple(s + 0.4 * (r - s)
+                       for s, r in zip(SHADED_YELLOW, RED_LAB))
+    colours = [LIT_YELLOW, SHADED_YELLOW, toward_red, RED_LAB]
+    assert labels_of(paths["auto"], colours) == [1, 1, 1, 2]
+    single = labels_of(paths["1"], colours)
+    assert single[2] == 2 and single[3] == 2
+
+
+def test_learn_uniform_region_gives_one_reference():
+    rng = np.random.default_rng(4)
+    image = np.zeros((80, 80, 3), np.float64)
+    image[:] = lab_to_bgr(RED_LAB)
+    image += rng.normal(0.0, 3.0, image.shape)
+    image = np.clip(np.rint(image), 0, 255).astype(np.uint8)
+    mask = np.ones((80, 80), np.uint8)
+    learned = learn_from_mask(image, mask, names=["red"], references="auto")
+    assert learned.classes[0].references == ()
+    np.testing.assert_allclose(learned.classes[0].lab, RED_LAB, atol=1.0)
+    # asked for, the count is kept
+    forced = learn_from_mask(image, mask, names=["red"], references=3)
+    assert len(forced.classes[0].references) == 3
+
+
+def test_learn_auto_rule_share_and_spread():
+    """The rule itself: a second tone holding under 10 % of the region adds
+    no reference; two tones at most a few Delta E apart add none; two tones
+    far apart add one each; never more than 4."""
+    from gstlandmark.palette import cluster_references
+    rng = np.random.default_rng(6)
+
+    def tones(centres, counts, sigma=1.5):
+        return np.vstack([np.asarray(c) + rng.normal(0, sigma, (n, 3))
+                          for c, n in zip(centres, counts)])
+
+    assert len(cluster_references(
+        tones([LIT_YELLOW, SHADED_YELLOW], [4700, 300]))) == 1
+    assert len(cluster_references(
+        tones([LIT_YELLOW, SHADED_YELLOW], [4000, 1000]))) == 2
+    near = (LIT_YELLOW[0] - 3.0,) + LIT_YELLOW[1:]
+    assert len(cluster_references(tones([LIT_YELLOW, near],
+                                        [2500, 2500]))) == 1
+    # six tones whose gaps halve: every split halves the spread, up to 4
+    six = [(5 + 0.6 * x, 0.0, 0.0) for x in (0, 80, 120, 140, 150, 155)]
+    got = cluster_references(tones(six, [1000] * 6, sigma=1.0))
+    assert len(got) == 4
+    # the same pixels give the same references
+    pixels = tones([LIT_YELLOW, SHADED_YELLOW], [3000, 2000])
+    np.testing.assert_array_equal(cluster_references(pixels),
+                                  cluster_references(pixels))
+
+
+def test_learn_references_option_errors(tmp_path, scene_files, capsys):
+    image, _ = synthetic_scene()
+    for bad in (0, 9, "two", True):
+        with pytest.raises(PaletteError, match="references must be"):
+            learn_from_mask(image, np.ones(image.shape[:2], np.uint8),
+                            references=bad)
+    flat = np.zeros((4, 4, 3), np.uint8)
+    with pytest.raises(PaletteError, match='class "c": 1 distinct colours '
+                                           'cannot give 2 references'):
+        learn_from_mask(flat, np.ones((4, 4), np.uint8), names=["c"],
+                        references=2)
+    img_path, mask_path = scene_files
+    for bad in ("0", "9", "many"):
+        assert cli.main(["palette", "learn", str(img_path), "--mask",
+                         str(mask_path), "--references", bad,
+                         "-o", str(tmp_path / "x.json")]) == 2
+        assert ("argument --references: expected auto or 1 to 8"
+                in capsys.readouterr().err)
+    assert not (tmp_path / "x.json").exists()
+
+
+def test_old_palette_files_load_unchanged(gst):
+    """Palettes written before "references" existed: one reference per
+    class (its lab), and the element's labels are the single-reference
+    computation's."""
+    from gstlandmark import meta, pipeline
+    import frames as F
+    root = os.path.join(os.path.dirname(__file__), "..", "files", "palettes")
+    rng = np.random.default_rng(9)
+    img = F.random_rgb(rng, 24, 32)
+    for name in ("good-custom.json", "good-alt.json", "lightness.json"):
+        path = os.path.join(root, name)
+        pal = load_palette(path)
+        assert not pal.has_references
+        refs, owner = pal.reference_arrays()
+        np.testing.assert_array_equal(refs, pal.lab_array())
+        out = pipeline.process_frames(
+            f"labsegment palette={path} min-class-pixels=0", [img],
+            F.caps_string("RGB", 32, 24))
+        old = reference.classify(reference.rgb_to_lab(img), pal.lab_array(),
+                                 min_class_pixels=0)
+        np.testing.assert_array_equal(meta.labels(out[0]).plane, old.labels)
+
+
+def test_learn_drops_references_classes_share():
+    """Two balls, red and blue, each black on its unlit 40 %: the black
+    tone is a reference of both, tells them apart by nothing and is
+    dropped from both; the two-tone yellow keeps both its tones."""
+    from gstlandmark.palette import (MIN_REFERENCE_SEPARATION,
+                                     prune_shared_references)
+    rng = np.random.default_rng(8)
+    black = (2.0, 0.0, 0.0)
+    parts = [(RED_LAB, 0), (black, 0), ((38.0, 30.0, -67.0), 1),
+             ((2.5, 0.5, -0.5), 1), (LIT_YELLOW, 2), (SHADED_YELLOW, 2)]
+    counts = [600, 400, 600, 400, 600, 400]
+    image = np.vstack([np.tile(lab_to_bgr(lab), (n, 1))
+                       for (lab, _), n in zip(parts, counts)])
+    image = image.astype(np.float64) + rng.normal(0, 1.0, image.shape)
+    image = np.clip(np.rint(image), 0, 255).astype(np.uint8)[:, None, :]
+    mask = np.concatenate([np.full(n, k + 1, np.uint8)
+                           for (_, k), n in zip(parts, counts)])[:, None]
+    learned = learn_from_mask(image, mask, names=["red", "blue", "yellow"],
+                              references="auto")
+    red, blue, yellow = learned.classes
+    assert red.references == () and blue.references == ()
+    assert len(yellow.references) == 2
+    # the rule alone: an extra reference near another class's goes, one
+    # far from every other class stays, a class's last one always stays
+    # (a class left with one reference is classified by its mean)
+    kept = prune_shared_references(
+        [np.array([[50.0, 40, 30], [2.0, 0, 0]]),
+         np.array([[2.0 + MIN_REFERENCE_SEPARATION / 2, 0, 0]]),
+         np.array([[80.0, -20, 60], [40.0, -10, 30]])],
+        [(30.0, 25, 20), (2.0 + MIN_REFERENCE_SEPARATION / 2, 0, 0),
+         (60.0, -15, 45)])
+    assert [len(r) for r in kept] == [1, 1, 2]
+    np.testing.assert_array_equal(kept[0], [[30.0, 25, 20]])
+    np.testing.assert_array_equal(kept[2], [[80.0, -20, 60],
+                                            [40.0, -10, 30]])
+
+
+def test_learn_drops_references_that_take_another_class():
+    """A red ball whose shaded side (40 %) has the colour of the dark planks
+    that make 7 % of a wooden floor: a shaded-red reference would take
+    those floor pixels, so red keeps one reference; the floor's planks are
+    too few to be a tone of their own; yellow keeps both tones."""
+    from gstlandmark.palette import MAX_STOLEN_SHARE
+    rng = np.random.default_rng(10)
+    plank, shaded_red = (25.0, 24.0, 19.0), (24.0, 26.0, 20.0)
+    parts = [(RED_LAB, 1, 600), (shaded_red, 1, 400),
+             ((50.0, 5.0, 10.0), 2, 1860), (plank, 2, 140),
+             (LIT_YELLOW, 3, 600), (SHADED_YELLOW, 3, 400)]
+    image = np.vstack([np.tile(lab_to_bgr(lab), (n, 1))
+                       for lab, _, n in parts]).astype(np.float64)
+    image = np.clip(np.rint(image + rng.normal(0, 1.0, image.shape)), 0,
+                    255).astype(np.uint8)[:, None, :]
+    mask = np.concatenate([np.full(n, k, np.uint8)
+                           for _, k, n in parts])[:, None]
+    learned = learn_from_mask(image, mask, names=["red", "floor", "yellow"],
+                              markers=["red", "yellow"], references="auto")
+    red, floor, yellow = learned.classes
+    assert red.references == () and floor.references == ()
+    assert len(yellow.references) == 2
+    # on its own the red region has two tones: the drop is the rule's
+    alone = learn_from_mask(image[mask[:, 0] == 1], mask[mask == 1][:, None],
+                            names=["red"], references="auto")
+    assert len(alone.classes[0].references) == 2
+    assert 140 / 2000 > MAX_STOLEN_SHARE
+
+
+def test_cli_check_lists_references(tmp_path, capsys):
+    path = write_json(tmp_path / "p.json", {"classes": [
+        good_class("yellow", (75, -5, 70),
+                   references=[[90, -15, 80], [55, 4, 55]])]})
+    assert cli.main(["palette", "check", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    refs = [line.split() for line in lines if line.endswith("reference")]
+    assert refs == [["90.00", "-15.00", "80.00", "reference"],
+                    ["55.00", "4.00", "55.00", "reference"]]

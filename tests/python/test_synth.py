@@ -169,7 +169,7 @@ def test_large_near_landmarks_area_centroid():
 
 def test_range_bearing_follow_conventions(tmp_path):
     summary = render_scenario("path", str(tmp_path), frames=24, size=SMALL,
-                              progress=False)
+                              progress=False, robot="comfortable")
     assert summary["frames"] == 24
     landmarks = {lm["id"]: lm for lm in json.loads(
         (tmp_path / "map.json").read_text())["landmarks"]}
@@ -278,7 +278,8 @@ def test_rendering_is_deterministic_for_a_seed():
 def test_scenario_outputs_are_deterministic(tmp_path):
     for name in ("one", "two"):
         render_scenario("distractors", str(tmp_path / name), seed=3,
-                        frames=2, size=SMALL, progress=False)
+                        frames=2, size=SMALL, progress=False,
+                        robot="comfortable")
     for f in ("truth.jsonl", "map.json", "frame0.png", "mask0.png"):
         assert ((tmp_path / "one" / f).read_bytes()
                 == (tmp_path / "two" / f).read_bytes()), f
@@ -351,7 +352,7 @@ def test_mask_of_balls_walls_and_distractors():
 @pytest.mark.parametrize("name", [n for n in SCENARIOS if n != "custom"])
 def test_scenario_writes_outputs(tmp_path, name):
     summary = render_scenario(name, str(tmp_path), frames=3, size=SMALL,
-                              progress=False)
+                              progress=False, robot="comfortable")
     assert summary["frames"] == 3
     scene = json.loads((tmp_path / "scene.json").read_text())
     assert scene["scenario"] == name and scene["frames"] == 3
@@ -404,7 +405,8 @@ def test_cli_custom_raw_png_and_masks(tmp_path):
              {"x": 0.05, "y": 0.0, "heading": 0.02}]
     (tmp_path / "poses.json").write_text(json.dumps(poses))
     out = tmp_path / "out"
-    status = cli.main(["synth", "custom", "--out", str(out), "--map",
+    status = cli.main(["synth", "custom", "--robot", "comfortable",
+                       "--out", str(out), "--map",
                        str(tmp_path / "map.json"), "--poses",
                        str(tmp_path / "poses.json"), "--size", "161x121",
                        "--raw", str(out / "clip.rgb"), "--frames-png",
@@ -507,7 +509,8 @@ def path_clip(tmp_path_factory):
     """The path scenario as shipped: default seed, size and camera (the
     truth only; no clip)."""
     out = tmp_path_factory.mktemp("path")
-    summary = render_scenario("path", str(out), progress=False, clip=False)
+    summary = render_scenario("path", str(out), progress=False, clip=False,
+                              robot="comfortable")
     return out, summary
 
 
@@ -583,10 +586,11 @@ def test_path_world_and_camera(path_clip):
 def test_path_camera_overrides_still_apply(tmp_path):
     from gstlandmark.synth import build_scenario
     scene, _ = build_scenario("path", frames=2, hfov_deg=60,
-                              height_m=0.3)
+                              height_m=0.3, robot="comfortable")
     assert scene.camera.hfov_deg == pytest.approx(60.0)
     assert scene.camera.height_m == 0.3 and scene.camera.tilt_deg == 20.0
-    scene, _ = build_scenario("path", frames=2, fx=500.0)
+    scene, _ = build_scenario("path", frames=2, fx=500.0,
+                              robot="comfortable")
     assert scene.camera.fx == 500.0
 
 
@@ -600,7 +604,7 @@ def _srgb_lab(rgb):
 def test_chart_learns_every_class_by_the_cli(tmp_path, capsys):
     out = tmp_path / "path"
     render_scenario("path", str(out), frames=1, progress=False, clip=False,
-                    noise_sigma=0.0, jpeg_quality=100)
+                    noise_sigma=0.0, jpeg_quality=100, robot="comfortable")
     scene = json.loads((out / "scene.json").read_text())
     classes = scene["palette"]["classes"]
     names = [c["name"] for c in classes]
@@ -624,7 +628,7 @@ def test_chart_learns_every_class_by_the_cli(tmp_path, capsys):
     assert learned.names == names and learned.markers == markers
     # each class comes back within 2 Delta E of the colour painted
     from gstlandmark.synth import build_scenario
-    built, _ = build_scenario("path")
+    built, _ = build_scenario("path", robot="comfortable")
     srgb = built.marker_srgb8()
     want = {name: _srgb_lab(rgb) for name, rgb in srgb.items()}
     want["floor"] = _srgb_lab((128, 128, 128))
@@ -639,7 +643,7 @@ def test_chart_of_a_scene_with_many_floors():
     from gstlandmark.synth.chart import render_chart
     scene, n = build_scenario("backgrounds", size=(320, 240),
                               noise_sigma=0.0, auto_exposure=0.0,
-                              auto_wb=0.0)
+                              auto_wb=0.0, robot="comfortable")
     palette = scene.scene_palette()
     rgb, mask, info = render_chart(scene, n)
     assert len(palette.background) == 8          # one class per floor
@@ -663,7 +667,7 @@ def test_chart_has_frame0_lighting(tmp_path):
     from gstlandmark.synth.chart import render_chart
     scene, n = build_scenario("path", size=SMALL, noise_sigma=0.0,
                               auto_exposure=1.0, auto_wb=0.6,
-                              exposure_stops=-0.5)
+                              exposure_stops=-0.5, robot="comfortable")
     rgb0, _, mask0 = render_frame(scene, scene.trajectory.pose(0.0), t=0.0,
                                   frame=0, frames_total=n)
     rgb, mask, _ = render_chart(scene, n)
@@ -680,7 +684,198 @@ def test_chart_has_frame0_lighting(tmp_path):
     # the plain grey floor is one colour in both pictures
     assert np.ptp(a, axis=0).max() <= 1 and np.ptp(b, axis=0).max() <= 1
     assert np.abs(np.median(a, axis=0) - np.median(b, axis=0)).max() <= 1
-    plain, _ = build_scenario("path", size=SMALL, noise_sigma=0.0)
+    plain, _ = build_scenario("path", size=SMALL, noise_sigma=0.0,
+                              robot="comfortable")
     rgb_plain, mask_plain, _ = render_chart(plain, n)
     c = rgb_plain[inside(mask_plain)].reshape(-1, 3)
     assert np.abs(np.median(a, axis=0) - np.median(c, axis=0)).max() > 5
+
+
+# -- the seed's robot and random variants ------------------------------------
+
+def polygon_area(p):
+    x, y = p[:, 0], p[:, 1]
+    return abs((x * np.roll(y, -1) - np.roll(x, -1) * y).sum()) / 2
+
+
+@pytest.mark.parametrize("rng_m", [0.5, 1.0, 1.5])
+def test_seed_robot_is_the_default_and_sizes_a_disc_as_a_pinhole(rng_m):
+    from gstlandmark.synth import build_scenario
+    lm = Landmark("L1", "red", rng_m, 0.0, 0.10)
+    scene, frames = build_scenario("custom", map=[lm], pose=(0, 0, 0),
+                                   frames=1)
+    cam = scene.camera
+    assert frames == 1
+    assert (cam.width, cam.height) == (640, 480)
+    assert cam.fx == pytest.approx(320 / math.tan(math.radians(27)))
+    assert (cam.height_m, cam.tilt_deg, cam.roll_deg) == (0.2, 18.0, 0.0)
+    scene = scene.with_(effects=quiet_effects())
+    pose = Pose(0.0, 0.0, 0.0)
+    _, truth, _ = render_frame(scene, pose, frame=0)
+    (entry,) = truth["landmarks"]
+    # the area of the disc's image, by cv2.projectPoints of its outline
+    # from the conventions' camera
+    outline = project(outline_world(lm, pose, cam), pose, cam)
+    assert entry["pixels"] == pytest.approx(polygon_area(outline),
+                                            rel=0.01)
+    # and the pinhole's first-order figures: f d / depth wide, that times
+    # the sine of the view's angle below the horizon tall
+    depth = rng_m * math.cos(math.radians(18)) + 0.2 * math.sin(
+        math.radians(18))
+    width = cam.fx * 0.10 / depth
+    height = width * math.sin(math.atan2(0.2, rng_m))
+    assert np.ptp(outline[:, 0]) == pytest.approx(width, rel=0.02)
+    assert np.ptp(outline[:, 1]) == pytest.approx(height, rel=0.1)
+    assert entry["pixels"] == pytest.approx(math.pi / 4 * width * height,
+                                            rel=0.1)
+    assert not entry["cut"] and entry["occluded_fraction"] == 0.0
+
+
+def test_seed_robot_scenarios_use_its_markers():
+    from gstlandmark.synth import build_scenario
+    for name in ("range-sweep", "path", "distractors", "backgrounds"):
+        scene, _ = build_scenario(name, frames=2)
+        assert scene.camera.hfov_deg == pytest.approx(54.0), name
+        assert scene.camera.height_m == 0.2 and scene.camera.tilt_deg == 18
+        sizes = {(lm.kind, lm.diameter) for lm in scene.landmarks}
+        assert sizes <= {("disc", 0.10), ("ball", 0.08)}, (name, sizes)
+    sweep, _ = build_scenario("range-sweep")
+    ranges = [math.hypot(lm.x, lm.y) for lm in sweep.landmarks]
+    assert min(ranges) == pytest.approx(0.3)
+    assert max(ranges) == pytest.approx(4.0)
+    comfortable, _ = build_scenario("range-sweep", robot="comfortable")
+    assert comfortable.camera.height_m == 0.5
+    assert max(math.hypot(lm.x, lm.y)
+               for lm in comfortable.landmarks) == pytest.approx(5.0)
+    with pytest.raises(ValueError, match="robot"):
+        build_scenario("path", robot="tall")
+
+
+def test_seed_path_shows_three_whole_landmarks_in_a_share_of_frames():
+    from gstlandmark.synth import build_scenario
+    scene, n = build_scenario("path", size=(320, 240), hfov_deg=54.0)
+    assert n == 300 and len(scene.landmarks) == 16
+    assert (scene.walls.x1, scene.walls.y1) == (2.5, 2.5)
+    three = 0
+    for i in range(0, 300, 10):
+        pose = scene.trajectory.pose(i / 30)
+        _, truth, _ = render_frame(scene, pose, t=i / 30, frame=i,
+                                   frames_total=n)
+        # a quarter of the pixels at half the size
+        whole = [e for e in truth["landmarks"]
+                 if 4 * e["pixels"] >= 113 and not e["cut"]]
+        three += len(whole) >= 3
+    assert three >= 6, three
+
+
+def test_variants_are_deterministic_and_within_their_ranges():
+    from gstlandmark.synth.floors import FLOOR_NAMES
+    from gstlandmark.synth.variants import RANGES, draw_variant
+    floors = set()
+    for n in range(1, 41):
+        v = draw_variant("path", n)
+        assert v == draw_variant("path", n)
+        assert json.loads(json.dumps(v)) == v            # JSON as is
+        cam = v["camera"]
+
+        def within(key, value, slack=1e-4):
+            lo, hi = RANGES[key]
+            assert lo - slack <= value <= hi + slack, (n, key, value)
+        within("height_m", cam["height_m"])
+        within("hfov_deg", cam["hfov_deg"])
+        within("roll_deg", cam["roll_deg"])
+        within("forward_offset_m", v["forward_offset_m"])
+        within("disc_d", v["markers"]["disc_d"])
+        within("ball_d", v["markers"]["ball_d"])
+        assert v["markers"]["ball_d"] <= 1.5 * cam["height_m"] + 1e-4
+        within("gain", v["gain"])
+        assert 2 ** v["effects"]["exposure_stops"] == pytest.approx(
+            v["gain"], abs=1e-3)
+        for g in v["white_balance"]:
+            within("wb_gain", g)
+        for key in ("vignette", "noise_sigma", "jpeg_quality",
+                    "exposure_drift_stops", "wb_drift", "shutter",
+                    "ball_shading"):
+            within(key, v["effects"][key])
+        assert v["effects"]["motion_blur"] in (0, 3)
+        within("light_elevation_deg", v["light"]["elevation_deg"])
+        assert np.linalg.norm(v["light"]["direction"]) == pytest.approx(
+            1.0, abs=1e-5)
+        assert v["floor"] in FLOOR_NAMES
+        floors.add(v["floor"])
+        within("field_m", v["layout"]["field_m"])
+        # the tilt lets the camera see the floor: the centre row looks
+        # down, and the image spans from under 0.5 m to past 2.5 m
+        half_v = math.degrees(math.atan(
+            math.tan(math.radians(cam["hfov_deg"] / 2)) * 0.75))
+        tilt = cam["tilt_deg"]
+        assert 0 < tilt < 60
+        near = cam["height_m"] / math.tan(math.radians(tilt + half_v))
+        assert near < 0.55, (n, near)
+        far_angle = tilt - half_v
+        assert far_angle <= 0 or \
+            cam["height_m"] / math.tan(math.radians(far_angle)) > 2.5
+    # 40 draws see most floors, the red and orange ones included
+    assert {"red", "orange"} <= floors and len(floors) >= 6
+    assert draw_variant("path", 1) != draw_variant("path", 2)
+    assert draw_variant("path", 1) != draw_variant("distractors", 1)
+    with pytest.raises(ValueError):
+        draw_variant("path", -1)
+
+
+def test_variant_changes_the_scene_and_is_recorded(tmp_path):
+    from gstlandmark.synth import build_scenario
+    from gstlandmark.synth.variants import draw_variant
+    v = draw_variant("distractors", 4)
+    scene, _ = build_scenario("distractors", frames=2, variant=v)
+    assert scene.camera.height_m == v["camera"]["height_m"]
+    assert scene.camera.tilt_deg == v["camera"]["tilt_deg"]
+    assert scene.floor_names() == [v["floor"]]
+    assert scene.effects.jpeg_quality == v["effects"]["jpeg_quality"]
+    assert tuple(scene.light) == tuple(v["light"]["direction"])
+    assert {lm.diameter for lm in scene.landmarks} == set(
+        v["markers"].values())
+    # overrides still win over the variant
+    scene, _ = build_scenario("distractors", frames=2, variant=v,
+                              height_m=0.33)
+    assert scene.camera.height_m == 0.33
+    # the CLI writes it, with a camera file, a chart and a palette that
+    # the documented learning reads
+    out = tmp_path / "v"
+    assert cli.main(["synth", "path", "--variant", "6", "--frames", "2",
+                     "--size", "160x120", "--out", str(out),
+                     "--no-progress"]) == 0
+    scene = json.loads((out / "scene.json").read_text())
+    assert scene["notes"]["variant"] == json.loads(json.dumps(
+        draw_variant("path", 6)))
+    assert scene["camera"]["height_m"] == \
+        scene["notes"]["variant"]["camera"]["height_m"]
+    from gstlandmark.calibrate import read_camera_file
+    cam = read_camera_file(str(out / "camera.yml"))
+    assert cam["camera_matrix"][0, 0] == pytest.approx(scene["camera"]["fx"])
+    names = [c["name"] for c in scene["palette"]["classes"]]
+    markers = [c["name"] for c in scene["palette"]["classes"]
+               if c["marker"]]
+    assert cli.main(["palette", "learn", str(out / "chart.png"), "--mask",
+                     str(out / "chart-mask.png"), "--names",
+                     ",".join(names), "--markers", ",".join(markers),
+                     "-o", str(tmp_path / "learned.json")]) == 0
+
+
+@pytest.mark.parametrize("name", ["range-sweep", "path", "distractors"])
+def test_every_variant_has_a_chart_the_palette_learns_from(name):
+    """Red and orange floors, cameras low and high: the chart shows every
+    class of the scene palette and the documented learning reads it."""
+    from gstlandmark.synth import build_scenario
+    from gstlandmark.synth.chart import render_chart
+    from gstlandmark.synth.variants import draw_variant
+    for n in range(1, 9):
+        scene, frames = build_scenario(name, frames=40,
+                                       variant=draw_variant(name, n))
+        rgb, mask, info = render_chart(scene, frames)
+        assert min(info["pixels"].values()) >= 200, (n, info["pixels"])
+        palette = scene.scene_palette()
+        learned = learn_from_mask(rgb[:, :, ::-1].copy(), mask,
+                                  names=palette.names,
+                                  markers=palette.markers)
+        assert learned.names == palette.names

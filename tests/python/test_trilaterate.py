@@ -30,7 +30,8 @@ def run(Gst, props, log, timeout_s=60):
     desc = (f"filesrc location={CLIP}/clip.avi ! decodebin ! videoconvert ! "
             f"labsegment palette={CLIP}/palette.json min-class-pixels=0 ! "
             f"blobroundness ! ipmrange {camera_props()} map={CLIP}/map.json "
-            f"! trilaterate name=t map={CLIP}/map.json {props} ! "
+            f"! trilaterate name=t map={CLIP}/map.json post-messages=true "
+            f"{props} ! "
             f"landmarklog location={log} ! fakesink")
     pipe = Gst.parse_launch(desc)
     bus = pipe.get_bus()

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <new>
+#include <stdexcept>
 
 #ifdef __linux__
 #include <sys/mman.h>
@@ -46,16 +47,18 @@ constexpr double kConversionError = 0.75;
 uint8_t
 ClassTable::nearest (const float *lab, const uint8_t * active) const
 {
-  /* strict '<' keeps the lowest index on ties, as numpy's argmin does */
+  /* strict '<' keeps the lowest index on ties, as numpy's argmin does;
+   * references are in class order, so a tie goes to the lowest class */
   double best = std::numeric_limits<double>::infinity ();
   int best_k = -1;
-  for (size_t k = 0; k < cfg_.refs.size (); k++) {
+  for (size_t r = 0; r < cfg_.refs.size (); r++) {
+    const int k = class_of (r);
     if (active && !active[k])
       continue;
-    const double d2 = distance2 (lab, cfg_.refs[k], cfg_.use_lightness);
+    const double d2 = distance2 (lab, cfg_.refs[r], cfg_.use_lightness);
     if (d2 < best) {
       best = d2;
-      best_k = (int) k;
+      best_k = k;
     }
   }
   if (best_k < 0 || best > max_d2_)
@@ -80,10 +83,20 @@ ClassTable::classify_exact (const uint8_t * comps, int n,
 void
 ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
 {
+  if (!cfg.ref_class.empty () && cfg.ref_class.size () != cfg.refs.size ())
+    throw std::invalid_argument ("ref_class must give one class per "
+        "reference");
+  for (size_t r = 0; r < cfg.ref_class.size (); r++) {
+    if (cfg.ref_class[r] < 0 || cfg.ref_class[r] >= kMaxClasses ||
+        (r > 0 && cfg.ref_class[r] < cfg.ref_class[r - 1]))
+      throw std::invalid_argument ("ref_class must be ascending class "
+          "indices below kMaxClasses");
+  }
   cfg_ = cfg;
   order_ = order;
   max_d2_ = cfg.max_distance * cfg.max_distance;
   const size_t n = cfg.refs.size ();
+  std::vector<double> dist (n);
   std::vector<uint8_t> cell_label (32 * 32 * 32, 0);
   pending_.assign (32 * 32 * 32, 0);
   boundary_cells_ = 0;
@@ -119,18 +132,22 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
         }
         const double radius = 1.5 * spread + kConversionError + 1e-3;
 
+        /* d1: the nearest reference (class k1); d2: the nearest reference
+         * of any other class. Another reference of class k1 cannot change
+         * a colour's class, so only d2 - d1 decides the cell. */
         double d1 = std::numeric_limits<double>::infinity (), d2 = d1;
         int k1 = -1;
         for (size_t r = 0; r < n; r++) {
-          const double dr = std::sqrt (distance2 (centre, cfg.refs[r],
+          dist[r] = std::sqrt (distance2 (centre, cfg.refs[r],
                   cfg.use_lightness));
-          if (dr < d1) {
-            d2 = d1;
-            d1 = dr;
-            k1 = (int) r;
-          } else if (dr < d2) {
-            d2 = dr;
+          if (dist[r] < d1) {
+            d1 = dist[r];
+            k1 = class_of (r);
           }
+        }
+        for (size_t r = 0; r < n; r++) {
+          if (class_of (r) != k1 && dist[r] < d2)
+            d2 = dist[r];
         }
         if (k1 < 0 || d1 - radius > cfg.max_distance) {
           cell_label[cell] = 0;  /* every colour of the cell is beyond reach */

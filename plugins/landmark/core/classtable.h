@@ -17,7 +17,12 @@ namespace landmark {
 constexpr int kMaxClasses = 64;
 
 struct ClassifierConfig {
+  /* Reference colours; a pixel takes the class of the nearest one. A class
+   * may have several (a ball's lit and shaded sides). */
   std::vector<Lab> refs;
+  /* Class index (label - 1) of each reference, in ascending order; empty:
+   * reference k is class k. */
+  std::vector<int> ref_class;
   bool use_lightness = true;
   double max_distance = 1000.0;
   InputModel model;
@@ -82,6 +87,10 @@ public:
 
 private:
   uint8_t nearest (const float *lab, const uint8_t * active) const;
+  int class_of (size_t ref) const
+  {
+    return cfg_.ref_class.empty ()? (int) ref : cfg_.ref_class[ref];
+  }
 
   ClassifierConfig cfg_;
   KeyOrder order_ = KeyOrder::C0_LOW;

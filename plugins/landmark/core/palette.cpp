@@ -35,6 +35,36 @@ entry_label (guint index, const char *name)
   return json_entry_label ("classes", index, name);
 }
 
+/* A colour [L, a, b]; `what` names it in messages. */
+bool
+parse_lab (JsonNode * node, const std::string & what, Lab * out,
+    std::string * why)
+{
+  JsonArray *lab = node && JSON_NODE_HOLDS_ARRAY (node) ?
+      json_node_get_array (node) : nullptr;
+  double v[3];
+  bool numbers = lab && json_array_get_length (lab) == 3;
+  for (guint i = 0; numbers && i < 3; i++)
+    numbers = json_number (json_array_get_element (lab, i), &v[i]);
+  if (!numbers) {
+    *why = what + " must be an array of 3 finite numbers [L, a, b]";
+    return false;
+  }
+  if (v[0] < 0 || v[0] > 100) {
+    *why = what + " L* must be within 0..100, got " + std::to_string (v[0]);
+    return false;
+  }
+  for (int i = 1; i < 3; i++) {
+    if (v[i] < -128 || v[i] > 128) {
+      *why = what + " " + (i == 1 ? "a*" : "b*") +
+          " must be within -128..128, got " + std::to_string (v[i]);
+      return false;
+    }
+  }
+  *out = Lab { v[0], v[1], v[2] };
+  return true;
+}
+
 bool
 parse_class (JsonNode * node, guint index, PaletteClass * out,
     std::string * why)
@@ -60,36 +90,43 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
   GList *members = json_object_get_members (obj);
   for (GList * l = members; l; l = l->next) {
     const char *key = (const char *) l->data;
-    if (strcmp (key, "name") && strcmp (key, "lab") && strcmp (key, "marker")) {
+    if (strcmp (key, "name") && strcmp (key, "lab") && strcmp (key, "marker")
+        && strcmp (key, "references")) {
       *why = where + ": unknown key \"" + key +
-          "\" (allowed: name, lab, marker)";
+          "\" (allowed: name, lab, references, marker)";
       g_list_free (members);
       return false;
     }
   }
   g_list_free (members);
 
-  JsonNode *lab_node = json_object_get_member (obj, "lab");
-  JsonArray *lab = lab_node && JSON_NODE_HOLDS_ARRAY (lab_node) ?
-      json_node_get_array (lab_node) : nullptr;
-  double v[3];
-  bool numbers = lab && json_array_get_length (lab) == 3;
-  for (guint i = 0; numbers && i < 3; i++)
-    numbers = json_number (json_array_get_element (lab, i), &v[i]);
-  if (!numbers) {
-    *why = where + ": \"lab\" must be an array of 3 finite numbers [L, a, b]";
+  Lab lab;
+  if (!parse_lab (json_object_get_member (obj, "lab"), where + ": \"lab\"",
+          &lab, why))
     return false;
-  }
-  if (v[0] < 0 || v[0] > 100) {
-    *why = where + ": \"lab\" L* must be within 0..100, got " +
-        std::to_string (v[0]);
-    return false;
-  }
-  for (int i = 1; i < 3; i++) {
-    if (v[i] < -128 || v[i] > 128) {
-      *why = where + ": \"lab\" " + (i == 1 ? "a*" : "b*") +
-          " must be within -128..128, got " + std::to_string (v[i]);
+
+  std::vector<Lab> references;
+  JsonNode *refs_node = json_object_get_member (obj, "references");
+  if (refs_node) {
+    if (!JSON_NODE_HOLDS_ARRAY (refs_node)) {
+      *why = where + ": \"references\" must be an array of [L, a, b] "
+          "arrays";
       return false;
+    }
+    JsonArray *refs = json_node_get_array (refs_node);
+    const guint n = json_array_get_length (refs);
+    if (n == 0 || n > kMaxReferencesPerClass) {
+      *why = where + ": \"references\" must hold 1 to " +
+          std::to_string (kMaxReferencesPerClass) + " colours, got " +
+          std::to_string (n);
+      return false;
+    }
+    for (guint i = 0; i < n; i++) {
+      Lab ref;
+      if (!parse_lab (json_array_get_element (refs, i), where +
+              ": \"references\"[" + std::to_string (i) + "]", &ref, why))
+        return false;
+      references.push_back (ref);
     }
   }
 
@@ -105,7 +142,8 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
   }
 
   out->name = name;
-  out->lab = Lab { v[0], v[1], v[2] };
+  out->lab = lab;
+  out->references = std::move (references);
   out->marker = marker;
   return true;
 }
@@ -165,6 +203,25 @@ palette_load_file (const std::string & path, Palette * out,
   std::string text;
   return json_read_file (path, &text, error) &&
       palette_parse (text, path, out, error);
+}
+
+void
+palette_references (const Palette & palette, std::vector<Lab> * refs,
+    std::vector<int> * ref_class)
+{
+  refs->clear ();
+  ref_class->clear ();
+  for (size_t k = 0; k < palette.classes.size (); k++) {
+    const PaletteClass & c = palette.classes[k];
+    if (c.references.empty ()) {
+      refs->push_back (c.lab);
+      ref_class->push_back ((int) k);
+    }
+    for (const Lab & r : c.references) {
+      refs->push_back (r);
+      ref_class->push_back ((int) k);
+    }
+  }
 }
 
 const Palette &

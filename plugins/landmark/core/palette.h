@@ -3,6 +3,7 @@
  * python/gstlandmark/palette.py enforces the same rules). */
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -10,9 +11,17 @@
 
 namespace landmark {
 
+/* At most this many reference colours per class. */
+constexpr size_t kMaxReferencesPerClass = 8;
+
 struct PaletteClass {
   std::string name;
+  /* The class's colour (false-colour output, reported rgb); its only
+   * reference when `references` is empty. */
   Lab lab;
+  /* The class's reference colours when it has its own list (1 to
+   * kMaxReferencesPerClass), e.g. a ball's lit and shaded sides. */
+  std::vector<Lab> references;
   bool marker = true;
 };
 
@@ -28,6 +37,11 @@ bool palette_parse (const std::string & json, const std::string & source,
 /* Reads and parses a palette file; errors name the file. */
 bool palette_load_file (const std::string & path, Palette * out,
     std::string * error);
+
+/* Every reference colour of the palette in class order, and the class index
+ * (label - 1) of each: what ClassifierConfig's refs and ref_class take. */
+void palette_references (const Palette & palette, std::vector<Lab> * refs,
+    std::vector<int> * ref_class);
 
 /* The built-in palette (python/gstlandmark/data/default-palette.json). */
 const Palette & palette_default ();

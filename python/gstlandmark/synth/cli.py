@@ -7,7 +7,7 @@ import os
 from gstlandmark.palette import PaletteError
 
 from .floors import FLOOR_NAMES
-from .scenarios import SCENARIOS
+from .scenarios import DEFAULT_ROBOT, ROBOTS, SCENARIOS
 
 DESCRIPTION = """\
 Render a robot's camera view of a synthetic floor with coloured landmarks
@@ -18,14 +18,24 @@ frame0.png and mask0.png (class mask of the first frame, values index
 the scene palette), chart.png and chart-mask.png (a colour chart of
 every palette class under frame 0's camera and lighting, for
 'gst-landmark palette learn --mask').  Prints, and writes in scene.json,
-the histogram of frames by landmarks visible with >= 150 pixels."""
+the histogram of frames by landmarks visible with >= 150 pixels; and
+camera.yml, the true camera as a camera file for ipmrange calibration=.
+
+The default robot is the seed's: a 54-degree 640x480 webcam 0.2 m above
+the floor, tilted 18 degrees down, with 10 cm discs and 8 cm balls.
+--robot comfortable is the wide-angle camera half a metre up with 30 cm
+discs that the regression clips were made with.  --variant N draws a
+camera, light, floor, marker sizes, photometry, layout and path from N
+(docs/synth.md)."""
 
 EPILOG = """\
 scenarios:
-  range-sweep   one disc or ball per frame, 0.3..5 m, -20..20 degrees
-  path          8 landmarks, 6 m x 6 m walled field, a 300-frame loop;
-                three or more landmarks in view in most frames (its
-                camera: --hfov 80 --cam-height 0.5 --tilt 20)
+  range-sweep   one disc or ball per frame, 0.3..4 m (comfortable:
+                0.3..5 m), -20..20 degrees
+  path          8 landmarks, 3 m x 3 m walled field (comfortable: 6 m x
+                6 m), a 300-frame loop; three or more landmarks in view
+                in most frames (comfortable camera: --hfov 80
+                --cam-height 0.5 --tilt 20)
   backgrounds   the same landmarks over every floor, then an exposure
                 and white-balance ramp
   distractors   landmarks among non-round patches and specks
@@ -73,20 +83,29 @@ def add_synth_parser(subparsers):
     p.add_argument("--size", type=_size, default=(640, 480),
                    metavar="WxH", help="image size (default 640x480)")
     p.add_argument("--fps", type=int, default=None, help="default 30")
+    p.add_argument("--robot", choices=ROBOTS, default=DEFAULT_ROBOT,
+                   help="seed (default): 54-degree webcam 0.2 m up, tilt "
+                        "18, 10 cm discs, 8 cm balls; comfortable: the "
+                        "scenario's wide-angle camera 0.5 m up, 30 cm "
+                        "discs")
+    p.add_argument("--variant", type=int, metavar="N",
+                   help="draw camera, light, floor, marker sizes, "
+                        "photometry, layout and path from N (written in "
+                        "scene.json); other options still win")
 
     cam = p.add_argument_group("camera")
     cam.add_argument("--hfov", type=float, dest="hfov_deg", metavar="DEG",
-                     help="horizontal field of view (default 60; "
-                          "path: 80)")
+                     help="horizontal field of view (default: the "
+                          "robot's, seed 54)")
     for name in ("fx", "fy", "cx", "cy"):
         cam.add_argument(f"--{name}", type=float, metavar="PX",
                          help="intrinsics in pixels instead of --hfov")
     cam.add_argument("--cam-height", type=float, dest="height_m",
-                     metavar="M", help="camera height (default 0.30; "
-                                       "path: 0.5)")
+                     metavar="M", help="camera height (default: the "
+                                       "robot's, seed 0.2)")
     cam.add_argument("--tilt", type=float, dest="tilt_deg", metavar="DEG",
-                     help="tilt below the horizontal (default 25; "
-                          "path: 20)")
+                     help="tilt below the horizontal (default: the "
+                          "robot's, seed 18)")
     cam.add_argument("--roll", type=float, dest="roll_deg", metavar="DEG",
                      help="roll (default 0)")
 
@@ -178,6 +197,8 @@ def _handle(args):
             getattr(args, k) is not None for k in ("map", "poses", "pose")):
         args.parser.error("--map, --poses and --pose go with the custom "
                           "scenario")
+    if args.variant is not None and args.variant < 0:
+        args.parser.error("--variant must be >= 0")
     if args.scenario == "custom" and args.map is None:
         args.parser.error("the custom scenario needs --map FILE")
     out = args.out or os.path.join("out", "synth", args.scenario)
@@ -186,7 +207,8 @@ def _handle(args):
     try:
         summary = render_scenario(
             args.scenario, out, seed=args.seed, frames=args.frames,
-            size=args.size, progress=args.progress,
+            size=args.size, progress=args.progress, robot=args.robot,
+            variant=args.variant,
             frames_png=args.frames_png, raw=args.raw, masks=args.masks,
             **overrides)
     except (ValueError, OSError, PaletteError, PipelineError) as err:
@@ -198,7 +220,7 @@ def _handle(args):
           f"{summary['landmark_sightings']} landmark sightings")
     print(format_visibility(summary["visibility"]))
     written = ["truth.jsonl", "scene.json", "map.json", "palette.json",
-               "frame0.png", "mask0.png"]
+               "camera.yml", "frame0.png", "mask0.png"]
     if "chart" in summary["files"]:
         written += ["chart.png", "chart-mask.png"]
     print(f"wrote {out}/clip.avi, {', '.join(written)}")

@@ -149,6 +149,15 @@ class Renderer:
             self.vignette = None
         self.lut = (linear_to_srgb(np.linspace(0.0, 1.0, LUT_SIZE))
                     * 255.0).astype(np.float32)
+        if scene.light is None:
+            self.light = LIGHT.astype(np.float32)
+        else:
+            light = np.asarray(scene.light, np.float64)
+            norm = np.linalg.norm(light)
+            if light.shape != (3,) or not np.isfinite(norm) or norm <= 0:
+                raise ValueError(f"light direction must be a non-zero "
+                                 f"3-vector, got {scene.light}")
+            self.light = (light / norm).astype(np.float32)
 
     # -- geometry -----------------------------------------------------------
 
@@ -401,7 +410,7 @@ class Renderer:
                  + s_cur[balls, None] * sdirs[balls])
             normal = (p - self.centres[sids[balls]]) \
                 / self.radii[sids[balls], None]
-            lam = np.clip(normal @ LIGHT.astype(np.float32), 0.0, 1.0)
+            lam = np.clip(normal @ self.light, 0.0, 1.0)
             scol[balls] *= (1.0 - k + k * lam)[:, None]
         lin[cidx] = scol.reshape(n_c, ss2, 3).mean(axis=1)
 
@@ -536,6 +545,10 @@ class Renderer:
                 "cut": self.is_cut(o, geo["rot"], geo["centre"]),
                 "occluded": bool(geo["hidden"][o.index]
                                  >= OCCLUDED_MIN_PIXELS),
+                # hidden share of the pixels it would cover unoccluded
+                "occluded_fraction": round(float(
+                    geo["hidden"][o.index]
+                    / (cov + geo["hidden"][o.index])), 4),
             })
         out["landmarks"] = lms
         return out

@@ -1,7 +1,15 @@
 """Named scenarios: a world, a camera path and a frame count each.
 
-``build_scenario(name, seed, frames, size, **overrides)`` returns
-``(scene, frames)``; the overrides are listed in ``OVERRIDES``.
+``build_scenario(name, seed, frames, size, robot, variant, **overrides)``
+returns ``(scene, frames)``; the overrides are listed in ``OVERRIDES``.
+
+Two robots: ``seed`` (the default), a small robot's 54-degree webcam
+0.2 m above the floor tilted 18 degrees down, with 10 cm discs and 8 cm
+balls; and ``comfortable``, the wide-angle camera half a metre up with
+30 cm discs each scenario had before (its figures are the ones the
+regression clips and the demo were made with).  ``variant`` (a dict from
+``variants.draw_variant``) replaces the robot's camera, marker sizes,
+floor, light, photometry, layout and path.
 """
 
 import json
@@ -43,9 +51,11 @@ class Loop:
     y = cy + b sin s + c sin 3s (c > 0 squares it off), one lap per
     ``period_s``."""
 
-    def __init__(self, centre, a, b, c, period_s):
+    def __init__(self, centre, a, b, c, period_s, phase=0.0):
         self.centre = tuple(centre)
         self.a, self.b, self.c, self.period_s = a, b, c, period_s
+        # where on the lap the clip starts, a fraction of a lap
+        self.phase = float(phase)
         # arc length along s, for constant speed
         s = np.linspace(0.0, 2.0 * math.pi, 4097)
         x, y = self._xy(s)
@@ -66,14 +76,16 @@ class Loop:
         return float(x), float(y), math.atan2(dy, dx)
 
     def pose(self, t):
-        lap = (t / self.period_s) % 1.0
+        lap = (t / self.period_s + self.phase) % 1.0
         s = float(np.interp(lap * self.length, self._arc, self._s))
         x, y, heading = self.point(s)
         return Pose(x, y, wrap_angle(heading))
 
     def to_json(self):
+        extra = {"phase": self.phase} if self.phase else {}
         return {"type": "loop", "centre": list(self.centre), "a": self.a,
                 "b": self.b, "c": self.c, "period_s": self.period_s,
+                **extra,
                 "length_m": round(self.length, 4),
                 "speed_m_s": round(self.length / self.period_s, 4)}
 
@@ -173,9 +185,40 @@ def _field_walls(scene, spec, margin=1.0):
                  max(ys) + margin)
 
 
+# -- robots ------------------------------------------------------------------
+
+# The seed's robot: a 640x480 webcam with a 54-degree horizontal field of
+# view, 0.2 m above the floor, tilted 18 degrees down (it sees the floor
+# from 0.25 m), with 10 cm discs and 8 cm balls.  A 10 cm disc covers
+# 113 px out to about 1.7 m, an 8 cm ball out to about 4 m.
+SEED_CAMERA = {"hfov_deg": 54.0, "height_m": 0.2, "tilt_deg": 18.0}
+SEED_DISC_D, SEED_BALL_D = 0.10, 0.08
+ROBOTS = ("seed", "comfortable")
+DEFAULT_ROBOT = "seed"
+
+
+def _sizes(ctx, disc, ball):
+    """Disc and ball diameters: the variant's, the seed robot's, or the
+    scenario's own (comfortable)."""
+    variant = ctx["variant"]
+    if variant is not None:
+        return variant["markers"]["disc_d"], variant["markers"]["ball_d"]
+    if ctx["robot"] == "seed":
+        return SEED_DISC_D, SEED_BALL_D
+    return disc, ball
+
+
+def _layout(ctx):
+    """The variant's layout parameters, or None."""
+    variant = ctx["variant"]
+    return None if variant is None else variant["layout"]
+
+
 # -- scenarios ---------------------------------------------------------------
 
 RANGES = (0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0)
+# the seed robot sees markers from 0.3 to about 4 m
+SEED_RANGES = RANGES[:-1]
 BEARINGS = (-20, -10, 0, 10, 20)
 # Markers of a size a robot sees across a room (the path scenario's), and
 # a camera that sees both the floor 0.22 m ahead of its foot and the far
@@ -190,8 +233,16 @@ def _range_sweep(ctx):
     """One landmark per frame: discs then balls at ranges 0.3..5 m and
     bearings -20..20 degrees; static camera."""
     colours = _colours(ctx["palette"])
-    items = [(kind, r, b) for kind in ("disc", "ball") for r in RANGES
-             for b in BEARINGS]
+    disc_d, ball_d = _sizes(ctx, DISC_D, BALL_D)
+    ranges = RANGES if ctx["robot"] == "comfortable" else SEED_RANGES
+    bearings = BEARINGS
+    layout = _layout(ctx)
+    if layout is not None:
+        ranges = [round(r * (1.0 + j), 4)
+                  for r, j in zip(ranges, layout["range_jitter"])]
+        bearings = [b + layout["bearing_shift_deg"] for b in BEARINGS]
+    items = [(kind, r, b) for kind in ("disc", "ball") for r in ranges
+             for b in bearings]
     frames = ctx["frames"] or len(items)
     # a short clip still spans the whole sweep
     if frames < len(items):
@@ -207,18 +258,20 @@ def _range_sweep(ctx):
     for i, (kind, r, b) in enumerate(order):
         x, y = _polar(r, b)
         landmarks.append(Landmark(
-            id=f"{kind}_{r:.2f}m_{b:+d}deg", cls=colours[i % len(colours)],
-            x=x, y=y, diameter=DISC_D if kind == "disc" else BALL_D,
+            id=f"{kind}_{r:.2f}m_{b:+g}deg", cls=colours[i % len(colours)],
+            x=x, y=y, diameter=disc_d if kind == "disc" else ball_d,
             kind=kind, frames=intervals.get(i, [])))
+    camera = dict(RANGE_CAMERA if ctx["robot"] == "comfortable"
+                  else SEED_CAMERA)
     notes = {
         "purpose": "ranging accuracy by distance: one disc or ball per "
                    "frame",
-        "camera_defaults": dict(RANGE_CAMERA),
-        "disc_diameter_m": DISC_D,
-        "ball_diameter_m": BALL_D,
+        "camera_defaults": dict(camera),
+        "disc_diameter_m": disc_d,
+        "ball_diameter_m": ball_d,
     }
     return dict(landmarks=landmarks, floor="grey", trajectory=Static(),
-                camera=dict(RANGE_CAMERA), notes=notes), frames
+                camera=camera, notes=notes), frames
 
 
 # The path scenario is the benchmark for positioning from landmarks, so
@@ -238,42 +291,102 @@ PATH_PLAN = [((5.40, 3.55), 0, "disc"), ((2.95, 5.30), 1, "disc"),
              ((4.80, 2.00), 1, "disc"), ((5.50, 1.95), 2, "ball")]
 
 
+# The seed robot's camera sees a narrow cone (54 degrees) and its 10 cm
+# discs cover 113 px only out to 1.7 m, so its field is smaller (2.5 m)
+# and denser: 16 landmarks around the walls, each colour three or four
+# times, in plan units of a 6 m field: three or more landmarks of 113 px
+# or more, whole, in about a third of the frames.
+SEED_FIELD_M = 2.5
+FIELD_M = 6.0
+SEED_PATH_PLAN = [
+    ((x, y), i % 5, "ball" if i % 3 == 2 else "disc")
+    for i, (x, y) in enumerate(
+        [p for y in (0.9, 2.0, 3.0, 4.0, 5.1) for p in ((0.5, y), (5.5, y))]
+        + [p for x in (1.8, 3.0, 4.2) for p in ((x, 0.6), (x, 5.4))])]
+
+
 def _path(ctx):
-    """8 landmarks around a 6 m x 6 m walled field; the robot drives a
-    smooth 10 s elliptical loop (3.8 m x 2 m) counter-clockwise."""
+    """Landmarks around a square walled field (8 in 6 m for the
+    comfortable robot, 16 in 2.5 m for the seed's); the robot drives a
+    smooth 10 s elliptical loop (0.63 x 0.33 of the field)
+    counter-clockwise."""
     colours = _colours(ctx["palette"])
-    loop = Loop((3.0, 3.0), 1.9, 1.0, 0.0, period_s=10.0)
+    disc_d, ball_d = _sizes(ctx, PATH_DISC_D, PATH_BALL_D)
+    layout = _layout(ctx)
+    if ctx["robot"] == "comfortable" and layout is None:
+        field_m = FIELD_M
+        loop = Loop((3.0, 3.0), 1.9, 1.0, 0.0, period_s=10.0)
+        plan = PATH_PLAN
+        walls = Walls()
+    else:
+        field_m = SEED_FIELD_M if layout is None else layout["field_m"]
+        k = field_m / FIELD_M
+        half = field_m / 2.0
+        a, b, c = 1.9 * k, 1.0 * k, 0.0
+        turn, mirror = 0, False
+        jitter = [(0.0, 0.0)] * len(SEED_PATH_PLAN)
+        if layout is not None:
+            a *= layout["loop_a"]
+            b *= layout["loop_b"]
+            c = layout["loop_c"] * k
+            turn, mirror = layout["plan_turn"], layout["plan_mirror"]
+            jitter = layout["plan_jitter"]
+        loop = Loop((half, half), a, b, c, period_s=10.0,
+                    phase=0.0 if layout is None else layout["loop_phase"])
+        plan = []
+        for ((x, y), colour, kind), (jx, jy) in zip(SEED_PATH_PLAN,
+                                                    jitter):
+            # the plan about the field's centre: quarter turns, a mirror
+            dx, dy = x - 3.0, y - 3.0
+            if mirror:
+                dy = -dy
+            for _ in range(turn % 4):
+                dx, dy = -dy, dx
+            plan.append(((round(half + k * (dx + jx), 4),
+                          round(half + k * (dy + jy), 4)), colour, kind))
+        walls = Walls(0.0, 0.0, field_m, field_m,
+                      height=max(0.25, 0.5 * k))
     landmarks = [
         Landmark(id=f"L{i + 1}", cls=colours[colour % len(colours)],
-                 x=x, y=y, diameter=PATH_DISC_D if kind == "disc"
-                 else PATH_BALL_D, kind=kind)
-        for i, ((x, y), colour, kind) in enumerate(PATH_PLAN)]
+                 x=x, y=y, diameter=disc_d if kind == "disc"
+                 else ball_d, kind=kind)
+        for i, ((x, y), colour, kind) in enumerate(plan)]
+    camera = dict(PATH_CAMERA if ctx["robot"] == "comfortable"
+                  else SEED_CAMERA)
     notes = {
         "purpose": "benchmark of positioning from landmarks: most frames "
                    "show three or more landmarks, the others one or two",
-        "camera_defaults": dict(PATH_CAMERA),
+        "camera_defaults": dict(camera),
         "camera_why": "a small robot's wide-angle camera, 0.5 m up and "
                       "tilted 20 degrees down, sees the floor from 0.4 m "
-                      "to the far side of the field",
-        "disc_diameter_m": PATH_DISC_D,
-        "ball_diameter_m": PATH_BALL_D,
+                      "to the far side of the field"
+        if ctx["robot"] == "comfortable" else
+        "the seed's robot: a 54-degree webcam 0.2 m up, tilted 18 "
+        "degrees down, sees the floor from 0.25 m",
+        "disc_diameter_m": disc_d,
+        "ball_diameter_m": ball_d,
         "layout": "landmarks near the walls, the loop inside them; "
                   "colours used twice are far apart",
     }
-    return dict(landmarks=landmarks, floor="grey", walls=Walls(),
-                trajectory=loop, camera=dict(PATH_CAMERA),
+    if plan is not PATH_PLAN:
+        notes["layout"] = ("landmarks near the walls, the loop inside "
+                           "them; each colour three or four times")
+    if field_m != FIELD_M:
+        notes["field_m"] = field_m
+    return dict(landmarks=landmarks, floor="grey", walls=walls,
+                trajectory=loop, camera=camera,
                 notes=notes), ctx["frames"] or 300
 
 
-def _few_landmarks(colours):
+def _few_landmarks(colours, disc_d=0.12, ball_d=0.07):
     spots = [(0.75, 18, "disc"), (0.85, -14, "disc"), (1.15, 2, "disc"),
              (1.5, 16, "disc"), (1.6, -15, "disc"), (1.05, 25, "ball")]
     out = []
     for i, (r, b, kind) in enumerate(spots):
         x, y = _polar(r, b)
         out.append(Landmark(id=f"L{i + 1}", cls=colours[i % len(colours)],
-                            x=x, y=y, diameter=0.12 if kind == "disc"
-                            else 0.07, kind=kind))
+                            x=x, y=y, diameter=disc_d if kind == "disc"
+                            else ball_d, kind=kind))
     return out
 
 
@@ -287,7 +400,9 @@ def _backgrounds(ctx):
     segments.append(Segment(len(FLOOR_NAMES) * seg, "grey",
                             exposure_stops=(-1.0, 0.8),
                             wb_gains=((0.8, 1.25), (1.25, 0.8))))
-    return dict(landmarks=_few_landmarks(colours), segments=segments,
+    return dict(landmarks=_few_landmarks(colours,
+                                         *_sizes(ctx, 0.12, 0.07)),
+                segments=segments,
                 floor=FLOOR_NAMES[0], trajectory=Static(),
                 effects=dict(auto_exposure=0.5, auto_wb=0.3)), frames
 
@@ -314,25 +429,41 @@ def _scatter(rng, count, occupied, radius_of, region):
 def _distractors(ctx):
     """Landmarks among non-round patches of the same colours and specks."""
     colours = _colours(ctx["palette"])
-    rng = np.random.default_rng([ctx["seed"], 4242])
+    layout = _layout(ctx)
+    rng = np.random.default_rng(
+        [ctx["seed"], 4242] if layout is None
+        else [ctx["seed"], 4242, layout["seed"]])
     frames = ctx["frames"] or 60
     spots = [(0.8, 17, "disc"), (1.1, -15, "disc"), (1.7, 16, "disc"),
              (2.1, -17, "disc"), (2.6, 2, "disc"), (1.3, 2, "ball")]
+    disc_d, ball_d = _sizes(ctx, 0.12, 0.07)
+    region = (0.35, 3.5, 45.0)
+    size_scale = 1.0
+    if layout is not None or ctx["robot"] != "comfortable":
+        # the seed's camera sees less far: the field three quarters as
+        # deep; a variant's also follows its marker size
+        depth = 0.75 if layout is None else layout["range_scale"]
+        shift = 0.0 if layout is None else layout["bearing_shift_deg"]
+        spots = [(round(r * depth, 4), b + shift, kind)
+                 for r, b, kind in spots]
+        region = (0.28, round(3.5 * depth, 4), 45.0)
+        if layout is not None:
+            size_scale = layout["distractor_scale"]
     landmarks = []
     occupied = []
     for i, (r, b, kind) in enumerate(spots):
         x, y = _polar(r, b)
-        d = 0.12 if kind == "disc" else 0.07
+        d = disc_d if kind == "disc" else ball_d
         landmarks.append(Landmark(id=f"L{i + 1}",
                                   cls=colours[i % len(colours)], x=x, y=y,
                                   diameter=d, kind=kind))
         occupied.append((x, y, d / 2))
-    region = (0.35, 3.5, 45.0)
     distractors = []
-    shapes = (("square", 14, lambda: rng.uniform(0.05, 0.14)),
-              ("stripe", 10, lambda: rng.uniform(0.15, 0.45)),
-              ("triangle", 12, lambda: rng.uniform(0.06, 0.15)),
-              ("speck", 50, lambda: rng.uniform(0.004, 0.015)))
+    k = size_scale
+    shapes = (("square", 14, lambda: k * rng.uniform(0.05, 0.14)),
+              ("stripe", 10, lambda: k * rng.uniform(0.15, 0.45)),
+              ("triangle", 12, lambda: k * rng.uniform(0.06, 0.15)),
+              ("speck", 50, lambda: k * rng.uniform(0.004, 0.015)))
     for shape, count, size_of in shapes:
         sizes = []
 
@@ -347,7 +478,7 @@ def _distractors(ctx):
             distractors.append(Distractor(
                 cls=colours[int(rng.integers(len(colours)))], shape=shape,
                 x=x, y=y, size=size,
-                width=rng.uniform(0.015, 0.04) if shape == "stripe"
+                width=k * rng.uniform(0.015, 0.04) if shape == "stripe"
                 else None,
                 angle=rng.uniform(0, 2 * math.pi)))
     return dict(landmarks=landmarks, distractors=distractors, floor="grey",
@@ -371,6 +502,12 @@ def _edge_cases(ctx):
         ("E8-near-ball", 2, 0.42, -0.16, 0.065, "ball"),
         ("E9-edge", 1, 1.0, 0.62, 0.12, "disc"),
     ]
+    if ctx["variant"] is not None:
+        # a variant's markers, each case's size relative to the usual
+        disc_d, ball_d = _sizes(ctx, 0.12, 0.08)
+        spec = [(i, k, x, y, d * (disc_d / 0.12 if kind == "disc"
+                                  else ball_d / 0.08), kind)
+                for i, k, x, y, d, kind in spec]
     landmarks = [Landmark(id=i, cls=c[k % n], x=x, y=y, diameter=d,
                           kind=kind) for i, k, x, y, d, kind in spec]
     return dict(landmarks=landmarks, floor="grey",
@@ -409,12 +546,38 @@ SCENARIOS = {
 }
 
 
+class Offset:
+    """A trajectory of the robot's turning centre with the camera
+    ``forward`` metres ahead of it: poses are the camera's floor point
+    (docs/conventions.md), which swings out on turns."""
+
+    def __init__(self, inner, forward):
+        self.inner, self.forward = inner, float(forward)
+        self.period_s = getattr(inner, "period_s", None)
+
+    def pose(self, t):
+        p = self.inner.pose(t)
+        return Pose(p.x + self.forward * math.cos(p.heading),
+                    p.y + self.forward * math.sin(p.heading), p.heading)
+
+    def to_json(self):
+        return {**self.inner.to_json(), "camera_forward_m": self.forward}
+
+
 def build_scenario(name, seed=0, frames=None, size=(640, 480),
-                   **overrides):
-    """(Scene, frame count) of a named scenario with overrides."""
+                   robot=DEFAULT_ROBOT, variant=None, **overrides):
+    """(Scene, frame count) of a named scenario with overrides.
+
+    ``robot``: "seed" (default) or "comfortable" (see the module
+    docstring); ``variant``: a dict from ``variants.draw_variant`` (its
+    camera, sizes, floor, light, effects, layout and path; overrides
+    still win)."""
     if name not in SCENARIOS:
         raise ValueError(f"unknown scenario {name!r}, expected one of "
                          f"{', '.join(SCENARIOS)}")
+    if robot not in ROBOTS:
+        raise ValueError(f"unknown robot {robot!r}, expected one of "
+                         f"{', '.join(ROBOTS)}")
     unknown = set(overrides) - set(OVERRIDES)
     if unknown:
         raise ValueError(f"unknown override(s): {', '.join(sorted(unknown))}"
@@ -429,16 +592,39 @@ def build_scenario(name, seed=0, frames=None, size=(640, 480),
     if fps < 1:
         raise ValueError("fps must be >= 1")
     ctx = {"seed": int(seed), "frames": frames, "palette": palette,
-           "fps": fps, "overrides": overrides}
+           "fps": fps, "overrides": overrides, "robot": robot,
+           "variant": variant}
     parts, n_frames = SCENARIOS[name](ctx)
-    # the scenario's own camera defaults, then the caller's settings
-    camera = Camera(width, height, **{**parts.pop("camera", {}),
-                                      **cam_args})
+    # the robot's camera, the scenario's own, the variant's, then the
+    # caller's settings
+    base = dict(SEED_CAMERA) if robot == "seed" else {}
+    base.update(parts.pop("camera", {}))
+    if variant is not None:
+        base = dict(variant["camera"])
+    camera = Camera(width, height, **{**base, **cam_args})
     for key in ("map", "poses", "pose"):
         if key in overrides:
             raise ValueError(f"{key} only applies to the custom scenario")
 
     effects = Effects(**parts.pop("effects", {}))
+    if variant is not None:
+        for key, value in variant["effects"].items():
+            setattr(effects, key, value)
+        if isinstance(parts.get("trajectory"), (Loop, Sweep)):
+            # the camera ahead of the turning centre swings out on turns
+            parts["trajectory"] = Offset(parts["trajectory"],
+                                         variant["forward_offset_m"])
+        else:
+            effects.motion_blur = 0      # a still camera blurs nothing
+        if "segments" not in parts:
+            red, blue = variant["white_balance"]
+            parts["floor"] = variant["floor"]
+            parts["segments"] = [Segment(0, variant["floor"], (0.0, 0.0),
+                                         ((red, blue), (red, blue)))]
+        parts["light"] = tuple(variant["light"]["direction"])
+        notes = dict(parts.get("notes") or {})
+        notes["variant"] = variant
+        parts["notes"] = notes
     for key in EFFECT_KEYS:
         if key in overrides:
             setattr(effects, key, type(getattr(effects, key))(

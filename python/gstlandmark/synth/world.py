@@ -236,6 +236,9 @@ class Scene:
     trajectory: object = None
     supersample: int = 4
     sky_colour: Tuple[int, int, int] = (72, 76, 84)
+    # direction towards the light that shades balls, world frame (None:
+    # the renderer's default, from above and a little ahead)
+    light: Optional[Tuple[float, float, float]] = None
     scenario: str = "custom"
     # what the scenario chose and why, for scene.json
     notes: Optional[dict] = None

@@ -181,6 +181,8 @@ def scene_json(scene, frames):
         "effects": scene.effects.to_json(),
         "supersample": scene.supersample,
         "sky_colour_srgb": list(scene.sky_colour),
+        **({"light": [round(float(v), 6) for v in scene.light]}
+           if scene.light is not None else {}),
         "palette": palette_json(scene.scene_palette()),
         "map": scene.map_json(),
         "distractors": [d.to_json() for d in scene.distractors],
@@ -215,6 +217,7 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
              "scene": os.path.join(out_dir, "scene.json"),
              "map": os.path.join(out_dir, "map.json"),
              "palette": os.path.join(out_dir, "palette.json"),
+             "camera": os.path.join(out_dir, "camera.yml"),
              "mask0": os.path.join(out_dir, "mask0.png"),
              "frame0": os.path.join(out_dir, "frame0.png"),
              "chart": os.path.join(out_dir, "chart.png"),
@@ -309,6 +312,9 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
     with open(files["map"], "w", encoding="utf-8") as f:
         json.dump(scene.map_json(), f, indent=2)
         f.write("\n")
+    # the true camera as a camera file (docs/calibration.md), for
+    # ipmrange calibration=...
+    write_camera_yaml(scene.camera, files["camera"])
     # the scene palette as a palette file, for labsegment palette=...
     save_palette(scene.scene_palette(), files["palette"],
                  description=f"Scene palette of gst-landmark synth "
@@ -324,13 +330,33 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
             "files": files}
 
 
+def write_camera_yaml(camera, path):
+    """The camera as an OpenCV FileStorage camera file: intrinsics, no
+    distortion, and the mounting (height, tilt, roll)."""
+    from gstlandmark.calibrate import write_camera_file
+    write_camera_file(path, {
+        "image_width": camera.width, "image_height": camera.height,
+        "camera_matrix": camera.matrix,
+        "distortion_coefficients": np.zeros((1, 5)),
+        "camera_height": float(camera.height_m),
+        "tilt_deg": float(camera.tilt_deg),
+        "roll_deg": float(camera.roll_deg)})
+
+
 def render_scenario(name, out_dir, seed=0, frames=None, size=(640, 480),
                     progress=None, frames_png=None, raw=None,
-                    masks="first", clip=True, **overrides):
+                    masks="first", clip=True, robot=None, variant=None,
+                    **overrides):
     """Build the named scenario and write it to ``out_dir``; return the
-    summary (see ``write_outputs``).  ``overrides``: see
-    ``scenarios.OVERRIDES``."""
+    summary (see ``write_outputs``).  ``robot``: "seed" (default) or
+    "comfortable"; ``variant``: a variant number (``variants``) or a
+    drawn variant dict; ``overrides``: see ``scenarios.OVERRIDES``."""
+    from .scenarios import DEFAULT_ROBOT
+    from .variants import draw_variant
+    if variant is not None and not isinstance(variant, dict):
+        variant = draw_variant(name, int(variant))
     scene, n = build_scenario(name, seed=seed, frames=frames, size=size,
+                              robot=robot or DEFAULT_ROBOT, variant=variant,
                               **overrides)
     return write_outputs(scene, n, out_dir, progress=progress,
                          frames_png=frames_png, raw=raw, masks=masks,

@@ -94,7 +94,9 @@ add_no_floor (GstBuffer * buf, gint id, const gchar * cls)
 static GstHarness *
 harness (const gchar * props, GstBus ** bus)
 {
-  gchar *launch = g_strdup_printf ("trilaterate map=%s %s", map_path, props);
+  /* messages on: the tests read the landmark-pose message */
+  gchar *launch = g_strdup_printf ("trilaterate map=%s post-messages=true %s",
+      map_path, props);
   GstHarness *h = gst_harness_new_parse (launch);
   g_free (launch);
   gst_harness_set_src_caps_str (h, "video/x-raw,format=GRAY8,width=64,"
@@ -314,6 +316,21 @@ GST_START_TEST (test_no_pose)
 
   /* messages off: nothing posted */
   h = harness ("post-messages=false", &bus);
+  out = gst_harness_push_and_pull (h, frame (1));
+  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT) == NULL);
+  gst_buffer_unref (out);
+  harness_done (h, bus);
+
+  /* the default: off too */
+  {
+    gchar *launch = g_strdup_printf ("trilaterate map=%s", map_path);
+    h = gst_harness_new_parse (launch);
+    g_free (launch);
+    gst_harness_set_src_caps_str (h, "video/x-raw,format=GRAY8,width=64,"
+        "height=48,framerate=30/1");
+    bus = gst_bus_new ();
+    gst_element_set_bus (h->element, bus);
+  }
   out = gst_harness_push_and_pull (h, frame (1));
   fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT) == NULL);
   gst_buffer_unref (out);

@@ -583,11 +583,13 @@ gst_lab_segment_get_property (GObject * object, guint prop_id,
 
 /* ---- configuration -------------------------------------------------- */
 
-/* Loads the palette named by the settings into the state; posts the error
- * and returns FALSE on a bad file. */
+/* Loads the palette named by the settings into the state. A bad file
+ * when starting (fatal) posts an error and returns FALSE; one set while
+ * playing posts a warning and the previous palette stays (a robot should
+ * not stop because a setting went wrong), as in every element. */
 static gboolean
 gst_lab_segment_load_palette (GstLabSegment * self, const std::string & path,
-    guint generation)
+    guint generation, gboolean fatal)
 {
   State & st = *self->state;
   landmark::Palette palette;
@@ -596,10 +598,17 @@ gst_lab_segment_load_palette (GstLabSegment * self, const std::string & path,
   } else {
     std::string why;
     if (!landmark::palette_load_file (path, &palette, &why)) {
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Could not use palette file \"%s\".", path.c_str ()),
-          ("%s", why.c_str ()));
-      return FALSE;
+      if (fatal) {
+        GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+            ("Could not use palette file \"%s\".", path.c_str ()),
+            ("%s", why.c_str ()));
+        return FALSE;
+      }
+      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+          ("Could not use palette file \"%s\"; the previous palette stays.",
+              path.c_str ()), ("%s", why.c_str ()));
+      st.palette_generation = generation;
+      return TRUE;
     }
   }
   st.palette = std::move (palette);
@@ -672,7 +681,7 @@ gst_lab_segment_start (GstBaseTransform * trans)
     generation = self->settings->palette_generation;
   }
   self->state->warned_no_class = false;
-  return gst_lab_segment_load_palette (self, path, generation);
+  return gst_lab_segment_load_palette (self, path, generation, TRUE);
 }
 
 static gboolean
@@ -981,7 +990,7 @@ gst_lab_segment_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 
   try {
     if (reload && !gst_lab_segment_load_palette (self, palette_path,
-            s.palette_generation))
+            s.palette_generation, FALSE))
       return GST_FLOW_ERROR;
     if (!st.table_valid || st.table_max_distance != s.max_distance ||
         st.table_use_lightness != s.use_lightness)

@@ -260,11 +260,12 @@ gst_landmark_overlay_get_property (GObject * object, guint prop_id,
 
 /* ---- configuration -------------------------------------------------- */
 
-/* Loads the map named by the settings into the state; posts the error and
- * returns FALSE on a bad file. */
+/* Loads the map named by the settings into the state. A bad file when
+ * starting (fatal) posts an error and returns FALSE; one set while playing
+ * posts a warning and the previous map stays, as in every element. */
 static gboolean
 gst_landmark_overlay_load_map (GstLandmarkOverlay * self,
-    const std::string & path, guint generation)
+    const std::string & path, guint generation, gboolean fatal)
 {
   State & st = *self->state;
   if (path.empty ()) {
@@ -276,10 +277,17 @@ gst_landmark_overlay_load_map (GstLandmarkOverlay * self,
   ov::LandmarkMap map;
   std::string why;
   if (!landmark::map_load_file (path, &map, &why)) {
-    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-        ("Could not use map file \"%s\".", path.c_str ()),
-        ("%s", why.c_str ()));
-    return FALSE;
+    if (fatal) {
+      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+          ("Could not use map file \"%s\".", path.c_str ()),
+          ("%s", why.c_str ()));
+      return FALSE;
+    }
+    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+        ("Could not use map file \"%s\"; the previous map stays.",
+            path.c_str ()), ("%s", why.c_str ()));
+    st.map_generation = generation;
+    return TRUE;
   }
   st.map = std::move (map);
   st.has_map = true;
@@ -312,7 +320,7 @@ gst_landmark_overlay_start (GstBaseTransform * trans)
       st.default_colours.emplace_back (c.name, col);
     }
   }
-  return gst_landmark_overlay_load_map (self, path, generation);
+  return gst_landmark_overlay_load_map (self, path, generation, TRUE);
 }
 
 static gboolean
@@ -570,7 +578,7 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 
   try {
     if (reload && !gst_landmark_overlay_load_map (self, map_path,
-            s.map_generation))
+            s.map_generation, FALSE))
       return GST_FLOW_ERROR;
 
     /* what this frame has to show */

@@ -713,6 +713,8 @@ def add_bench_parser(subparsers):
     add_ranging_bench_parser(actions)
     from .chainbench import add_chain_bench_parser
     add_chain_bench_parser(actions)
+    from .fleetbench import add_fleet_bench_parser
+    add_fleet_bench_parser(actions)
     return parser
 
 

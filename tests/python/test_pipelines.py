@@ -24,11 +24,15 @@ import pytest
 
 from gstlandmark import calibrate, demo, goldens, pipeline
 
+from mqttbroker import (Broker, Subscriber, make_certificates,
+                        needs_mosquitto, wait_for)
+
 Gst = pipeline.Gst
 PIPELINE_DIR = os.path.join(goldens.ROOT, "pipelines")
 FILES = sorted(f for f in os.listdir(PIPELINE_DIR) if f.endswith(".pipeline"))
 NETWORK = ("network-send.pipeline", "network-receive.pipeline")
-SINGLE = [f for f in FILES if f not in NETWORK]
+PUBLISH = "publish.pipeline"
+SINGLE = [f for f in FILES if f not in NETWORK and f != PUBLISH]
 CLIP_FRAMES = 12
 CHAIN_CLIP_DIR = os.path.join(goldens.ROOT, "tests", "files", "clips",
                               "path-small")
@@ -90,20 +94,9 @@ def chain_vars(tmp_path_factory):
     """Palette, map and camera file of the shipped synthetic clip: the
     camera file is what `gst-landmark calibrate floor` writes for the
     synthetic camera (intrinsics plus mounting)."""
-    with open(os.path.join(CHAIN_CLIP_DIR, "scene.json")) as f:
-        cam = json.load(f)["camera"]
-    camera = {
-        calibrate.K_WIDTH: cam["width"], calibrate.K_HEIGHT: cam["height"],
-        calibrate.K_MATRIX: [[cam["fx"], 0.0, cam["cx"]],
-                             [0.0, cam["fy"], cam["cy"]],
-                             [0.0, 0.0, 1.0]],
-        "dist": [0.0] * 5,
-    }
-    mounting = calibrate.FloorResult(cam["height_m"], cam["tilt_deg"],
-                                     cam["roll_deg"], 0.0, (0.0, 0.0))
-    path = str(tmp_path_factory.mktemp("camera") / "camera.yml")
-    calibrate.write_camera_file(path, calibrate.floor_fields(camera,
-                                                             mounting))
+    path = calibrate.scene_camera_file(
+        os.path.join(CHAIN_CLIP_DIR, "scene.json"),
+        tmp_path_factory.mktemp("camera") / "camera.yml")
     calibrate.read_camera_file(path)        # a valid camera file
     return {"PALETTE": os.path.join(CHAIN_CLIP_DIR, "palette.json"),
             "MAP": os.path.join(CHAIN_CLIP_DIR, "map.json"),
@@ -222,8 +215,8 @@ def test_network_pair(gst, tmp_path, chain_vars):
 
 
 def test_every_file_is_tested():
-    assert set(FILES) == set(SINGLE) | set(NETWORK)
-    for name in NETWORK:
+    assert set(FILES) == set(SINGLE) | set(NETWORK) | {PUBLISH}
+    for name in NETWORK + (PUBLISH,):
         assert name in FILES
 
 
@@ -244,6 +237,47 @@ def test_documented(name):
         assert len(rows) == 1, f"{name}: not in docs/pipelines.md"
         for var in variables_of(desc):
             assert var in rows[0], f"{name}: {var} not in docs/pipelines.md"
+
+
+@needs_mosquitto
+def test_publish_pipeline(gst, tmp_path, chain_vars):
+    """publish.pipeline with a finite test source for the camera sends
+    every frame, in order, over TLS to a broker the test starts with
+    certificates made here, and the robot's online and offline status."""
+    desc = goldens.launch_line(os.path.join(PIPELINE_DIR, PUBLISH))
+    assert "tls-ca-file=${BROKER_CA}" in desc
+    ca, cert, key = make_certificates(tmp_path, "publish")
+    broker = Broker(tmp_path, tls=(ca, cert, key)).start()
+    try:
+        sub = Subscriber(broker, ca=ca)
+        try:
+            run_file = tmp_path / PUBLISH
+            run_file.write_text(without_devices(desc, LIVE_FRAMES) + "\n")
+            goldens.run_pipeline_file(
+                str(run_file), dict(chain_vars, HOST="127.0.0.1",
+                                    PORT=broker.port, BROKER_CA=ca,
+                                    ROBOT="r7"), timeout_s=60)
+            assert wait_for(lambda: any(
+                t == "landmark/r7/status" and b'"offline"' in p
+                for t, p, _ in sub.take()), 10)
+        finally:
+            sub.close()
+    finally:
+        broker.stop()
+    got = sub.take()
+    frames = [json.loads(p) for t, p, _ in got if t == "landmark/r7/frame"]
+    assert [f["frame"] for f in frames] == list(range(LIVE_FRAMES))
+    with open(chain_vars["PALETTE"]) as f:
+        names = [c["name"] for c in json.load(f)["classes"]]
+    for f in frames:
+        assert f["robot"] == "r7"
+        assert (f["width"], f["height"]) == (640, 480)
+        assert f["labels"]["classes"] == names
+        # the histogram of every pixel of the frame went out
+        assert sum(f["labels"]["counts"]) == 640 * 480
+    statuses = [json.loads(p)["status"] for t, p, _ in got
+                if t == "landmark/r7/status"]
+    assert statuses == ["online", "offline"]
 
 
 def test_plain_gst_launch(gst, tmp_path, chain_vars):

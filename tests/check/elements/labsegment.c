@@ -1652,16 +1652,20 @@ mentions (const gchar * text, const gchar * path, const gchar * what)
  * the file, and that the debug text names the fault. */
 static void
 check_palette_error (GstBus * bus, GstElement * element, const BadPalette * b,
-    const gchar * path)
+    const gchar * path, GstMessageType type)
 {
-  GstMessage *msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
+  GstMessage *msg = gst_bus_pop_filtered (bus, type);
   GError *err = NULL;
   gchar *debug = NULL;
   guint i;
 
-  fail_unless (msg != NULL, "%s: no error message on the bus", b->file);
+  fail_unless (msg != NULL, "%s: no %s message on the bus", b->file,
+      gst_message_type_get_name (type));
   fail_unless (GST_MESSAGE_SRC (msg) == GST_OBJECT (element));
-  gst_message_parse_error (msg, &err, &debug);
+  if (type == GST_MESSAGE_ERROR)
+    gst_message_parse_error (msg, &err, &debug);
+  else
+    gst_message_parse_warning (msg, &err, &debug);
   GST_INFO ("%s: \"%s\" / \"%s\"", b->file, err->message, debug);
   fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
           GST_RESOURCE_ERROR_SETTINGS), "%s: wrong error %s %d: %s", b->file,
@@ -1694,7 +1698,7 @@ GST_START_TEST (test_bad_palette_fails_start)
       GST_STATE_CHANGE_SUCCESS);
   fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
       GST_STATE_CHANGE_FAILURE);
-  check_palette_error (bus, e, b, path);
+  check_palette_error (bus, e, b, path, GST_MESSAGE_ERROR);
 
   /* fixing the setting is enough to start */
   fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
@@ -1730,11 +1734,17 @@ GST_START_TEST (test_bad_palette_while_playing)
   segment_builtin_pattern_rgb (h, &pic, &templ);
   gst_buffer_unref (gst_harness_push_and_pull (h, gst_buffer_copy (templ)));
 
+  /* a bad palette while playing: a warning, and the frame is segmented
+   * with the previous (built-in) palette */
   g_object_set (h->element, "palette", bad, NULL);
   fail_unless_equals_int (gst_harness_push (h, gst_buffer_copy (templ)),
-      GST_FLOW_ERROR);
-  check_palette_error (bus, h->element, b, bad);
-  fail_unless (gst_harness_try_pull (h) == NULL);
+      GST_FLOW_OK);
+  check_palette_error (bus, h->element, b, bad, GST_MESSAGE_WARNING);
+  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR) == NULL);
+  out = gst_harness_pull (h);
+  fail_unless_equals_int (array_size (labels_meta (out), "class-names"),
+      cfg.palette->n);
+  gst_buffer_unref (out);
 
   /* a good palette again: streaming resumes with it */
   ref_palette_load (PALETTES "good-alt.json", &alt);

@@ -77,6 +77,7 @@ GST_DEBUG_CATEGORY_STATIC (gst_floor_boundary_debug);
 #define DEFAULT_BEARING_BINS 360
 #define DEFAULT_MAX_RANGE 4.0
 #define DEFAULT_POST_MESSAGES FALSE
+#define DEFAULT_MAX_MARKER_LENGTH 0.0
 
 #define MAX_BEARING_BINS 36000
 
@@ -90,6 +91,7 @@ enum
   PROP_BEARING_BINS,
   PROP_MAX_RANGE,
   PROP_POST_MESSAGES,
+  PROP_MAX_MARKER_LENGTH,
 };
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
@@ -109,6 +111,7 @@ struct Settings {
   guint bearing_bins = DEFAULT_BEARING_BINS;
   gdouble max_range = DEFAULT_MAX_RANGE;
   gboolean post_messages = DEFAULT_POST_MESSAGES;
+  gdouble max_marker_length = DEFAULT_MAX_MARKER_LENGTH;
   guint generation = 0;
 };
 
@@ -218,6 +221,7 @@ floor_boundary_parse (const Settings & s, Config * cfg,
   cfg->profile.min_obstacle_rows = (int) s.min_obstacle_rows;
   cfg->profile.bearing_bins = (int) s.bearing_bins;
   cfg->profile.max_range = s.max_range;
+  cfg->profile.max_marker_length = s.max_marker_length;
   cfg->post_messages = s.post_messages;
   return TRUE;
 }
@@ -294,6 +298,9 @@ gst_floor_boundary_set_property (GObject * object, guint prop_id,
     case PROP_POST_MESSAGES:
       s.post_messages = g_value_get_boolean (value);
       break;
+    case PROP_MAX_MARKER_LENGTH:
+      s.max_marker_length = g_value_get_double (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       return;
@@ -329,6 +336,9 @@ gst_floor_boundary_get_property (GObject * object, guint prop_id,
       break;
     case PROP_POST_MESSAGES:
       g_value_set_boolean (value, s.post_messages);
+      break;
+    case PROP_MAX_MARKER_LENGTH:
+      g_value_set_double (value, s.max_marker_length);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -795,6 +805,12 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
       g_param_spec_double ("max-range", "Maximum range",
           "Metres: floor free this far counts as free, farther obstacles "
           "are not reported", 0.0, 1000.0, DEFAULT_MAX_RANGE, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_MARKER_LENGTH,
+      g_param_spec_double ("max-marker-length", "Maximum marker length",
+          "Metres: a run of walked-over marker pixels whose floor points "
+          "span more than this stands up (a landmark ball) and ends the "
+          "floor at its foot; about 1.5 x the landmark discs' diameter; 0: "
+          "off", 0.0, 1000.0, DEFAULT_MAX_MARKER_LENGTH, flags));
   g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
       g_param_spec_boolean ("post-messages", "Post messages",
           "Post a landmark-obstacles element message per frame",

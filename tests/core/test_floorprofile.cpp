@@ -573,6 +573,44 @@ test_seed_model ()
   }
 }
 
+/* max_marker_length: a marker run spanning 0.1 m of floor (a disc) is
+ * walked over, one spanning 0.5 m (a ball's image projected onto the
+ * floor) ends the floor at its lower edge. */
+static void
+test_marker_length ()
+{
+  CameraGeometry g = camera ();
+  FloorProfileParams fp;
+  fp.max_marker_length = 0.15;
+  FloorProfile prof;
+  std::string err;
+  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  LabelRole r[256];
+  roles (r);
+  std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
+  /* rows of the centre column's floor from 1.0 to 1.1 m (left half) and
+   * from 1.0 to 1.5 m (right half) */
+  const int near = (int) std::ceil (row_of_distance (1.0));
+  const int disc_top = (int) std::ceil (row_of_distance (1.1));
+  const int ball_top = (int) std::ceil (row_of_distance (1.5));
+  for (int v = ball_top; v < near; v++)
+    for (int u = 0; u < W; u++)
+      if (u >= W / 2 || v >= disc_top)
+        plane[(size_t) v * W + u] = MARKER;
+  prof.scan (plane.data (), W, r);
+  const ColumnBoundary & disc = prof.columns ()[W / 2 - 1];
+  const ColumnBoundary & ball = prof.columns ()[W / 2];
+  CHECK (disc.state == FreeState::Free, "disc: %s",
+      free_state_name (disc.state));
+  CHECK (ball.state == FreeState::Obstacle && std::fabs (ball.x - 1.0) < 0.01,
+      "ball: %s at %g", free_state_name (ball.state), ball.x);
+  fp.max_marker_length = 0;
+  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  prof.scan (plane.data (), W, r);
+  CHECK (prof.columns ()[W / 2].state == FreeState::Free, "off: %s",
+      free_state_name (prof.columns ()[W / 2].state));
+}
+
 int
 main ()
 {
@@ -583,6 +621,7 @@ main ()
   test_birdseye_grid ();
   test_rolled_camera ();
   test_seed_model ();
+  test_marker_length ();
   bench_scan ();
   if (failures)
     std::fprintf (stderr, "%d failures\n", failures);

@@ -302,6 +302,9 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
   beyond_.assign (padded, 0);
   walking_.assign (padded, 0);
   marker_edge_.assign (w, -1);
+  marker_run_edge_.assign (w, -1);
+  marker_last_row_.assign (w, -2);
+  const float max_marker = (float) params_.max_marker_length;
   end_edge_.assign (w, -1);
   state_.assign (w, FreeState::NotSeen);
   uint8_t obst_of[256], marker_of[256];
@@ -431,9 +434,31 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
       }
     }
     if (any_marker)
-      for (int u = 0; u < w; u++)
-        if (walk[u] && marker_of[row[u]] && !obst[u] && marker_edge_[u] < 0)
+      for (int u = 0; u < w; u++) {
+        if (!walk[u] || !marker_of[row[u]] || obst[u])
+          continue;
+        if (marker_edge_[u] < 0)
           marker_edge_[u] = v + 1;
+        /* a run of marker pixels: where it began, its length on the floor */
+        if (marker_last_row_[u] != v + 1)
+          marker_run_edge_[u] = v + 1;
+        marker_last_row_[u] = v;
+        if (max_marker > 0) {
+          const size_t a = (size_t) marker_run_edge_[u] * w + u;
+          const size_t b = (size_t) v * w + u;
+          const float near = std::hypot (edge_x_[a], edge_y_[a]);
+          const float far = std::isnan (edge_x_[b]) ? INFINITY :
+              std::hypot (edge_x_[b], edge_y_[b]);
+          if (far - near > max_marker) {
+            /* longer on the floor than any landmark lying on it: it stands
+             * up (a ball); the floor ends at its foot */
+            walk[u] = 0;
+            walking--;
+            end_edge_[u] = marker_run_edge_[u];
+            state_[u] = FreeState::Obstacle;
+          }
+        }
+      }
   }
   for (int u = 0; u < w; u++) {
     ColumnBoundary & c = cols_[u];

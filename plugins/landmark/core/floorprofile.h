@@ -75,6 +75,9 @@ struct FloorProfileParams {
                                 * 1..255 rows */
   int bearing_bins = 360;      /* over the full circle, bin 0 ahead */
   double max_range = 4.0;      /* metres */
+  /* a run of walked-over marker pixels longer than this on the floor
+   * (metres) stands up, a ball: it ends the floor at its foot; 0: off */
+  double max_marker_length = 0;
 };
 
 struct ColumnBoundary {
@@ -145,6 +148,7 @@ private:
   std::vector<ColumnBoundary> cols_;
   /* scan's per-column walk state, reused between frames */
   std::vector<int> marker_edge_, end_edge_;
+  std::vector<int> marker_run_edge_, marker_last_row_;
   std::vector<uint8_t> run_, obst_, beyond_, walking_;   /* 16-padded */
   /* columns sorted by stop edge: those of edge e are
    * by_stop_[by_stop_start_[e] .. by_stop_start_[e + 1]) */

@@ -809,7 +809,7 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
       g_param_spec_double ("max-marker-length", "Maximum marker length",
           "Metres: a run of walked-over marker pixels whose floor points "
           "span more than this stands up (a landmark ball) and ends the "
-          "floor at its foot; about 1.5 x the landmark discs' diameter; 0: "
+          "floor at its bulge; about 1.5 x the landmark discs' diameter; 0: "
           "off", 0.0, 1000.0, DEFAULT_MAX_MARKER_LENGTH, flags));
   g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
       g_param_spec_boolean ("post-messages", "Post messages",

@@ -573,9 +573,9 @@ test_seed_model ()
   }
 }
 
-/* max_marker_length: a marker run spanning 0.1 m of floor (a disc) is
- * walked over, one spanning 0.5 m (a ball's image projected onto the
- * floor) ends the floor at its lower edge. */
+/* max_marker_length: a disc (0.1 m across, flat on the floor) is walked
+ * over; a ball (radius 0.08 m, resting 1.0 m ahead), ray-cast here, spans
+ * far more when read as floor: it ends the floor at its bulge, 0.92 m. */
 static void
 test_marker_length ()
 {
@@ -587,28 +587,57 @@ test_marker_length ()
   CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
   LabelRole r[256];
   roles (r);
+  const double bx = 1.0, by = -0.3, br = 0.08;   /* the ball, right */
+  const double dx = 1.0, dy = 0.3, dr = 0.05;    /* the disc, left */
   std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
-  /* rows of the centre column's floor from 1.0 to 1.1 m (left half) and
-   * from 1.0 to 1.5 m (right half) */
-  const int near = (int) std::ceil (row_of_distance (1.0));
-  const int disc_top = (int) std::ceil (row_of_distance (1.1));
-  const int ball_top = (int) std::ceil (row_of_distance (1.5));
-  for (int v = ball_top; v < near; v++)
-    for (int u = 0; u < W; u++)
-      if (u >= W / 2 || v >= disc_top)
+  for (int v = 0; v < H; v++)
+    for (int u = 0; u < W; u++) {
+      double d[3];
+      ray (u, v, d);
+      if (d[2] >= 0)
+        continue;
+      const double t_floor = CAM_H / -d[2];
+      const double fx = t_floor * d[0], fy = t_floor * d[1];
+      /* the sphere: |C + t d - P|^2 = r^2, C = (0, 0, h) */
+      const double o[3] = {-bx, -by, CAM_H - br};
+      const double qa = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      const double qb = 2 * (o[0] * d[0] + o[1] * d[1] + o[2] * d[2]);
+      const double qc = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - br * br;
+      const double disc = qb * qb - 4 * qa * qc;
+      const bool ball = disc >= 0 && (-qb - std::sqrt (disc)) / (2 * qa) <
+          t_floor;
+      if (ball || std::hypot (fx - dx, fy - dy) <= dr)
         plane[(size_t) v * W + u] = MARKER;
+    }
   prof.scan (plane.data (), W, r);
-  const ColumnBoundary & disc = prof.columns ()[W / 2 - 1];
-  const ColumnBoundary & ball = prof.columns ()[W / 2];
-  CHECK (disc.state == FreeState::Free, "disc: %s",
-      free_state_name (disc.state));
-  CHECK (ball.state == FreeState::Obstacle && std::fabs (ball.x - 1.0) < 0.01,
-      "ball: %s at %g", free_state_name (ball.state), ball.x);
+  int disc_cols = 0, ball_cols = 0;
+  double best = 1e9;
+  for (const ColumnBoundary & c : prof.columns ()) {
+    const double bearing = std::atan2 (c.y, c.x);
+    if (std::fabs (bearing - std::atan2 (dy, dx)) < 0.02) {
+      disc_cols++;
+      CHECK (c.state == FreeState::Free, "disc column: %s at %g",
+          free_state_name (c.state), c.range);
+    }
+    if (c.state == FreeState::Obstacle) {
+      ball_cols++;
+      best = std::min (best, (double) c.range);
+    }
+  }
+  const double bulge = std::hypot (bx, by) - br;
+  CHECK (disc_cols > 0 && ball_cols > 0, "%d disc, %d ball columns",
+      disc_cols, ball_cols);
+  CHECK (std::fabs (best - bulge) < 0.01 * bulge, "ball: nearest %g, "
+      "bulge %g", best, bulge);
+  std::printf ("ball r %.2f m at %.3f m: %d columns, nearest %.4f m (bulge "
+      "%.4f m)\n", br, std::hypot (bx, by), ball_cols, best, bulge);
   fp.max_marker_length = 0;
   CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
   prof.scan (plane.data (), W, r);
-  CHECK (prof.columns ()[W / 2].state == FreeState::Free, "off: %s",
-      free_state_name (prof.columns ()[W / 2].state));
+  int obstacles = 0;
+  for (const ColumnBoundary & c : prof.columns ())
+    obstacles += c.state == FreeState::Obstacle;
+  CHECK (obstacles == 0, "off: %d obstacle columns", obstacles);
 }
 
 int

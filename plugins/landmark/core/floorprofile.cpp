@@ -228,6 +228,7 @@ FloorProfile::configure (const CameraGeometry & g,
     return false;
   }
   width_ = w;
+  camera_height_ = g.params ().camera_height;
   height_ = h;
   cols_.assign (w, ColumnBoundary ());
   /* the columns by stop edge (counting sort), for scan's row loop */
@@ -303,6 +304,7 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
   walking_.assign (padded, 0);
   marker_edge_.assign (w, -1);
   marker_run_edge_.assign (w, -1);
+  ball_.assign (w, 0);
   marker_last_row_.assign (w, -2);
   const float max_marker = (float) params_.max_marker_length;
   end_edge_.assign (w, -1);
@@ -456,6 +458,7 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
             walking--;
             end_edge_[u] = marker_run_edge_[u];
             state_[u] = FreeState::Obstacle;
+            ball_[u] = 1;
           }
         }
       }
@@ -491,6 +494,8 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
     if (state == FreeState::Free)
       c.range = max_range;
     c.state = state;
+    if (ball_[u] && state == FreeState::Obstacle)
+      ball_bulge (labels, stride, role, u, end_edge, &c);
     const int me = marker_edge_[u];
     if (me >= 0 && me >= end_edge) {
       const size_t m = (size_t) me * w + u;
@@ -498,6 +503,45 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
     }
   }
   build_rop ();
+}
+
+/* A ball resting on the floor: its foot, where the walk stopped, is the
+ * floor point of the lower tangent ray; the top of its pixel run gives the
+ * upper tangent. Between the two rays lies the ball: the centre on their
+ * bisector, radius r = h / (1 + sin(centre angle) / sin(half angle)) so
+ * that the centre is r above the floor. The robot meets its bulge at
+ * d - r, nearer than the foot. */
+void
+FloorProfile::ball_bulge (const uint8_t * labels, size_t stride,
+    const LabelRole role[256], int u, int foot_edge, ColumnBoundary * c)
+{
+  const int w = width_;
+  int top = foot_edge - 1;      /* the run's rows: top .. foot_edge - 1 */
+  while (top > 0 && role[labels[(size_t) (top - 1) * stride + u]] ==
+      LabelRole::Marker)
+    top--;
+  if (top <= 0)
+    return;                     /* cut by the image's top: no top tangent */
+  const size_t k = (size_t) top * w + u;
+  if (std::isnan (edge_x_[k]))
+    return;                     /* the upper tangent misses the floor */
+  const double h = camera_height_;
+  const double x_foot = c->range, x_top = std::hypot (edge_x_[k],
+      edge_y_[k]);
+  const double a_foot = std::atan2 (h, x_foot), a_top = std::atan2 (h,
+      x_top);
+  const double half = (a_foot - a_top) / 2, mid = (a_foot + a_top) / 2;
+  if (!(half > 0))
+    return;
+  const double r = h / (1 + std::sin (mid) / std::sin (half));
+  const double d = r / std::sin (half) * std::cos (mid);
+  const double bulge = d - r;
+  if (!(bulge > 0 && bulge < x_foot))
+    return;
+  const float scale = (float) (bulge / x_foot);
+  c->x *= scale;
+  c->y *= scale;
+  c->range = (float) bulge;
 }
 
 void

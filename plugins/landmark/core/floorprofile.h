@@ -76,7 +76,8 @@ struct FloorProfileParams {
   int bearing_bins = 360;      /* over the full circle, bin 0 ahead */
   double max_range = 4.0;      /* metres */
   /* a run of walked-over marker pixels longer than this on the floor
-   * (metres) stands up, a ball: it ends the floor at its foot; 0: off */
+   * (metres) stands up, a ball: it ends the floor at its bulge (from the
+   * run's two ends), or at its foot when its top is not seen; 0: off */
   double max_marker_length = 0;
 };
 
@@ -135,9 +136,12 @@ public:
 
 private:
   void build_rop ();
+  void ball_bulge (const uint8_t * labels, size_t stride,
+      const LabelRole role[256], int u, int foot_edge, ColumnBoundary * c);
 
   FloorProfileParams params_;
   int width_ = 0, height_ = 0;
+  double camera_height_ = 0;
   /* (height + 1) x width: x, y of each pixel edge, NaN above the horizon */
   std::vector<float> edge_x_, edge_y_;
   /* per column, walking the edges up from the bottom: the first whose
@@ -149,6 +153,7 @@ private:
   /* scan's per-column walk state, reused between frames */
   std::vector<int> marker_edge_, end_edge_;
   std::vector<int> marker_run_edge_, marker_last_row_;
+  std::vector<uint8_t> ball_;   /* the ball rule ended the column */
   std::vector<uint8_t> run_, obst_, beyond_, walking_;   /* 16-padded */
   /* columns sorted by stop edge: those of edge e are
    * by_stop_[by_stop_start_[e] .. by_stop_start_[e + 1]) */

@@ -18,7 +18,9 @@
  * `markers=detections` walks over marker pixels only inside the boxes of
  * accepted detections (floorboundary after blobroundness): a box of a
  * marker's colour is then an obstacle. `markers=obstacles` makes markers
- * end the floor like any obstacle (landmark balls).
+ * end the floor like any obstacle (landmark balls). With
+ * `max-marker-length`, a run of marker pixels longer than that on the
+ * floor stands up (a ball) and ends the floor at its bulge.
  *
  * Each frame with labels gets a `GstLandmarkFloorMeta` (docs/metadata.md):
  * `width`, `height` (the analysed label plane), `bearing-bins`,

@@ -197,8 +197,13 @@ FloorProfile::configure (const CameraGeometry & g,
   const float nan = std::numeric_limits<float>::quiet_NaN ();
   edge_x_.assign ((size_t) w * (h + 1), nan);
   edge_y_.assign ((size_t) w * (h + 1), nan);
+  edge_down_.assign ((size_t) w * (h + 1), nan);
   for (size_t k = 0; k < rays.size (); k++) {
     double x, y;
+    const Vec3 & d = rays[k];
+    /* below the horizontal, radians (negative above): for balls taller
+     * than the camera, whose upper tangent never meets the floor */
+    edge_down_[k] = (float) std::atan2 (-d.z, std::hypot (d.x, d.y));
     if (g.intersect (rays[k], 0.0, &x, &y)) {
       edge_x_[k] = (float) x;
       edge_y_[k] = (float) y;
@@ -494,8 +499,8 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
     if (state == FreeState::Free)
       c.range = max_range;
     c.state = state;
-    if (ball_[u] && state == FreeState::Obstacle)
-      ball_bulge (labels, stride, role, u, end_edge, &c);
+    if (state == FreeState::Obstacle && params_.max_marker_length > 0)
+      ball_bulge (labels, stride, role, u, end_edge, !ball_[u], &c);
     const int me = marker_edge_[u];
     if (me >= 0 && me >= end_edge) {
       const size_t m = (size_t) me * w + u;
@@ -513,23 +518,45 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
  * d - r, nearer than the foot. */
 void
 FloorProfile::ball_bulge (const uint8_t * labels, size_t stride,
-    const LabelRole role[256], int u, int foot_edge, ColumnBoundary * c)
+    const LabelRole role[256], int u, int foot_edge, bool shaded,
+    ColumnBoundary * c)
 {
   const int w = width_;
-  int top = foot_edge - 1;      /* the run's rows: top .. foot_edge - 1 */
-  while (top > 0 && role[labels[(size_t) (top - 1) * stride + u]] ==
-      LabelRole::Marker)
+  const double max_marker = params_.max_marker_length;
+  auto role_at = [&](int row) {
+    return role[labels[(size_t) row * stride + u]];
+  };
+  auto edge_range = [&](int edge) {
+    const size_t k = (size_t) edge * w + u;
+    return std::isnan (edge_x_[k]) ? INFINITY :
+        std::hypot (edge_x_[k], edge_y_[k]);
+  };
+  int row = foot_edge - 1;
+  if (shaded) {
+    /* the ordinary rule ended the floor: a ball's shaded underside, when
+     * marker pixels follow within max-marker-length of the foot */
+    while (row >= 0 && role_at (row) != LabelRole::Marker) {
+      if (edge_range (row) - c->range > max_marker)
+        return;
+      row--;
+    }
+    if (row < 0)
+      return;
+  }
+  int top = row;                /* the run's rows: top .. foot_edge - 1 */
+  while (top > 0 && role_at (top - 1) == LabelRole::Marker)
     top--;
   if (top <= 0)
     return;                     /* cut by the image's top: no top tangent */
-  const size_t k = (size_t) top * w + u;
-  if (std::isnan (edge_x_[k]))
-    return;                     /* the upper tangent misses the floor */
+  const double x_top = edge_range (top);
+  if (shaded && !(x_top - c->range > max_marker))
+    return;                     /* a disc behind something low */
   const double h = camera_height_;
-  const double x_foot = c->range, x_top = std::hypot (edge_x_[k],
-      edge_y_[k]);
-  const double a_foot = std::atan2 (h, x_foot), a_top = std::atan2 (h,
-      x_top);
+  const double x_foot = c->range;
+  /* the tangent rays' angles below the horizontal (the upper one may
+   * point above it: a ball taller than the camera) */
+  const double a_foot = std::atan2 (h, x_foot);
+  const double a_top = edge_down_[(size_t) top * w + u];
   const double half = (a_foot - a_top) / 2, mid = (a_foot + a_top) / 2;
   if (!(half > 0))
     return;

@@ -137,13 +137,15 @@ public:
 private:
   void build_rop ();
   void ball_bulge (const uint8_t * labels, size_t stride,
-      const LabelRole role[256], int u, int foot_edge, ColumnBoundary * c);
+      const LabelRole role[256], int u, int foot_edge, bool shaded,
+      ColumnBoundary * c);
 
   FloorProfileParams params_;
   int width_ = 0, height_ = 0;
   double camera_height_ = 0;
   /* (height + 1) x width: x, y of each pixel edge, NaN above the horizon */
   std::vector<float> edge_x_, edge_y_;
+  std::vector<float> edge_down_;  /* the edge's ray below the horizontal */
   /* per column, walking the edges up from the bottom: the first whose
    * floor point lies beyond max-range, else the topmost with a floor
    * point (0, or the last below the horizon); -1: no floor at the

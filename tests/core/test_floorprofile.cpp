@@ -631,6 +631,28 @@ test_marker_length ()
       "bulge %g", best, bulge);
   std::printf ("ball r %.2f m at %.3f m: %d columns, nearest %.4f m (bulge "
       "%.4f m)\n", br, std::hypot (bx, by), ball_cols, best, bulge);
+  /* its shaded underside (the lowest 8 rows of each column) labelled no
+   * class: the ordinary rule ends the floor there, the bulge is found */
+  std::vector<uint8_t> shaded = plane;
+  for (int u = 0; u < W; u++) {
+    int seen = 0;
+    for (int v = H - 1; v >= 0; v--) {
+      uint8_t & px = shaded[(size_t) v * W + u];
+      if (px == MARKER && seen < 8 && u > W / 2) {
+        px = NONE;
+        seen++;
+      } else if (seen > 0 && seen < 8) {
+        seen = 8;
+      }
+    }
+  }
+  prof.scan (shaded.data (), W, r);
+  double best_shaded = 1e9;
+  for (const ColumnBoundary & c : prof.columns ())
+    if (c.state == FreeState::Obstacle)
+      best_shaded = std::min (best_shaded, (double) c.range);
+  CHECK (std::fabs (best_shaded - bulge) < 0.01 * bulge, "shaded ball: "
+      "nearest %g, bulge %g", best_shaded, bulge);
   fp.max_marker_length = 0;
   CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
   prof.scan (plane.data (), W, r);

@@ -16,6 +16,7 @@ APT_PACKAGES=(
   gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good
   gstreamer1.0-libav
   python3 python3-venv python3-gi python3-gst-1.0
+  python3-aiohttp
   gir1.2-gstreamer-1.0 gir1.2-gst-plugins-base-1.0
 )
 # what only some commands need (the test command: valgrind, clang)

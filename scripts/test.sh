@@ -9,6 +9,8 @@ set -euo pipefail
 LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} valgrind gstreamer1.0-plugins-ugly"
 # the MQTT broker for tests/python/test_publish.py
 LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT} mosquitto"
+# headless Chromium for tests/python/test_console_browser.py
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT} chromium chromium-driver python3-selenium"
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 status=0

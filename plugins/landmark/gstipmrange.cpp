@@ -978,8 +978,11 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
 
   GstStructure *s;
   if (e.no_floor) {
+    /* every marker's centre is below the camera, so its ray meets its
+     * plane: a blob whose ray does not is no marker (a wall, the sky) */
     s = gst_structure_new (LANDMARK_RANGE_PARAMS,
-        "no-floor", G_TYPE_BOOLEAN, TRUE, nullptr);
+        "no-floor", G_TYPE_BOOLEAN, TRUE, "kept", G_TYPE_BOOLEAN, FALSE,
+        "reject-reason", G_TYPE_STRING, "no-floor", nullptr);
     landmark_detection_add_param (buf, roi, s);
     return;
   }

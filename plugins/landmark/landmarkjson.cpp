@@ -298,6 +298,73 @@ put_labels (std::string & o, const GstStructure * s)
   o += '}';
 }
 
+/* The radial obstacle profile of floorboundary (docs/floorboundary.md):
+ * per bin range, state (0 not seen, 1 free, 2 obstacle, 3 view edge) and
+ * nearest marker range (null: none). The per-column boundary stays in the
+ * meta: 640 points a frame would swamp the log. */
+void
+put_floor (std::string & o, const GstStructure * s)
+{
+  o += ", \"floor\": {";
+  guint bins = 0;
+  gdouble v;
+  gst_structure_get_uint (s, LANDMARK_FLOOR_BEARING_BINS, &bins);
+  o += "\"bearing-bins\": ";
+  put_uint (o, bins);
+  if (gst_structure_get_double (s, LANDMARK_FLOOR_BIN_WIDTH, &v)) {
+    o += ", \"bin-width\": ";
+    put_floating (o, v);
+  }
+  if (gst_structure_get_double (s, LANDMARK_FLOOR_MAX_RANGE, &v)) {
+    o += ", \"max-range\": ";
+    put_floating (o, v);
+  }
+  if (gst_structure_get_double (s, LANDMARK_FLOOR_NEAREST_RANGE, &v)) {
+    o += ", \"nearest-range\": ";
+    put_floating (o, v);
+  }
+  if (gst_structure_get_double (s, LANDMARK_FLOOR_NEAREST_BEARING, &v)) {
+    o += ", \"nearest-bearing\": ";
+    put_floating (o, v);
+  }
+  static const struct
+  {
+    const char *field, *key;
+    bool state, none_below_zero;
+  } arrays[] = {
+    {LANDMARK_FLOOR_ROP_RANGE, ", \"range\": [", false, false},
+    {LANDMARK_FLOOR_ROP_STATE, ", \"state\": [", true, false},
+    {LANDMARK_FLOOR_ROP_MARKER_RANGE, ", \"marker-range\": [", false, true},
+  };
+  for (const auto & a : arrays) {
+    GstBuffer *plane;
+    GstMapInfo map;
+    gsize n;
+    if (!landmark_floor_map_array (s, a.field, a.state ? 1 : sizeof (float),
+            &plane, &map, &n))
+      continue;
+    o += a.key;
+    for (gsize i = 0; i < n; i++) {
+      if (i)
+        o += ", ";
+      if (a.state) {
+        put_uint (o, map.data[i]);
+      } else {
+        float f;
+        memcpy (&f, map.data + i * sizeof (float), sizeof (float));
+        if (a.none_below_zero && f < 0)
+          o += "null";
+        else
+          put_floating (o, f);
+      }
+    }
+    o += ']';
+    gst_buffer_unmap (plane, &map);
+    gst_buffer_unref (plane);
+  }
+  o += '}';
+}
+
 bool
 roi_before (const GstVideoRegionOfInterestMeta * a,
     const GstVideoRegionOfInterestMeta * b)
@@ -497,6 +564,9 @@ put_frame_fields (std::string & o, GstBuffer * buf, guint64 frame,
     o += ", \"landmark_map\": ";
     put_structure (o, map);
   }
+
+  if (const GstStructure * floor = landmark_floor_meta_get (buf))
+    put_floor (o, floor);
 }
 
 }  // namespace landmark_json

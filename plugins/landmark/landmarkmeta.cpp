@@ -109,6 +109,26 @@ pose_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
   return FALSE;
 }
 
+gboolean
+floor_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
+    GstBuffer * src, GQuark type, gpointer data, gpointer)
+{
+  (void) src;
+  (void) data;
+  if (gst_buffer_get_custom_meta (dst, GST_LANDMARK_FLOOR_META_NAME))
+    return TRUE;
+  /* Ranges belong to the frame; the boundary rows refer to the analysed
+   * frame, whose size the meta records (as landmark-blob does): copies and
+   * scaling keep it as it is. */
+  if (GST_META_TRANSFORM_IS_COPY (type) ||
+      GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
+    copy_fields (gst_custom_meta_get_structure (meta),
+        landmark_floor_meta_add (dst));
+    return TRUE;
+  }
+  return FALSE;
+}
+
 /* One meta of each kind per buffer: a later result replaces an earlier one,
  * which readers would otherwise find first. */
 GstStructure *
@@ -236,6 +256,16 @@ gst_landmark_map_meta_get_info (void)
   return info;
 }
 
+const GstMetaInfo *
+gst_landmark_floor_meta_get_info (void)
+{
+  static const gchar *tags[] = { nullptr };
+  static const GstMetaInfo *info = gst_meta_register_custom (
+      GST_LANDMARK_FLOOR_META_NAME, tags, floor_meta_transform, nullptr,
+      nullptr);
+  return info;
+}
+
 void
 landmark_meta_register (void)
 {
@@ -243,6 +273,7 @@ landmark_meta_register (void)
   gst_landmark_labels_meta_get_info ();
   gst_landmark_pose_meta_get_info ();
   gst_landmark_detections_meta_get_info ();
+  gst_landmark_floor_meta_get_info ();
 }
 
 GstStructure *
@@ -454,6 +485,35 @@ const GstStructure *
 landmark_map_meta_get (GstBuffer * buffer)
 {
   return custom_structure (buffer, GST_LANDMARK_MAP_META_NAME);
+}
+
+GstStructure *
+landmark_floor_meta_add (GstBuffer * buffer)
+{
+  gst_landmark_floor_meta_get_info ();
+  return replace_custom_meta (buffer, GST_LANDMARK_FLOOR_META_NAME);
+}
+
+const GstStructure *
+landmark_floor_meta_get (GstBuffer * buffer)
+{
+  return custom_structure (buffer, GST_LANDMARK_FLOOR_META_NAME);
+}
+
+gboolean
+landmark_floor_map_array (const GstStructure * floor, const gchar * field,
+    gsize elem_size, GstBuffer ** plane, GstMapInfo * map, gsize * count)
+{
+  GstBuffer *buf = nullptr;
+  if (!gst_structure_get (floor, field, GST_TYPE_BUFFER, &buf, nullptr))
+    return FALSE;
+  if (!gst_buffer_map (buf, map, GST_MAP_READ)) {
+    gst_buffer_unref (buf);
+    return FALSE;
+  }
+  *plane = buf;
+  *count = map->size / elem_size;
+  return TRUE;
 }
 
 static std::string

@@ -17,6 +17,7 @@ G_BEGIN_DECLS
 #define GST_LANDMARK_POSE_META_NAME "GstLandmarkPoseMeta"
 #define GST_LANDMARK_DETECTIONS_META_NAME "GstLandmarkDetectionsMeta"
 #define GST_LANDMARK_MAP_META_NAME "GstLandmarkMapMeta"
+#define GST_LANDMARK_FLOOR_META_NAME "GstLandmarkFloorMeta"
 
 #define LANDMARK_BLOB_PARAMS "landmark-blob"
 #define LANDMARK_RANGE_PARAMS "landmark-range"
@@ -44,6 +45,7 @@ const GstMetaInfo *gst_landmark_labels_meta_get_info (void);
 const GstMetaInfo *gst_landmark_pose_meta_get_info (void);
 const GstMetaInfo *gst_landmark_detections_meta_get_info (void);
 const GstMetaInfo *gst_landmark_map_meta_get_info (void);
+const GstMetaInfo *gst_landmark_floor_meta_get_info (void);
 
 /* Registers every meta of the contract; called from plugin_init. */
 void landmark_meta_register (void);
@@ -111,6 +113,44 @@ const GstStructure *landmark_pose_meta_get (GstBuffer * buffer);
  * Adds an empty map meta, replacing any the buffer had. */
 GstStructure *landmark_map_meta_add (GstBuffer * buffer);
 const GstStructure *landmark_map_meta_get (GstBuffer * buffer);
+/* Free floor (floorboundary, docs/floorboundary.md): per image column the
+ * floor boundary, per bearing bin the Radial Obstacle Profile. Arrays are
+ * GstBuffers of native-endian float32 or uint8 values. */
+#define LANDMARK_FLOOR_WIDTH "width"                  /* guint, columns */
+#define LANDMARK_FLOOR_HEIGHT "height"                /* guint, rows */
+#define LANDMARK_FLOOR_BEARING_BINS "bearing-bins"    /* guint */
+#define LANDMARK_FLOOR_BIN_WIDTH "bin-width"          /* gdouble, radians */
+#define LANDMARK_FLOOR_MAX_RANGE "max-range"          /* gdouble, metres */
+#define LANDMARK_FLOOR_ROP_RANGE "rop-range"          /* float32 x bins */
+#define LANDMARK_FLOOR_ROP_STATE "rop-state"          /* uint8 x bins */
+#define LANDMARK_FLOOR_ROP_MARKER_RANGE "rop-marker-range"  /* float32 */
+#define LANDMARK_FLOOR_BOUNDARY_ROW "boundary-row"    /* float32 x width */
+#define LANDMARK_FLOOR_BOUNDARY_X "boundary-x"        /* float32 x width */
+#define LANDMARK_FLOOR_BOUNDARY_Y "boundary-y"        /* float32 x width */
+#define LANDMARK_FLOOR_BOUNDARY_STATE "boundary-state"  /* uint8 x width */
+#define LANDMARK_FLOOR_NEAREST_RANGE "nearest-range"  /* gdouble, metres */
+#define LANDMARK_FLOOR_NEAREST_BEARING "nearest-bearing"  /* gdouble */
+
+/* State codes of rop-state and boundary-state. */
+typedef enum
+{
+  LANDMARK_FLOOR_NOT_SEEN = 0,
+  LANDMARK_FLOOR_FREE = 1,
+  LANDMARK_FLOOR_OBSTACLE = 2,
+  LANDMARK_FLOOR_VIEW_EDGE = 3,
+} LandmarkFloorState;
+
+/* Adds an empty floor meta, replacing any the buffer had, and returns its
+ * structure to fill. */
+GstStructure *landmark_floor_meta_add (GstBuffer * buffer);
+const GstStructure *landmark_floor_meta_get (GstBuffer * buffer);
+
+/* Maps an array field of the floor meta for reading: TRUE with *plane (a
+ * new reference, to unmap and unref) and *map; *count elements of
+ * elem_size bytes. */
+gboolean landmark_floor_map_array (const GstStructure * floor,
+    const gchar * field, gsize elem_size, GstBuffer ** plane,
+    GstMapInfo * map, gsize * count);
 
 G_END_DECLS
 

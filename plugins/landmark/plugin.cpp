@@ -4,7 +4,9 @@
 
 #include <gst/gst.h>
 
+#include "gstbirdseye.h"
 #include "gstblobroundness.h"
+#include "gstfloorboundary.h"
 #include "gstipmrange.h"
 #include "gstlabsegment.h"
 #include "gstlandmarklog.h"
@@ -28,6 +30,8 @@ plugin_init (GstPlugin * plugin)
   ok |= GST_ELEMENT_REGISTER (landmarkpublish, plugin);
   ok |= GST_ELEMENT_REGISTER (trilaterate, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarkslam, plugin);
+  ok |= GST_ELEMENT_REGISTER (floorboundary, plugin);
+  ok |= GST_ELEMENT_REGISTER (birdseye, plugin);
   return ok;
 }
 

@@ -19,6 +19,7 @@ command-line handlers turn it into the usual ``gst-landmark: error``.
 """
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -572,6 +573,24 @@ def floor_fields(camera, result):
     fields["roll_deg"] = result.roll_deg
     fields["floor_reprojection_error"] = result.rms
     return fields
+
+
+def scene_camera_file(scene_json, path):
+    """Writes the camera of a synthetic clip (its ``scene.json``) as
+    `gst-landmark calibrate floor` writes a real one: intrinsics, no
+    distortion, the mounting; returns ``path``."""
+    with open(scene_json, encoding="utf-8") as f:
+        cam = json.load(f)["camera"]
+    camera = {
+        K_WIDTH: cam["width"], K_HEIGHT: cam["height"],
+        K_MATRIX: [[cam["fx"], 0.0, cam["cx"]], [0.0, cam["fy"], cam["cy"]],
+                   [0.0, 0.0, 1.0]],
+        "dist": [0.0] * 5,
+    }
+    mounting = FloorResult(cam["height_m"], cam["tilt_deg"],
+                           cam["roll_deg"], 0.0, (0.0, 0.0))
+    write_camera_file(str(path), floor_fields(camera, mounting))
+    return str(path)
 
 
 # ---------------------------------------------------------------------------

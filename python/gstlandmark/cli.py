@@ -269,6 +269,7 @@ COMMANDS = [
     _lazy("record", "add_record_parser"),
     _lazy("fleet", "add_fleet_parser"),
     _lazy("sweep", "add_sweep_parser"),
+    _lazy("console", "add_console_parser"),
 ]
 
 

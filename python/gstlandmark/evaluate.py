@@ -16,6 +16,11 @@
   (``--visible-px``: at least that many pixels, as ``synth`` counts them)
   and by the number of landmarks the pose used; how many frames with that
   many landmarks visible got a pose.
+- Free floor, when the log has ``floor`` (``floorboundary``) and the
+  truth has ``floor`` (a scene with walls or ``--obstacles``): every bin
+  the element saw against the truth's free range (capped at the element's
+  ``max-range``): the share within 3 % or 3 cm, the relative errors, and
+  obstacles reported where the floor is free or missed where it is not.
 - ``--plot OUT.png``: a top-down trajectory plot (truth against estimate,
   with the map's landmarks), drawn with OpenCV.
 """
@@ -69,6 +74,10 @@ class Evaluation:
     frames_with_pose: int = 0
     # one per truth frame: visible landmarks, and the pose when there is one
     pose_rows: List[Dict[str, Any]] = field(default_factory=list)
+    # one per seen bearing bin: (reported range, true free range capped
+    # at max-range, state, true free range, max-range)
+    floor_bins: List[Tuple[float, float, int, float, float]] = field(
+        default_factory=list)
 
 
 def band_name(value: Optional[float], bands: Sequence[float]) -> str:
@@ -199,6 +208,19 @@ def evaluate(results: List[Dict[str, Any]], truth: List[Dict[str, Any]],
                                                require_cut):
                 count(mark["class"], mark.get("range"), "fn")
 
+        floor, free = res.get("floor"), t.get("floor")
+        if floor and free and floor.get("bearing-bins") == \
+                free.get("bearing-bins"):
+            max_range = float(floor.get("max-range", math.inf))
+            for got, state, want in zip(floor.get("range", []),
+                                        floor.get("state", []),
+                                        free.get("free-range", [])):
+                if state == 0 or got is None:
+                    continue        # not seen
+                want = math.inf if want is None else float(want)
+                ev.floor_bins.append((float(got), min(want, max_range),
+                                      int(state), want, max_range))
+
         pose = res.get("pose")
         if "robot" in t:
             robot = t["robot"]
@@ -274,8 +296,26 @@ def summary(ev: Evaluation, bands: Sequence[float] = DEFAULT_BANDS
     for c in ev.by_class.values():
         total.tp, total.fp, total.fn = (total.tp + c.tp, total.fp + c.fp,
                                         total.fn + c.fn)
+    out_floor: Dict[str, Any] = {}
+    if ev.floor_bins:
+        def tol(want):
+            return max(0.03 * want, 0.03)
+        ok = [abs(g - w) <= tol(w) for g, w, _, _, _ in ev.floor_bins]
+        out_floor = {
+            "bins": len(ev.floor_bins),
+            "within_3pct_or_3cm": sum(ok) / len(ok),
+            "error_rel": stats([(g - w) / w for g, w, _, _, _
+                                in ev.floor_bins if w > 0]),
+            # an obstacle where the floor is free to max-range, and free
+            # floor reported beyond a true obstacle
+            "false_obstacles": sum(1 for g, w, st, raw, mr in ev.floor_bins
+                                   if st == 2 and raw > mr + tol(mr)),
+            "missed_obstacles": sum(1 for g, w, st, raw, mr in ev.floor_bins
+                                    if st != 2 and g - w > tol(w)),
+        }
     return {
         "frames": ev.frames,
+        **({"floor": out_floor} if out_floor else {}),
         "detection": {"all": total.as_dict(),
                       "by_class": {k: v.as_dict()
                                    for k, v in sorted(ev.by_class.items())},
@@ -346,6 +386,17 @@ def format_report(s: Dict[str, Any]) -> str:
                     f"{h['p95']:7.3f} {h['max']:7.3f}")
             else:
                 lines.append(f"{head}   0")
+    fl = s.get("floor")
+    if fl:
+        e = fl["error_rel"]
+        lines += ["", f"free floor: {fl['bins']} seen bearing bins, "
+                  f"{100 * fl['within_3pct_or_3cm']:.1f} % within 3 % or "
+                  f"3 cm; |error| rel% median "
+                  f"{100 * e.get('median', 0):.2f} p95 "
+                  f"{100 * e.get('p95', 0):.2f} max "
+                  f"{100 * e.get('max', 0):.2f}; false obstacles "
+                  f"{fl['false_obstacles']}, missed obstacles "
+                  f"{fl['missed_obstacles']}"]
     return "\n".join(lines)
 
 

@@ -252,3 +252,72 @@ def landmark_map(buf: Gst.Buffer) -> Optional[List[MapLandmark]]:
                         confirmed=bool(f["confirmed"][i]),
                         views=int(f["views"][i]))
             for i in range(len(f["ids"]))]
+
+
+FLOOR_META = "GstLandmarkFloorMeta"
+#: rop-state / boundary-state codes (docs/floorboundary.md)
+FLOOR_STATES = ("not-seen", "free", "obstacle", "view-edge")
+
+
+@dataclass
+class FloorMeta:
+    """floorboundary's result: the floor boundary per image column and the
+    radial obstacle profile (ROP) per bearing bin (docs/floorboundary.md).
+    Bin k is centred on bearing k * bin_width (left positive, wrapped)."""
+    width: int                  # columns of the analysed label plane
+    height: int
+    bearing_bins: int
+    bin_width: float            # radians
+    max_range: float            # metres
+    rop_range: np.ndarray       # (bins,) float32, metres; 0 when not seen
+    rop_state: np.ndarray       # (bins,) uint8, index into FLOOR_STATES
+    rop_marker_range: np.ndarray  # (bins,) float32, -1: no marker
+    boundary_row: np.ndarray    # (width,) float32, image row, -1: none
+    boundary_x: np.ndarray      # (width,) float32, metres forward
+    boundary_y: np.ndarray      # (width,) float32, metres left
+    boundary_state: np.ndarray  # (width,) uint8
+    nearest_range: Optional[float] = None
+    nearest_bearing: Optional[float] = None
+
+    def bin_bearing(self, k: int) -> float:
+        """Centre bearing of bin k, radians in (-pi, pi]."""
+        b = k * self.bin_width
+        return b - 2 * np.pi if b > np.pi else b
+
+    def bin_of(self, bearing: float) -> int:
+        """Bin of a bearing (radians, left positive)."""
+        return int(np.floor(bearing / self.bin_width + 0.5)) \
+            % self.bearing_bins
+
+    def state_name(self, k: int) -> str:
+        return FLOOR_STATES[int(self.rop_state[k])]
+
+
+def _floor_array(s: Gst.Structure, name: str, dtype) -> np.ndarray:
+    b = s.get_value(name)
+    data = b.extract_dup(0, b.get_size())
+    return np.frombuffer(data, dtype).copy()
+
+
+def floor(buf: Gst.Buffer) -> Optional[FloorMeta]:
+    """The floor meta of a buffer (floorboundary), or None."""
+    meta = buf.get_custom_meta(FLOOR_META)
+    if meta is None:
+        return None
+    s = meta.get_structure()
+    ok_r, nearest = s.get_double("nearest-range")
+    ok_b, bearing = s.get_double("nearest-bearing")
+    return FloorMeta(
+        width=s.get_value("width"), height=s.get_value("height"),
+        bearing_bins=s.get_value("bearing-bins"),
+        bin_width=s.get_value("bin-width"),
+        max_range=s.get_value("max-range"),
+        rop_range=_floor_array(s, "rop-range", np.float32),
+        rop_state=_floor_array(s, "rop-state", np.uint8),
+        rop_marker_range=_floor_array(s, "rop-marker-range", np.float32),
+        boundary_row=_floor_array(s, "boundary-row", np.float32),
+        boundary_x=_floor_array(s, "boundary-x", np.float32),
+        boundary_y=_floor_array(s, "boundary-y", np.float32),
+        boundary_state=_floor_array(s, "boundary-state", np.uint8),
+        nearest_range=nearest if ok_r else None,
+        nearest_bearing=bearing if ok_b else None)

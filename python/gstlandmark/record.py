@@ -12,7 +12,13 @@ Channels (docs/record.md):
   x, y and rotation-about-z rows and columns;
 - ``/landmark/detections``: JSON (``gst_landmark/Detections``, JSON
   Schema in the file): ``frame``, ``pts`` and landmarklog's
-  ``detections`` array, on every frame.
+  ``detections`` array, on every frame;
+- ``/landmark/floor/scan``: ``sensor_msgs/msg/LaserScan``, when the log
+  has floorboundary's ``floor`` profile: one range per bearing bin, bin 0
+  ahead, counter-clockwise (left positive, as ROS), ``frame_id``
+  ``base_link``; an obstacle at its range, ``+inf`` for free up to
+  ``max-range``, NaN for not seen or free only up to the image's edge
+  (REP 117: no return, no measurement).
 
 Either the command runs the chain on a video (``--input`` with the
 project config, as ``gst-landmark run``) or it converts results written
@@ -37,9 +43,11 @@ from .cli import PROG, CliError
 IMAGE_TOPIC = "/landmark/overlay/compressed"
 POSE_TOPIC = "/landmark/pose"
 DETECTIONS_TOPIC = "/landmark/detections"
+SCAN_TOPIC = "/landmark/floor/scan"
 
 IMAGE_TYPE = "sensor_msgs/msg/CompressedImage"
 POSE_TYPE = "geometry_msgs/msg/PoseWithCovarianceStamped"
+SCAN_TYPE = "sensor_msgs/msg/LaserScan"
 DETECTIONS_SCHEMA = "gst_landmark/Detections"
 
 _SEP = "=" * 80 + "\n"
@@ -77,6 +85,21 @@ POSE_MSGDEF = (
     "float64 y 0\n"
     "float64 z 0\n"
     "float64 w 1\n")
+
+SCAN_MSGDEF = (
+    "std_msgs/Header header\n"
+    "float32 angle_min\n"
+    "float32 angle_max\n"
+    "float32 angle_increment\n"
+    "float32 time_increment\n"
+    "float32 scan_time\n"
+    "float32 range_min\n"
+    "float32 range_max\n"
+    "float32[] ranges\n"
+    "float32[] intensities\n" + _HEADER_DEFS)
+
+# floorboundary's bin states (docs/floorboundary.md)
+_FREE, _OBSTACLE = 1, 2
 
 DETECTIONS_JSON_SCHEMA = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -185,6 +208,26 @@ def pose_message(pose: Dict[str, Any], stamp_ns: int) -> Dict[str, Any]:
     }
 
 
+def scan_message(floor: Dict[str, Any], stamp_ns: int) -> Dict[str, Any]:
+    """A LaserScan from landmarklog's ``floor`` object."""
+    bins = int(floor["bearing-bins"])
+    step = float(floor.get("bin-width", 2 * math.pi / max(bins, 1)))
+    ranges = []
+    for rng, state in zip(floor.get("range", []), floor.get("state", [])):
+        if state == _OBSTACLE:
+            ranges.append(float(rng))
+        elif state == _FREE:
+            ranges.append(math.inf)
+        else:
+            ranges.append(math.nan)
+    return {"header": {"stamp": _stamp(stamp_ns), "frame_id": "base_link"},
+            "angle_min": 0.0, "angle_max": step * (bins - 1),
+            "angle_increment": step, "time_increment": 0.0,
+            "scan_time": 0.0, "range_min": 0.0,
+            "range_max": float(floor.get("max-range", math.inf)),
+            "ranges": ranges, "intensities": []}
+
+
 def _frame_time(line: Dict[str, Any], index: int, fps: float) -> int:
     if isinstance(line.get("pts"), int):
         return line["pts"]
@@ -204,7 +247,9 @@ def write_mcap(out_path: str, lines: List[Dict[str, Any]],
 
     encode_image = serialize_dynamic(IMAGE_TYPE, IMAGE_MSGDEF)[IMAGE_TYPE]
     encode_pose = serialize_dynamic(POSE_TYPE, POSE_MSGDEF)[POSE_TYPE]
-    counts = {IMAGE_TOPIC: 0, POSE_TOPIC: 0, DETECTIONS_TOPIC: 0}
+    encode_scan = serialize_dynamic(SCAN_TYPE, SCAN_MSGDEF)[SCAN_TYPE]
+    counts = {IMAGE_TOPIC: 0, POSE_TOPIC: 0, DETECTIONS_TOPIC: 0,
+              SCAN_TOPIC: 0}
     tmp = out_path + ".part"
     with open(tmp, "wb") as f:
         w = Writer(f)
@@ -224,6 +269,10 @@ def write_mcap(out_path: str, lines: List[Dict[str, Any]],
             DETECTIONS_TOPIC: w.register_channel(
                 DETECTIONS_TOPIC, MessageEncoding.JSON, det_schema),
         }
+        if any(isinstance(x.get("floor"), dict) for x in lines):
+            channels[SCAN_TOPIC] = w.register_channel(
+                SCAN_TOPIC, MessageEncoding.CDR, w.register_schema(
+                    SCAN_TYPE, SchemaEncoding.ROS2, SCAN_MSGDEF.encode()))
 
         def add(topic, t, data):
             w.add_message(channels[topic], log_time=t, publish_time=t,
@@ -249,6 +298,9 @@ def write_mcap(out_path: str, lines: List[Dict[str, Any]],
             pose = line.get("pose")
             if isinstance(pose, dict) and "x" in pose and "heading" in pose:
                 add(POSE_TOPIC, t, encode_pose(pose_message(pose, t)))
+            floor = line.get("floor")
+            if isinstance(floor, dict) and "bearing-bins" in floor:
+                add(SCAN_TOPIC, t, encode_scan(scan_message(floor, t)))
             det = {"frame": line["frame"],
                    "detections": line.get("detections", [])}
             if "pts" in line:
@@ -260,6 +312,8 @@ def write_mcap(out_path: str, lines: List[Dict[str, Any]],
                            f"run")
         w.finish()
     os.replace(tmp, out_path)
+    if SCAN_TOPIC not in channels:
+        del counts[SCAN_TOPIC]      # no floor profile, no channel
     return counts
 
 

@@ -25,7 +25,8 @@ DOCS = os.path.join(SOURCE_ROOT, "docs")
 CLIP = os.path.join(SOURCE_ROOT, "tests", "files", "clips", "path-small")
 
 ELEMENTS = ["labsegment", "blobroundness", "ipmrange", "trilaterate",
-            "landmarkoverlay", "landmarklog", "landmarkpublish"]
+            "landmarkoverlay", "landmarklog", "landmarkpublish",
+            "floorboundary", "birdseye"]
 SKIP = {"name", "parent", "qos"}
 
 # What each element reads and writes (docs/metadata.md); each entry is a set
@@ -44,6 +45,8 @@ METADATA = {
                     {"GstVideoRegionOfInterestMeta", "region-of-interest"},
                     {"GstLandmarkPoseMeta"}],
     "landmarkpublish": [{"landmarklog"}],
+    "floorboundary": [{"GstLandmarkLabelsMeta"}, {"GstLandmarkFloorMeta"}],
+    "birdseye": [{"GstLandmarkFloorMeta", "GstLandmarkPoseMeta"}],
 }
 
 SYMBOLS = {"G_MAXUINT": 4294967295.0, "G_MAXINT": 2147483647.0,

@@ -27,20 +27,9 @@ CLIP_DIR = os.path.join(SOURCE_ROOT, "tests", "files", "clips", "path-small")
 
 @pytest.fixture(scope="module")
 def camera_file(tmp_path_factory):
-    with open(os.path.join(CLIP_DIR, "scene.json")) as f:
-        cam = json.load(f)["camera"]
-    camera = {
-        calibrate.K_WIDTH: cam["width"], calibrate.K_HEIGHT: cam["height"],
-        calibrate.K_MATRIX: [[cam["fx"], 0.0, cam["cx"]],
-                             [0.0, cam["fy"], cam["cy"]],
-                             [0.0, 0.0, 1.0]],
-        "dist": [0.0] * 5,
-    }
-    mounting = calibrate.FloorResult(cam["height_m"], cam["tilt_deg"],
-                                     cam["roll_deg"], 0.0, (0.0, 0.0))
-    path = str(tmp_path_factory.mktemp("camera") / "camera.yml")
-    calibrate.write_camera_file(path, calibrate.floor_fields(camera,
-                                                             mounting))
+    path = calibrate.scene_camera_file(
+        os.path.join(CLIP_DIR, "scene.json"),
+        tmp_path_factory.mktemp("camera") / "camera.yml")
     return path
 
 

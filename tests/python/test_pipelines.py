@@ -94,20 +94,9 @@ def chain_vars(tmp_path_factory):
     """Palette, map and camera file of the shipped synthetic clip: the
     camera file is what `gst-landmark calibrate floor` writes for the
     synthetic camera (intrinsics plus mounting)."""
-    with open(os.path.join(CHAIN_CLIP_DIR, "scene.json")) as f:
-        cam = json.load(f)["camera"]
-    camera = {
-        calibrate.K_WIDTH: cam["width"], calibrate.K_HEIGHT: cam["height"],
-        calibrate.K_MATRIX: [[cam["fx"], 0.0, cam["cx"]],
-                             [0.0, cam["fy"], cam["cy"]],
-                             [0.0, 0.0, 1.0]],
-        "dist": [0.0] * 5,
-    }
-    mounting = calibrate.FloorResult(cam["height_m"], cam["tilt_deg"],
-                                     cam["roll_deg"], 0.0, (0.0, 0.0))
-    path = str(tmp_path_factory.mktemp("camera") / "camera.yml")
-    calibrate.write_camera_file(path, calibrate.floor_fields(camera,
-                                                             mounting))
+    path = calibrate.scene_camera_file(
+        os.path.join(CHAIN_CLIP_DIR, "scene.json"),
+        tmp_path_factory.mktemp("camera") / "camera.yml")
     calibrate.read_camera_file(path)        # a valid camera file
     return {"PALETTE": os.path.join(CHAIN_CLIP_DIR, "palette.json"),
             "MAP": os.path.join(CHAIN_CLIP_DIR, "map.json"),

@@ -29,19 +29,8 @@ def project(tmp_path_factory):
     """A project config for the shipped clip: its palette and map, and
     its camera as `gst-landmark calibrate floor` writes it."""
     folder = tmp_path_factory.mktemp("project")
-    with open(os.path.join(CLIP_DIR, "scene.json")) as f:
-        cam = json.load(f)["camera"]
-    camera = {
-        calibrate.K_WIDTH: cam["width"], calibrate.K_HEIGHT: cam["height"],
-        calibrate.K_MATRIX: [[cam["fx"], 0.0, cam["cx"]],
-                             [0.0, cam["fy"], cam["cy"]],
-                             [0.0, 0.0, 1.0]],
-        "dist": [0.0] * 5,
-    }
-    mounting = calibrate.FloorResult(cam["height_m"], cam["tilt_deg"],
-                                     cam["roll_deg"], 0.0, (0.0, 0.0))
-    calibrate.write_camera_file(str(folder / "camera.yml"),
-                                calibrate.floor_fields(camera, mounting))
+    calibrate.scene_camera_file(os.path.join(CLIP_DIR, "scene.json"),
+                                folder / "camera.yml")
     config = folder / "project.json"
     config.write_text(json.dumps({
         "palette": os.path.join(CLIP_DIR, "palette.json"),
@@ -211,3 +200,34 @@ def test_bad_log_line_is_named(tmp_path):
     with pytest.raises(CliError, match=r"bad.jsonl:2: not JSON"):
         record.record(str(tmp_path / "x.mcap"), log=str(bad),
                       stream=open(os.devnull, "w"))
+
+
+def test_floor_profile_as_laser_scan(tmp_path):
+    # four bins (ahead, left, behind, right): an obstacle 1.5 m ahead,
+    # free to the left, not seen behind, free to the image's edge right
+    log = tmp_path / "floor.jsonl"
+    floor = {"bearing-bins": 4, "bin-width": math.pi / 2, "max-range": 5.0,
+             "range": [1.5, 5.0, 0.0, 2.0], "state": [2, 1, 0, 3],
+             "marker-range": [None, None, None, None]}
+    log.write_text(json.dumps({"frame": 0, "pts": 0, "detections": [],
+                               "floor": floor}) + "\n" +
+                   json.dumps({"frame": 1, "pts": 33333333,
+                               "detections": []}) + "\n")
+    path = tmp_path / "floor.mcap"
+    counts = record.record(str(path), log=str(log),
+                           stream=open(os.devnull, "w"))
+    assert counts[record.SCAN_TOPIC] == 1
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        (schema, channel, _, scan), = reader.iter_decoded_messages(
+            topics=[record.SCAN_TOPIC])
+    assert schema.name == "sensor_msgs/msg/LaserScan"
+    assert scan.header.frame_id == "base_link"
+    assert scan.angle_min == 0.0
+    assert scan.angle_increment == pytest.approx(math.pi / 2)
+    assert scan.range_max == 5.0
+    r = list(scan.ranges)
+    assert r[0] == pytest.approx(1.5) and r[1] == math.inf
+    assert math.isnan(r[2]) and math.isnan(r[3])

@@ -26,19 +26,8 @@ def project(tmp_path_factory):
     (as `gst-landmark calibrate floor` writes it) and a project.json
     naming the palette, the map (absolute) and the camera (relative)."""
     folder = tmp_path_factory.mktemp("project")
-    with open(os.path.join(CLIP_DIR, "scene.json")) as f:
-        cam = json.load(f)["camera"]
-    camera = {
-        calibrate.K_WIDTH: cam["width"], calibrate.K_HEIGHT: cam["height"],
-        calibrate.K_MATRIX: [[cam["fx"], 0.0, cam["cx"]],
-                             [0.0, cam["fy"], cam["cy"]],
-                             [0.0, 0.0, 1.0]],
-        "dist": [0.0] * 5,
-    }
-    mounting = calibrate.FloorResult(cam["height_m"], cam["tilt_deg"],
-                                     cam["roll_deg"], 0.0, (0.0, 0.0))
-    calibrate.write_camera_file(str(folder / "camera.yml"),
-                                calibrate.floor_fields(camera, mounting))
+    calibrate.scene_camera_file(os.path.join(CLIP_DIR, "scene.json"),
+                                folder / "camera.yml")
     config = folder / "project.json"
     config.write_text(json.dumps({
         "palette": os.path.join(CLIP_DIR, "palette.json"),

@@ -85,6 +85,23 @@ def test_score_known_answers():
     assert s["position_median_m"] == pytest.approx(0.05)
 
 
+def test_floor_coloured_classes_are_not_required(tmp_path):
+    # red taught 6 Delta E from the floor (a red floor), blue far from it
+    pal = tmp_path / "palette.json"
+    pal.write_text(json.dumps({"classes": [
+        {"name": "red", "lab": [45.0, 60.0, 40.0], "marker": True},
+        {"name": "blue", "lab": [35.0, 10.0, -50.0], "marker": True},
+        {"name": "green", "lab": [60.0, -50.0, 40.0], "marker": True,
+         "references": [[60.0, -50.0, 40.0], [70.0, 8.0, 6.0]]},
+        {"name": "floor", "lab": [47.0, 56.0, 37.0], "marker": False},
+        {"name": "wall", "lab": [70.0, 0.0, 0.0], "marker": False}]}))
+    # green: its second reference is 10 from the wall
+    assert S.floor_coloured_classes(str(pal)) == ["red", "green"]
+    s = S.summarise(S.score(RESULTS, TRUTH, excluded=["red"]))
+    # the red landmarks are no longer required: L1 twice found, not counted
+    assert (s["tp"], s["fp"], s["fn"]) == (2, 1, 1)
+
+
 def test_halves():
     assert S.variant_numbers(6) == [1, 2, 3, 4, 5, 6]
     assert S.variant_numbers(6, "held-out") == [1, 3, 5]

@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from .camera import Pose
+from .floors import srgb8_to_linear
 from .render import FLOOR, Renderer, renderer
 from .scenarios import Static
 from .world import Landmark, Scene, Walls
@@ -138,7 +139,10 @@ def render_chart(scene, frames_total=None):
     gains = base.gains(lin0, 0.0, stops0, wb0)
 
     swatches = [f for f in scene.floor_names() if f != floor0]
-    cells, wall_x = layout(scene.camera, len(markers) + len(swatches),
+    # a square of each obstacle colour too, flat on the floor
+    boxes = scene.obstacle_colours()
+    cells, wall_x = layout(scene.camera,
+                           len(markers) + len(swatches) + len(boxes),
                            scene.walls is not None)
     discs = [Landmark(f"chart-{name}", name, x, y, 2.0 * r)
              for name, (x, y, r) in zip(markers, cells)]
@@ -166,7 +170,7 @@ def render_chart(scene, frames_total=None):
     mask = remap[geo["mask"]]
     mask[~geo["pure"]] = 0
 
-    if swatches:
+    if swatches or boxes:
         cam = scene.camera
         rot, centre = cam.world_to_camera(CHART_POSE)
         dirs = tracer.pix_dirs @ rot.astype(np.float32)
@@ -184,6 +188,13 @@ def render_chart(scene, frames_total=None):
                 scene.floor_texture(name), dirs[sel], t_floor[sel], centre,
                 1.0)
             flat[sel] = names.index(scene.floor_class_name(name)) + 1
+        for colour, (cx, cy, r) in zip(
+                boxes, cells[len(markers) + len(swatches):]):
+            inside = ((ids == FLOOR) & (flat == floor_value)
+                      & (np.abs(x - cx) <= r) & (np.abs(y - cy) <= r))
+            sel = np.flatnonzero(inside)
+            lin[sel] = srgb8_to_linear(colour)
+            flat[sel] = names.index(scene.obstacle_class_name(colour)) + 1
     rgb = base.finish(lin, gains, 0)
     counts = np.bincount(mask.ravel(), minlength=len(names) + 1)
     info = {"pose": CHART_POSE.to_json(), "floor": floor0,
@@ -193,7 +204,9 @@ def render_chart(scene, frames_total=None):
                        "shape": "disc" if name in markers else "square"}
                       for name, (x, y, r) in zip(
                           markers + [scene.floor_class_name(f)
-                                     for f in swatches], cells)],
+                                     for f in swatches]
+                          + [scene.obstacle_class_name(c) for c in boxes],
+                          cells)],
             "pixels": {name: int(counts[k])
                        for k, name in enumerate(names, start=1)}}
     missing = [name for name, n in info["pixels"].items() if n == 0]

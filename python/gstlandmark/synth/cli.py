@@ -118,6 +118,10 @@ def add_synth_parser(subparsers):
                        help="walls around the field")
     walls.add_argument("--no-walls", dest="walls", action="store_const",
                        const=False)
+    world.add_argument("--obstacles", type=int, metavar="N",
+                       help="N boxes of random size and colour standing "
+                            "in the field, off the camera's path; the "
+                            "truth gains the free floor per bearing")
     world.add_argument("--palette", metavar="FILE",
                        help="landmark colours: the marker classes of this "
                             "palette (default: the built-in palette)")
@@ -178,7 +182,8 @@ def add_synth_parser(subparsers):
 
 
 OVERRIDE_ARGS = ("fps", "hfov_deg", "fx", "fy", "cx", "cy", "height_m",
-                 "tilt_deg", "roll_deg", "floor", "walls", "palette", "map",
+                 "tilt_deg", "roll_deg", "floor", "walls", "obstacles",
+                 "palette", "map",
                  "poses", "pose", "supersample", "jpeg_quality",
                  "noise_sigma", "ball_shading", "exposure_stops",
                  "exposure_drift_stops", "wb_drift", "drift_period_s",

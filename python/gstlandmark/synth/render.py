@@ -18,9 +18,12 @@ import numpy as np
 
 from .camera import Pose, ground_coordinates
 from .floors import linear_to_srgb, srgb8_to_linear
+from .freespace import circle_edges, free_ranges
 
 SKY, FLOOR, WALL = 0, 1, 2
 OBJ0 = 3                      # surface id of object k is OBJ0 + k
+# then obstacle j: OBJ0 + (number of objects) + j
+FLOOR_TRUTH_BINS = 360        # bearing bins of the free-floor truth
 NEAR = 1e-3                   # metres: the near clipping plane
 OUTLINE_POINTS = 48
 CUT_POINTS = 96
@@ -119,7 +122,8 @@ class Renderer:
             + [o for o in objects[:self.n_landmarks] if o.flat]
             + [o for o in objects if not o.flat])
 
-        n_ids = OBJ0 + len(objects)
+        self.obstacle0 = OBJ0 + len(objects)
+        n_ids = self.obstacle0 + len(scene.obstacles)
         self.colours = np.zeros((n_ids, 3), np.float32)
         self.colours[SKY] = srgb8_to_linear(scene.sky_colour)
         self.class_of = np.zeros(n_ids, np.int32)
@@ -129,6 +133,11 @@ class Renderer:
         for o in objects:
             self.colours[OBJ0 + o.index] = o.colour
             self.class_of[OBJ0 + o.index] = o.cls_value
+        for j, ob in enumerate(scene.obstacles):
+            self.colours[self.obstacle0 + j] = srgb8_to_linear(ob.colour)
+            self.class_of[self.obstacle0 + j] = names.index(
+                scene.obstacle_class_name(ob.colour)) + 1
+        self.floor_segments = scene.floor_segments()
         self.floor_value = {
             name: names.index(scene.floor_class_name(name)) + 1
             for name in scene.floor_names()}
@@ -169,6 +178,11 @@ class Renderer:
             t_floor = np.where(dz < 0, -cz / dz, np.inf).astype(np.float32)
         ids = np.where(np.isfinite(t_floor), FLOOR, SKY).astype(np.int32)
         t_cur = t_floor.copy()
+        for j, ob in enumerate(self.scene.obstacles):
+            t = self._box_hit(ob, dirs, centre)
+            ok = t < t_cur
+            t_cur = np.where(ok, t, t_cur)
+            ids[ok] = self.obstacle0 + j
         walls = self.scene.walls
         if walls is None:
             return t_floor, ids, t_cur
@@ -187,6 +201,26 @@ class Renderer:
             t_cur = np.where(ok, t, t_cur)
             ids[ok] = WALL
         return t_floor, ids, t_cur
+
+    @staticmethod
+    def _box_hit(ob, dirs, centre):
+        """Where rays from centre first meet a box standing on the floor
+        (slabs in the box's own axes); inf where they miss it."""
+        c, s = math.cos(ob.angle), math.sin(ob.angle)
+        ox, oy = centre[0] - ob.x, centre[1] - ob.y
+        o = np.array([c * ox + s * oy, -s * ox + c * oy, centre[2]],
+                     np.float32)
+        d = np.stack([c * dirs[:, 0] + s * dirs[:, 1],
+                      -s * dirs[:, 0] + c * dirs[:, 1], dirs[:, 2]], 1)
+        lo = np.array([-ob.size_x / 2, -ob.size_y / 2, 0.0], np.float32)
+        hi = np.array([ob.size_x / 2, ob.size_y / 2, ob.height], np.float32)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1 = (lo - o) / d
+            t2 = (hi - o) / d
+        near = np.nanmax(np.minimum(t1, t2), axis=1)
+        far = np.nanmin(np.maximum(t1, t2), axis=1)
+        hit = (near <= far) & (near > 0)
+        return np.where(hit, near, np.inf).astype(np.float32)
 
     def _outline(self, o, centre, count, circumscribed):
         """World points bounding the object's image: a polygon around the
@@ -426,7 +460,7 @@ class Renderer:
         geo["pure"][cidx] = counts.max(axis=1) == ss2
 
         # coverage and centroids per object, from visible samples
-        on_obj = np.flatnonzero(sids >= OBJ0)
+        on_obj = np.flatnonzero((sids >= OBJ0) & (sids < self.obstacle0))
         n_obj = len(self.objects)
         kk = sids[on_obj] - OBJ0
         p = cidx[on_obj // ss2]
@@ -551,6 +585,21 @@ class Renderer:
                     / (cov + geo["hidden"][o.index])), 4),
             })
         out["landmarks"] = lms
+        if self.scene.obstacles:
+            # the free floor per bearing bin from the camera's floor point
+            # (floorboundary's bins): the nearest wall, obstacle or ball
+            # (the robot must not hit one) in the bin, null when nothing
+            # ends the floor there
+            segs = [self.floor_segments] + [
+                circle_edges(o.x, o.y, o.radius)
+                for o in self.objects[:self.n_landmarks]
+                if o.kind == "ball" and o.present(frame)]
+            free = free_ranges(pose.x, pose.y, pose.heading,
+                               np.concatenate(segs), FLOOR_TRUTH_BINS)
+            out["floor"] = {
+                "bearing-bins": FLOOR_TRUTH_BINS,
+                "free-range": [round(float(r), 5) if np.isfinite(r)
+                               else None for r in free]}
         return out
 
 

@@ -17,17 +17,19 @@ import math
 
 import numpy as np
 
+from gstlandmark import reference
+
 from .camera import Camera, Pose, wrap_angle
 from .floors import FLOOR_NAMES
-from .world import (Distractor, Effects, Landmark, Scene, Segment, Walls,
-                    load_map, marker_palette)
+from .world import (Distractor, Effects, Landmark, Obstacle, Scene,
+                    Segment, Walls, load_map, marker_palette)
 
 CAMERA_KEYS = ("hfov_deg", "fx", "fy", "cx", "cy", "height_m", "tilt_deg",
                "roll_deg")
 EFFECT_KEYS = tuple(Effects().__dict__)
 OVERRIDES = CAMERA_KEYS + EFFECT_KEYS + (
     "fps", "floor", "walls", "palette", "supersample", "map", "poses",
-    "pose")
+    "pose", "obstacles")
 
 
 # -- camera paths ------------------------------------------------------------
@@ -564,6 +566,58 @@ class Offset:
         return {**self.inner.to_json(), "camera_forward_m": self.forward}
 
 
+def place_obstacles(scene, count, frames, seed=0):
+    """``count`` boxes at random in the walled field (or around the
+    landmarks): footprints 0.1-0.4 m, 0.1-0.4 m tall, any angle, any
+    colour at least Delta E 25 from the floor's and every marker's; none
+    within 0.25 m of the camera's path (every frame's pose) or of a
+    landmark, nor overlapping another."""
+    rng = np.random.default_rng([int(seed), 7177])
+    if scene.walls is not None:
+        w = scene.walls
+        x0, y0, x1, y1 = w.x0, w.y0, w.x1, w.y1
+    else:
+        xs = [lm.x for lm in scene.landmarks] or [0.0]
+        ys = [lm.y for lm in scene.landmarks] or [0.0]
+        x0, y0, x1, y1 = min(xs) - 1, min(ys) - 1, max(xs) + 1, max(ys) + 1
+    path = np.array([(p.x, p.y) for p in (
+        scene.trajectory.pose(f / scene.fps) for f in range(frames))]) \
+        if scene.trajectory is not None else np.zeros((0, 2))
+    keep = [np.array([lm.x, lm.y, lm.radius]) for lm in scene.landmarks]
+    avoid = [reference.rgb_to_lab(np.array(
+        scene.marker_srgb8()[n], np.uint8).reshape(1, 1, 3)).reshape(3)
+        for n in scene.palette.names]
+    avoid += [scene.floor_texture(n).mean_lab() for n in scene.floor_names()]
+    out = []
+    for _ in range(count * 200):
+        if len(out) == count:
+            break
+        sx, sy = rng.uniform(0.1, 0.4, 2)
+        half = math.hypot(sx, sy) / 2
+        x = rng.uniform(x0 + half, x1 - half)
+        y = rng.uniform(y0 + half, y1 - half)
+        if len(path) and np.min(np.hypot(path[:, 0] - x,
+                                         path[:, 1] - y)) < half + 0.25:
+            continue
+        if any(math.hypot(k[0] - x, k[1] - y) < half + k[2] + 0.25
+               for k in keep):
+            continue
+        if any(math.hypot(o.x - x, o.y - y) < half + math.hypot(
+                o.size_x, o.size_y) / 2 for o in out):
+            continue
+        colour = tuple(int(c) for c in rng.integers(0, 256, 3))
+        lab = reference.rgb_to_lab(np.array(colour, np.uint8)
+                                   .reshape(1, 1, 3)).reshape(3)
+        if min(np.linalg.norm(lab - np.asarray(a)) for a in avoid) < 25:
+            continue
+        out.append(Obstacle(round(float(x), 4), round(float(y), 4),
+                            round(float(sx), 4), round(float(sy), 4),
+                            round(float(rng.uniform(0.1, 0.4)), 4),
+                            round(float(rng.uniform(0, math.pi)), 4),
+                            colour))
+    return out
+
+
 def build_scenario(name, seed=0, frames=None, size=(640, 480),
                    robot=DEFAULT_ROBOT, variant=None, **overrides):
     """(Scene, frame count) of a named scenario with overrides.
@@ -639,6 +693,9 @@ def build_scenario(name, seed=0, frames=None, size=(640, 480),
                                          s.exposure_stops, s.wb_gains)
                                  for s in segments]
     walls_spec = overrides.pop("walls", "default")
+    n_obstacles = int(overrides.pop("obstacles", 0))
+    if n_obstacles < 0:
+        raise ValueError("obstacles must be >= 0")
     supersample = int(overrides.pop("supersample", 4))
     scene = Scene(camera=camera, palette=palette, fps=fps, seed=int(seed),
                   effects=effects, supersample=supersample, scenario=name,
@@ -648,4 +705,7 @@ def build_scenario(name, seed=0, frames=None, size=(640, 480),
             pass
         else:
             scene = scene.with_(walls=_field_walls(scene, walls_spec))
+    if n_obstacles:
+        scene = scene.with_(obstacles=place_obstacles(
+            scene, n_obstacles, n_frames, seed))
     return scene, n_frames

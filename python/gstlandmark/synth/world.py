@@ -135,6 +135,35 @@ class Walls:
 
 
 @dataclass
+class Obstacle:
+    """A box standing on the floor: a footprint of ``size_x`` by ``size_y``
+    metres centred at (``x``, ``y``), turned by ``angle`` (radians),
+    ``height`` metres tall, of one sRGB ``colour``."""
+
+    x: float
+    y: float
+    size_x: float
+    size_y: float
+    height: float = 0.3
+    angle: float = 0.0
+    colour: Tuple[int, int, int] = (150, 90, 60)
+
+    def edges(self):
+        """The footprint's 4 edges, (4, 2, 2) world metres."""
+        from .freespace import rectangle_edges
+        return rectangle_edges(self.x, self.y, self.size_x, self.size_y,
+                               self.angle)
+
+    def to_json(self):
+        return {"x": round(self.x, 6), "y": round(self.y, 6),
+                "size_x": round(self.size_x, 6),
+                "size_y": round(self.size_y, 6),
+                "height": round(self.height, 6),
+                "angle": round(self.angle, 6),
+                "colour_srgb": list(self.colour)}
+
+
+@dataclass
 class Effects:
     """Camera effects; every one is off at 0 except the defaults noted.
 
@@ -226,6 +255,7 @@ class Scene:
     camera: Camera = field(default_factory=Camera)
     landmarks: List[Landmark] = field(default_factory=list)
     distractors: List[Distractor] = field(default_factory=list)
+    obstacles: List[Obstacle] = field(default_factory=list)
     floor: str = "grey"
     segments: Optional[List[Segment]] = None
     walls: Optional[Walls] = None
@@ -321,6 +351,11 @@ class Scene:
             lab = reference.rgb_to_lab(
                 np.array(self.walls.colour, np.uint8).reshape(1, 1, 3))
             extra.append(("wall", lab.reshape(3).astype(np.float64)))
+        for colour in self.obstacle_colours():
+            lab = reference.rgb_to_lab(
+                np.array(colour, np.uint8).reshape(1, 1, 3))
+            extra.append((self.obstacle_class_name(colour),
+                          lab.reshape(3).astype(np.float64)))
         for name, lab in extra:
             if name in taken:
                 raise ValueError(f"the palette already has a class {name!r}")
@@ -334,6 +369,37 @@ class Scene:
             for c in classes]}, "<scene palette>")
         self._cache[key] = palette
         return palette
+
+    def obstacle_colours(self):
+        """The obstacles' distinct colours, in order of first use."""
+        out = []
+        for ob in self.obstacles:
+            if tuple(ob.colour) not in out:
+                out.append(tuple(ob.colour))
+        return out
+
+    def obstacle_class_name(self, colour):
+        """Class of an obstacle colour: "obstacle", or "obstacle-<k>"
+        (from 1) when the obstacles have several colours."""
+        colours = self.obstacle_colours()
+        if len(colours) == 1:
+            return "obstacle"
+        return f"obstacle-{colours.index(tuple(colour)) + 1}"
+
+    def floor_segments(self):
+        """What ends the floor, as footprint edges (S, 2, 2): the walls
+        and every obstacle."""
+        segs = []
+        w = self.walls
+        if w is not None:
+            corners = [(w.x0, w.y0), (w.x1, w.y0), (w.x1, w.y1),
+                       (w.x0, w.y1)]
+            segs += [(corners[i], corners[(i + 1) % 4]) for i in range(4)]
+        out = np.array(segs, np.float64).reshape(-1, 2, 2)
+        if self.obstacles:
+            out = np.concatenate([out] + [ob.edges()
+                                          for ob in self.obstacles])
+        return out
 
     def marker_srgb8(self):
         """sRGB colour of each marker class, by name."""

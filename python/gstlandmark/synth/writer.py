@@ -186,6 +186,7 @@ def scene_json(scene, frames):
         "palette": palette_json(scene.scene_palette()),
         "map": scene.map_json(),
         "distractors": [d.to_json() for d in scene.distractors],
+        "obstacles": [o.to_json() for o in scene.obstacles],
         "trajectory": (scene.trajectory.to_json()
                        if scene.trajectory is not None else None),
     }

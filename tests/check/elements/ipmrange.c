@@ -164,6 +164,13 @@ GST_START_TEST (test_no_floor)
   fail_if (gst_structure_has_field (r, "range"));
   fail_if (gst_structure_has_field (r, "range-ground"));
   fail_if (gst_structure_has_field (r, "ground-x"));
+  /* above the horizon: no marker, whose centre is below the camera */
+  {
+    gboolean kept = TRUE;
+    fail_unless (gst_structure_get_boolean (r, "kept", &kept) && !kept);
+    fail_unless_equals_string (gst_structure_get_string (r,
+            "reject-reason"), "no-floor");
+  }
   r = range_of (out, 1);
   fail_unless (gst_structure_get_boolean (r, "no-floor", &nf) && !nf);
   gst_buffer_unref (out);

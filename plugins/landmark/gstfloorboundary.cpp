@@ -1,0 +1,840 @@
+/**
+ * SECTION:element-floorboundary
+ * @title: floorboundary
+ *
+ * The free floor in front of the robot, from the class labels `labsegment`
+ * attaches (`GstLandmarkLabelsMeta`): per image column, walking up from the
+ * bottom row, the row where the floor ends (a run of at least
+ * `min-obstacle-rows` pixels of non-floor classes, so specks, texture and
+ * thin shadows do not end it); that point mapped to the floor through the
+ * camera model of `ipmrange` (pinhole, camera file, roll, the seed's
+ * model: the same properties); and the Radial Obstacle Profile (ROP): per
+ * bearing bin, the free range (docs/floorboundary.md).
+ *
+ * The floor is the classes named in `floor-classes` (unset: every class the
+ * palette does not mark as a marker). Marker classes are walked over as
+ * floor (a landmark disc on the floor is not an obstacle); the nearest
+ * marker pixel per bin is reported in `rop-marker-range`.
+ * `markers=detections` walks over marker pixels only inside the boxes of
+ * accepted detections (floorboundary after blobroundness): a box of a
+ * marker's colour is then an obstacle. `markers=obstacles` makes markers
+ * end the floor like any obstacle (landmark balls). With
+ * `max-marker-length`, a run of marker pixels longer than that on the
+ * floor stands up (a ball) and ends the floor at its bulge.
+ *
+ * Each frame with labels gets a `GstLandmarkFloorMeta` (docs/metadata.md):
+ * `width`, `height` (the analysed label plane), `bearing-bins`,
+ * `bin-width` (radians), `max-range` (metres), `rop-range`,
+ * `rop-marker-range` (float32 per bin), `rop-state` (uint8 per bin: 0 not
+ * seen, 1 free up to max-range, 2 obstacle at rop-range, 3 free up to
+ * rop-range where the image ends), `boundary-row`, `boundary-x`,
+ * `boundary-y` (float32 per column: the boundary's image row and floor
+ * point, robot frame), `boundary-state` (uint8 per column),
+ * `nearest-range`, `nearest-bearing` (the nearest obstacle; absent without
+ * one). With `post-messages=true` a `landmark-obstacles` element message
+ * per frame carries `timestamp`, `stream-time`, `running-time`,
+ * `bearing-bins`, `bin-width`, `max-range`, `ranges` and `states` (arrays
+ * per bin) and `nearest-range`, `nearest-bearing`.
+ *
+ * Video passes unchanged and is never mapped. Without a labels meta,
+ * buffers pass untouched and one warning is posted. Every property may
+ * change while playing; a bad value set while playing is reported with a
+ * warning and the previous settings stay in force. Bad settings, a camera
+ * that sees no floor, and labels without a floor class are errors.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 filesrc location=clip.avi ! avidemux ! jpegdec !
+ *     videoconvert ! labsegment ! floorboundary camera-height=0.3 tilt=25
+ *     hfov=60 post-messages=true ! fakesink
+ * ]|
+ */
+
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstfloorboundary.h"
+
+#include <gst/video/video.h>
+
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "fileutil.h"
+#include "floorprofile.h"
+#include "cameraprops.h"
+#include "landmarkmeta.h"
+
+GST_DEBUG_CATEGORY_STATIC (gst_floor_boundary_debug);
+#define GST_CAT_DEFAULT gst_floor_boundary_debug
+
+#define DEFAULT_FLOOR_CLASSES nullptr
+#define DEFAULT_MARKERS GST_FLOOR_BOUNDARY_MARKERS_FLOOR
+#define DEFAULT_MIN_OBSTACLE_ROWS 6
+#define DEFAULT_BEARING_BINS 360
+#define DEFAULT_MAX_RANGE 4.0
+#define DEFAULT_POST_MESSAGES FALSE
+#define DEFAULT_MAX_MARKER_LENGTH 0.0
+
+#define MAX_BEARING_BINS 36000
+
+enum
+{
+  PROP_0,
+  PROP_CAMERA_FIRST,            /* cameraprops.h: CAMERA_PROP_COUNT ids */
+  PROP_FLOOR_CLASSES = PROP_CAMERA_FIRST + CAMERA_PROP_COUNT,
+  PROP_MARKERS,
+  PROP_MIN_OBSTACLE_ROWS,
+  PROP_BEARING_BINS,
+  PROP_MAX_RANGE,
+  PROP_POST_MESSAGES,
+  PROP_MAX_MARKER_LENGTH,
+};
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
+    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
+    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+
+/* *INDENT-OFF* */
+namespace {
+
+struct Settings {
+  landmark::CameraSettings camera;
+  std::string floor_classes;    /* empty: every non-marker class */
+  GstFloorBoundaryMarkers markers = DEFAULT_MARKERS;
+  guint min_obstacle_rows = DEFAULT_MIN_OBSTACLE_ROWS;
+  guint bearing_bins = DEFAULT_BEARING_BINS;
+  gdouble max_range = DEFAULT_MAX_RANGE;
+  gboolean post_messages = DEFAULT_POST_MESSAGES;
+  gdouble max_marker_length = DEFAULT_MAX_MARKER_LENGTH;
+  guint generation = 0;
+};
+
+/* Settings checked, with the camera file read. */
+struct Config {
+  landmark::CameraSetup camera;
+  std::vector<std::string> floor_classes;
+  GstFloorBoundaryMarkers markers = DEFAULT_MARKERS;
+  landmark::FloorProfileParams profile;
+  bool post_messages = false;
+};
+
+struct State {
+  Config config;
+  guint generation = G_MAXUINT;
+  guint warned_generation = G_MAXUINT;
+  landmark::CameraGeometry geometry;
+  landmark::FloorProfile profile;
+  guint built_w = 0, built_h = 0;     /* what profile was built for */
+
+  /* label -> role, rebuilt when the palette or the classes change */
+  std::vector<std::string> palette_names;
+  std::vector<bool> palette_markers;
+  landmark::LabelRole role[256];
+  bool roles_valid = false;
+
+  std::vector<landmark::MarkerBox> marker_boxes;   /* markers=detections */
+  gint video_width = 0, video_height = 0;   /* from the caps, 0: unknown */
+
+  bool warned_no_meta = false;
+  bool warned_bad_plane = false;
+};
+
+}  // namespace
+
+struct GstFloorBoundaryPrivate {
+  std::mutex lock;              /* guards settings */
+  Settings settings;
+  State state;
+};
+
+struct _GstFloorBoundary {
+  GstBaseTransform parent;
+  GstFloorBoundaryPrivate *priv;
+};
+/* *INDENT-ON* */
+
+G_DEFINE_TYPE_WITH_CODE (GstFloorBoundary, gst_floor_boundary,
+    GST_TYPE_BASE_TRANSFORM,
+    GST_DEBUG_CATEGORY_INIT (gst_floor_boundary_debug, "floorboundary", 0,
+        "Floor boundary and radial obstacle profile"));
+GST_ELEMENT_REGISTER_DEFINE (floorboundary, "floorboundary", GST_RANK_NONE,
+    GST_TYPE_FLOOR_BOUNDARY);
+
+GType
+gst_floor_boundary_markers_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {GST_FLOOR_BOUNDARY_MARKERS_FLOOR, "Marker pixels are walked over as "
+          "floor and reported in rop-marker-range", "floor"},
+    {GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS, "Marker pixels are floor "
+          "inside the boxes of accepted detections, obstacles elsewhere",
+        "detections"},
+    {GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES, "Marker pixels end the floor "
+          "like any obstacle", "obstacles"},
+    {0, nullptr, nullptr},
+  };
+  if (g_once_init_enter (&type)) {
+    GType t = g_enum_register_static ("GstFloorBoundaryMarkers", values);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
+
+/* ---- configuration -------------------------------------------------- */
+
+static gboolean
+floor_boundary_parse (const Settings & s, Config * cfg,
+    const char **property, std::string * why)
+{
+  *cfg = Config ();
+  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera, property,
+          why))
+    return FALSE;
+  if (!s.floor_classes.empty ()) {
+    gchar **parts = g_strsplit (s.floor_classes.c_str (), ",", -1);
+    for (gchar ** p = parts; *p; p++) {
+      gchar *name = g_strstrip (*p);
+      if (!*name) {
+        g_strfreev (parts);
+        *property = "floor-classes";
+        *why = "empty class name in \"" + s.floor_classes + "\"";
+        return FALSE;
+      }
+      cfg->floor_classes.emplace_back (name);
+    }
+    g_strfreev (parts);
+  }
+  if (!(s.max_range > 0)) {
+    *property = "max-range";
+    *why = "the range must be positive, got " +
+        landmark::number_text (s.max_range);
+    return FALSE;
+  }
+  cfg->markers = s.markers;
+  cfg->profile.min_obstacle_rows = (int) s.min_obstacle_rows;
+  cfg->profile.bearing_bins = (int) s.bearing_bins;
+  cfg->profile.max_range = s.max_range;
+  cfg->profile.max_marker_length = s.max_marker_length;
+  cfg->post_messages = s.post_messages;
+  return TRUE;
+}
+
+/* Builds the geometry and the profile's tables for a plane size. FALSE
+ * with *property and *why. */
+static gboolean
+floor_boundary_build (const Config & cfg, guint w, guint h,
+    landmark::CameraGeometry * geometry, landmark::FloorProfile * profile,
+    const char **property, std::string * why)
+{
+  landmark::CameraParams p;
+  if (!landmark::camera_setup_params (cfg.camera, (int) w, (int) h, &p,
+          property, why))
+    return FALSE;
+  *property = cfg.camera.e.seed ? "model" : "tilt";
+  if (!geometry->configure (p, why))
+    return FALSE;
+  if (!profile->configure (*geometry, cfg.profile, why)) {
+    *why += " (" + std::to_string (w) + "x" + std::to_string (h) + ")";
+    return FALSE;
+  }
+  return TRUE;
+}
+
+/* ---- GObject -------------------------------------------------------- */
+
+static void
+gst_floor_boundary_init (GstFloorBoundary * self)
+{
+  self->priv = new GstFloorBoundaryPrivate ();
+  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
+  gst_base_transform_set_in_place (trans, TRUE);
+  /* a measuring element never drops late frames */
+  gst_base_transform_set_qos_enabled (trans, FALSE);
+}
+
+static void
+gst_floor_boundary_finalize (GObject * object)
+{
+  delete GST_FLOOR_BOUNDARY (object)->priv;
+  G_OBJECT_CLASS (gst_floor_boundary_parent_class)->finalize (object);
+}
+
+static void
+gst_floor_boundary_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  auto priv = GST_FLOOR_BOUNDARY (object)->priv;
+  std::lock_guard<std::mutex> lk (priv->lock);
+  Settings & s = priv->settings;
+  if (camera_props_set (&s.camera, PROP_CAMERA_FIRST, prop_id, value)) {
+    s.generation++;
+    return;
+  }
+  switch (prop_id) {
+    case PROP_FLOOR_CLASSES:{
+      const gchar *v = g_value_get_string (value);
+      s.floor_classes = v ? v : "";
+      break;
+    }
+    case PROP_MARKERS:
+      s.markers = (GstFloorBoundaryMarkers) g_value_get_enum (value);
+      break;
+    case PROP_MIN_OBSTACLE_ROWS:
+      s.min_obstacle_rows = g_value_get_uint (value);
+      break;
+    case PROP_BEARING_BINS:
+      s.bearing_bins = g_value_get_uint (value);
+      break;
+    case PROP_MAX_RANGE:
+      s.max_range = g_value_get_double (value);
+      break;
+    case PROP_POST_MESSAGES:
+      s.post_messages = g_value_get_boolean (value);
+      break;
+    case PROP_MAX_MARKER_LENGTH:
+      s.max_marker_length = g_value_get_double (value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      return;
+  }
+  s.generation++;
+}
+
+static void
+gst_floor_boundary_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  auto priv = GST_FLOOR_BOUNDARY (object)->priv;
+  std::lock_guard<std::mutex> lk (priv->lock);
+  const Settings & s = priv->settings;
+  if (camera_props_get (s.camera, PROP_CAMERA_FIRST, prop_id, value))
+    return;
+  switch (prop_id) {
+    case PROP_FLOOR_CLASSES:
+      g_value_set_string (value, s.floor_classes.empty ()? nullptr :
+          s.floor_classes.c_str ());
+      break;
+    case PROP_MARKERS:
+      g_value_set_enum (value, s.markers);
+      break;
+    case PROP_MIN_OBSTACLE_ROWS:
+      g_value_set_uint (value, s.min_obstacle_rows);
+      break;
+    case PROP_BEARING_BINS:
+      g_value_set_uint (value, s.bearing_bins);
+      break;
+    case PROP_MAX_RANGE:
+      g_value_set_double (value, s.max_range);
+      break;
+    case PROP_POST_MESSAGES:
+      g_value_set_boolean (value, s.post_messages);
+      break;
+    case PROP_MAX_MARKER_LENGTH:
+      g_value_set_double (value, s.max_marker_length);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+}
+
+/* ---- states --------------------------------------------------------- */
+
+static GstStateChangeReturn
+gst_floor_boundary_change_state (GstElement * element,
+    GstStateChange transition)
+{
+  auto self = GST_FLOOR_BOUNDARY (element);
+  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
+    /* bad settings and camera files fail READY, as in ipmrange */
+    Settings s;
+    {
+      std::lock_guard<std::mutex> lk (self->priv->lock);
+      s = self->priv->settings;
+    }
+    Config cfg;
+    const char *property = nullptr;
+    std::string why;
+    if (!floor_boundary_parse (s, &cfg, &property, &why)) {
+      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+      return GST_STATE_CHANGE_FAILURE;
+    }
+  }
+  return GST_ELEMENT_CLASS (gst_floor_boundary_parent_class)->change_state
+      (element, transition);
+}
+
+static gboolean
+gst_floor_boundary_start (GstBaseTransform * trans)
+{
+  auto self = GST_FLOOR_BOUNDARY (trans);
+  State & st = self->priv->state;
+  Settings s;
+  {
+    std::lock_guard<std::mutex> lk (self->priv->lock);
+    s = self->priv->settings;
+  }
+  const char *property = nullptr;
+  std::string why;
+  Config cfg;
+  if (!floor_boundary_parse (s, &cfg, &property, &why)) {
+    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+        ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+    return FALSE;
+  }
+  st.config = std::move (cfg);
+  st.generation = s.generation;
+  st.warned_generation = G_MAXUINT;
+  st.built_w = st.built_h = 0;
+  st.roles_valid = false;
+  st.palette_names.clear ();
+  st.palette_markers.clear ();
+  st.warned_no_meta = false;
+  st.warned_bad_plane = false;
+  return TRUE;
+}
+
+static gboolean
+gst_floor_boundary_stop (GstBaseTransform * trans)
+{
+  State & st = GST_FLOOR_BOUNDARY (trans)->priv->state;
+  st.built_w = st.built_h = 0;
+  st.roles_valid = false;
+  return TRUE;
+}
+
+static gboolean
+gst_floor_boundary_set_caps (GstBaseTransform * trans, GstCaps * incaps,
+    GstCaps * outcaps)
+{
+  State & st = GST_FLOOR_BOUNDARY (trans)->priv->state;
+  (void) outcaps;
+  GstVideoInfo info;
+  /* any caps; the size only scales detection boxes to the label plane */
+  if (gst_video_info_from_caps (&info, incaps)) {
+    st.video_width = GST_VIDEO_INFO_WIDTH (&info);
+    st.video_height = GST_VIDEO_INFO_HEIGHT (&info);
+  } else {
+    st.video_width = st.video_height = 0;
+  }
+  return TRUE;
+}
+
+/* ---- streaming ------------------------------------------------------ */
+
+/* Brings the state up to date with settings changed while running. A bad
+ * value (or a camera that then sees no floor) is reported once with a
+ * warning and the previous settings stay in force. */
+static void
+gst_floor_boundary_sync_settings (GstFloorBoundary * self)
+{
+  State & st = self->priv->state;
+  Settings s;
+  {
+    std::lock_guard<std::mutex> lk (self->priv->lock);
+    if (self->priv->settings.generation == st.generation)
+      return;
+    s = self->priv->settings;
+  }
+  const char *property = nullptr;
+  std::string why;
+  Config cfg;
+  bool ok = floor_boundary_parse (s, &cfg, &property, &why);
+  landmark::CameraGeometry geometry;
+  landmark::FloorProfile profile;
+  if (ok && st.built_w > 0)
+    ok = floor_boundary_build (cfg, st.built_w, st.built_h, &geometry,
+        &profile, &property, &why);
+  if (!ok) {
+    if (st.warned_generation != s.generation) {
+      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+          ("Invalid '%s' value; keeping the previous settings.", property),
+          ("%s", why.c_str ()));
+      st.warned_generation = s.generation;
+    }
+    return;
+  }
+  if (cfg.floor_classes != st.config.floor_classes ||
+      cfg.markers != st.config.markers)
+    st.roles_valid = false;
+  st.config = std::move (cfg);
+  st.generation = s.generation;
+  if (st.built_w > 0) {
+    st.geometry = std::move (geometry);
+    st.profile = std::move (profile);
+  }
+  GST_INFO_OBJECT (self, "settings changed");
+}
+
+/* The role of each label for this frame's palette. FALSE (error posted)
+ * on an unknown class or when no class is floor. */
+static gboolean
+gst_floor_boundary_update_roles (GstFloorBoundary * self,
+    const GstStructure * labels)
+{
+  State & st = self->priv->state;
+  const guint n = MIN (landmark_labels_n_classes (labels), 255u);
+  bool same = st.roles_valid && st.palette_names.size () == n;
+  for (guint k = 0; same && k < n; k++) {
+    const gchar *name = landmark_labels_class_name (labels, k);
+    same = name && st.palette_names[k] == name &&
+        st.palette_markers[k] == (bool) landmark_labels_class_is_marker
+        (labels, k);
+  }
+  if (same)
+    return TRUE;
+  st.palette_names.clear ();
+  st.palette_markers.clear ();
+  for (guint k = 0; k < n; k++) {
+    const gchar *name = landmark_labels_class_name (labels, k);
+    st.palette_names.emplace_back (name ? name : "");
+    st.palette_markers.push_back (landmark_labels_class_is_marker (labels,
+            k));
+  }
+  std::string known;
+  for (const auto & name : st.palette_names)
+    known += (known.empty ()? "" : ", ") + name;
+  /* label 0 (no class) and labels beyond the palette: not floor */
+  for (auto & r : st.role)
+    r = landmark::LabelRole::Obstacle;
+  const Config & cfg = st.config;
+  const landmark::LabelRole marker_role =
+      cfg.markers == GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES ?
+      landmark::LabelRole::Obstacle : landmark::LabelRole::Marker;
+  guint floors = 0;
+  for (guint k = 0; k < n; k++) {
+    if (st.palette_markers[k]) {
+      st.role[k + 1] = marker_role;
+    } else if (cfg.floor_classes.empty ()) {
+      st.role[k + 1] = landmark::LabelRole::Floor;
+      floors++;
+    }
+  }
+  for (const std::string & want : cfg.floor_classes) {
+    guint k = 0;
+    while (k < n && st.palette_names[k] != want)
+      k++;
+    if (k == n) {
+      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+          ("Invalid 'floor-classes' value: no class \"%s\" in the labels.",
+              want.c_str ()), ("the palette has: %s", known.c_str ()));
+      return FALSE;
+    }
+    st.role[k + 1] = landmark::LabelRole::Floor;
+    floors++;
+  }
+  if (floors == 0) {
+    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+        ("No floor class: every class of the labels is a marker; set "
+            "'floor-classes'."), ("the palette has: %s", known.c_str ()));
+    return FALSE;
+  }
+  st.roles_valid = true;
+  return TRUE;
+}
+
+/* A new buffer of n values of T, filled by fill (T *) while mapped. */
+template <typename T, typename Fill>
+static GstBuffer *
+array_buffer (gsize n, Fill fill)
+{
+  GstBuffer *b = gst_buffer_new_allocate (nullptr, n * sizeof (T), nullptr);
+  GstMapInfo map;
+  if (gst_buffer_map (b, &map, GST_MAP_WRITE)) {
+    fill ((T *) map.data);
+    gst_buffer_unmap (b, &map);
+  }
+  return b;
+}
+
+static void
+gst_floor_boundary_attach (GstFloorBoundary * self, GstBuffer * buf)
+{
+  State & st = self->priv->state;
+  const landmark::FloorProfile & prof = st.profile;
+  const auto & cols = prof.columns ();
+  const auto & bins = prof.bins ();
+  const guint w = prof.width (), nb = bins.size ();
+  double nearest = -1, nearest_bearing = 0;
+  for (guint k = 0; k < nb; k++)
+    if (bins[k].state == landmark::FreeState::Obstacle &&
+        (nearest < 0 || bins[k].range < nearest)) {
+      nearest = bins[k].range;
+      nearest_bearing = prof.bin_bearing (k);
+    }
+  GstStructure *s = landmark_floor_meta_add (buf);
+  if (!s)
+    return;
+  /* written straight into the meta's buffers: no other per-frame copy */
+  GstBuffer *b[7] = {
+    array_buffer<float> (nb, [&](float *o) {
+          for (guint k = 0; k < nb; k++) o[k] = bins[k].range;}),
+    array_buffer<guint8> (nb, [&](guint8 * o) {
+          for (guint k = 0; k < nb; k++) o[k] = (guint8) bins[k].state;}),
+    array_buffer<float> (nb, [&](float *o) {
+          for (guint k = 0; k < nb; k++) o[k] = bins[k].marker_range;}),
+    array_buffer<float> (w, [&](float *o) {
+          for (guint u = 0; u < w; u++) o[u] = cols[u].row;}),
+    array_buffer<float> (w, [&](float *o) {
+          for (guint u = 0; u < w; u++) o[u] = cols[u].x;}),
+    array_buffer<float> (w, [&](float *o) {
+          for (guint u = 0; u < w; u++) o[u] = cols[u].y;}),
+    array_buffer<guint8> (w, [&](guint8 * o) {
+          for (guint u = 0; u < w; u++) o[u] = (guint8) cols[u].state;}),
+  };
+  gst_structure_set (s,
+      LANDMARK_FLOOR_WIDTH, G_TYPE_UINT, w,
+      LANDMARK_FLOOR_HEIGHT, G_TYPE_UINT, (guint) prof.height (),
+      LANDMARK_FLOOR_BEARING_BINS, G_TYPE_UINT, nb,
+      LANDMARK_FLOOR_BIN_WIDTH, G_TYPE_DOUBLE, 2 * M_PI / nb,
+      LANDMARK_FLOOR_MAX_RANGE, G_TYPE_DOUBLE, prof.params ().max_range,
+      LANDMARK_FLOOR_ROP_RANGE, GST_TYPE_BUFFER, b[0],
+      LANDMARK_FLOOR_ROP_STATE, GST_TYPE_BUFFER, b[1],
+      LANDMARK_FLOOR_ROP_MARKER_RANGE, GST_TYPE_BUFFER, b[2],
+      LANDMARK_FLOOR_BOUNDARY_ROW, GST_TYPE_BUFFER, b[3],
+      LANDMARK_FLOOR_BOUNDARY_X, GST_TYPE_BUFFER, b[4],
+      LANDMARK_FLOOR_BOUNDARY_Y, GST_TYPE_BUFFER, b[5],
+      LANDMARK_FLOOR_BOUNDARY_STATE, GST_TYPE_BUFFER, b[6], nullptr);
+  for (GstBuffer * x : b)
+    gst_buffer_unref (x);
+  if (nearest >= 0)
+    gst_structure_set (s,
+        LANDMARK_FLOOR_NEAREST_RANGE, G_TYPE_DOUBLE, nearest,
+        LANDMARK_FLOOR_NEAREST_BEARING, G_TYPE_DOUBLE, nearest_bearing,
+        nullptr);
+
+  if (!st.config.post_messages)
+    return;
+  GstBaseTransform *trans = GST_BASE_TRANSFORM_CAST (self);
+  const GstClockTime ts = GST_BUFFER_PTS (buf);
+  GValue ranges = G_VALUE_INIT, states = G_VALUE_INIT;
+  gst_value_array_init (&ranges, nb);
+  gst_value_array_init (&states, nb);
+  for (guint k = 0; k < nb; k++) {
+    GValue v = G_VALUE_INIT;
+    g_value_init (&v, G_TYPE_DOUBLE);
+    g_value_set_double (&v, bins[k].range);
+    gst_value_array_append_and_take_value (&ranges, &v);
+    GValue t = G_VALUE_INIT;
+    g_value_init (&t, G_TYPE_UINT);
+    g_value_set_uint (&t, (guint) bins[k].state);
+    gst_value_array_append_and_take_value (&states, &t);
+  }
+  GstStructure *m = gst_structure_new ("landmark-obstacles",
+      "timestamp", G_TYPE_UINT64, ts,
+      "stream-time", G_TYPE_UINT64,
+      gst_segment_to_stream_time (&trans->segment, GST_FORMAT_TIME, ts),
+      "running-time", G_TYPE_UINT64,
+      gst_segment_to_running_time (&trans->segment, GST_FORMAT_TIME, ts),
+      "bearing-bins", G_TYPE_UINT, nb,
+      "bin-width", G_TYPE_DOUBLE, 2 * M_PI / nb,
+      "max-range", G_TYPE_DOUBLE, prof.params ().max_range, nullptr);
+  gst_structure_take_value (m, "ranges", &ranges);
+  gst_structure_take_value (m, "states", &states);
+  if (nearest >= 0)
+    gst_structure_set (m, "nearest-range", G_TYPE_DOUBLE, nearest,
+        "nearest-bearing", G_TYPE_DOUBLE, nearest_bearing, nullptr);
+  gst_element_post_message (GST_ELEMENT_CAST (self),
+      gst_message_new_element (GST_OBJECT_CAST (self), m));
+}
+
+/* The boxes of the accepted detections (not rejected by any stage), in
+ * pixels of the label plane, one pixel wider on each side. */
+static void
+gst_floor_boundary_marker_boxes (GstFloorBoundary * self, GstBuffer * buf,
+    guint plane_w, guint plane_h)
+{
+  State & st = self->priv->state;
+  st.marker_boxes.clear ();
+  const double sx = st.video_width > 0 ? (double) plane_w / st.video_width :
+      1.0;
+  const double sy = st.video_height > 0 ? (double) plane_h /
+      st.video_height : 1.0;
+  gpointer iter = nullptr;
+  GstMeta *meta;
+  while ((meta = gst_buffer_iterate_meta_filtered (buf, &iter,
+              GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE))) {
+    auto roi = (GstVideoRegionOfInterestMeta *) meta;
+    const gchar *element = nullptr, *reason = nullptr;
+    if (landmark_detection_rejected (buf, roi, &element, &reason))
+      continue;
+    landmark::MarkerBox b;
+    b.u0 = (int) std::floor (roi->x * sx) - 1;
+    b.v0 = (int) std::floor (roi->y * sy) - 1;
+    b.u1 = (int) std::ceil ((roi->x + roi->w) * sx) + 1;
+    b.v1 = (int) std::ceil ((roi->y + roi->h) * sy) + 1;
+    st.marker_boxes.push_back (b);
+  }
+}
+
+static GstFlowReturn
+gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
+    const GstStructure * labels)
+{
+  State & st = self->priv->state;
+  GstBuffer *plane = nullptr;
+  guint w = 0, h = 0, stride = 0;
+  const bool have = landmark_labels_get_plane (labels, &plane, &w, &h,
+      &stride);
+  if (!have || w < 2 || h < 2) {
+    if (have)
+      gst_buffer_unref (plane);
+    if (!st.warned_bad_plane) {
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
+          ("The labels metadata has no usable label plane."),
+          ("missing or inconsistent plane fields, or smaller than 2x2; "
+              "buffers pass unmeasured"));
+      st.warned_bad_plane = true;
+    }
+    return GST_FLOW_OK;
+  }
+  if (!gst_floor_boundary_update_roles (self, labels)) {
+    gst_buffer_unref (plane);
+    return GST_FLOW_ERROR;
+  }
+  if (w != st.built_w || h != st.built_h) {
+    const char *property = nullptr;
+    std::string why;
+    if (!floor_boundary_build (st.config, w, h, &st.geometry, &st.profile,
+            &property, &why)) {
+      gst_buffer_unref (plane);
+      st.built_w = st.built_h = 0;
+      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
+          ("Invalid camera geometry for %ux%u ('%s').", w, h, property),
+          ("%s", why.c_str ()));
+      return GST_FLOW_ERROR;
+    }
+    st.built_w = w;
+    st.built_h = h;
+    GST_INFO_OBJECT (self, "tables built for %ux%u", w, h);
+  }
+  GstMapInfo map;
+  if (!gst_buffer_map (plane, &map, GST_MAP_READ)) {
+    gst_buffer_unref (plane);
+    GST_ELEMENT_ERROR (self, STREAM, FAILED,
+        ("Could not read the label plane."), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  const std::vector<landmark::MarkerBox> *boxes = nullptr;
+  if (st.config.markers == GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS) {
+    gst_floor_boundary_marker_boxes (self, buf, w, h);
+    boxes = &st.marker_boxes;
+  }
+  st.profile.scan (map.data, stride, st.role, boxes);
+  gst_buffer_unmap (plane, &map);
+  gst_buffer_unref (plane);
+  gst_floor_boundary_attach (self, buf);
+  return GST_FLOW_OK;
+}
+
+static GstFlowReturn
+gst_floor_boundary_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
+{
+  auto self = GST_FLOOR_BOUNDARY (trans);
+  State & st = self->priv->state;
+  gst_floor_boundary_sync_settings (self);
+  const GstStructure *labels = landmark_labels_meta_get (buf);
+  if (!labels) {
+    if (!st.warned_no_meta) {
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
+          ("No class labels on the video: floorboundary needs labsegment "
+              "upstream."),
+          ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
+              GST_LANDMARK_LABELS_META_NAME, buf));
+      st.warned_no_meta = true;
+    }
+    return GST_FLOW_OK;
+  }
+  try {
+    return gst_floor_boundary_process (self, buf, labels);
+  }
+  catch (const std::exception & e) {
+    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Floor boundary failed."),
+        ("%s", e.what ()));
+    return GST_FLOW_ERROR;
+  }
+}
+
+static void
+gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
+{
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
+
+  gobject_class->set_property = gst_floor_boundary_set_property;
+  gobject_class->get_property = gst_floor_boundary_get_property;
+  gobject_class->finalize = gst_floor_boundary_finalize;
+
+  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
+      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
+  /* the camera: ipmrange's properties, the same meanings */
+  camera_props_install (gobject_class, PROP_CAMERA_FIRST, flags);
+  /* the floor */
+  g_object_class_install_property (gobject_class, PROP_FLOOR_CLASSES,
+      g_param_spec_string ("floor-classes", "Floor classes",
+          "Comma-separated class names that are floor (unset: every class "
+          "the palette does not mark as a marker)", DEFAULT_FLOOR_CLASSES,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_MARKERS,
+      g_param_spec_enum ("markers", "Markers",
+          "What pixels of marker classes are for the walk: floor (landmark "
+          "discs lie on it), floor only inside accepted detections (put "
+          "floorboundary after blobroundness), or obstacles (landmark "
+          "balls)", GST_TYPE_FLOOR_BOUNDARY_MARKERS, DEFAULT_MARKERS, flags));
+  g_object_class_install_property (gobject_class, PROP_MIN_OBSTACLE_ROWS,
+      g_param_spec_uint ("min-obstacle-rows", "Minimum obstacle rows",
+          "Rows of non-floor pixels in a column, one above the other, that "
+          "end the floor; shorter runs (specks, texture, thin shadows) do "
+          "not", 1, 255, DEFAULT_MIN_OBSTACLE_ROWS, flags));
+  g_object_class_install_property (gobject_class, PROP_BEARING_BINS,
+      g_param_spec_uint ("bearing-bins", "Bearing bins",
+          "Bins of the radial obstacle profile over the full circle; bin 0 "
+          "straight ahead, bin k at k * 360 / bearing-bins degrees to the "
+          "left", 1, MAX_BEARING_BINS, DEFAULT_BEARING_BINS, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_RANGE,
+      g_param_spec_double ("max-range", "Maximum range",
+          "Metres: floor free this far counts as free, farther obstacles "
+          "are not reported", 0.0, 1000.0, DEFAULT_MAX_RANGE, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_MARKER_LENGTH,
+      g_param_spec_double ("max-marker-length", "Maximum marker length",
+          "Metres: a run of walked-over marker pixels whose floor points "
+          "span more than this stands up (a landmark ball) and ends the "
+          "floor at its bulge; about 1.5 x the landmark discs' diameter; 0: "
+          "off", 0.0, 1000.0, DEFAULT_MAX_MARKER_LENGTH, flags));
+  g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
+      g_param_spec_boolean ("post-messages", "Post messages",
+          "Post a landmark-obstacles element message per frame",
+          DEFAULT_POST_MESSAGES, flags));
+
+  gst_element_class_set_static_metadata (element_class,
+      "Floor boundary", "Filter/Analyzer/Video",
+      "Finds where the floor ends in every image column of labsegment's "
+      "labels, maps it to the floor and attaches the radial obstacle "
+      "profile (free range per bearing) as metadata",
+      "gst-landmark developers");
+  gst_element_class_add_static_pad_template (element_class, &sink_template);
+  gst_element_class_add_static_pad_template (element_class, &src_template);
+
+  element_class->change_state =
+      GST_DEBUG_FUNCPTR (gst_floor_boundary_change_state);
+  trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
+  trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);
+  trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
+  trans_class->transform_ip =
+      GST_DEBUG_FUNCPTR (gst_floor_boundary_transform_ip);
+
+  gst_type_mark_as_plugin_api (GST_TYPE_FLOOR_BOUNDARY_MARKERS,
+      (GstPluginAPIFlags) 0);
+}

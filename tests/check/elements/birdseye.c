@@ -1,0 +1,258 @@
+/* Unit tests of birdseye: output size and scale, a line on the floor at a
+ * known distance (its image row from the pinhole model written out here),
+ * strides of odd widths, the frame's metadata kept and image metadata
+ * dropped, bad settings, and the cost of a 640x480 -> 400x400 remap. */
+
+#include <gst/check/gstcheck.h>
+#include <gst/check/gstharness.h>
+#include <gst/video/video.h>
+
+#include <math.h>
+#include <string.h>
+#include <time.h>
+
+#define CAM_H 0.3
+#define TILT 25.0
+#define HFOV 60.0
+
+/* Image row (pixel centres) of the floor at distance x ahead, centre
+ * column, for a w x h frame. */
+static gdouble
+row_of_distance (gdouble x, guint w, guint h)
+{
+  const gdouble f = (w / 2.0) / tan (HFOV / 2 * G_PI / 180);
+  return (h - 1) / 2.0 + f * tan (atan2 (CAM_H, x) - TILT * G_PI / 180);
+}
+
+/* An RGB frame, grey floor, with a white band of image rows covering the
+ * floor from x0 to x1 metres ahead. Rows are padded (stride > 3 w). */
+static GstBuffer *
+frame_with_band (const GstVideoInfo * info, gdouble x0, gdouble x1)
+{
+  const guint w = GST_VIDEO_INFO_WIDTH (info), h = GST_VIDEO_INFO_HEIGHT
+      (info);
+  const gint stride = GST_VIDEO_INFO_PLANE_STRIDE (info, 0);
+  GstBuffer *buf = gst_buffer_new_allocate (NULL, info->size, NULL);
+  GstMapInfo map;
+  const gdouble v0 = row_of_distance (x1, w, h), v1 = row_of_distance (x0,
+      w, h);
+  guint u, v;
+  gst_buffer_map (buf, &map, GST_MAP_WRITE);
+  memset (map.data, 0, map.size);
+  for (v = 0; v < h; v++)
+    for (u = 0; u < w; u++) {
+      guint8 *px = map.data + (gsize) v * stride + 3 * u;
+      const guint8 c = (v >= v0 && v <= v1) ? 250 : 100;
+      px[0] = px[1] = px[2] = c;
+    }
+  gst_buffer_unmap (buf, &map);
+  return buf;
+}
+
+static GstHarness *
+harness_new (const gchar * props, guint w, guint h)
+{
+  gchar *desc = g_strdup_printf ("birdseye camera-height=0.3 tilt=25 "
+      "hfov=60 %s", props ? props : "");
+  gchar *caps = g_strdup_printf ("video/x-raw,format=RGB,width=%u,"
+      "height=%u,framerate=30/1", w, h);
+  GError *err = NULL;
+  GstElement *e = gst_parse_launch (desc, &err);
+  GstHarness *hr;
+  fail_unless (e != NULL, "%s: %s", desc, err ? err->message : "?");
+  hr = gst_harness_new_with_element (e, "sink", "src");
+  gst_object_unref (e);
+  gst_harness_set_src_caps_str (hr, caps);
+  g_free (caps);
+  g_free (desc);
+  return hr;
+}
+
+static guint8
+pixel (GstBuffer * out, const GstVideoInfo * info, guint i, guint j)
+{
+  GstMapInfo map;
+  guint8 v;
+  gst_buffer_map (out, &map, GST_MAP_READ);
+  v = map.data[(gsize) j * GST_VIDEO_INFO_PLANE_STRIDE (info, 0) + 3 * i];
+  gst_buffer_unmap (out, &map);
+  return v;
+}
+
+/* A band of floor from 1.9 to 2.1 m shows as output rows 400 - 100 x:
+ * rows 190..209 white, rows outside it grey, and the same across the
+ * view (a straight line). Odd input width: strides. */
+GST_START_TEST (test_band_at_two_metres)
+{
+  const guint sizes[][2] = { {640, 480}, {321, 241} };
+  guint k;
+  for (k = 0; k < G_N_ELEMENTS (sizes); k++) {
+    const guint w = sizes[k][0], h = sizes[k][1];
+    GstHarness *hr = harness_new (NULL, w, h);
+    GstVideoInfo in, out_info;
+    GstBuffer *out;
+    GstCaps *caps;
+    guint i;
+    gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, w, h);
+    out = gst_harness_push_and_pull (hr, frame_with_band (&in, 1.9, 2.1));
+    caps = gst_pad_get_current_caps (hr->sinkpad);
+    fail_unless (gst_video_info_from_caps (&out_info, caps));
+    gst_caps_unref (caps);
+    fail_unless_equals_int (GST_VIDEO_INFO_WIDTH (&out_info), 400);
+    fail_unless_equals_int (GST_VIDEO_INFO_HEIGHT (&out_info), 400);
+    for (i = 150; i <= 250; i += 10) {
+      /* 2.05 m and 1.95 m: inside the band; 2.3 and 1.7 m: floor */
+      fail_unless (pixel (out, &out_info, i, 195) > 200, "%ux%u col %u", w,
+          h, i);
+      fail_unless (pixel (out, &out_info, i, 204) > 200);
+      fail_unless (abs (pixel (out, &out_info, i, 170) - 100) < 5);
+      fail_unless (abs (pixel (out, &out_info, i, 230) - 100) < 5);
+    }
+    /* the floor right under the camera is out of view: black */
+    fail_unless_equals_int (pixel (out, &out_info, 200, 399), 0);
+    gst_buffer_unref (out);
+    gst_harness_teardown (hr);
+  }
+}
+
+GST_END_TEST;
+
+/* pixels-per-metre and the extents set the size and the scale */
+GST_START_TEST (test_scale_and_extent)
+{
+  GstHarness *hr = harness_new ("pixels-per-metre=50 forward=3 behind=1 "
+      "side=1.5", 640, 480);
+  GstVideoInfo in, out_info;
+  GstBuffer *out;
+  GstCaps *caps;
+  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, 640, 480);
+  out = gst_harness_push_and_pull (hr, frame_with_band (&in, 1.9, 2.1));
+  caps = gst_pad_get_current_caps (hr->sinkpad);
+  fail_unless (gst_video_info_from_caps (&out_info, caps));
+  gst_caps_unref (caps);
+  fail_unless_equals_int (GST_VIDEO_INFO_WIDTH (&out_info), 150);
+  fail_unless_equals_int (GST_VIDEO_INFO_HEIGHT (&out_info), 200);
+  /* the camera's floor point is 1 m (50 px) above the bottom: 2 m ahead
+   * is row 200 - 50 - 100 = 50 */
+  fail_unless (pixel (out, &out_info, 75, 49) > 200);
+  fail_unless (pixel (out, &out_info, 75, 51) > 200);
+  fail_unless (abs (pixel (out, &out_info, 75, 40) - 100) < 5);
+  gst_buffer_unref (out);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+/* The frame's results travel with it; the label plane (pixel
+ * coordinates of the camera image) does not. */
+GST_START_TEST (test_metadata)
+{
+  GstHarness *hr = harness_new (NULL, 64, 48);
+  GstVideoInfo in;
+  GstBuffer *buf, *out;
+  GstCustomMeta *m;
+  gdouble x = 0;
+  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, 64, 48);
+  buf = frame_with_band (&in, 1, 2);
+  m = gst_buffer_add_custom_meta (buf, "GstLandmarkPoseMeta");
+  fail_unless (m != NULL);
+  gst_structure_set (gst_custom_meta_get_structure (m), "x", G_TYPE_DOUBLE,
+      1.25, NULL);
+  m = gst_buffer_add_custom_meta (buf, "GstLandmarkLabelsMeta");
+  fail_unless (m != NULL);
+  out = gst_harness_push_and_pull (hr, buf);
+  m = gst_buffer_get_custom_meta (out, "GstLandmarkPoseMeta");
+  fail_unless (m != NULL);
+  fail_unless (gst_structure_get_double (gst_custom_meta_get_structure (m),
+          "x", &x));
+  fail_unless_equals_float (x, 1.25);
+  fail_unless (gst_buffer_get_custom_meta (out, "GstLandmarkLabelsMeta") ==
+      NULL);
+  gst_buffer_unref (out);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+static void
+check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
+{
+  GstElement *e = gst_element_factory_make ("birdseye", NULL);
+  GstBus *bus = gst_bus_new ();
+  GstMessage *msg;
+  GError *err = NULL;
+  gst_util_set_object_arg (G_OBJECT (e), prop, value);
+  gst_element_set_bus (e, bus);
+  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
+      GST_STATE_CHANGE_FAILURE);
+  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
+  fail_unless (msg != NULL);
+  gst_message_parse_error (msg, &err, NULL);
+  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
+          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
+  fail_unless (strstr (err->message, named) != NULL, "%s", err->message);
+  g_clear_error (&err);
+  gst_message_unref (msg);
+  gst_element_set_state (e, GST_STATE_NULL);
+  gst_element_set_bus (e, NULL);
+  gst_object_unref (bus);
+  gst_object_unref (e);
+}
+
+GST_START_TEST (test_bad_properties)
+{
+  check_bad_start ("side", "0", "'side'");
+  check_bad_start ("forward", "0", "'forward'");
+  check_bad_start ("tilt", "-45", "'tilt'");
+  check_bad_start ("calibration", "/nonexistent/camera.yaml",
+      "'calibration'");
+}
+
+GST_END_TEST;
+
+/* 640x480 -> 400x400 RGB, per frame; printed, not asserted. */
+GST_START_TEST (test_cost_640x480)
+{
+  GstHarness *hr = harness_new (NULL, 640, 480);
+  GstVideoInfo in;
+  GstBuffer *buf;
+  const guint n = 300;
+  gint64 t0;
+  gdouble cpu0, cpu1;
+  guint i;
+  struct timespec ts;
+  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, 640, 480);
+  buf = frame_with_band (&in, 1, 2);
+  for (i = 0; i < 10; i++)
+    gst_buffer_unref (gst_harness_push_and_pull (hr, gst_buffer_ref (buf)));
+  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
+  cpu0 = ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
+  t0 = g_get_monotonic_time ();
+  for (i = 0; i < n; i++)
+    gst_buffer_unref (gst_harness_push_and_pull (hr, gst_buffer_ref (buf)));
+  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
+  cpu1 = ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
+  g_print ("birdseye 640x480 RGB -> 400x400: %.1f us per frame wall-clock, "
+      "%.1f us CPU\n", (g_get_monotonic_time () - t0) / (gdouble) n,
+      (cpu1 - cpu0) / n);
+  gst_buffer_unref (buf);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+static Suite *
+birdseye_suite (void)
+{
+  Suite *s = suite_create ("birdseye");
+  TCase *tc = tcase_create ("general");
+  suite_add_tcase (s, tc);
+  tcase_add_test (tc, test_band_at_two_metres);
+  tcase_add_test (tc, test_scale_and_extent);
+  tcase_add_test (tc, test_metadata);
+  tcase_add_test (tc, test_bad_properties);
+  tcase_add_test (tc, test_cost_640x480);
+  return s;
+}
+
+GST_CHECK_MAIN (birdseye);

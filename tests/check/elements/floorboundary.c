@@ -1,0 +1,530 @@
+/* Unit tests of floorboundary.
+ *
+ * Label planes are drawn here and attached by hand as a
+ * GstLandmarkLabelsMeta. The expected ranges come from the pinhole model
+ * written out in this file (range = h / tan (tilt + atan ((v - cy) / f))
+ * for the centre column), never from the element's own code. */
+
+#include <gst/check/gstcheck.h>
+#include <gst/check/gstharness.h>
+#include <gst/video/video.h>
+
+#include <math.h>
+#include <string.h>
+#include <time.h>
+
+#define LABELS_META "GstLandmarkLabelsMeta"
+#define FLOOR_META "GstLandmarkFloorMeta"
+
+enum
+{ NONE, RED, GREEN, YELLOW, PINK, BLUE, WHITE, GREY };
+
+static const gchar *names7[] = { "red", "green", "yellow", "pink", "blue",
+  "white", "grey"
+};
+
+static const gboolean markers7[] = { TRUE, TRUE, TRUE, TRUE, TRUE, FALSE,
+  FALSE
+};
+
+#define W 640
+#define H 480
+#define CAM_H 0.3
+#define TILT 25.0
+#define HFOV 60.0
+
+static gdouble
+focal (void)
+{
+  return (W / 2.0) / tan (HFOV / 2 * G_PI / 180);
+}
+
+/* Floor distance ahead of the edge above row `edge` in the centre. */
+static gdouble
+edge_distance (guint edge)
+{
+  const gdouble below = TILT * G_PI / 180 +
+      atan ((edge - 0.5 - (H - 1) / 2.0) / focal ());
+  return CAM_H / tan (below);
+}
+
+static void
+set_array (GstStructure * s, const gchar * field, GType type,
+    gconstpointer values, guint n)
+{
+  GValue a = G_VALUE_INIT;
+  guint i;
+  gst_value_array_init (&a, n);
+  for (i = 0; i < n; i++) {
+    GValue x = G_VALUE_INIT;
+    g_value_init (&x, type);
+    if (type == G_TYPE_STRING)
+      g_value_set_string (&x, ((const gchar **) values)[i]);
+    else
+      g_value_set_boolean (&x, ((const gboolean *) values)[i]);
+    gst_value_array_append_and_take_value (&a, &x);
+  }
+  gst_structure_take_value (s, field, &a);
+}
+
+static GstBuffer *
+frame_with_labels (const guint8 * plane, guint w, guint h,
+    const gchar ** names, const gboolean * markers, guint n)
+{
+  GstBuffer *buf = gst_buffer_new_allocate (NULL, (gsize) w * h, NULL);
+  GstCustomMeta *m;
+  GstStructure *s;
+  GstBuffer *pb;
+  gst_buffer_memset (buf, 0, 0x55, (gsize) w * h);
+  m = gst_buffer_add_custom_meta (buf, LABELS_META);
+  fail_unless (m != NULL, LABELS_META " is not registered");
+  s = gst_custom_meta_get_structure (m);
+  pb = gst_buffer_new_memdup (plane, (gsize) w * h);
+  gst_structure_set (s, "labels", GST_TYPE_BUFFER, pb,
+      "width", G_TYPE_UINT, w, "height", G_TYPE_UINT, h,
+      "stride", G_TYPE_UINT, w, "analysis-width", G_TYPE_UINT, w,
+      "analysis-height", G_TYPE_UINT, h, NULL);
+  gst_buffer_unref (pb);
+  set_array (s, "class-names", G_TYPE_STRING, names, n);
+  set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
+  return buf;
+}
+
+static GstHarness *
+harness_new (const gchar * props)
+{
+  gchar *desc = g_strdup_printf ("floorboundary camera-height=0.3 tilt=25 "
+      "hfov=60 %s", props ? props : "");
+  GError *err = NULL;
+  GstElement *e = gst_parse_launch (desc, &err);
+  GstHarness *hr;
+  fail_unless (e != NULL, "%s: %s", desc, err ? err->message : "?");
+  hr = gst_harness_new_with_element (e, "sink", "src");
+  gst_object_unref (e);
+  gst_harness_set_src_caps_str (hr, "video/x-raw,format=GRAY8,width=640,"
+      "height=480,framerate=30/1");
+  g_free (desc);
+  return hr;
+}
+
+/* The floor's arrays, copied out. */
+typedef struct
+{
+  guint bins, width;
+  gfloat range[3600], marker[3600];
+  guint8 state[3600];
+  gfloat row[W], x[W], y[W];
+  guint8 bstate[W];
+  gdouble max_range, nearest;
+} Floor;
+
+static void
+copy_array (const GstStructure * s, const gchar * field, gpointer dst,
+    gsize bytes)
+{
+  GstBuffer *b = NULL;
+  fail_unless (gst_structure_get (s, field, GST_TYPE_BUFFER, &b, NULL),
+      "no %s", field);
+  fail_unless_equals_int (gst_buffer_get_size (b), bytes);
+  gst_buffer_extract (b, 0, dst, bytes);
+  gst_buffer_unref (b);
+}
+
+static void
+floor_read (GstBuffer * out, Floor * f)
+{
+  GstCustomMeta *m = gst_buffer_get_custom_meta (out, FLOOR_META);
+  const GstStructure *s;
+  fail_unless (m != NULL, "no " FLOOR_META);
+  s = gst_custom_meta_get_structure (m);
+  fail_unless (gst_structure_get_uint (s, "bearing-bins", &f->bins));
+  fail_unless (gst_structure_get_uint (s, "width", &f->width));
+  fail_unless (gst_structure_get_double (s, "max-range", &f->max_range));
+  fail_unless (f->bins <= 3600 && f->width <= W);
+  copy_array (s, "rop-range", f->range, f->bins * 4);
+  copy_array (s, "rop-marker-range", f->marker, f->bins * 4);
+  copy_array (s, "rop-state", f->state, f->bins);
+  copy_array (s, "boundary-row", f->row, f->width * 4);
+  copy_array (s, "boundary-x", f->x, f->width * 4);
+  copy_array (s, "boundary-y", f->y, f->width * 4);
+  copy_array (s, "boundary-state", f->bstate, f->width);
+  f->nearest = -1;
+  gst_structure_get_double (s, "nearest-range", &f->nearest);
+}
+
+static guint8 *
+plane_floor_below (guint edge, guint8 floor_label, guint8 above)
+{
+  guint8 *p = g_malloc ((gsize) W * H);
+  memset (p, above, (gsize) W * edge);
+  memset (p + (gsize) W * edge, floor_label, (gsize) W * (H - edge));
+  return p;
+}
+
+static GstBuffer *
+push (GstHarness * hr, const guint8 * plane)
+{
+  GstBuffer *out = gst_harness_push_and_pull (hr, frame_with_labels (plane,
+          W, H, names7, markers7, G_N_ELEMENTS (names7)));
+  fail_unless (out != NULL);
+  return out;
+}
+
+static guint
+count_messages (GstBus * bus, GstMessageType type, GError ** first)
+{
+  GstMessage *msg;
+  guint n = 0;
+  while ((msg = gst_bus_pop_filtered (bus, type))) {
+    if (n == 0 && first) {
+      if (type == GST_MESSAGE_WARNING)
+        gst_message_parse_warning (msg, first, NULL);
+      else
+        gst_message_parse_error (msg, first, NULL);
+    }
+    n++;
+    gst_message_unref (msg);
+  }
+  return n;
+}
+
+/* A wall straight ahead: white above a grey floor. Bin 0 and the centre
+ * column see it at h / tan of the edge's angle. */
+GST_START_TEST (test_wall_straight_ahead)
+{
+  GstHarness *hr = harness_new ("floor-classes=grey");
+  const guint edges[] = { 70, 160, 300 };
+  guint i;
+  for (i = 0; i < G_N_ELEMENTS (edges); i++) {
+    guint8 *p = plane_floor_below (edges[i], GREY, WHITE);
+    GstBuffer *out = push (hr, p);
+    Floor f;
+    const gdouble X = edge_distance (edges[i]);
+    floor_read (out, &f);
+    fail_unless_equals_int (f.bins, 360);
+    fail_unless_equals_int (f.state[0], 2);     /* obstacle */
+    /* bin 0 spans +-0.5 deg: X / cos (0.5 deg) at most */
+    fail_unless (f.range[0] >= X * (1 - 1e-5) &&
+        f.range[0] <= X / cos (0.5 * G_PI / 180) * (1 + 1e-5),
+        "wall at %g: bin 0 %g", X, f.range[0]);
+    /* the centre columns straddle bearing 0 */
+    fail_unless (fabs (f.x[320] - X) < 1e-4 * X, "x %g vs %g", f.x[320], X);
+    fail_unless (fabs (f.row[320] - (edges[i] - 0.5)) < 1e-4);
+    fail_unless_equals_int (f.bstate[320], 2);
+    fail_unless (fabs (f.nearest - f.range[0]) < 1e-6);
+    /* behind the robot: not seen */
+    fail_unless_equals_int (f.state[180], 0);
+    gst_buffer_unref (out);
+    g_free (p);
+  }
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+/* All floor: free up to max-range ahead; with a max-range beyond the top
+ * row's floor point, the view ends there (state 3). */
+GST_START_TEST (test_free_and_view_edge)
+{
+  GstHarness *hr = harness_new ("max-range=3");
+  guint8 *p = plane_floor_below (0, GREY, GREY);
+  GstBuffer *out = push (hr, p);
+  Floor f;
+  floor_read (out, &f);
+  fail_unless_equals_int (f.state[0], 1);
+  fail_unless (f.range[0] == 3.0f);
+  fail_unless (f.nearest < 0);
+  gst_buffer_unref (out);
+  g_object_set (hr->element, "max-range", 100.0, NULL);
+  out = push (hr, p);
+  floor_read (out, &f);
+  fail_unless_equals_int (f.state[0], 3);
+  fail_unless (fabs (f.range[0] - edge_distance (0)) < 1e-3 *
+      edge_distance (0), "%g vs %g", f.range[0], edge_distance (0));
+  gst_buffer_unref (out);
+  g_free (p);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+/* A red disc lying on the floor is walked over and reported in
+ * rop-marker-range; with markers=obstacles it ends the floor. Specks
+ * and a two-row shadow change nothing. */
+GST_START_TEST (test_markers_specks_shadows)
+{
+  GstHarness *hr = harness_new ("floor-classes=grey max-range=4");
+  guint8 *p = plane_floor_below (0, GREY, GREY);
+  const guint dv = 250;         /* the disc's centre row, centre column */
+  guint u, v;
+  GstBuffer *out;
+  Floor f;
+  for (v = 0; v < H; v++)
+    for (u = 0; u < W; u++) {
+      const gdouble du = (u - 319.5) / 40.0, dd = (v - (gdouble) dv) / 12.0;
+      if (du * du + dd * dd <= 1)
+        p[v * W + u] = RED;
+      else if ((u * 7 + v * 13) % 97 == 0)
+        p[v * W + u] = WHITE;   /* specks */
+      else if (v == 400 || v == 401)
+        p[v * W + u] = WHITE;   /* a thin shadow line */
+    }
+  out = push (hr, p);
+  floor_read (out, &f);
+  fail_unless_equals_int (f.state[0], 1);
+  fail_unless (f.range[0] == 4.0f);
+  /* the disc's lowest row is dv + 11 (row dv + 12 holds no pixel centre) */
+  fail_unless (fabs (f.marker[0] - edge_distance (dv + 12)) < 0.01,
+      "marker %g vs %g", f.marker[0], edge_distance (dv + 12));
+  gst_buffer_unref (out);
+
+  gst_util_set_object_arg (G_OBJECT (hr->element), "markers", "obstacles");
+  out = push (hr, p);
+  floor_read (out, &f);
+  fail_unless_equals_int (f.state[0], 2);
+  fail_unless (fabs (f.range[0] - edge_distance (dv + 12)) < 0.01);
+  gst_buffer_unref (out);
+  g_free (p);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+GST_START_TEST (test_message)
+{
+  GstHarness *hr = harness_new ("floor-classes=grey post-messages=true "
+      "bearing-bins=72");
+  GstBus *bus = gst_bus_new ();
+  guint8 *p = plane_floor_below (200, GREY, WHITE);
+  GstBuffer *out;
+  GstMessage *msg;
+  const GstStructure *s;
+  const GValue *ranges;
+  gdouble nearest;
+  gst_element_set_bus (hr->element, bus);
+  out = push (hr, p);
+  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT);
+  fail_unless (msg != NULL);
+  s = gst_message_get_structure (msg);
+  fail_unless (gst_structure_has_name (s, "landmark-obstacles"));
+  ranges = gst_structure_get_value (s, "ranges");
+  fail_unless_equals_int (gst_value_array_get_size (ranges), 72);
+  fail_unless (gst_structure_get_double (s, "nearest-range", &nearest));
+  fail_unless (fabs (nearest - edge_distance (200)) < 1e-3);
+  gst_message_unref (msg);
+  gst_buffer_unref (out);
+  gst_element_set_bus (hr->element, NULL);
+  gst_object_unref (bus);
+  g_free (p);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+static void
+check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
+{
+  GstElement *e = gst_element_factory_make ("floorboundary", NULL);
+  GstBus *bus = gst_bus_new ();
+  GError *err = NULL;
+  gst_util_set_object_arg (G_OBJECT (e), prop, value);
+  gst_element_set_bus (e, bus);
+  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
+      GST_STATE_CHANGE_FAILURE);
+  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
+  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
+          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
+  fail_unless (strstr (err->message, named) != NULL, "\"%s\" does not name "
+      "%s", err->message, named);
+  g_clear_error (&err);
+  gst_element_set_state (e, GST_STATE_NULL);
+  gst_element_set_bus (e, NULL);
+  gst_object_unref (bus);
+  gst_object_unref (e);
+}
+
+GST_START_TEST (test_bad_properties)
+{
+  check_bad_start ("max-range", "0", "'max-range'");
+  check_bad_start ("floor-classes", "grey,,white", "'floor-classes'");
+  check_bad_start ("calibration", "/nonexistent/camera.yaml",
+      "'calibration'");
+  check_bad_start ("camera-height", "0", "'camera-height'");
+  /* looking up: the camera sees no floor */
+  check_bad_start ("tilt", "-45", "'tilt'");
+}
+
+GST_END_TEST;
+
+/* Errors known only once the labels arrive: a floor class they lack, and
+ * labels with no floor class at all */
+static void
+check_bad_labels (const gchar * props, const gchar ** names,
+    const gboolean * markers, guint n, const gchar * text)
+{
+  GstHarness *hr = harness_new (props);
+  GstBus *bus = gst_bus_new ();
+  guint8 *p = plane_floor_below (100, 1, 2);
+  GError *err = NULL;
+  gst_element_set_bus (hr->element, bus);
+  fail_unless_equals_int (gst_harness_push (hr, frame_with_labels (p, W, H,
+              names, markers, n)), GST_FLOW_ERROR);
+  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
+  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
+          GST_RESOURCE_ERROR_SETTINGS));
+  fail_unless (strstr (err->message, text) != NULL, "%s", err->message);
+  g_clear_error (&err);
+  gst_element_set_bus (hr->element, NULL);
+  gst_object_unref (bus);
+  g_free (p);
+  gst_harness_teardown (hr);
+}
+
+GST_START_TEST (test_no_floor_class)
+{
+  static const gchar *markers_only[] = { "red", "blue" };
+  static const gboolean all_markers[] = { TRUE, TRUE };
+  check_bad_labels ("floor-classes=carpet", names7, markers7, 7, "carpet");
+  check_bad_labels (NULL, markers_only, all_markers, 2, "No floor class");
+}
+
+GST_END_TEST;
+
+/* A bad value while playing: one warning, the previous settings stay */
+GST_START_TEST (test_change_while_playing)
+{
+  GstHarness *hr = harness_new ("floor-classes=grey max-range=3");
+  GstBus *bus = gst_bus_new ();
+  guint8 *p = plane_floor_below (0, GREY, GREY);
+  GError *err = NULL;
+  GstBuffer *out;
+  Floor f;
+  guint i;
+  gst_element_set_bus (hr->element, bus);
+  g_object_set (hr->element, "tilt", -45.0, NULL);
+  for (i = 0; i < 3; i++) {
+    out = push (hr, p);
+    floor_read (out, &f);
+    fail_unless_equals_int (f.state[0], 1);
+    fail_unless (f.range[0] == 3.0f);
+    gst_buffer_unref (out);
+  }
+  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless (strstr (err->message, "'tilt'") != NULL, "%s", err->message);
+  g_clear_error (&err);
+  g_object_set (hr->element, "tilt", 25.0, "max-range", 2.0, NULL);
+  out = push (hr, p);
+  floor_read (out, &f);
+  fail_unless (f.range[0] == 2.0f);
+  gst_buffer_unref (out);
+  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, NULL), 0);
+  gst_element_set_bus (hr->element, NULL);
+  gst_object_unref (bus);
+  g_free (p);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+/* Video untouched; no labels meta: one warning, buffers pass */
+GST_START_TEST (test_no_labels_meta)
+{
+  GstHarness *hr = harness_new (NULL);
+  GstBus *bus = gst_bus_new ();
+  GError *err = NULL;
+  guint i;
+  gst_element_set_bus (hr->element, bus);
+  for (i = 0; i < 5; i++) {
+    GstBuffer *in = gst_buffer_new_allocate (NULL, (gsize) W * H, NULL);
+    GstBuffer *out;
+    gst_buffer_memset (in, 0, (guint8) i, (gsize) W * H);
+    out = gst_harness_push_and_pull (hr, in);
+    fail_unless (out != NULL);
+    fail_unless (gst_buffer_get_custom_meta (out, FLOOR_META) == NULL);
+    gst_buffer_unref (out);
+  }
+  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless (strstr (err->message, "labsegment") != NULL);
+  g_clear_error (&err);
+  gst_element_set_bus (hr->element, NULL);
+  gst_object_unref (bus);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+/* CPU time of the process, microseconds: the machine is shared */
+static gdouble
+cpu_us (void)
+{
+  struct timespec ts;
+  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
+}
+
+/* Per-frame cost at 640x480 beside identity; printed, not asserted. */
+GST_START_TEST (test_cost_640x480)
+{
+  GstHarness *hr = harness_new ("floor-classes=grey");
+  GstHarness *ref = gst_harness_new ("identity");
+  guint8 *p = plane_floor_below (120, GREY, WHITE);
+  const guint n = 300;
+  gdouble t[2], cpu[2];
+  guint k, i;
+  GstHarness *hs[2] = { ref, hr };
+  gst_harness_set_src_caps_str (ref, "video/x-raw,format=GRAY8,width=640,"
+      "height=480,framerate=30/1");
+  /* boxes and specks */
+  for (i = 0; i < (guint) W * H; i++)
+    if (i % 53 == 0)
+      p[i] = WHITE;
+  for (k = 0; k < 2; k++) {
+    GstBuffer *bufs[32];
+    gint64 t0;
+    /* one plane for every frame, as warm in the cache as the plane
+     * labsegment has just written */
+    bufs[0] = frame_with_labels (p, W, H, names7, markers7, 7);
+    for (i = 1; i < 32; i++)
+      bufs[i] = gst_buffer_copy (bufs[0]);
+    for (i = 0; i < 10; i++)
+      gst_buffer_unref (gst_harness_push_and_pull (hs[k],
+              gst_buffer_ref (bufs[i % 32])));
+    t0 = g_get_monotonic_time ();
+    cpu[k] = cpu_us ();
+    for (i = 0; i < n; i++)
+      gst_buffer_unref (gst_harness_push_and_pull (hs[k],
+              gst_buffer_copy (bufs[i % 32])));
+    t[k] = (g_get_monotonic_time () - t0) / (gdouble) n;
+    cpu[k] = (cpu_us () - cpu[k]) / n;
+    for (i = 0; i < 32; i++)
+      gst_buffer_unref (bufs[i]);
+  }
+  g_print ("floorboundary 640x480: %.1f us per frame (identity %.1f us, so "
+      "%.1f us of work); CPU time %.1f us (identity %.1f us)\n", t[1], t[0],
+      t[1] - t[0], cpu[1], cpu[0]);
+  g_free (p);
+  gst_harness_teardown (hr);
+  gst_harness_teardown (ref);
+}
+
+GST_END_TEST;
+
+static Suite *
+floorboundary_suite (void)
+{
+  Suite *s = suite_create ("floorboundary");
+  TCase *tc = tcase_create ("general");
+  suite_add_tcase (s, tc);
+  tcase_add_test (tc, test_wall_straight_ahead);
+  tcase_add_test (tc, test_free_and_view_edge);
+  tcase_add_test (tc, test_markers_specks_shadows);
+  tcase_add_test (tc, test_message);
+  tcase_add_test (tc, test_bad_properties);
+  tcase_add_test (tc, test_no_floor_class);
+  tcase_add_test (tc, test_change_while_playing);
+  tcase_add_test (tc, test_no_labels_meta);
+  tcase_add_test (tc, test_cost_640x480);
+  return s;
+}
+
+GST_CHECK_MAIN (floorboundary);

@@ -134,8 +134,9 @@ function table() {
               cell(r.delay === null ? "-" : `${(r.delay * 1000).toFixed(1)} ms`),
               cell(r["last-wall-time"] === null || fleetTime === null ? "-" :
                    `${(fleetTime - r["last-wall-time"]).toFixed(1)} s ago`),
-              cell(r.pose ? `${r.pose.x.toFixed(2)}, ${r.pose.y.toFixed(2)}, ` +
-                   `${(r.pose.heading * 180 / Math.PI).toFixed(0)}°` : "-"));
+              cell(r.pose && typeof r.pose.x === "number" ?
+                   `${r.pose.x.toFixed(2)}, ${r.pose.y.toFixed(2)}, ` +
+                   `${((r.pose.heading || 0) * 180 / Math.PI).toFixed(0)}°` : "-"));
     body.append(tr);
   }
 }

@@ -92,6 +92,8 @@ class FleetState:
         self.bad_messages = 0
         self.delay = DelayHistogram()
         self.lock = threading.Lock()
+        self.version = 0            # counts changes: the map pushes on one
+        self.path_total: Dict[str, int] = {}    # points ever added
 
     def _robot(self, name: str) -> Dict[str, Any]:
         r = self.robots.get(name)
@@ -102,6 +104,7 @@ class FleetState:
                  "path-wall-time": None}
             self.robots[name] = r
             self.paths[name] = deque(maxlen=self.path_length)
+            self.path_total[name] = 0
         return r
 
     def _pose(self, name: str, r: Dict[str, Any],
@@ -119,6 +122,7 @@ class FleetState:
             r["path-wall-time"] = wall
             self.paths[name].append(json.dumps(
                 [pose.get("x"), pose.get("y"), pose.get("heading"), wall]))
+            self.path_total[name] += 1
         return True
 
     def _frame(self, r: Dict[str, Any], msg: Dict[str, Any]) -> None:
@@ -156,6 +160,7 @@ class FleetState:
                 self.bad_messages += 1
                 return False
             r = self._robot(name)
+            self.version += 1
             if kind == "frame":
                 self._frame(r, msg)
                 self._pose(name, r, msg)
@@ -181,6 +186,30 @@ class FleetState:
                                "delay": self.delay.summary()})
         return (head[:-1] + ', "robots": {\n' + ",\n".join(lines)
                 + "\n}}\n")
+
+    def view_text(self, seen: Dict[str, int]) -> str:
+        """The fleet for the live map, as JSON text: each robot's fields
+        without its detections, and only the path points added since
+        ``seen`` (robot: points ever added, as this call left it; updated
+        here), so a browser is sent each point once."""
+        skip = ("path-wall-time", "detections")
+        with self.lock:
+            lines = []
+            for name, r in sorted(self.robots.items()):
+                fields = {k: v for k, v in r.items() if k not in skip}
+                total, path = self.path_total[name], self.paths[name]
+                new = min(len(path), total - seen.get(name, 0))
+                seen[name] = total
+                fields["path-total"] = total
+                text = json.dumps(fields)
+                points = [path[i] for i in range(len(path) - new, len(path))]
+                lines.append(f"{json.dumps(name)}: {text[:-1]}, "
+                             f"\"path-new\": [" + ", ".join(points) + "]}")
+            head = json.dumps({"type": "fleet", "wall-time": time.time(),
+                               "path-length": self.path_length,
+                               "bad-messages": self.bad_messages,
+                               "delay": self.delay.summary()})
+        return head[:-1] + ', "robots": {' + ", ".join(lines) + "}}"
 
     def snapshot(self) -> Dict[str, Any]:
         return json.loads(self.snapshot_text())
@@ -274,38 +303,67 @@ class Fleet:
 def run(host, port, output, prefix="landmark", username=None, password=None,
         tls_ca_file=None, duration=None, write_every=1.0,
         path_length=DEFAULT_PATH_LENGTH, path_every=DEFAULT_PATH_EVERY,
-        all_poses=False, stream=None) -> int:
+        all_poses=False, stream=None, http=None, token=None,
+        map_path=None) -> int:
+    """``output``: the fleet file (None: none); ``http``: ``[ADDR:]PORT``
+    of the live map (None: none)."""
     stream = stream or sys.stderr
-    out_dir = os.path.dirname(os.path.abspath(output))
-    if not os.path.isdir(out_dir):
-        raise CliError(f"{out_dir}: no such directory")
+    if output is not None:
+        out_dir = os.path.dirname(os.path.abspath(output))
+        if not os.path.isdir(out_dir):
+            raise CliError(f"{out_dir}: no such directory")
+    web = None
+    if http is not None:
+        from . import fleetweb, webguard
+        try:
+            listen, http_port = fleetweb.parse_address(http)
+            token = webguard.choose_token(listen, token)
+            landmarks = fleetweb.read_landmarks(map_path) if map_path \
+                else None
+        except ValueError as err:
+            raise CliError(str(err)) from None
+    elif map_path is not None or token is not None:
+        raise CliError("--map and --token need --http")
     fleet = Fleet(host, port, prefix, username, password, tls_ca_file,
                   path_length, path_every, all_poses).start()
+    if http is not None:
+        try:
+            web = fleetweb.MapServer(fleet.state, listen, http_port, token,
+                                     landmarks).start()
+        except OSError as err:
+            fleet.stop()
+            raise CliError(f"cannot listen on {http}: "
+                           f"{err.strerror or err}") from None
     stop = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *a: stop.set())
     previous_term = signal.signal(signal.SIGTERM, lambda *a: stop.set())
-    print(f"{PROG} fleet: listening on {host}:{port} ({prefix}/+/...), "
-          f"writing {output}", file=stream)
+    print(f"{PROG} fleet: listening on {host}:{port} ({prefix}/+/...)"
+          + (f", writing {output}" if output else "")
+          + (f", map at {web.url}" if web else ""), file=stream, flush=True)
+
+    def write():
+        if output is not None:
+            write_json(output, fleet.state.snapshot_text())
     end = None if duration is None else time.monotonic() + duration
     # at once: the file's existence says the fleet is listening
-    write_json(output, fleet.state.snapshot_text())
+    write()
     try:
         while not stop.is_set():
             wait = write_every
             if end is not None:
                 wait = min(wait, max(0.0, end - time.monotonic()))
             stop.wait(wait)
-            write_json(output, fleet.state.snapshot_text())
+            write()
             if end is not None and time.monotonic() >= end:
                 break
     finally:
         signal.signal(signal.SIGINT, previous)
         signal.signal(signal.SIGTERM, previous_term)
+        if web is not None:
+            web.stop()
         fleet.stop()
-    text = fleet.state.snapshot_text()
-    write_json(output, text)
-    print(f"{PROG} fleet: {len(json.loads(text)['robots'])} robots",
-          file=stream)
+    write()
+    print(f"{PROG} fleet: {len(fleet.state.robots)} robots", file=stream)
     return 0
 
 
@@ -317,7 +375,8 @@ def add_fleet_parser(subparsers):
                     "detections and status in a JSON file, replaced whole "
                     "every --write-every seconds. Ctrl-C (or --duration) "
                     "ends it after a last write.")
-    p.add_argument("-o", "--output", metavar="FLEET.json", required=True)
+    p.add_argument("-o", "--output", metavar="FLEET.json",
+                   help="the fleet file (needed unless --http is given)")
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=int, default=1883)
     p.add_argument("--prefix", default="landmark",
@@ -343,6 +402,16 @@ def add_fleet_parser(subparsers):
                    help="keep every pose message (default: once a live "
                         "pose message repeats its frame message, poses come "
                         "from frame messages only)")
+    p.add_argument("--http", metavar="[ADDR:]PORT",
+                   help="serve the live fleet map on this address "
+                        "(default address 127.0.0.1; any other than "
+                        "loopback requires a token; port 0: any free one)")
+    p.add_argument("--token", metavar="T",
+                   help="the map's access token (at least 16 characters; "
+                        "default: none on loopback, a random one printed "
+                        "at start otherwise)")
+    p.add_argument("--map", metavar="MAP.json",
+                   help="draw this landmark map's landmarks on the map")
     p.set_defaults(handler=_handle, parser=p)
 
 
@@ -353,11 +422,14 @@ def _handle(args) -> int:
                            "positive")
         if args.path_every < 0:
             raise CliError("--path-every must be 0 or more")
+        if args.output is None and args.http is None:
+            raise CliError("give -o FLEET.json, --http [ADDR:]PORT or both")
         return run(args.host, args.port, args.output, args.prefix,
                    args.username,
                    args.password or os.environ.get("LANDMARK_MQTT_PASSWORD"),
                    args.tls_ca_file, args.duration, args.write_every,
-                   args.path_length, args.path_every, args.all_poses)
+                   args.path_length, args.path_every, args.all_poses,
+                   http=args.http, token=args.token, map_path=args.map)
     except CliError as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)
         return err.status

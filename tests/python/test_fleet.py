@@ -3,11 +3,14 @@ broker: the fleet file holds, for each robot, the latest pose and the
 whole path as each robot's own landmarklog recorded them, its last
 detections and its status."""
 
+import asyncio
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -16,7 +19,7 @@ from gi.repository import Gst
 from gstlandmark import calibrate
 from gstlandmark.fleet import FleetState
 
-from mqttbroker import Broker, needs_mosquitto, wait_for
+from mqttbroker import MOSQUITTO, Broker, needs_mosquitto, wait_for
 
 SOURCE_ROOT = os.environ.get(
     "LANDMARK_SOURCE_ROOT",
@@ -287,3 +290,259 @@ def test_delay_percentiles_against_numpy():
     assert h.count == 20002 and h.max == 250.0
     assert h.quantile(1.0) == 250.0
     assert DelayHistogram().quantile(0.5) is None
+
+
+# ---------------------------------------------------------------------------
+# the live map (gst-landmark fleet --http)
+
+MAP_TOKEN = "fleet-map-token-for-the-test"
+NO_EXTERNAL = re.compile(r"(?:https?|wss?|ftp)://|[\"'(]//\w|@import|"
+                         r"\burl\(", re.I)
+
+
+def serve_map(state, check, **kwargs):
+    """Runs ``check(client)`` against the map's app on a real port."""
+    from aiohttp.test_utils import TestClient, TestServer
+    from gstlandmark import fleetweb
+
+    async def main():
+        app = fleetweb.make_app(state, **kwargs)
+        async with TestClient(TestServer(app)) as client:
+            await asyncio.wait_for(check(client), 30)
+    asyncio.run(main())
+
+
+def test_map_page_and_static_files_have_no_external_urls():
+    async def check(client):
+        r = await client.get("/")
+        assert r.status == 200
+        html = await r.text()
+        refs = re.findall(r'(?:src|href)="([^"]+)"', html)
+        assert {"static/fleet.js", "static/fleet.css"} <= set(refs)
+        texts = {"index.html": html}
+        for ref in refs:
+            r = await client.get("/" + ref)
+            assert r.status == 200, ref
+            texts[ref] = await r.text()
+        for name, text in texts.items():
+            assert not NO_EXTERNAL.search(text), name
+        assert "<canvas" in html
+        r = await client.get("/static/../fleet.py")
+        assert r.status in (403, 404)
+    serve_map(FleetState(), check)
+
+
+def publish_robot(broker, name):
+    import paho.mqtt.client as mqtt
+    c = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2,
+                    client_id=f"sim-{name}-{os.getpid()}",
+                    protocol=mqtt.MQTTv311)
+    c.connect("127.0.0.1", broker.port)
+    c.loop_start()
+    return c
+
+
+def test_map_shows_two_simulated_robots_live(tmp_path):
+    """Two robots publish status and frames with poses through a real
+    broker; the map's WebSocket carries the map's landmarks, each
+    robot's latest pose (with its covariance), every path point once, the
+    frames missed and the status, at most every push_every seconds."""
+    if MOSQUITTO is None:
+        pytest.skip("the mosquitto broker is not installed")
+    from gstlandmark import fleetweb
+    from gstlandmark.fleet import Fleet
+    broker = Broker(tmp_path).start()
+    fleet = Fleet(port=broker.port, path_every=0).start()
+    map_path = os.path.join(CLIP_DIR, "map.json")
+    with open(map_path) as f:
+        map_ids = [m["id"] for m in json.load(f)["landmarks"]]
+    cov = [0.04, 0.01, 0.0, 0.01, 0.09, 0.0, 0.0, 0.0, 0.01]
+    sent = {"r1": [], "r2": []}
+    robots = {n: publish_robot(broker, n) for n in sent}
+
+    def send(name, frame, wall):
+        pose = {"x": 1.0 + 0.1 * frame, "y": 2.0 if name == "r1" else 4.0,
+                "heading": 0.05 * frame}
+        if name == "r1":
+            pose["covariance"] = cov
+        sent[name].append([pose["x"], pose["y"], pose["heading"], wall])
+        body = {"robot": name, "frame": frame, "wall-time": wall,
+                "pose": pose, "detections": []}
+        robots[name].publish(f"landmark/{name}/frame", json.dumps(body),
+                             qos=1).wait_for_publish(5)
+
+    async def check(client):
+        for name, c in robots.items():
+            c.publish(f"landmark/{name}/status", json.dumps(
+                {"robot": name, "status": "online"}), qos=1,
+                retain=True).wait_for_publish(5)
+        async with client.ws_connect("/ws") as ws:
+            first = await ws.receive_json()
+            assert first["type"] == "map"
+            assert [m["id"] for m in first["landmarks"]] == map_ids
+            got = {n: [] for n in sent}
+            last = {}
+            stamps = []
+            loop = asyncio.get_running_loop()
+            frame = 0
+
+            async def publish_while_reading():
+                nonlocal frame
+                for frame in range(20):
+                    wall = time.time()
+                    # r2 skips frames 5..7: three frames missed
+                    for name in sent:
+                        if name == "r1" or not 5 <= frame <= 7:
+                            await loop.run_in_executor(
+                                None, send, name, frame, wall)
+                    await asyncio.sleep(0.05)
+            publisher = asyncio.ensure_future(publish_while_reading())
+            while True:
+                msg = await ws.receive_json()
+                assert msg["type"] == "fleet"
+                stamps.append(loop.time())
+                for name, r in msg["robots"].items():
+                    got[name] += r["path-new"]
+                    last[name] = r
+                if publisher.done() and all(
+                        len(got[n]) == len(sent[n]) for n in sent):
+                    break
+            await publisher
+            for name in sent:
+                # every point once, in order, as sent
+                assert got[name] == sent[name]
+                x, y, h, wall = sent[name][-1]
+                pose = last[name]["pose"]
+                assert (pose["x"], pose["y"], pose["heading"]) == (x, y, h)
+                assert last[name]["status"] == "online"
+                assert "detections" not in last[name]
+            assert last["r1"]["pose"]["covariance"] == cov
+            assert last["r1"]["missed-frames"] == 0
+            assert last["r2"]["missed-frames"] == 3
+            gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+            assert min(gaps) >= 0.2, gaps       # push_every 0.25
+            # a robot going offline shows at the next push
+            robots["r2"].publish("landmark/r2/status", json.dumps(
+                {"robot": "r2", "status": "offline"}), qos=1,
+                retain=True).wait_for_publish(5)
+            while True:
+                msg = await ws.receive_json()
+                if msg["robots"]["r2"]["status"] == "offline":
+                    assert msg["robots"]["r2"]["path-new"] == []
+                    break
+    try:
+        serve_map(fleet.state, check,
+                  landmarks=fleetweb.read_landmarks(map_path))
+    finally:
+        for c in robots.values():
+            c.disconnect()
+            c.loop_stop()
+        fleet.stop()
+        broker.stop()
+
+
+def test_map_token_required_off_loopback():
+    import aiohttp
+
+    async def check(client):
+        for headers, query, status in (
+                ({}, "", 401),
+                ({"Authorization": "Bearer wrong"}, "", 401),
+                ({}, "?token=" + MAP_TOKEN[:-1], 401),
+                ({"Authorization": "Bearer " + MAP_TOKEN}, "", 200),
+                ({}, "?token=" + MAP_TOKEN, 200)):
+            for route in ("/", "/static/fleet.js", "/api/fleet"):
+                client.session.cookie_jar.clear()
+                r = await client.get(route + query, headers=headers)
+                assert r.status == status, (route, headers, query)
+                if status == 401:
+                    assert "token" in (await r.json())["error"]
+        client.session.cookie_jar.clear()
+        for query in ("", "?token=nope"):
+            with pytest.raises(aiohttp.WSServerHandshakeError) as err:
+                await client.ws_connect("/ws" + query)
+            assert err.value.status == 401
+        # the page's address sets the cookie its files and socket use
+        r = await client.get("/?token=" + MAP_TOKEN)
+        assert r.status == 200
+        r = await client.get("/static/fleet.css")
+        assert r.status == 200
+        async with client.ws_connect("/ws") as ws:
+            assert (await ws.receive_json())["type"] == "map"
+            assert "a" in (await ws.receive_json())["robots"]
+
+    state = FleetState()
+    state.handle("landmark/a/status", b'{"status": "online"}')
+    serve_map(state, check, token=MAP_TOKEN, loopback=False)
+
+
+def test_map_on_loopback_refuses_other_hosts_and_origins():
+    import aiohttp
+
+    async def check(client):
+        r = await client.get("/api/fleet",
+                             headers={"Host": "attacker.example:80"})
+        assert r.status == 403
+        with pytest.raises(aiohttp.WSServerHandshakeError) as err:
+            await client.ws_connect(
+                "/ws", headers={"Origin": "http://attacker.example"})
+        assert err.value.status == 403
+        r = await client.get("/api/fleet", headers={"Host": "localhost:1"})
+        assert r.status == 200
+    serve_map(FleetState(), check)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--http", "80x"], "expected [ADDR:]PORT"),
+    (["--http", "0", "--map", "/nonexistent/map.json"],
+     "/nonexistent/map.json"),
+    (["--http", "0", "--token", "short"], "at least 16 characters"),
+    (["-o", "fleet.json", "--map", os.path.join(CLIP_DIR, "map.json")],
+     "need --http"),
+    ([], "give -o FLEET.json, --http"),
+])
+def test_map_options_are_checked(args, message, capsys):
+    from gstlandmark import cli
+    assert cli.main(["fleet", "--port", "1"] + args) != 0
+    assert message in capsys.readouterr().err
+
+
+def test_map_command_serves_the_map(tmp_path):
+    """`gst-landmark fleet --http 0` prints the map's address and serves
+    the fleet there; off loopback it makes a token and requires it."""
+    if MOSQUITTO is None:
+        pytest.skip("the mosquitto broker is not installed")
+    import urllib.error
+    import urllib.request
+    broker = Broker(tmp_path).start()
+    for listen in ("0", "0.0.0.0:0"):
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+             str(broker.port), "--http", listen],
+            stderr=subprocess.PIPE, text=True)
+        try:
+            line = proc.stderr.readline()
+            url = re.search(r"map at (\S+)", line).group(1)
+            if listen == "0":
+                assert url.startswith("http://127.0.0.1:")
+                assert "token" not in url
+            else:
+                token = re.search(r"\?token=([\w-]+)$", url).group(1)
+                assert len(token) >= 16
+                port = re.search(r":(\d+)/", url).group(1)
+                base = f"http://127.0.0.1:{port}/"
+                with pytest.raises(urllib.error.HTTPError) as err:
+                    urllib.request.urlopen(base + "api/fleet", timeout=5)
+                assert err.value.code == 401
+                url = base + "?token=" + token
+            api = url.replace("/?", "/api/fleet?") if "?" in url \
+                else url + "api/fleet"
+            with urllib.request.urlopen(api, timeout=5) as r:
+                assert json.load(r)["robots"] == {}
+            proc.send_signal(signal.SIGINT)
+            assert proc.wait(10) == 0
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    broker.stop()

@@ -13,20 +13,19 @@ from __future__ import annotations
 
 import asyncio
 import collections
-import hmac
 import importlib.resources
-import ipaddress
 import json
 import os
 from typing import Any, Dict, List, Optional
 
 from aiohttp import WSMsgType, web
 
+from .. import webguard
+from ..webguard import LOOPBACK_NAMES, is_loopback  # noqa: F401
 from .engine import ConsoleError, Engine
 
 MAX_BODY = 16 * 1024
 BOUNDARY = "landmarkframe"
-LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 CLIENT_QUEUE = 4        # results waiting per browser before old ones drop
 
 ENGINE = web.AppKey("engine", Engine) if hasattr(web, "AppKey") else "engine"
@@ -36,25 +35,8 @@ def static_dir() -> str:
     return str(importlib.resources.files("gstlandmark.console") / "static")
 
 
-def is_loopback(host: str) -> bool:
-    if host in LOOPBACK_NAMES:
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
 def _error(status: int, text: str) -> web.Response:
     return web.json_response({"error": text}, status=status)
-
-
-def _host_name(host_header: str) -> str:
-    """The host part of a Host header value (no port, no brackets)."""
-    if host_header.startswith("["):
-        return host_header[1:].split("]", 1)[0]
-    return host_header.rsplit(":", 1)[0] if host_header.count(":") == 1 \
-        else host_header
 
 
 def cookie_name(request: web.Request) -> str:
@@ -70,34 +52,18 @@ def make_app(engine: Engine, token: Optional[str] = None,
 
     @web.middleware
     async def guard(request: web.Request, handler):
-        from_query = False
-        if token is not None:
-            # a header (scripts), the address (the first page load), or
-            # the cookie that load set (the page's own files, the video)
-            given = request.headers.get("Authorization", "")
-            if given.startswith("Bearer "):
-                given = given[7:]
-            elif "token" in request.query:
-                given, from_query = request.query["token"], True
-            else:
-                given = request.cookies.get(cookie_name(request), "")
-            if not hmac.compare_digest(given.encode(), token.encode()):
-                return _error(401, "missing or wrong token: open the "
-                              "address printed at start (it ends in "
-                              "?token=...)")
-        elif loopback and not is_loopback(_host_name(request.host)):
-            return _error(403, f"Host {request.host!r} is not loopback")
-        origin = request.headers.get("Origin")
-        if origin is not None and origin.split("://", 1)[-1] != request.host:
-            return _error(403, f"requests from {origin} are not accepted")
+        # the checks the fleet map shares (webguard)
+        refused, from_query = webguard.check(request, token, loopback,
+                                             cookie_name(request))
+        if refused is not None:
+            return refused
         if request.method == "POST" and request.content_type != \
                 "application/json":
             return _error(415, "POST bodies must be application/json")
         try:
             response = await handler(request)
-            if from_query and not response.prepared:
-                response.set_cookie(cookie_name(request), token,
-                                    httponly=True, samesite="Strict")
+            if from_query:
+                webguard.remember(response, cookie_name(request), token)
             return response
         except ConsoleError as err:
             return _error(400, str(err))

@@ -32,6 +32,11 @@
  *   ray from the robot along its bearing and, when it is matched to a map
  *   landmark, the range circle around that landmark. Drawn only when the
  *   frame has a pose meta and a map is set.
+ * - `show-boundary`: the floor boundary of a `GstLandmarkFloorMeta` across
+ *   the image (red on obstacles, cyan where the floor reaches max-range).
+ * - `show-free-space`: the floor meta's radial obstacle profile as a green
+ *   polygon around the robot in the mini-map: in the map frame with a
+ *   pose, robot-centred (forward up) without one.
  *
  * Sizes of text, lines and insets follow the frame height (`text-scale`
  * scales the text further). Without metadata (or with every part switched
@@ -87,6 +92,8 @@ enum
   PROP_SHOW_HISTOGRAM,
   PROP_SHOW_INDICATORS,
   PROP_SHOW_MINIMAP,
+  PROP_SHOW_BOUNDARY,
+  PROP_SHOW_FREE_SPACE,
   PROP_TEXT_SCALE,
 };
 
@@ -115,12 +122,15 @@ struct Settings {
   gboolean show_histogram = DEFAULT_SHOW;
   gboolean show_indicators = DEFAULT_SHOW;
   gboolean show_minimap = DEFAULT_SHOW;
+  gboolean show_boundary = DEFAULT_SHOW;
+  gboolean show_free_space = DEFAULT_SHOW;
   gdouble text_scale = DEFAULT_TEXT_SCALE;
 };
 
 /* Built in start() and set_info(), used by the streaming thread only. */
 struct State {
   ov::LandmarkMap map;
+  ov::LandmarkMap no_map;       /* drawn without a pose: robot-centred */
   bool has_map = false;
   guint map_generation = 0;
 
@@ -211,6 +221,12 @@ gst_landmark_overlay_set_property (GObject * object, guint prop_id,
     case PROP_SHOW_MINIMAP:
       s.show_minimap = g_value_get_boolean (value);
       break;
+    case PROP_SHOW_BOUNDARY:
+      s.show_boundary = g_value_get_boolean (value);
+      break;
+    case PROP_SHOW_FREE_SPACE:
+      s.show_free_space = g_value_get_boolean (value);
+      break;
     case PROP_TEXT_SCALE:
       s.text_scale = g_value_get_double (value);
       break;
@@ -248,6 +264,12 @@ gst_landmark_overlay_get_property (GObject * object, guint prop_id,
       break;
     case PROP_SHOW_MINIMAP:
       g_value_set_boolean (value, s.show_minimap);
+      break;
+    case PROP_SHOW_BOUNDARY:
+      g_value_set_boolean (value, s.show_boundary);
+      break;
+    case PROP_SHOW_FREE_SPACE:
+      g_value_set_boolean (value, s.show_free_space);
       break;
     case PROP_TEXT_SCALE:
       g_value_set_double (value, s.text_scale);
@@ -547,6 +569,74 @@ gst_landmark_overlay_read_detections (GstLandmarkOverlay * self,
 
 /* ---- streaming ------------------------------------------------------ */
 
+namespace {
+
+/* The arrays of a floor meta, mapped for the frame; unmapped when it goes
+ * out of scope. A part whose arrays are missing or short stays null. */
+struct FloorArrays {
+  ov::Floor floor;
+  struct Plane {
+    GstBuffer *buf = nullptr;
+    GstMapInfo map;
+  } planes[4];
+  int n = 0;
+
+  FloorArrays () = default;
+  FloorArrays (const FloorArrays &) = delete;
+  FloorArrays & operator= (const FloorArrays &) = delete;
+  ~FloorArrays () {
+    for (int i = 0; i < n; i++) {
+      gst_buffer_unmap (planes[i].buf, &planes[i].map);
+      gst_buffer_unref (planes[i].buf);
+    }
+  }
+
+  const void *get (const GstStructure * s, const char *field, gsize elem,
+      gsize want) {
+    Plane & p = planes[n];
+    gsize count = 0;
+    if (!landmark_floor_map_array (s, field, elem, &p.buf, &p.map, &count))
+      return nullptr;
+    n++;
+    return count >= want && want > 0 ? p.map.data : nullptr;
+  }
+};
+
+}  // namespace
+
+static void
+read_floor (const GstStructure * s, FloorArrays * fa)
+{
+  guint width = 0, height = 0, bins = 0;
+  gdouble bin_width = 0;
+  if (!gst_structure_get_uint (s, LANDMARK_FLOOR_WIDTH, &width) ||
+      !gst_structure_get_uint (s, LANDMARK_FLOOR_HEIGHT, &height) ||
+      !gst_structure_get_uint (s, LANDMARK_FLOOR_BEARING_BINS, &bins) ||
+      !gst_structure_get_double (s, LANDMARK_FLOOR_BIN_WIDTH, &bin_width))
+    return;
+  ov::Floor & f = fa->floor;
+  auto row = (const float *) fa->get (s, LANDMARK_FLOOR_BOUNDARY_ROW,
+      sizeof (float), width);
+  auto col_state = (const uint8_t *) fa->get (s,
+      LANDMARK_FLOOR_BOUNDARY_STATE, 1, width);
+  if (row && col_state && height > 0) {
+    f.width = (int) width;
+    f.height = (int) height;
+    f.boundary_row = row;
+    f.boundary_state = col_state;
+  }
+  auto range = (const float *) fa->get (s, LANDMARK_FLOOR_ROP_RANGE,
+      sizeof (float), bins);
+  auto bin_state = (const uint8_t *) fa->get (s, LANDMARK_FLOOR_ROP_STATE, 1,
+      bins);
+  if (range && bin_state && bin_width > 0) {
+    f.bins = (int) bins;
+    f.bin_width = bin_width;
+    f.rop_range = range;
+    f.rop_state = bin_state;
+  }
+}
+
 static GstFlowReturn
 gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
@@ -568,6 +658,8 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
     s.show_histogram = cur.show_histogram;
     s.show_indicators = cur.show_indicators;
     s.show_minimap = cur.show_minimap;
+    s.show_boundary = cur.show_boundary;
+    s.show_free_space = cur.show_free_space;
     s.text_scale = cur.text_scale;
     s.map_generation = cur.map_generation;
     if (cur.map_generation != st.map_generation) {
@@ -590,11 +682,23 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         get_number (pose_s, "heading", &pose.heading);
     const bool has_rois = gst_buffer_get_meta (buf,
         GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE) != nullptr;
+    const GstStructure *floor_s = (s.show_boundary ||
+        (s.show_minimap && s.show_free_space)) ?
+        landmark_floor_meta_get (buf) : nullptr;
+    FloorArrays fa;
+    if (floor_s)
+      read_floor (floor_s, &fa);
+    const bool boundary = s.show_boundary && fa.floor.boundary_row;
+    const bool free_space = s.show_minimap && s.show_free_space &&
+        fa.floor.rop_range;
     const bool panel = labels && (s.show_histogram || s.show_indicators);
-    const bool minimap = s.show_minimap && has_pose && st.has_map;
+    /* the map needs a pose to be placed; the free space is drawn
+     * robot-centred (forward up) without one */
+    const bool map_frame = has_pose && st.has_map;
+    const bool minimap = s.show_minimap && (map_frame || free_space);
     const bool detections = s.show_detections && has_rois;
     const bool pose_text = s.show_pose && has_pose;
-    if (!panel && !minimap && !detections && !pose_text)
+    if (!panel && !minimap && !detections && !pose_text && !boundary)
       return GST_FLOW_OK;
 
     const int w = st.target.width, h = st.target.height;
@@ -631,15 +735,25 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         if (d.kept)
           r.draw_detection (d);
     }
+    if (boundary)
+      r.draw_boundary (fa.floor);
     if (panel)
       r.draw_class_panel (hist, s.show_histogram, s.show_indicators);
     if (minimap) {
       st.map_colours.clear ();
-      for (const auto & lm : st.map.landmarks)
-        st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
-                n_classes, lm.class_name.c_str ()));
-      r.draw_minimap (st.map, st.map_colours.data (), pose,
-          st.detections.data (), (int) st.detections.size ());
+      const bool with_map = st.has_map && has_pose;
+      if (with_map)
+        for (const auto & lm : st.map.landmarks)
+          st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
+                  n_classes, lm.class_name.c_str ()));
+      ov::Pose where = pose;
+      if (!has_pose) {
+        where = ov::Pose ();
+        where.heading = M_PI / 2;
+      }
+      r.draw_minimap (with_map ? st.map : st.no_map, st.map_colours.data (),
+          where, st.detections.data (), (int) st.detections.size (),
+          free_space ? &fa.floor : nullptr);
     }
     if (pose_text)
       r.draw_pose_text (pose);
@@ -697,7 +811,19 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
   g_object_class_install_property (gobject_class, PROP_SHOW_MINIMAP,
       g_param_spec_boolean ("show-minimap", "Show mini-map",
           "Inset at the top right: the map, the robot pose and the range "
-          "circles (needs a pose meta and the map property)", DEFAULT_SHOW,
+          "circles (needs a pose meta and the map property), or the free "
+          "space alone", DEFAULT_SHOW,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_BOUNDARY,
+      g_param_spec_boolean ("show-boundary", "Show floor boundary",
+          "The floor boundary of a floor meta across the image: red on "
+          "obstacles, cyan where the floor reaches max-range or the top "
+          "row", DEFAULT_SHOW, flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_FREE_SPACE,
+      g_param_spec_boolean ("show-free-space", "Show free space",
+          "The floor meta's radial obstacle profile as a green polygon "
+          "around the robot in the mini-map (in the map frame with a pose, "
+          "robot-centred and forward up without one)", DEFAULT_SHOW,
           flags));
   g_object_class_install_property (gobject_class, PROP_TEXT_SCALE,
       g_param_spec_double ("text-scale", "Text scale",

@@ -270,6 +270,7 @@ COMMANDS = [
     _lazy("fleet", "add_fleet_parser"),
     _lazy("sweep", "add_sweep_parser"),
     _lazy("console", "add_console_parser"),
+    _lazy("floormap", "add_floormap_parser"),
 ]
 
 

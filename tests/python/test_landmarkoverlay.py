@@ -7,7 +7,9 @@ outline and in the class inset, nowhere inside the detections, and not at
 all when every part is switched off.
 
 (Python cannot write a custom meta's fields, so the pose line and the
-mini-map are tested from C, in tests/check/elements/landmarkoverlay.c.)"""
+mini-map are tested from C, in tests/check/elements/landmarkoverlay.c.)
+The floor boundary is tested behind the real floorboundary, on its
+ray-cast box frame: red on the rows the floor meta gives."""
 
 import json
 import math
@@ -145,7 +147,8 @@ def test_registered(gst):
     assert factory.get_metadata("klass") == "Filter/Effect/Video"
     e = factory.create(None)
     for name in ("show-detections", "show-rejected", "show-pose",
-                 "show-histogram", "show-indicators", "show-minimap"):
+                 "show-histogram", "show-indicators", "show-minimap",
+                 "show-boundary", "show-free-space"):
         assert e.get_property(name) is True, name
     assert e.get_property("map") is None
     assert e.get_property("text-scale") == 1.0
@@ -213,3 +216,51 @@ def test_no_metadata_no_change(gst, clip):
     got = run("landmarkoverlay", frames[:3])
     for a, b in zip(frames, got):
         assert np.array_equal(a, b)
+
+
+def test_floor_boundary_behind_floorboundary(gst):
+    from gstlandmark import meta, pipeline
+    from test_floorboundary import CHAIN, H, W, render
+
+    rgb, _ = render()
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    drawn, plain = (pipeline.process_frames(
+        f"{CHAIN} ! landmarkoverlay show-histogram=false "
+        f"show-indicators=false show-minimap=false show-boundary={on}",
+        [rgb], caps)[0] for on in ("true", "false"))
+    fm = meta.floor(drawn)
+    assert fm is not None and (fm.width, fm.height) == (W, H)
+
+    def pixels(buf):
+        ok, m = buf.map(Gst.MapFlags.READ)
+        assert ok
+        a = np.frombuffer(m.data, np.uint8)[:W * H * 3].reshape(H, W, 3)
+        a = a.copy()
+        buf.unmap(m)
+        return a
+
+    out, ref = pixels(drawn), pixels(plain)
+    assert np.array_equal(ref, rgb)
+    red = np.all(np.abs(out.astype(int) - (255, 40, 40)) <= 12, axis=2)
+    # on each box column the boundary is the pixel edge between rows
+    # k - 1 and k (row = k - 0.5): one of the two is red
+    box = np.flatnonzero(fm.boundary_state == 2)
+    assert len(box) > 150
+    hits = 0
+    for c in box[2:-2]:
+        k = int(round(fm.boundary_row[c] + 0.5))
+        hits += bool(red[k - 1:k + 1, c].any())
+    print(f"box columns {len(box)}, red on the boundary in {hits}")
+    assert hits == len(box) - 4
+    # red only on the line: within 3 rows of the span of the boundary rows
+    # of the obstacle columns within two of its own (where the line joins
+    # two columns at different rows, and the line's width)
+    edge = np.where(fm.boundary_state == 2, fm.boundary_row, np.nan)
+    pad = np.pad(edge, 2, constant_values=np.nan)
+    near = np.stack([pad[i:i + W] for i in range(5)])
+    with np.errstate(all="ignore"):
+        lo = np.nanmin(np.where(np.isnan(near), np.inf, near), axis=0)
+        hi = np.nanmax(np.where(np.isnan(near), -np.inf, near), axis=0)
+    ys, xs = np.nonzero(red)
+    assert len(ys) > 0
+    assert np.all((ys >= lo[xs] - 3) & (ys <= hi[xs] + 3))

@@ -326,6 +326,37 @@ Renderer::cover_convex (const cv::Point2d * p, int n)
   }
 }
 
+void
+Renderer::cover_polygon (const cv::Point2d * p, int n)
+{
+  if (clip_.area () <= 0 || n < 3)
+    return;
+  /* OpenCV fills with pixel centres on integers, as here; 4 bits of
+   * sub-pixel position, coordinates relative to the clip */
+  constexpr int kShift = 4;
+  std::vector<cv::Point> & q = poly_;
+  q.resize (n);
+  double y0 = kFar, y1 = -kFar, x0 = kFar, x1 = -kFar;
+  for (int i = 0; i < n; i++) {
+    const cv::Point2d c = clamp_point (p[i]);
+    x0 = std::min (x0, c.x);
+    x1 = std::max (x1, c.x);
+    y0 = std::min (y0, c.y);
+    y1 = std::max (y1, c.y);
+    q[i] = cv::Point (iround ((c.x - clip_.x) * (1 << kShift)),
+        iround ((c.y - clip_.y) * (1 << kShift)));
+  }
+  cv::Mat roi = cover_ (clip_);
+  const cv::Point *pts = q.data ();
+  cv::fillPoly (roi, &pts, &n, 1, cv::Scalar (255), cv::LINE_AA, kShift);
+  const int iy0 = std::max (clip_.y, (int) std::floor (y0) - 1);
+  const int iy1 = std::min (clip_.y + clip_.height, (int) std::ceil (y1) + 2);
+  const int ix0 = std::max (clip_.x, (int) std::floor (x0) - 1);
+  const int ix1 = std::min (clip_.x + clip_.width, (int) std::ceil (x1) + 2);
+  for (int y = iy0; y < iy1; y++)
+    cover_row (y, ix0, ix1);
+}
+
 /* Blends the covered pixels in colour c at opacity alpha, clears the
  * coverage and marks the area as drawn. */
 void
@@ -874,10 +905,58 @@ Renderer::draw_class_panel (const Histogram & hist, bool histogram,
 }
 
 void
-Renderer::draw_minimap (const LandmarkMap & map, const Rgb * colours,
-    const Pose & pose, const Detection * dets, int n_dets)
+Renderer::draw_boundary (const Floor & f)
 {
-  if (canvas_.empty () || map.landmarks.empty ())
+  if (canvas_.empty () || f.width <= 0 || f.height <= 0 || !f.boundary_row ||
+      !f.boundary_state)
+    return;
+  /* label plane to frame: pixel centres on integers in both */
+  const double sx = (double) width_ / f.width, sy = (double) height_ / f.height;
+  const int thick = st_.line + 1;
+  /* runs of seen columns in one colour, each a polyline on a dark halo */
+  for (int pass = 0; pass < 2; pass++) {
+    int c = 0;
+    while (c < f.width) {
+      const uint8_t state = f.boundary_state[c];
+      if (f.boundary_row[c] < 0 || state == 0) {
+        c++;
+        continue;
+      }
+      const bool obstacle = state == 2;
+      pts_.clear ();
+      int e = c;
+      for (; e < f.width; e++) {
+        if (f.boundary_row[e] < 0 || f.boundary_state[e] == 0 ||
+            (f.boundary_state[e] == 2) != obstacle)
+          break;
+        pts_.emplace_back ((e + 0.5) * sx - 0.5,
+            (f.boundary_row[e] + 0.5) * sy - 0.5);
+      }
+      /* a lone column: a short horizontal dash across its width */
+      if (pts_.size () == 1) {
+        const cv::Point2d m = pts_[0];
+        pts_[0].x = m.x - sx / 2;
+        pts_.emplace_back (m.x + sx / 2, m.y);
+      }
+      if (pass == 0)
+        polyline (pts_.data (), (int) pts_.size (), false, kBlack, 150,
+            thick + 2, false);
+      else
+        polyline (pts_.data (), (int) pts_.size (), false,
+            obstacle ? kFloorObstacle : kFloorOpen, 255, thick, false);
+      c = e;
+    }
+  }
+}
+
+void
+Renderer::draw_minimap (const LandmarkMap & map, const Rgb * colours,
+    const Pose & pose, const Detection * dets, int n_dets,
+    const Floor * free_space)
+{
+  const bool floor = free_space && free_space->bins > 0 &&
+      free_space->rop_range && free_space->rop_state;
+  if (canvas_.empty () || (map.landmarks.empty () && !floor))
     return;
   const double g = st_.g;
   const int p = st_.pad, m = st_.margin;
@@ -890,13 +969,33 @@ Renderer::draw_minimap (const LandmarkMap & map, const Rgb * colours,
   set_clip (panel);
   fill_rect (x0, y0, x0 + side, y0 + side, kBlack, 150);
 
-  /* world window: the map, padded, and the robot */
+  /* world window: the map, padded, the robot and its free space; the
+   * free space's corners are bin edges at each bin's range (map frame) */
   double wx0 = pose.x, wx1 = pose.x, wy0 = pose.y, wy1 = pose.y;
   for (const auto & lm : map.landmarks) {
     wx0 = std::min (wx0, lm.x);
     wx1 = std::max (wx1, lm.x);
     wy0 = std::min (wy0, lm.y);
     wy1 = std::max (wy1, lm.y);
+  }
+  free_pts_.clear ();
+  if (floor) {
+    const Floor & f = *free_space;
+    for (int b = 0; b < f.bins; b++) {
+      if (f.rop_state[b] == 0 || !(f.rop_range[b] > 0))
+        continue;
+      const double r = f.rop_range[b];
+      for (int edge = -1; edge <= 1; edge += 2) {
+        const double phi = pose.heading + (b + 0.5 * edge) * f.bin_width;
+        const cv::Point2d q (pose.x + r * std::cos (phi),
+            pose.y + r * std::sin (phi));
+        free_pts_.push_back (q);
+        wx0 = std::min (wx0, q.x);
+        wx1 = std::max (wx1, q.x);
+        wy0 = std::min (wy0, q.y);
+        wy1 = std::max (wy1, q.y);
+      }
+    }
   }
   const double pad_w = std::max (0.5, 0.08 * std::max (wx1 - wx0, wy1 - wy0));
   wx0 -= pad_w;
@@ -932,10 +1031,46 @@ Renderer::draw_minimap (const LandmarkMap & map, const Rgb * colours,
     }
   }
 
-  /* observations: range circles around matched landmarks, rays from the
-   * robot along each bearing */
+  /* free space: one wedge per seen bin, from the robot to the bin's
+   * range, filled as one polygon (seen bins separated by unseen ones
+   * close back to the robot); obstacle bins' far edges in red */
   const cv::Point2d robot = to_px (pose.x, pose.y);
   const int thin = std::max (1, iround (g));
+  if (floor && !free_pts_.empty ()) {
+    const Floor & f = *free_space;
+    pts_.clear ();
+    size_t j = 0;
+    bool open = false;
+    for (int b = 0; b < f.bins; b++) {
+      if (f.rop_state[b] == 0 || !(f.rop_range[b] > 0)) {
+        if (open)
+          pts_.push_back (robot);
+        open = false;
+        continue;
+      }
+      if (!open)
+        pts_.push_back (robot);
+      pts_.push_back (to_px (free_pts_[j].x, free_pts_[j].y));
+      pts_.push_back (to_px (free_pts_[j + 1].x, free_pts_[j + 1].y));
+      j += 2;
+      open = true;
+    }
+    cover_polygon (pts_.data (), (int) pts_.size ());
+    paint (kFreeSpace, 110);
+    j = 0;
+    for (int b = 0; b < f.bins; b++) {
+      if (f.rop_state[b] == 0 || !(f.rop_range[b] > 0))
+        continue;
+      if (f.rop_state[b] == 2)
+        cover_segment (to_px (free_pts_[j].x, free_pts_[j].y),
+            to_px (free_pts_[j + 1].x, free_pts_[j + 1].y), thin / 2.0 + 0.5);
+      j += 2;
+    }
+    paint (kFloorObstacle, 255);
+  }
+
+  /* observations: range circles around matched landmarks, rays from the
+   * robot along each bearing */
   for (int i = 0; i < n_dets; i++) {
     const Detection & d = dets[i];
     if (!d.kept || !d.has_range || d.no_floor)

@@ -77,6 +77,26 @@ struct Pose {
   double x = 0, y = 0, heading = 0;  /* metres, radians */
 };
 
+/* The free floor of a GstLandmarkFloorMeta (docs/floorboundary.md).
+ * Pointers are borrowed for the frame; states are LandmarkFloorState
+ * codes (0 not seen, 1 free, 2 obstacle, 3 view edge). */
+struct Floor {
+  /* per column of the analysed label plane (width x height) */
+  int width = 0, height = 0;
+  const float *boundary_row = nullptr;   /* pixel edge, -1: not seen */
+  const uint8_t *boundary_state = nullptr;
+  /* per bearing bin: bin k is centred on k * bin_width, to the left */
+  int bins = 0;
+  double bin_width = 0;
+  const float *rop_range = nullptr;      /* metres */
+  const uint8_t *rop_state = nullptr;
+};
+
+/* colours of the floor drawings */
+inline constexpr Rgb kFloorObstacle { 255, 40, 40 };  /* on an obstacle */
+inline constexpr Rgb kFloorOpen { 0, 220, 255 };  /* max-range, top row */
+inline constexpr Rgb kFreeSpace { 40, 230, 40 };  /* free-space polygon */
+
 /* One palette class of the labels meta. */
 struct ClassInfo {
   const char *name = nullptr;
@@ -126,9 +146,16 @@ public:
   void draw_pose_text (const Pose & pose);
   void draw_class_panel (const Histogram & hist, bool histogram,
       bool indicators);
-  /* colours: one per map landmark */
+  /* The floor boundary across the image: the boundary row of each column,
+   * scaled from the label plane to the frame; red where an obstacle ends
+   * the floor, cyan where the floor reaches max-range or the top row. */
+  void draw_boundary (const Floor & floor);
+  /* colours: one per map landmark. free_space (may be null): the ROP as a
+   * polygon around the robot, drawn under the map. Without landmarks the
+   * inset still shows the robot and its free space. */
   void draw_minimap (const LandmarkMap & map, const Rgb * colours,
-      const Pose & pose, const Detection * dets, int n_dets);
+      const Pose & pose, const Detection * dets, int n_dets,
+      const Floor * free_space = nullptr);
   void draw_labels ();
 
   /* True when something was drawn since begin_frame(). */
@@ -179,6 +206,8 @@ private:
   void cover_segment (cv::Point2d a, cv::Point2d b, double half_width);
   void cover_disc (cv::Point2d c, double r, double inner);
   void cover_convex (const cv::Point2d * p, int n);
+  /* any simple or self-touching polygon (OpenCV's scanline fill) */
+  void cover_polygon (const cv::Point2d * p, int n);
   void paint (Rgb c, int alpha);
   int text_width (const char *s) const;
   void text (const char *s, int x, int baseline, Rgb c, int alpha);
@@ -204,6 +233,8 @@ private:
   std::vector<cv::Rect> reserved_;   /* insets and placed labels */
   std::vector<Label> labels_;
   std::vector<cv::Point2d> pts_;     /* scratch polygon */
+  std::vector<cv::Point2d> free_pts_;  /* free-space corners, map frame */
+  std::vector<cv::Point> poly_;      /* scratch of cover_polygon() */
   mutable std::string str_;          /* scratch for OpenCV's text API */
   Glyph glyphs_[kLastGlyph - kFirstGlyph + 1];
   double glyph_font_ = -1;

@@ -19,6 +19,7 @@
 
 #define LABELS_META "GstLandmarkLabelsMeta"
 #define POSE_META "GstLandmarkPoseMeta"
+#define FLOOR_META "GstLandmarkFloorMeta"
 #define PAD_BYTE 0xA5
 #define GREY 128
 
@@ -508,6 +509,35 @@ add_pose (GstBuffer * buf, gdouble x, gdouble y, gdouble heading)
       x, "y", G_TYPE_DOUBLE, y, "heading", G_TYPE_DOUBLE, heading, NULL);
 }
 
+static void
+set_array (GstStructure * s, const gchar * field, gconstpointer data,
+    gsize size)
+{
+  GstBuffer *b = gst_buffer_new_memdup (data, size);
+  gst_structure_set (s, field, GST_TYPE_BUFFER, b, NULL);
+  gst_buffer_unref (b);
+}
+
+/* A floor meta (docs/floorboundary.md) of a cols x rows label plane, with
+ * the boundary per column and the ROP per bin. */
+static void
+add_floor (GstBuffer * buf, guint cols, guint rows, const gfloat * row,
+    const guint8 * col_state, guint bins, const gfloat * range,
+    const guint8 * bin_state)
+{
+  GstCustomMeta *m = gst_buffer_add_custom_meta (buf, FLOOR_META);
+  GstStructure *s;
+  fail_unless (m != NULL, "floor meta not registered");
+  s = gst_custom_meta_get_structure (m);
+  gst_structure_set (s, "width", G_TYPE_UINT, cols, "height", G_TYPE_UINT,
+      rows, "bearing-bins", G_TYPE_UINT, bins, "bin-width", G_TYPE_DOUBLE,
+      2 * G_PI / bins, "max-range", G_TYPE_DOUBLE, 4.0, NULL);
+  set_array (s, "boundary-row", row, cols * sizeof (gfloat));
+  set_array (s, "boundary-state", col_state, cols);
+  set_array (s, "rop-range", range, bins * sizeof (gfloat));
+  set_array (s, "rop-state", bin_state, bins);
+}
+
 /* ------------------------------------------------------------------ */
 /* Files                                                              */
 /* ------------------------------------------------------------------ */
@@ -674,7 +704,8 @@ GST_START_TEST (test_properties)
 {
   GstElement *e = gst_element_factory_make ("landmarkoverlay", NULL);
   const gchar *shows[] = { "show-detections", "show-rejected", "show-pose",
-    "show-histogram", "show-indicators", "show-minimap"
+    "show-histogram", "show-indicators", "show-minimap", "show-boundary",
+    "show-free-space"
   };
   gchar *map = NULL;
   gdouble scale;
@@ -1394,6 +1425,166 @@ GST_START_TEST (test_minimap_needs_pose_and_map)
 
 GST_END_TEST;
 
+/* The floor boundary: for a label plane of half the frame's size, the
+ * boundary row r of column c is drawn at frame pixel
+ * ((c + 0.5) 2 - 0.5, (r + 0.5) 2 - 0.5): red on obstacle columns, cyan on
+ * free ones, nothing on not-seen ones, and nothing else changes. */
+GST_START_TEST (test_floor_boundary)
+{
+  const gint w = 320, h = 240, cols = 160, rows = 120;
+  const guint8 red[3] = { 255, 40, 40 }, cyan[3] = { 0, 220, 255 };
+  gfloat row[160], range[8] = { 0 };
+  guint8 state[160], bin_state[8] = { 0 };
+  Layout l;
+  GstHarness *h_;
+  GstBuffer *in, *out;
+  guint8 *mask;
+  guint n, x;
+  gint c;
+
+  for (c = 0; c < cols; c++) {
+    /* obstacle at row edge 59.5 (frame y 119.5) on the left, free at row
+     * edge 30.5 (frame y 61.5) in the middle, not seen on the right */
+    row[c] = c < 70 ? 59.5f : c < 130 ? 30.5f : -1.0f;
+    state[c] = c < 70 ? 2 : c < 130 ? 1 : 0;
+  }
+  layout_init (&l, "BGR", w, h);
+  h_ = overlay_new (&l, "show-minimap=false");
+  in = frame_new (&l, GREY, GREY, GREY);
+  add_floor (in, cols, rows, row, state, 8, range, bin_state);
+  out = run (h_, in);
+  mask = changed_mask (&l, in, out, &n);
+  /* every column of each run has its colour on the line, none off it */
+  for (x = 3; x < 134; x++)
+    fail_unless (count_colour (&l, out, red, 12, x, 118, x + 1, 122) >= 1,
+        "no red at column %u", x);
+  for (x = 146; x < 256; x++)
+    fail_unless (count_colour (&l, out, cyan, 12, x, 60, x + 1, 64) >= 1,
+        "no cyan at column %u", x);
+  fail_unless_equals_int (count_colour (&l, out, red, 60, 0, 0, w, 114), 0);
+  fail_unless_equals_int (count_colour (&l, out, red, 60, 0, 126, w, h), 0);
+  fail_unless_equals_int (count_colour (&l, out, cyan, 60, 0, 0, w, 56), 0);
+  fail_unless_equals_int (count_colour (&l, out, cyan, 60, 0, 68, w, h), 0);
+  /* the halo and line stay near the two rows; the not-seen third is bare */
+  fail_unless_equals_int (n, count_in (mask, w, 0, 56, 264, 68) +
+      count_in (mask, w, 0, 113, 264, 127));
+  fail_unless_equals_int (count_in (mask, w, 264, 0, w, h), 0);
+  g_free (mask);
+  gst_buffer_unref (out);
+
+  g_object_set (h_->element, "show-boundary", FALSE, NULL);
+  out = run (h_, in);
+  fail_unless (buffers_equal (in, out));
+  gst_buffer_unref (out);
+  gst_buffer_unref (in);
+  gst_harness_teardown (h_);
+}
+
+GST_END_TEST;
+
+/* Mean x, y of the pixels of [x0, x1) x [y0, y1) within tol of c. */
+static guint
+colour_centroid (const Layout * l, GstBuffer * buf, const guint8 c[3],
+    gint tol, gint x0, gint y0, gint x1, gint y1, gdouble * mx, gdouble * my)
+{
+  GstMapInfo map;
+  guint n = 0;
+  gdouble sx = 0, sy = 0;
+  gint x, y;
+  gst_buffer_map (buf, &map, GST_MAP_READ);
+  for (y = y0; y < y1; y++)
+    for (x = x0; x < x1; x++) {
+      guint8 p[3];
+      get_rgb (l, map.data, x, y, p);
+      if (ABS (p[0] - c[0]) <= tol && ABS (p[1] - c[1]) <= tol &&
+          ABS (p[2] - c[2]) <= tol) {
+        n++;
+        sx += x;
+        sy += y;
+      }
+    }
+  gst_buffer_unmap (buf, &map);
+  *mx = n ? sx / n : 0;
+  *my = n ? sy / n : 0;
+  return n;
+}
+
+/* The free space: a wedge of +-30 degrees around straight ahead, an
+ * obstacle 1 m away. Its green fill (translucent over grey) and its red
+ * far edge lie in the mini-map, the red beyond the green in the robot's
+ * forward direction: up without a pose, along the heading with one
+ * (right for heading 0, up for 90 degrees, left for 180). */
+GST_START_TEST (test_floor_free_space)
+{
+  const gint w = 320, h = 240, bins = 360;
+  const guint8 red[3] = { 255, 40, 40 };
+  /* 110/255 of (40, 230, 40) over the inset's background: 150/255 of
+   * black over grey 128 */
+  const guint8 green[3] = { 47, 129, 47 };
+  gchar *map = write_file ("map.json", map_json);
+  gfloat row[4] = { -1, -1, -1, -1 }, range[360];
+  guint8 state[4] = { 0 }, bin_state[360];
+  const gdouble headings[] = { -1, 0, G_PI / 2, G_PI };
+  Layout l;
+  GstHarness *h_;
+  guint i;
+  gint b;
+
+  for (b = 0; b < bins; b++) {
+    const gboolean seen = b <= 30 || b >= bins - 30;
+    range[b] = seen ? 1.0f : 0.0f;
+    bin_state[b] = seen ? 2 : 0;
+  }
+  layout_init (&l, "RGB", w, h);
+  h_ = overlay_new (&l, "show-histogram=false show-indicators=false "
+      "show-pose=false show-boundary=false");
+  g_object_set (h_->element, "map", map, NULL);
+  for (i = 0; i < G_N_ELEMENTS (headings); i++) {
+    GstBuffer *in = frame_new (&l, GREY, GREY, GREY), *out;
+    gdouble gx, gy, rx, ry, dx, dy;
+    guint8 *mask;
+    guint n, ng, nr;
+    add_floor (in, 4, 4, row, state, bins, range, bin_state);
+    if (headings[i] >= 0)
+      add_pose (in, 3, 3, headings[i]);
+    out = run (h_, in);
+    mask = changed_mask (&l, in, out, &n);
+    /* only the inset, top right */
+    fail_unless_equals_int (n, count_in (mask, w, w / 2, 0, w, h / 2));
+    ng = colour_centroid (&l, out, green, 10, w / 2, 0, w, h / 2, &gx, &gy);
+    nr = colour_centroid (&l, out, red, 12, w / 2, 0, w, h / 2, &rx, &ry);
+    fail_unless (ng >= 40, "heading %g: %u green pixels", headings[i], ng);
+    fail_unless (nr >= 5, "heading %g: %u red pixels", headings[i], nr);
+    dx = rx - gx;
+    dy = ry - gy;
+    if (headings[i] < 0 || headings[i] == G_PI / 2)
+      fail_unless (dy < -2 && fabs (dx) < 1.5, "heading %g: red at %g, %g "
+          "from green", headings[i], dx, dy);
+    else if (headings[i] == 0)
+      fail_unless (dx > 2 && fabs (dy) < 1.5, "heading 0: %g, %g", dx, dy);
+    else
+      fail_unless (dx < -2 && fabs (dy) < 1.5, "heading pi: %g, %g", dx, dy);
+    g_free (mask);
+    gst_buffer_unref (out);
+
+    /* switched off: without a pose nothing is left to draw */
+    g_object_set (h_->element, "show-free-space", FALSE, NULL);
+    out = run (h_, in);
+    if (headings[i] < 0)
+      fail_unless (buffers_equal (in, out));
+    else
+      fail_unless_equals_int (count_colour (&l, out, green, 10, w / 2, 0, w,
+              h / 2), 0);
+    gst_buffer_unref (out);
+    g_object_set (h_->element, "show-free-space", TRUE, NULL);
+    gst_buffer_unref (in);
+  }
+  gst_harness_teardown (h_);
+  g_free (map);
+}
+
+GST_END_TEST;
+
 /* ------------------------------------------------------------------ */
 /* Tests: map files                                                   */
 /* ------------------------------------------------------------------ */
@@ -1578,7 +1769,8 @@ GST_START_TEST (test_properties_while_streaming)
   gchar *map = write_file ("map.json", map_json);
   gchar *map2 = write_file ("map2.json", map2_json);
   const gchar *shows[] = { "show-detections", "show-rejected", "show-pose",
-    "show-histogram", "show-indicators", "show-minimap"
+    "show-histogram", "show-indicators", "show-minimap", "show-boundary",
+    "show-free-space"
   };
   GstHarnessThread *threads[32];
   guint n_threads = 0, i, t;
@@ -1703,6 +1895,8 @@ landmarkoverlay_suite (void)
   tcase_add_test (insets, test_indicators);
   tcase_add_test (insets, test_pose_line);
   tcase_add_test (insets, test_minimap_needs_pose_and_map);
+  tcase_add_test (insets, test_floor_boundary);
+  tcase_add_test (insets, test_floor_free_space);
 
   suite_add_tcase (s, config);
   tcase_add_unchecked_fixture (config, tmp_dir_setup, tmp_dir_teardown);

@@ -26,7 +26,7 @@ CLIP = os.path.join(SOURCE_ROOT, "tests", "files", "clips", "path-small")
 
 ELEMENTS = ["labsegment", "blobroundness", "ipmrange", "trilaterate",
             "landmarkoverlay", "landmarklog", "landmarkpublish",
-            "floorboundary", "birdseye"]
+            "floorboundary", "birdseye", "landmarkslam"]
 SKIP = {"name", "parent", "qos"}
 
 # What each element reads and writes (docs/metadata.md); each entry is a set
@@ -47,6 +47,7 @@ METADATA = {
     "landmarkpublish": [{"landmarklog"}],
     "floorboundary": [{"GstLandmarkLabelsMeta"}, {"GstLandmarkFloorMeta"}],
     "birdseye": [{"GstLandmarkFloorMeta", "GstLandmarkPoseMeta"}],
+    "landmarkslam": [{"landmark-range"}, {"GstLandmarkPoseMeta"}],
 }
 
 SYMBOLS = {"G_MAXUINT": 4294967295.0, "G_MAXINT": 2147483647.0,

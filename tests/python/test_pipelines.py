@@ -125,14 +125,14 @@ def run_old(name, desc, tmp_path):
         assert len(output.read_text().splitlines()) == expected
 
 
-def check_log(path):
+def check_log(path, min_posed=0.8):
     lines = [json.loads(ln) for ln in path.read_text().splitlines()]
     assert len(lines) == CHAIN_CLIP_FRAMES
     assert [ln["frame"] for ln in lines] == list(range(CHAIN_CLIP_FRAMES))
     posed = [ln for ln in lines if ln.get("pose")]
-    # 44 of 45 at the time of writing (the first frames see one landmark
-    # and no heading is known yet)
-    assert len(posed) >= 0.8 * CHAIN_CLIP_FRAMES, len(posed)
+    # trilaterate: 44 of 45 at the time of writing (the first frames see
+    # one landmark and no heading is known yet)
+    assert len(posed) >= min_posed * CHAIN_CLIP_FRAMES, len(posed)
     with open(os.path.join(CHAIN_CLIP_DIR, "truth.jsonl")) as f:
         truth = {t["frame"]: t["robot"] for t in map(json.loads, f)}
     errors = sorted(((ln["pose"]["x"] - truth[ln["frame"]]["x"]) ** 2 +
@@ -167,7 +167,10 @@ def test_pipeline_runs(gst, name, tmp_path, monkeypatch, chain_vars):
     else:
         assert (width, height) == (320, 240)
     if "${LOG}" in desc:
-        check_log(variables["LOG"])
+        # landmarkslam waits for two landmarks in view before its first
+        # pose (frames 0-16 of this clip see one): 28 of 45 when written
+        check_log(variables["LOG"],
+                  min_posed=0.5 if "landmarkslam" in desc else 0.8)
 
 
 def free_udp_port():

@@ -16,12 +16,14 @@ import json
 import os
 import re
 import shutil
+import socket
+import subprocess
 import threading
+import time
 
 import pytest
 
 webdriver = pytest.importorskip("selenium.webdriver")
-from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
@@ -86,19 +88,47 @@ class ServerThread:
         assert not self.thread.is_alive(), "the server did not stop"
 
 
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 @pytest.fixture
-def browser():
+def browser(tmp_path):
+    """Chromium driven by chromedriver, both reached by address: Selenium's
+    own Service connects to the name "localhost", which a fresh system
+    without /etc/hosts cannot resolve."""
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu",
                 "--disable-dev-shm-usage", "--window-size=1400,1000"):
         options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
-    driver.set_page_load_timeout(WAIT)
+    port = _free_port()
+    log = open(tmp_path / "chromedriver.log", "wb")
+    service = subprocess.Popen([CHROMEDRIVER, f"--port={port}"],
+                               stdout=log, stderr=subprocess.STDOUT)
     try:
-        yield driver
+        deadline = time.monotonic() + WAIT
+        while True:
+            try:
+                socket.create_connection(("127.0.0.1", port), 0.5).close()
+                break
+            except OSError:
+                assert service.poll() is None and \
+                    time.monotonic() < deadline, "chromedriver did not start"
+                time.sleep(0.05)
+        driver = webdriver.Remote(command_executor=f"http://127.0.0.1:{port}",
+                                  options=options)
+        driver.set_page_load_timeout(WAIT)
+        try:
+            yield driver
+        finally:
+            driver.quit()
     finally:
-        driver.quit()
+        service.terminate()
+        service.wait(WAIT)
+        log.close()
 
 
 def wait_for(driver, condition, what):

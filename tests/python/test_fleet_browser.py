@@ -11,7 +11,8 @@ import pytest
 pytest.importorskip("selenium.webdriver")
 from selenium.webdriver.common.by import By  # noqa: E402
 
-from test_console_browser import browser, wait_for  # noqa: E402,F401
+from test_console_browser import (  # noqa: E402,F401
+    browser, pytestmark, wait_for)
 
 from gstlandmark import fleetweb  # noqa: E402
 from gstlandmark.fleet import FleetState  # noqa: E402

@@ -129,18 +129,19 @@ def detection_centre(det: Dict[str, Any]) -> Tuple[float, float]:
     return x + (w - 1) / 2.0, y + (h - 1) / 2.0
 
 
-def match_frame(dets: List[Dict[str, Any]], truth: List[Dict[str, Any]],
-                match_px: float) -> List[Tuple[int, int]]:
+def match_frame(dets: Sequence[Dict[str, Any]],
+                truth: Sequence[Dict[str, Any]], match_px: float,
+                gate=None) -> List[Tuple[int, int]]:
     """One-to-one pairs (detection index, truth index) of the same class
-    within match_px, nearest first."""
+    within match_px (or ``gate(truth landmark)`` pixels), nearest first."""
     pairs = []
     for i, d in enumerate(dets):
         du, dv = detection_centre(d)
         for j, t in enumerate(truth):
-            if t["class"] != d["class"]:
+            if t["class"] != d.get("class"):
                 continue
             dist = math.hypot(du - t["u"], dv - t["v"])
-            if dist <= match_px:
+            if dist <= (gate(t) if gate else match_px):
                 pairs.append((dist, i, j))
     pairs.sort()
     used_d, used_t, out = set(), set(), []

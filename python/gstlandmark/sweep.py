@@ -127,23 +127,8 @@ def match_detections(dets: Sequence[Dict[str, Any]],
                      match_px: float = MATCH_PX) -> List[Tuple[int, int]]:
     """One-to-one (detection, truth) pairs of the same class within each
     landmark's gate, nearest first."""
-    pairs = []
-    for i, d in enumerate(dets):
-        du, dv = E.detection_centre(d)
-        for j, m in enumerate(marks):
-            if m["class"] != d.get("class"):
-                continue
-            dist = math.hypot(du - m["u"], dv - m["v"])
-            if dist <= match_gate(m, match_px):
-                pairs.append((dist, i, j))
-    pairs.sort()
-    used_d, used_t, out = set(), set(), []
-    for _, i, j in pairs:
-        if i not in used_d and j not in used_t:
-            used_d.add(i)
-            used_t.add(j)
-            out.append((i, j))
-    return out
+    return E.match_frame(dets, marks, match_px,
+                         gate=lambda m: match_gate(m, match_px))
 
 
 def score(results: Sequence[Dict[str, Any]],

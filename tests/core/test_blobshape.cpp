@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "blobshape.h"
+#include "corecheck.h"
 
 using namespace landmark;
 
@@ -83,19 +84,6 @@ realloc (void *p, size_t n)
   return __libc_realloc (p, n);
 }
 #endif
-
-static int failures = 0;
-static int checks = 0;
-
-#define CHECK(cond, ...) do { \
-    checks++; \
-    if (!(cond)) { \
-      failures++; \
-      fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      fprintf (stderr, __VA_ARGS__); \
-      fprintf (stderr, "\n"); \
-    } \
-  } while (0)
 
 /* ---- drawing ---------------------------------------------------------- */
 
@@ -736,6 +724,5 @@ main ()
   test_degenerate ();
   test_label_plane ();
   test_speed ();
-  printf ("\n%d checks, %d failures\n", checks, failures);
-  return failures ? EXIT_FAILURE : EXIT_SUCCESS;
+  return corecheck_summary ();
 }

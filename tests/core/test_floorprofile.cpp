@@ -2,6 +2,7 @@
  * analytic geometry: label planes ray-cast here with the pinhole model of
  * docs/conventions.md written out independently of camerageometry.cpp. */
 #include "floorprofile.h"
+#include "corecheck.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -14,13 +15,6 @@
 #include <vector>
 
 using namespace landmark;
-
-static int failures = 0;
-
-#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
-      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
-  } while (0)
 
 static const int W = 640, H = 480;
 static const double HFOV = 60, TILT = 25, CAM_H = 0.3;
@@ -674,7 +668,5 @@ main ()
   test_seed_model ();
   test_marker_length ();
   bench_scan ();
-  if (failures)
-    std::fprintf (stderr, "%d failures\n", failures);
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

@@ -6,6 +6,7 @@
  * (NEES), a partial map anchoring the frame, odometry, a stationary robot
  * and a spurious detection. */
 #include "slam.h"
+#include "corecheck.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,13 +16,6 @@
 #include <vector>
 
 using namespace landmark;
-
-static int passed = 0, failures = 0;
-
-#define CHECK(cond, ...) do { if (cond) { passed++; } else { failures++; \
-      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
-  } while (0)
 
 struct TruthLandmark {
   std::string cls;
@@ -525,7 +519,5 @@ main ()
   test_odometry ();
   test_stationary ();
   test_spurious_dropped ();
-  /* the form scripts/count-tests.py counts */
-  std::printf ("%d passed, %d failed\n", passed, failures);
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

@@ -3,6 +3,8 @@
  * strides of odd widths, the frame's metadata kept and image metadata
  * dropped, bad settings, and the cost of a 640x480 -> 400x400 remap. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -82,7 +84,7 @@ pixel (GstBuffer * out, const GstVideoInfo * info, guint i, guint j)
 /* A band of floor from 1.9 to 2.1 m shows as output rows 400 - 100 x:
  * rows 190..209 white, rows outside it grey, and the same across the
  * view (a straight line). Odd input width: strides. */
-GST_START_TEST (test_band_at_two_metres)
+LANDMARK_TEST ("general", test_band_at_two_metres)
 {
   const guint sizes[][2] = { {640, 480}, {321, 241} };
   guint k;
@@ -118,7 +120,7 @@ GST_START_TEST (test_band_at_two_metres)
 GST_END_TEST;
 
 /* pixels-per-metre and the extents set the size and the scale */
-GST_START_TEST (test_scale_and_extent)
+LANDMARK_TEST ("general", test_scale_and_extent)
 {
   GstHarness *hr = harness_new ("pixels-per-metre=50 forward=3 behind=1 "
       "side=1.5", 640, 480);
@@ -145,7 +147,7 @@ GST_END_TEST;
 
 /* The frame's results travel with it; the label plane (pixel
  * coordinates of the camera image) does not. */
-GST_START_TEST (test_metadata)
+LANDMARK_TEST ("general", test_metadata)
 {
   GstHarness *hr = harness_new (NULL, 64, 48);
   GstVideoInfo in;
@@ -199,7 +201,7 @@ check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
   gst_object_unref (e);
 }
 
-GST_START_TEST (test_bad_properties)
+LANDMARK_TEST ("general", test_bad_properties)
 {
   check_bad_start ("side", "0", "'side'");
   check_bad_start ("forward", "0", "'forward'");
@@ -211,7 +213,7 @@ GST_START_TEST (test_bad_properties)
 GST_END_TEST;
 
 /* 640x480 -> 400x400 RGB, per frame; printed, not asserted. */
-GST_START_TEST (test_cost_640x480)
+LANDMARK_TEST ("general", test_cost_640x480)
 {
   GstHarness *hr = harness_new (NULL, 640, 480);
   GstVideoInfo in;
@@ -241,18 +243,4 @@ GST_START_TEST (test_cost_640x480)
 
 GST_END_TEST;
 
-static Suite *
-birdseye_suite (void)
-{
-  Suite *s = suite_create ("birdseye");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_band_at_two_metres);
-  tcase_add_test (tc, test_scale_and_extent);
-  tcase_add_test (tc, test_metadata);
-  tcase_add_test (tc, test_bad_properties);
-  tcase_add_test (tc, test_cost_640x480);
-  return s;
-}
-
-GST_CHECK_MAIN (birdseye);
+LANDMARK_CHECK_MAIN (birdseye);

@@ -7,6 +7,8 @@
  * counting the drawn pixels, never from the element's own code. One test
  * runs labsegment upstream on a drawn colour frame. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -347,7 +349,7 @@ nearest (const Blobs * b, gdouble cx, gdouble cy, guint * index)
 /* Properties                                                         */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_properties)
+LANDMARK_TEST ("properties", test_properties)
 {
   GstElement *e = gst_element_factory_make ("blobroundness", NULL);
   gchar *classes = NULL;
@@ -401,7 +403,7 @@ GST_END_TEST;
 
 /* Discs of radius 6..40 at sub-pixel centres, one per frame: found, round
  * in both modes, area and box as drawn, centroid and ellipse as analytic */
-GST_START_TEST (test_discs)
+LANDMARK_TEST ("shapes", test_discs)
 {
   const gchar *modes[] = { "shape=circle", "shape=ellipse" };
   guint mode, k;
@@ -476,7 +478,7 @@ GST_START_TEST (test_discs)
 GST_END_TEST;
 
 /* A disc drawn symmetrically about a pixel centre: centroid exact */
-GST_START_TEST (test_disc_centroid_exact)
+LANDMARK_TEST ("shapes", test_disc_centroid_exact)
 {
   GstHarness *hr = harness_new (NULL, 81, 81);
   gdouble r;
@@ -500,7 +502,7 @@ GST_END_TEST;
 
 /* Drawn ellipses: axes within 1 px, angle, kept by shape=ellipse and
  * rejected by shape=circle when elongated */
-GST_START_TEST (test_ellipses)
+LANDMARK_TEST ("shapes", test_ellipses)
 {
   GstHarness *he = harness_new ("keep-rejected=true", 161, 121);
   GstHarness *hc = harness_new ("keep-rejected=true shape=circle", 161, 121);
@@ -587,7 +589,7 @@ check_rejected (InsideFunc inside, const gdouble * s, const gchar * what)
   }
 }
 
-GST_START_TEST (test_squares)
+LANDMARK_TEST ("shapes", test_squares)
 {
   guint side, deg;
   for (side = 20; side <= 60; side += 20)
@@ -601,7 +603,7 @@ GST_START_TEST (test_squares)
 
 GST_END_TEST;
 
-GST_START_TEST (test_stripes_and_triangles)
+LANDMARK_TEST ("shapes", test_stripes_and_triangles)
 {
   guint k;
   for (k = 0; k < 6; k++) {
@@ -619,7 +621,7 @@ GST_END_TEST;
  * about 1 - (r/R)^2 of a disc. Rings with r >= 0.4 R are not taken for
  * discs by either test; smaller holes (glare, a printed centre) fail only
  * the ellipse test, from r >= 0.3 R (IoU (1 - f^2) / (1 + f^2)). */
-GST_START_TEST (test_rings)
+LANDMARK_TEST ("shapes", test_rings)
 {
   gdouble frac;
   for (frac = 0.3; frac < 0.85; frac += 0.1) {
@@ -654,7 +656,7 @@ GST_START_TEST (test_rings)
 GST_END_TEST;
 
 /* Specks below min-area are dropped, or kept with reason "area" */
-GST_START_TEST (test_specks)
+LANDMARK_TEST ("shapes", test_specks)
 {
   GstHarness *hr = harness_new ("min-area=30", 64, 48);
   GstHarness *hk = harness_new ("min-area=30 keep-rejected=true", 64, 48);
@@ -703,7 +705,7 @@ GST_START_TEST (test_specks)
 GST_END_TEST;
 
 /* max-area and max-aspect */
-GST_START_TEST (test_area_and_aspect_limits)
+LANDMARK_TEST ("shapes", test_area_and_aspect_limits)
 {
   GstHarness *hr = harness_new ("keep-rejected=true max-area=2000 "
       "min-area=50 max-aspect=10", 200, 100);
@@ -760,7 +762,7 @@ many_blobs_plane (guint w, guint h, guint per_class)
   return p;
 }
 
-GST_START_TEST (test_classes)
+LANDMARK_TEST ("shapes", test_classes)
 {
   const guint per = 12;
   Plane *p = many_blobs_plane (340, 200, per);
@@ -810,7 +812,7 @@ GST_START_TEST (test_classes)
 GST_END_TEST;
 
 /* Hundreds of blobs over several classes in one frame, every frame */
-GST_START_TEST (test_many_blobs)
+LANDMARK_TEST ("shapes", test_many_blobs)
 {
   const guint per = 22;
   Plane *p = many_blobs_plane (640, 200, per);
@@ -836,7 +838,7 @@ GST_END_TEST;
 /* Morphology                                                         */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_morphology)
+LANDMARK_TEST ("shapes", test_morphology)
 {
   GstHarness *hr = harness_new ("min-area=20", 120, 60);
   Plane *p = plane_new (120, 60, 120);
@@ -909,7 +911,7 @@ GST_END_TEST;
 /* Frame sizes, strides, caps                                         */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_odd_sizes)
+LANDMARK_TEST ("frames", test_odd_sizes)
 {
   static const guint sizes[][2] = { {1, 1}, {1, 7}, {7, 1}, {2, 3}, {17, 5},
   {641, 479}, {33, 481}
@@ -958,7 +960,7 @@ GST_START_TEST (test_odd_sizes)
 GST_END_TEST;
 
 /* Any video/x-raw caps; the pixels are neither read nor changed */
-GST_START_TEST (test_any_caps_video_untouched)
+LANDMARK_TEST ("frames", test_any_caps_video_untouched)
 {
   static const gchar *caps[] = {
     "video/x-raw,format=I420,width=64,height=48,framerate=25/1",
@@ -1000,7 +1002,7 @@ GST_END_TEST;
 
 /* A label plane whose size differs from the caps: the boxes are in
  * pixels of the frame, the landmark-blob values in the plane's */
-GST_START_TEST (test_plane_size_differs)
+LANDMARK_TEST ("frames", test_plane_size_differs)
 {
   GstHarness *hr = harness_new ("min-area=20", 200, 100);
   Plane *p = plane_new (100, 50, 100);
@@ -1044,7 +1046,7 @@ count_messages (GstBus * bus, GstMessageType type, GError ** first)
   return n;
 }
 
-GST_START_TEST (test_no_labels_meta)
+LANDMARK_TEST ("errors", test_no_labels_meta)
 {
   GstHarness *hr = harness_new (NULL, 32, 24);
   GstBus *bus = gst_bus_new ();
@@ -1101,7 +1103,7 @@ check_bad_start (const gchar * prop, const gchar * value, const gchar * prop2,
   gst_object_unref (e);
 }
 
-GST_START_TEST (test_bad_properties)
+LANDMARK_TEST ("errors", test_bad_properties)
 {
   check_bad_start ("morphology", "4", NULL, NULL, "'morphology'");
   check_bad_start ("morphology", "2", NULL, NULL, "'morphology'");
@@ -1113,7 +1115,7 @@ GST_START_TEST (test_bad_properties)
 GST_END_TEST;
 
 /* An unknown class is known only once the labels arrive: an error then */
-GST_START_TEST (test_unknown_class)
+LANDMARK_TEST ("errors", test_unknown_class)
 {
   GstHarness *hr = harness_new ("classes=red,purple", 32, 24);
   GstBus *bus = gst_bus_new ();
@@ -1138,7 +1140,7 @@ GST_END_TEST;
 
 /* Changes while playing take effect at the next frame; a bad value is
  * reported once and the previous settings stay */
-GST_START_TEST (test_change_while_playing)
+LANDMARK_TEST ("properties", test_change_while_playing)
 {
   GstHarness *hr = harness_new ("min-area=20", 100, 60);
   GstBus *bus = gst_bus_new ();
@@ -1187,7 +1189,7 @@ GST_START_TEST (test_change_while_playing)
 GST_END_TEST;
 
 /* Properties hammered from another thread while frames stream */
-GST_START_TEST (test_property_stress)
+LANDMARK_TEST ("properties", test_property_stress)
 {
   GstHarness *hr = harness_new (NULL, 160, 120);
   Plane *p = many_blobs_plane (160, 120, 5);
@@ -1223,7 +1225,7 @@ GST_START_TEST (test_property_stress)
 GST_END_TEST;
 
 /* QoS is off: late frames are measured, never dropped */
-GST_START_TEST (test_no_frame_dropped)
+LANDMARK_TEST ("frames", test_no_frame_dropped)
 {
   GstHarness *hr = harness_new ("min-area=20", 64, 48);
   Plane *p = plane_new (64, 48, 64);
@@ -1303,7 +1305,7 @@ time_per_frame (GstHarness * hr, const Plane * p, guint n, guint expect)
 /* 640x480, five marker classes, ten blobs of 150 to 3000 pixels over a
  * background of two labels with 2 % speckle (as labsegment leaves JPEG
  * frames). The cost is printed (docs/blobroundness.md), not asserted. */
-GST_START_TEST (test_cost_640x480)
+LANDMARK_TEST ("pipelines", test_cost_640x480)
 {
   Plane *p = plane_new (640, 480, 640);
   GRand *rand = g_rand_new_with_seed (1);
@@ -1345,7 +1347,7 @@ GST_END_TEST;
 
 /* Grey #808080 and blue #1E50C8 are exactly the built-in palette's grey
  * and blue; pink #FF69B4 its pink. */
-GST_START_TEST (test_labsegment_pipeline)
+LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
 {
   GstHarness *hr = gst_harness_new_parse ("labsegment min-class-pixels=0 ! "
       "blobroundness min-area=50");
@@ -1406,49 +1408,4 @@ GST_START_TEST (test_labsegment_pipeline)
 
 GST_END_TEST;
 
-static Suite *
-blobroundness_suite (void)
-{
-  Suite *s = suite_create ("blobroundness");
-  TCase *props = tcase_create ("properties");
-  TCase *shapes = tcase_create ("shapes");
-  TCase *frames = tcase_create ("frames");
-  TCase *errors = tcase_create ("errors");
-  TCase *pipelines = tcase_create ("pipelines");
-
-  suite_add_tcase (s, props);
-  tcase_add_test (props, test_properties);
-  tcase_add_test (props, test_change_while_playing);
-  tcase_add_test (props, test_property_stress);
-
-  suite_add_tcase (s, shapes);
-  tcase_add_test (shapes, test_discs);
-  tcase_add_test (shapes, test_disc_centroid_exact);
-  tcase_add_test (shapes, test_ellipses);
-  tcase_add_test (shapes, test_squares);
-  tcase_add_test (shapes, test_stripes_and_triangles);
-  tcase_add_test (shapes, test_rings);
-  tcase_add_test (shapes, test_specks);
-  tcase_add_test (shapes, test_area_and_aspect_limits);
-  tcase_add_test (shapes, test_classes);
-  tcase_add_test (shapes, test_many_blobs);
-  tcase_add_test (shapes, test_morphology);
-
-  suite_add_tcase (s, frames);
-  tcase_add_test (frames, test_odd_sizes);
-  tcase_add_test (frames, test_any_caps_video_untouched);
-  tcase_add_test (frames, test_plane_size_differs);
-  tcase_add_test (frames, test_no_frame_dropped);
-
-  suite_add_tcase (s, errors);
-  tcase_add_test (errors, test_no_labels_meta);
-  tcase_add_test (errors, test_bad_properties);
-  tcase_add_test (errors, test_unknown_class);
-
-  suite_add_tcase (s, pipelines);
-  tcase_add_test (pipelines, test_labsegment_pipeline);
-  tcase_add_test (pipelines, test_cost_640x480);
-  return s;
-}
-
-GST_CHECK_MAIN (blobroundness);
+LANDMARK_CHECK_MAIN (blobroundness);

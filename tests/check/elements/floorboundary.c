@@ -5,6 +5,8 @@
  * written out in this file (range = h / tan (tilt + atan ((v - cy) / f))
  * for the centre column), never from the element's own code. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -190,7 +192,7 @@ count_messages (GstBus * bus, GstMessageType type, GError ** first)
 
 /* A wall straight ahead: white above a grey floor. Bin 0 and the centre
  * column see it at h / tan of the edge's angle. */
-GST_START_TEST (test_wall_straight_ahead)
+LANDMARK_TEST ("general", test_wall_straight_ahead)
 {
   GstHarness *hr = harness_new ("floor-classes=grey");
   const guint edges[] = { 70, 160, 300 };
@@ -224,7 +226,7 @@ GST_END_TEST;
 
 /* All floor: free up to max-range ahead; with a max-range beyond the top
  * row's floor point, the view ends there (state 3). */
-GST_START_TEST (test_free_and_view_edge)
+LANDMARK_TEST ("general", test_free_and_view_edge)
 {
   GstHarness *hr = harness_new ("max-range=3");
   guint8 *p = plane_floor_below (0, GREY, GREY);
@@ -251,7 +253,7 @@ GST_END_TEST;
 /* A red disc lying on the floor is walked over and reported in
  * rop-marker-range; with markers=obstacles it ends the floor. Specks
  * and a two-row shadow change nothing. */
-GST_START_TEST (test_markers_specks_shadows)
+LANDMARK_TEST ("general", test_markers_specks_shadows)
 {
   GstHarness *hr = harness_new ("floor-classes=grey max-range=4");
   guint8 *p = plane_floor_below (0, GREY, GREY);
@@ -290,7 +292,7 @@ GST_START_TEST (test_markers_specks_shadows)
 
 GST_END_TEST;
 
-GST_START_TEST (test_message)
+LANDMARK_TEST ("general", test_message)
 {
   GstHarness *hr = harness_new ("floor-classes=grey post-messages=true "
       "bearing-bins=72");
@@ -343,7 +345,7 @@ check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
   gst_object_unref (e);
 }
 
-GST_START_TEST (test_bad_properties)
+LANDMARK_TEST ("general", test_bad_properties)
 {
   check_bad_start ("max-range", "0", "'max-range'");
   check_bad_start ("floor-classes", "grey,,white", "'floor-classes'");
@@ -380,7 +382,7 @@ check_bad_labels (const gchar * props, const gchar ** names,
   gst_harness_teardown (hr);
 }
 
-GST_START_TEST (test_no_floor_class)
+LANDMARK_TEST ("general", test_no_floor_class)
 {
   static const gchar *markers_only[] = { "red", "blue" };
   static const gboolean all_markers[] = { TRUE, TRUE };
@@ -391,7 +393,7 @@ GST_START_TEST (test_no_floor_class)
 GST_END_TEST;
 
 /* A bad value while playing: one warning, the previous settings stay */
-GST_START_TEST (test_change_while_playing)
+LANDMARK_TEST ("general", test_change_while_playing)
 {
   GstHarness *hr = harness_new ("floor-classes=grey max-range=3");
   GstBus *bus = gst_bus_new ();
@@ -427,7 +429,7 @@ GST_START_TEST (test_change_while_playing)
 GST_END_TEST;
 
 /* Video untouched; no labels meta: one warning, buffers pass */
-GST_START_TEST (test_no_labels_meta)
+LANDMARK_TEST ("general", test_no_labels_meta)
 {
   GstHarness *hr = harness_new (NULL);
   GstBus *bus = gst_bus_new ();
@@ -463,7 +465,7 @@ cpu_us (void)
 }
 
 /* Per-frame cost at 640x480 beside identity; printed, not asserted. */
-GST_START_TEST (test_cost_640x480)
+LANDMARK_TEST ("general", test_cost_640x480)
 {
   GstHarness *hr = harness_new ("floor-classes=grey");
   GstHarness *ref = gst_harness_new ("identity");
@@ -509,22 +511,4 @@ GST_START_TEST (test_cost_640x480)
 
 GST_END_TEST;
 
-static Suite *
-floorboundary_suite (void)
-{
-  Suite *s = suite_create ("floorboundary");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_wall_straight_ahead);
-  tcase_add_test (tc, test_free_and_view_edge);
-  tcase_add_test (tc, test_markers_specks_shadows);
-  tcase_add_test (tc, test_message);
-  tcase_add_test (tc, test_bad_properties);
-  tcase_add_test (tc, test_no_floor_class);
-  tcase_add_test (tc, test_change_while_playing);
-  tcase_add_test (tc, test_no_labels_meta);
-  tcase_add_test (tc, test_cost_640x480);
-  return s;
-}
-
-GST_CHECK_MAIN (floorboundary);
+LANDMARK_CHECK_MAIN (floorboundary);

@@ -1,6 +1,8 @@
 /* ipmrange: hand-attached detections (landmark-blob with centroid and
  * frame size) against analytic range and bearing; no-floor; bad properties
  * and calibration files fail READY; calibration files are read. */
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -97,7 +99,7 @@ check_point (const GstStructure * r, double gx, double gy, double tol)
   fail_unless (fabs (rg - range) < 1e-12);
 }
 
-GST_START_TEST (test_pinhole_hfov)
+LANDMARK_TEST ("general", test_pinhole_hfov)
 {
   GstHarness *h = harness ("ipmrange camera-height=0.5 tilt=30 hfov=60");
   const double f = (W / 2.0) / tan (M_PI / 6), cx = (W - 1) / 2.0,
@@ -127,7 +129,7 @@ GST_START_TEST (test_pinhole_hfov)
 GST_END_TEST;
 
 /* Detections measured on a half-size frame are scaled to the caps. */
-GST_START_TEST (test_scaled_detections)
+LANDMARK_TEST ("general", test_scaled_detections)
 {
   GstHarness *h = harness ("ipmrange camera-height=0.4 tilt=20 fx=600 "
       "cx=300 cy=250");
@@ -148,7 +150,7 @@ GST_START_TEST (test_scaled_detections)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_no_floor)
+LANDMARK_TEST ("general", test_no_floor)
 {
   /* tilt 10: rows above v ~ 120 look above the horizon */
   GstHarness *h = harness ("ipmrange camera-height=0.5 tilt=10 hfov=60");
@@ -210,7 +212,7 @@ expect_ready_error (const gchar * launch, const gchar * what)
   gst_object_unref (e);
 }
 
-GST_START_TEST (test_bad_properties)
+LANDMARK_TEST ("general", test_bad_properties)
 {
   expect_ready_error ("ipmrange camera-height=0", "camera-height");
   expect_ready_error ("ipmrange hfov=0", "hfov");
@@ -239,7 +241,7 @@ GST_START_TEST (test_bad_properties)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_calibration_yaml)
+LANDMARK_TEST ("general", test_calibration_yaml)
 {
   GstHarness *h = harness ("ipmrange camera-height=0.3 tilt=25 "
       "calibration=" CAL_DIR "/cam640.yaml");
@@ -279,7 +281,7 @@ undistort (double u, double v, const double *k, double fx, double fy,
   *yn = y;
 }
 
-GST_START_TEST (test_calibration_xml_distorted)
+LANDMARK_TEST ("general", test_calibration_xml_distorted)
 {
   GstHarness *h = gst_harness_new_parse ("ipmrange camera-height=0.3 "
       "tilt=25 calibration=" CAL_DIR "/cam640-distorted.xml");
@@ -307,7 +309,7 @@ GST_START_TEST (test_calibration_xml_distorted)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_seed_model)
+LANDMARK_TEST ("general", test_seed_model)
 {
   /* h 0.4, b 0.3, d 0.9, w 0.6: bottom row at b, centre of the left edge
    * at (b + d, +w), eqs 3.5-3.6 */
@@ -326,7 +328,7 @@ GST_START_TEST (test_seed_model)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_change_while_playing)
+LANDMARK_TEST ("general", test_change_while_playing)
 {
   GstHarness *h = harness ("ipmrange camera-height=0.5 tilt=30 hfov=60");
   GstBuffer *in, *out;
@@ -351,21 +353,4 @@ GST_START_TEST (test_change_while_playing)
 }
 GST_END_TEST;
 
-static Suite *
-ipmrange_suite (void)
-{
-  Suite *s = suite_create ("ipmrange");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_pinhole_hfov);
-  tcase_add_test (tc, test_scaled_detections);
-  tcase_add_test (tc, test_no_floor);
-  tcase_add_test (tc, test_bad_properties);
-  tcase_add_test (tc, test_calibration_yaml);
-  tcase_add_test (tc, test_calibration_xml_distorted);
-  tcase_add_test (tc, test_seed_model);
-  tcase_add_test (tc, test_change_while_playing);
-  return s;
-}
-
-GST_CHECK_MAIN (ipmrange);
+LANDMARK_CHECK_MAIN (ipmrange);

@@ -14,6 +14,8 @@
  * The labels meta is read as applications do: gst_buffer_get_custom_meta()
  * by name, then the GstStructure fields. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -943,7 +945,7 @@ check_builtin_colour_choice (const FormatDesc * fmt)
 /* ------------------------------------------------------------------ */
 
 /* Loop tests run once per entry of formats[]. */
-GST_START_TEST (test_format_passthrough)
+LANDMARK_TEST_LOOP ("formats", test_format_passthrough, G_N_ELEMENTS (formats))
 {
   const FormatDesc *fmt = &formats[__i__];
   Config cfg = builtin_config (0);
@@ -959,7 +961,7 @@ GST_START_TEST (test_format_passthrough)
 
 GST_END_TEST;
 
-GST_START_TEST (test_format_sizes)
+LANDMARK_TEST_LOOP ("formats", test_format_sizes, G_N_ELEMENTS (formats))
 {
   static const guint sizes[][2] = {
     {1, 1}, {2, 2}, {3, 4}, {3, 5}, {3, 1}, {641, 479},
@@ -982,7 +984,8 @@ GST_START_TEST (test_format_sizes)
 
 GST_END_TEST;
 
-GST_START_TEST (test_format_padded_strides)
+LANDMARK_TEST_LOOP ("formats", test_format_padded_strides,
+    G_N_ELEMENTS (formats))
 {
   static const guint pads[] = { 7, 64 };
   const FormatDesc *fmt = &formats[__i__];
@@ -1003,7 +1006,8 @@ GST_END_TEST;
 
 /* output=labels: the frame shows the class colours (class-rgb), black for
  * label 0; labels themselves are unchanged by the mode. */
-GST_START_TEST (test_format_output_labels)
+LANDMARK_TEST_LOOP ("formats", test_format_output_labels,
+    G_N_ELEMENTS (formats))
 {
   static const guint8 cycle[] = {
     C_RED, C_GREY, C_FAR_GREEN, C_WHITE, C_BLUE, C_YELLOW, C_GREEN, C_PINK,
@@ -1080,7 +1084,7 @@ dominance_picture (Picture * pic, const FormatDesc * fmt, guint * n_pink)
   *n_pink = 36;
 }
 
-GST_START_TEST (test_dominant_colour_rule)
+LANDMARK_TEST_LOOP ("rules", test_dominant_colour_rule, G_N_ELEMENTS (formats))
 {
   const FormatDesc *fmt = &formats[__i__];
   const guint pink = ref_label (&builtin, "pink");
@@ -1127,7 +1131,8 @@ GST_END_TEST;
 
 /* Many demoted pixels of two classes, in an odd-sized frame: the
  * relabelling must cover every one of them, wherever they are. */
-GST_START_TEST (test_dominant_colour_rule_large)
+LANDMARK_TEST_LOOP ("rules", test_dominant_colour_rule_large,
+    G_N_ELEMENTS (formats))
 {
   const FormatDesc *fmt = &formats[__i__];
   Config cfg = builtin_config (20000);
@@ -1156,7 +1161,7 @@ GST_START_TEST (test_dominant_colour_rule_large)
 
 GST_END_TEST;
 
-GST_START_TEST (test_no_class_reaches_threshold)
+LANDMARK_TEST ("rules", test_no_class_reaches_threshold)
 {
   Config cfg = builtin_config (65);
   GstBuffer *out;
@@ -1196,7 +1201,7 @@ GST_START_TEST (test_no_class_reaches_threshold)
 
 GST_END_TEST;
 
-GST_START_TEST (test_max_distance)
+LANDMARK_TEST ("rules", test_max_distance)
 {
   const guint green = ref_label (&builtin, "green");
   Picture pic;
@@ -1235,7 +1240,7 @@ GST_START_TEST (test_max_distance)
 
 GST_END_TEST;
 
-GST_START_TEST (test_use_lightness)
+LANDMARK_TEST ("rules", test_use_lightness)
 {
   static const Rgb greys[] = { {60, 60, 60}, {200, 200, 200} };
   const gchar *path = PALETTES "lightness.json";
@@ -1290,7 +1295,7 @@ GST_START_TEST (test_use_lightness)
 
 GST_END_TEST;
 
-GST_START_TEST (test_custom_palette)
+LANDMARK_TEST ("configuration", test_custom_palette)
 {
   static const Rgb colours[] = {
     {235, 145, 40},             /* orange */
@@ -1325,7 +1330,7 @@ GST_END_TEST;
 /* YUV frames in the colorimetry their caps state. Each case has a colour
  * that the wrong interpretation (BT.601 limited, the usual assumption)
  * would put in another class, so a matrix or range that is ignored shows. */
-GST_START_TEST (test_yuv_colorimetry)
+LANDMARK_TEST ("formats", test_yuv_colorimetry)
 {
   static const struct
   {
@@ -1384,7 +1389,7 @@ GST_END_TEST;
 
 /* One element through caps changes: format, size and colorimetry change
  * between buffers; every buffer is labelled for its own caps. */
-GST_START_TEST (test_caps_change_midstream)
+LANDMARK_TEST ("formats", test_caps_change_midstream)
 {
   static const struct
   {
@@ -1439,7 +1444,7 @@ GST_START_TEST (test_caps_change_midstream)
 GST_END_TEST;
 
 /* The largest palette: 64 classes, labels 1..64 all in use. */
-GST_START_TEST (test_palette_64_classes)
+LANDMARK_TEST ("configuration", test_palette_64_classes)
 {
   static const guint8 levels[] = { 32, 96, 160, 224 };
   const gchar *path = PALETTES "good-64-classes.json";
@@ -1487,7 +1492,7 @@ segment_builtin_pattern_rgb (GstHarness * h, Picture * pic, GstBuffer ** in)
 
 /* One landmark-histogram element message per buffer, fields as in the
  * meta of that buffer, times from the segment. */
-GST_START_TEST (test_post_messages)
+LANDMARK_TEST ("streaming", test_post_messages)
 {
   Config cfg = builtin_config (40);
   GstHarness *h = harness_new (NULL, &cfg);
@@ -1683,7 +1688,8 @@ check_palette_error (GstBus * bus, GstElement * element, const BadPalette * b,
   gst_message_unref (msg);
 }
 
-GST_START_TEST (test_bad_palette_fails_start)
+LANDMARK_TEST_LOOP ("configuration", test_bad_palette_fails_start,
+    G_N_ELEMENTS (bad_palettes))
 {
   const BadPalette *b = &bad_palettes[__i__];
   gchar *path = g_build_filename (GST_TEST_FILES_PATH, "palettes", b->file,
@@ -1718,7 +1724,7 @@ GST_START_TEST (test_bad_palette_fails_start)
 
 GST_END_TEST;
 
-GST_START_TEST (test_bad_palette_while_playing)
+LANDMARK_TEST ("configuration", test_bad_palette_while_playing)
 {
   const BadPalette *b = &bad_palettes[5];       /* duplicate name */
   gchar *bad = g_build_filename (GST_TEST_FILES_PATH, "palettes", b->file,
@@ -1770,7 +1776,7 @@ GST_START_TEST (test_bad_palette_while_playing)
 GST_END_TEST;
 
 /* Properties changed from other threads while buffers flow. */
-GST_START_TEST (test_properties_while_streaming)
+LANDMARK_TEST ("streaming", test_properties_while_streaming)
 {
   const gchar *custom = PALETTES "good-custom.json";
   const gchar *alt = PALETTES "good-alt.json";
@@ -1877,7 +1883,7 @@ GST_END_TEST;
 /* A measuring element never drops frames, not even when downstream says
  * it is far behind (a QoS event that would make a QoS-enabled transform
  * drop everything below). */
-GST_START_TEST (test_no_buffer_dropped)
+LANDMARK_TEST ("streaming", test_no_buffer_dropped)
 {
   GstHarness *h = gst_harness_new ("labsegment");
   GstBuffer *templ;
@@ -1913,47 +1919,5 @@ GST_START_TEST (test_no_buffer_dropped)
 
 GST_END_TEST;
 
-static Suite *
-labsegment_suite (void)
-{
-  Suite *s = suite_create ("labsegment");
-  TCase *formats_tc = tcase_create ("formats");
-  TCase *rules = tcase_create ("rules");
-  TCase *config = tcase_create ("configuration");
-  TCase *streaming = tcase_create ("streaming");
-  const gint n_formats = G_N_ELEMENTS (formats);
-
-  suite_add_tcase (s, formats_tc);
-  tcase_add_unchecked_fixture (formats_tc, load_builtin, clear_builtin);
-  tcase_add_loop_test (formats_tc, test_format_passthrough, 0, n_formats);
-  tcase_add_loop_test (formats_tc, test_format_sizes, 0, n_formats);
-  tcase_add_loop_test (formats_tc, test_format_padded_strides, 0, n_formats);
-  tcase_add_loop_test (formats_tc, test_format_output_labels, 0, n_formats);
-  tcase_add_test (formats_tc, test_yuv_colorimetry);
-  tcase_add_test (formats_tc, test_caps_change_midstream);
-
-  suite_add_tcase (s, rules);
-  tcase_add_unchecked_fixture (rules, load_builtin, clear_builtin);
-  tcase_add_loop_test (rules, test_dominant_colour_rule, 0, n_formats);
-  tcase_add_loop_test (rules, test_dominant_colour_rule_large, 0, n_formats);
-  tcase_add_test (rules, test_no_class_reaches_threshold);
-  tcase_add_test (rules, test_max_distance);
-  tcase_add_test (rules, test_use_lightness);
-
-  suite_add_tcase (s, config);
-  tcase_add_unchecked_fixture (config, load_builtin, clear_builtin);
-  tcase_add_test (config, test_custom_palette);
-  tcase_add_test (config, test_palette_64_classes);
-  tcase_add_loop_test (config, test_bad_palette_fails_start, 0,
-      G_N_ELEMENTS (bad_palettes));
-  tcase_add_test (config, test_bad_palette_while_playing);
-
-  suite_add_tcase (s, streaming);
-  tcase_add_unchecked_fixture (streaming, load_builtin, clear_builtin);
-  tcase_add_test (streaming, test_post_messages);
-  tcase_add_test (streaming, test_properties_while_streaming);
-  tcase_add_test (streaming, test_no_buffer_dropped);
-  return s;
-}
-
-GST_CHECK_MAIN (labsegment);
+LANDMARK_CHECK_MAIN (labsegment, .setup = load_builtin,
+    .teardown = clear_builtin);

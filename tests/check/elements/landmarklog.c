@@ -7,6 +7,8 @@
  * (videotestsrc ! labsegment ! landmarklog) are checked against the metas
  * seen by a sink after the logger. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -401,7 +403,7 @@ run_to_eos (const gchar * desc, gboolean keep)
 /* Tests                                                              */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_properties)
+LANDMARK_TEST ("format", test_properties)
 {
   GstElement *e = gst_element_factory_make ("landmarklog", NULL);
   gchar *loc = (gchar *) "x";
@@ -429,7 +431,7 @@ GST_END_TEST;
 
 /* N buffers in, N lines out, in order, with their timestamps; buffers
  * without timestamps have no pts/duration keys. */
-GST_START_TEST (test_every_frame_in_order)
+LANDMARK_TEST ("format", test_every_frame_in_order)
 {
   gchar *path = tmp_file ("order.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -499,7 +501,8 @@ static const struct
       1920, 1080},
 };
 
-GST_START_TEST (test_passthrough_unchanged)
+LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
+    G_N_ELEMENTS (any_caps))
 {
   gchar *path = tmp_file ("pass.jsonl");
   GstHarness *h = log_harness (path, any_caps[__i__].caps);
@@ -549,7 +552,7 @@ GST_START_TEST (test_passthrough_unchanged)
 
 GST_END_TEST;
 
-GST_START_TEST (test_labels_meta)
+LANDMARK_TEST ("format", test_labels_meta)
 {
   gchar *path = tmp_file ("labels.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -654,7 +657,7 @@ GST_START_TEST (test_labels_meta)
 
 GST_END_TEST;
 
-GST_START_TEST (test_detections)
+LANDMARK_TEST ("format", test_detections)
 {
   gchar *path = tmp_file ("detections.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -801,7 +804,7 @@ GST_START_TEST (test_detections)
 
 GST_END_TEST;
 
-GST_START_TEST (test_pose_meta)
+LANDMARK_TEST ("format", test_pose_meta)
 {
   gchar *path = tmp_file ("pose.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -890,7 +893,7 @@ check_uint_array_matches (JsonObject * o, const gchar * key,
   }
 }
 
-GST_START_TEST (test_labsegment_pipeline)
+LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
 {
   gchar *path = tmp_file ("segment.jsonl");
   const guint n = 12, w = 160, h = 120;
@@ -962,7 +965,7 @@ GST_END_TEST;
 
 /* Lines are buffered (flush-every=0); EOS writes them out before it goes
  * downstream, so the file is complete while the element still runs. */
-GST_START_TEST (test_eos_completes_file)
+LANDMARK_TEST ("output", test_eos_completes_file)
 {
   gchar *path = tmp_file ("eos.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1007,7 +1010,7 @@ count_lines (const gchar * path)
 
 /* flush-every: whole frames reach the file every N frames; a flushing
  * seek and pausing also write the pending lines. */
-GST_START_TEST (test_flush_every)
+LANDMARK_TEST ("output", test_flush_every)
 {
   gchar *path = tmp_file ("every.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1055,7 +1058,7 @@ GST_END_TEST;
 
 /* Frames big enough that the pending lines go out mid-stream: whenever the
  * file is looked at, it holds only complete lines, frames 0..k-1. */
-GST_START_TEST (test_whole_lines_mid_stream)
+LANDMARK_TEST ("output", test_whole_lines_mid_stream)
 {
   gchar *path = tmp_file ("big.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1152,7 +1155,7 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
   gst_object_unref (e);
 }
 
-GST_START_TEST (test_missing_directory)
+LANDMARK_TEST ("errors", test_missing_directory)
 {
   gchar *path = g_build_filename (tmp_dir, "no-such-dir", "x.jsonl", NULL);
   expect_start_error (path, GST_RESOURCE_ERROR, GST_RESOURCE_ERROR_OPEN_WRITE,
@@ -1163,7 +1166,7 @@ GST_START_TEST (test_missing_directory)
 
 GST_END_TEST;
 
-GST_START_TEST (test_location_is_a_directory)
+LANDMARK_TEST ("errors", test_location_is_a_directory)
 {
   expect_start_error (tmp_dir, GST_RESOURCE_ERROR,
       GST_RESOURCE_ERROR_OPEN_WRITE, g_strerror (EISDIR));
@@ -1171,7 +1174,7 @@ GST_START_TEST (test_location_is_a_directory)
 
 GST_END_TEST;
 
-GST_START_TEST (test_no_permission)
+LANDMARK_TEST ("errors", test_no_permission)
 {
   gchar *dir = tmp_file ("read-only");
   gchar *path = g_build_filename (dir, "x.jsonl", NULL);
@@ -1191,7 +1194,7 @@ GST_START_TEST (test_no_permission)
 
 GST_END_TEST;
 
-GST_START_TEST (test_no_location)
+LANDMARK_TEST ("errors", test_no_location)
 {
   expect_start_error (NULL, GST_RESOURCE_ERROR, GST_RESOURCE_ERROR_SETTINGS,
       "location");
@@ -1201,7 +1204,7 @@ GST_END_TEST;
 
 /* A write that fails (a full disk: /dev/full) is a RESOURCE WRITE error
  * naming the file, and stops the stream. */
-GST_START_TEST (test_write_error)
+LANDMARK_TEST ("errors", test_write_error)
 {
   const gchar *full = "/dev/full";
   GstHarness *h;
@@ -1243,7 +1246,7 @@ GST_END_TEST;
 
 /* A write cut short by a file size limit: the partial line is cut off,
  * so the file still ends with the last complete line. */
-GST_START_TEST (test_partial_write_trimmed)
+LANDMARK_TEST ("errors", test_partial_write_trimmed)
 {
   gchar *path = tmp_file ("limited.jsonl");
   const rlim_t limit = 100000;
@@ -1302,7 +1305,7 @@ GST_END_TEST;
 
 /* Two loggers on one stream (in a chain and on the branches of a tee)
  * write the same lines to their own files. */
-GST_START_TEST (test_two_loggers)
+LANDMARK_TEST ("pipelines", test_two_loggers)
 {
   gchar *a = tmp_file ("a.jsonl"), *b = tmp_file ("b.jsonl");
   gchar *c = tmp_file ("c.jsonl"), *d = tmp_file ("d.jsonl");
@@ -1348,7 +1351,7 @@ GST_START_TEST (test_two_loggers)
 GST_END_TEST;
 
 /* append=true keeps what the file had; append=false starts it anew. */
-GST_START_TEST (test_append)
+LANDMARK_TEST ("output", test_append)
 {
   gchar *path = tmp_file ("append.jsonl");
   guint run, i;
@@ -1375,7 +1378,7 @@ GST_END_TEST;
 
 /* Restarting the element (PLAYING -> READY -> PLAYING) starts the frame
  * count again and truncates the file, or appends with append=true. */
-GST_START_TEST (test_restart)
+LANDMARK_TEST ("output", test_restart)
 {
   gchar *path = tmp_file ("restart.jsonl");
   guint append, i;
@@ -1414,7 +1417,7 @@ GST_START_TEST (test_restart)
 GST_END_TEST;
 
 /* QoS events do not make the logger drop late frames. */
-GST_START_TEST (test_no_frame_dropped)
+LANDMARK_TEST ("output", test_no_frame_dropped)
 {
   gchar *path = tmp_file ("qos.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1455,7 +1458,7 @@ fail_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
   return GST_PAD_PROBE_HANDLED;
 }
 
-GST_START_TEST (test_downstream_error)
+LANDMARK_TEST ("errors", test_downstream_error)
 {
   gchar *path = tmp_file ("error.jsonl");
   gchar *desc = g_strdup_printf ("appsrc name=src format=time "
@@ -1523,7 +1526,7 @@ count_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
   return GST_PAD_PROBE_OK;
 }
 
-GST_START_TEST (test_stop_mid_stream)
+LANDMARK_TEST ("errors", test_stop_mid_stream)
 {
   gchar *path = tmp_file ("stop.jsonl");
   gchar *desc = g_strdup_printf ("videotestsrc ! video/x-raw,width=64,"
@@ -1574,7 +1577,7 @@ GST_END_TEST;
 
 /* Never PLAYING: the prerolled buffer is logged, and written when the
  * element stops (PAUSED to READY), the only flush on this path. */
-GST_START_TEST (test_stop_while_paused)
+LANDMARK_TEST ("errors", test_stop_while_paused)
 {
   gchar *path = tmp_file ("paused.jsonl");
   gchar *desc = g_strdup_printf ("videotestsrc num-buffers=50 ! "
@@ -1629,7 +1632,7 @@ push_many (GstHarness * h, GstBuffer * templ, guint n)
   return (g_get_monotonic_time () - t0) / (gdouble) n;
 }
 
-GST_START_TEST (test_many_frames)
+LANDMARK_TEST ("output", test_many_frames)
 {
   gchar *path = tmp_file ("many.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1663,52 +1666,6 @@ GST_START_TEST (test_many_frames)
 
 GST_END_TEST;
 
-static Suite *
-landmarklog_suite (void)
-{
-  Suite *s = suite_create ("landmarklog");
-  TCase *format = tcase_create ("format");
-  TCase *output = tcase_create ("output");
-  TCase *errors = tcase_create ("errors");
-  TCase *pipelines = tcase_create ("pipelines");
-
-  suite_add_tcase (s, format);
-  tcase_add_checked_fixture (format, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_test (format, test_properties);
-  tcase_add_test (format, test_every_frame_in_order);
-  tcase_add_loop_test (format, test_passthrough_unchanged, 0,
-      G_N_ELEMENTS (any_caps));
-  tcase_add_test (format, test_labels_meta);
-  tcase_add_test (format, test_detections);
-  tcase_add_test (format, test_pose_meta);
-
-  suite_add_tcase (s, output);
-  tcase_add_checked_fixture (output, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_test (output, test_eos_completes_file);
-  tcase_add_test (output, test_flush_every);
-  tcase_add_test (output, test_whole_lines_mid_stream);
-  tcase_add_test (output, test_append);
-  tcase_add_test (output, test_restart);
-  tcase_add_test (output, test_no_frame_dropped);
-  tcase_add_test (output, test_many_frames);
-
-  suite_add_tcase (s, errors);
-  tcase_add_checked_fixture (errors, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_test (errors, test_missing_directory);
-  tcase_add_test (errors, test_location_is_a_directory);
-  tcase_add_test (errors, test_no_permission);
-  tcase_add_test (errors, test_no_location);
-  tcase_add_test (errors, test_write_error);
-  tcase_add_test (errors, test_partial_write_trimmed);
-  tcase_add_test (errors, test_downstream_error);
-  tcase_add_test (errors, test_stop_mid_stream);
-  tcase_add_test (errors, test_stop_while_paused);
-
-  suite_add_tcase (s, pipelines);
-  tcase_add_checked_fixture (pipelines, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_test (pipelines, test_labsegment_pipeline);
-  tcase_add_test (pipelines, test_two_loggers);
-  return s;
-}
-
-GST_CHECK_MAIN (landmarklog);
+/* a fresh folder for every test's log files */
+LANDMARK_CHECK_MAIN (landmarklog, .setup = tmp_dir_setup,
+    .teardown = tmp_dir_teardown, .checked = TRUE);

@@ -9,6 +9,8 @@
  * inside the ellipse or far away from it; insets only when their metadata
  * is there; nothing at all when every part is switched off. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -700,7 +702,7 @@ check_detection_drawing (const Ellipse * e, gint w, gint h,
 /* Tests: drawing where the detections are                            */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_properties)
+LANDMARK_TEST ("detections", test_properties)
 {
   GstElement *e = gst_element_factory_make ("landmarkoverlay", NULL);
   const gchar *shows[] = { "show-detections", "show-rejected", "show-pose",
@@ -733,7 +735,7 @@ GST_START_TEST (test_properties)
 
 GST_END_TEST;
 
-GST_START_TEST (test_ellipse_drawn_where_the_detection_is)
+LANDMARK_TEST ("detections", test_ellipse_drawn_where_the_detection_is)
 {
   Layout l;
   GstHarness *h;
@@ -759,7 +761,7 @@ GST_START_TEST (test_ellipse_drawn_where_the_detection_is)
 GST_END_TEST;
 
 /* Blob pixel fields refer to the analysed frame: drawn scaled. */
-GST_START_TEST (test_ellipse_scaled_from_analysed_frame)
+LANDMARK_TEST ("detections", test_ellipse_scaled_from_analysed_frame)
 {
   Layout l;
   GstHarness *h;
@@ -787,7 +789,7 @@ GST_END_TEST;
 
 /* Kept blobs: a solid outline in the class colour. Rejected: dashed (part
  * of the outline only) and grey; not drawn with show-rejected=false. */
-GST_START_TEST (test_rejected_blob_style)
+LANDMARK_TEST ("detections", test_rejected_blob_style)
 {
   Layout l;
   GstHarness *h;
@@ -858,7 +860,7 @@ GST_START_TEST (test_rejected_blob_style)
 GST_END_TEST;
 
 /* A detection without blob parameters: its bounding box is drawn. */
-GST_START_TEST (test_bbox_without_ellipse)
+LANDMARK_TEST ("detections", test_bbox_without_ellipse)
 {
   Layout l;
   GstHarness *h;
@@ -897,7 +899,7 @@ GST_END_TEST;
 
 /* The same drawing in every format: the same pixels change (luma in YUV),
  * colour reaches the chroma, nothing but pixels is written. */
-GST_START_TEST (test_every_format)
+LANDMARK_TEST_LOOP ("detections", test_every_format, G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   /* odd size: padded rows, partial chroma blocks */
@@ -1031,7 +1033,8 @@ frame_with_everything (const Layout * l)
   return buf;
 }
 
-GST_START_TEST (test_no_metadata_unchanged)
+LANDMARK_TEST_LOOP ("unchanged", test_no_metadata_unchanged,
+    G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   Layout l;
@@ -1055,7 +1058,8 @@ GST_START_TEST (test_no_metadata_unchanged)
 
 GST_END_TEST;
 
-GST_START_TEST (test_all_parts_off_unchanged)
+LANDMARK_TEST_LOOP ("unchanged", test_all_parts_off_unchanged,
+    G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   Layout l;
@@ -1096,7 +1100,7 @@ static const guint8 GREEN[3] = { 40, 200, 60 };
 
 /* Colours are right in every format: an active class's bar is a solid
  * area of its colour; an inactive one is not drawn in its pure colour. */
-GST_START_TEST (test_histogram_colours)
+LANDMARK_TEST_LOOP ("insets", test_histogram_colours, G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   const gint w = 640, h = 480;
@@ -1147,7 +1151,7 @@ GST_START_TEST (test_histogram_colours)
 
 GST_END_TEST;
 
-GST_START_TEST (test_histogram_only_with_labels)
+LANDMARK_TEST ("insets", test_histogram_only_with_labels)
 {
   const gint w = 320, h = 240;
   static const TestClass classes[] = {
@@ -1199,7 +1203,7 @@ GST_END_TEST;
 
 /* A larger count gives a taller bar; the threshold line moves up with the
  * threshold. */
-GST_START_TEST (test_histogram_scale_and_threshold)
+LANDMARK_TEST ("insets", test_histogram_scale_and_threshold)
 {
   const gint w = 640, h = 480;
   TestClass classes[] = {
@@ -1253,7 +1257,7 @@ GST_START_TEST (test_histogram_scale_and_threshold)
 GST_END_TEST;
 
 /* One indicator per marker class, lit in its colour when active. */
-GST_START_TEST (test_indicators)
+LANDMARK_TEST ("insets", test_indicators)
 {
   const gint w = 640, h = 480;
   TestClass classes[] = {
@@ -1294,7 +1298,7 @@ GST_END_TEST;
 /* Tests: pose line, mini-map                                         */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_pose_line)
+LANDMARK_TEST ("insets", test_pose_line)
 {
   const gint w = 320, h = 240;
   Layout l;
@@ -1326,7 +1330,7 @@ GST_END_TEST;
 
 /* The mini-map needs both a pose and a map; it shows the landmarks in
  * their class colours, the robot where it is, and range circles. */
-GST_START_TEST (test_minimap_needs_pose_and_map)
+LANDMARK_TEST ("insets", test_minimap_needs_pose_and_map)
 {
   const gint w = 320, h = 240;
   static const TestClass classes[] = {
@@ -1429,7 +1433,7 @@ GST_END_TEST;
  * boundary row r of column c is drawn at frame pixel
  * ((c + 0.5) 2 - 0.5, (r + 0.5) 2 - 0.5): red on obstacle columns, cyan on
  * free ones, nothing on not-seen ones, and nothing else changes. */
-GST_START_TEST (test_floor_boundary)
+LANDMARK_TEST ("insets", test_floor_boundary)
 {
   const gint w = 320, h = 240, cols = 160, rows = 120;
   const guint8 red[3] = { 255, 40, 40 }, cyan[3] = { 0, 220, 255 };
@@ -1514,7 +1518,7 @@ colour_centroid (const Layout * l, GstBuffer * buf, const guint8 c[3],
  * far edge lie in the mini-map, the red beyond the green in the robot's
  * forward direction: up without a pose, along the heading with one
  * (right for heading 0, up for 90 degrees, left for 180). */
-GST_START_TEST (test_floor_free_space)
+LANDMARK_TEST ("insets", test_floor_free_space)
 {
   const gint w = 320, h = 240, bins = 360;
   const guint8 red[3] = { 255, 40, 40 };
@@ -1644,7 +1648,8 @@ check_map_error (GstBus * bus, const gchar * path, const gchar * expect,
   gst_message_unref (msg);
 }
 
-GST_START_TEST (test_bad_map_fails_start)
+LANDMARK_TEST_LOOP ("configuration", test_bad_map_fails_start,
+    G_N_ELEMENTS (bad_maps))
 {
   const BadMap *b = &bad_maps[__i__];
   gchar *path = b->json ? write_file ("bad.json", b->json) :
@@ -1680,7 +1685,7 @@ GST_START_TEST (test_bad_map_fails_start)
 
 GST_END_TEST;
 
-GST_START_TEST (test_bad_map_while_playing)
+LANDMARK_TEST ("configuration", test_bad_map_while_playing)
 {
   gchar *good = write_file ("good.json", map_json);
   gchar *bad = write_file ("bad.json", bad_maps[5].json);
@@ -1726,7 +1731,7 @@ GST_END_TEST;
 /* Tests: sizes, streaming                                            */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_odd_sizes)
+LANDMARK_TEST_LOOP ("streaming", test_odd_sizes, G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   static const gint sizes[][2] = { {1, 1}, {2, 2}, {3, 5}, {5, 3}, {17, 13},
@@ -1764,7 +1769,7 @@ GST_END_TEST;
 
 /* Properties changed from other threads while buffers flow: every buffer
  * comes out, in order, drawn or not, never with an error. */
-GST_START_TEST (test_properties_while_streaming)
+LANDMARK_TEST ("streaming", test_properties_while_streaming)
 {
   gchar *map = write_file ("map.json", map_json);
   gchar *map2 = write_file ("map2.json", map2_json);
@@ -1831,7 +1836,7 @@ GST_START_TEST (test_properties_while_streaming)
 GST_END_TEST;
 
 /* Never drops a frame, not even when downstream says it is far behind. */
-GST_START_TEST (test_no_buffer_dropped)
+LANDMARK_TEST ("streaming", test_no_buffer_dropped)
 {
   Layout l;
   GstHarness *h;
@@ -1863,53 +1868,6 @@ GST_START_TEST (test_no_buffer_dropped)
 
 GST_END_TEST;
 
-static Suite *
-landmarkoverlay_suite (void)
-{
-  Suite *s = suite_create ("landmarkoverlay");
-  TCase *draw = tcase_create ("detections");
-  TCase *none = tcase_create ("unchanged");
-  TCase *insets = tcase_create ("insets");
-  TCase *config = tcase_create ("configuration");
-  TCase *streaming = tcase_create ("streaming");
-  const gint n_formats = G_N_ELEMENTS (formats);
-
-  suite_add_tcase (s, draw);
-  tcase_add_test (draw, test_properties);
-  tcase_add_test (draw, test_ellipse_drawn_where_the_detection_is);
-  tcase_add_test (draw, test_ellipse_scaled_from_analysed_frame);
-  tcase_add_test (draw, test_rejected_blob_style);
-  tcase_add_test (draw, test_bbox_without_ellipse);
-  tcase_add_loop_test (draw, test_every_format, 0, n_formats);
-
-  suite_add_tcase (s, none);
-  tcase_add_unchecked_fixture (none, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_loop_test (none, test_no_metadata_unchanged, 0, n_formats);
-  tcase_add_loop_test (none, test_all_parts_off_unchanged, 0, n_formats);
-
-  suite_add_tcase (s, insets);
-  tcase_add_unchecked_fixture (insets, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_loop_test (insets, test_histogram_colours, 0, n_formats);
-  tcase_add_test (insets, test_histogram_only_with_labels);
-  tcase_add_test (insets, test_histogram_scale_and_threshold);
-  tcase_add_test (insets, test_indicators);
-  tcase_add_test (insets, test_pose_line);
-  tcase_add_test (insets, test_minimap_needs_pose_and_map);
-  tcase_add_test (insets, test_floor_boundary);
-  tcase_add_test (insets, test_floor_free_space);
-
-  suite_add_tcase (s, config);
-  tcase_add_unchecked_fixture (config, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_loop_test (config, test_bad_map_fails_start, 0,
-      G_N_ELEMENTS (bad_maps));
-  tcase_add_test (config, test_bad_map_while_playing);
-
-  suite_add_tcase (s, streaming);
-  tcase_add_unchecked_fixture (streaming, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_loop_test (streaming, test_odd_sizes, 0, n_formats);
-  tcase_add_test (streaming, test_properties_while_streaming);
-  tcase_add_test (streaming, test_no_buffer_dropped);
-  return s;
-}
-
-GST_CHECK_MAIN (landmarkoverlay);
+/* a temporary folder for map and palette files */
+LANDMARK_CHECK_MAIN (landmarkoverlay, .setup = tmp_dir_setup,
+    .teardown = tmp_dir_teardown);

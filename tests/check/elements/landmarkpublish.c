@@ -4,6 +4,8 @@
  * bound it is given and says so once; a broker that is not there is a
  * warning, not an error. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 
@@ -53,7 +55,7 @@ pop_all (GstBus * bus, GstMessageType types)
   return out;
 }
 
-GST_START_TEST (test_frames_pass_untouched_and_never_wait)
+LANDMARK_TEST ("general", test_frames_pass_untouched_and_never_wait)
 {
   const guint n = 2000;
   GstHarness *h = gst_harness_new_parse (NO_BROKER
@@ -144,7 +146,7 @@ GST_START_TEST (test_frames_pass_untouched_and_never_wait)
 
 GST_END_TEST;
 
-GST_START_TEST (test_bytes_bound)
+LANDMARK_TEST ("general", test_bytes_bound)
 {
   /* a message here is about 150 bytes: a 1000-byte bound keeps a few */
   GstHarness *h = gst_harness_new_parse (NO_BROKER
@@ -174,7 +176,7 @@ GST_START_TEST (test_bytes_bound)
 
 GST_END_TEST;
 
-GST_START_TEST (test_queue_bound_changes_while_playing)
+LANDMARK_TEST ("general", test_queue_bound_changes_while_playing)
 {
   /* the bounds are read per frame: lowering one takes effect at once (the
    * 50 first messages fit the default bound) */
@@ -205,16 +207,4 @@ GST_START_TEST (test_queue_bound_changes_while_playing)
 
 GST_END_TEST;
 
-static Suite *
-landmarkpublish_suite (void)
-{
-  Suite *s = suite_create ("landmarkpublish");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_frames_pass_untouched_and_never_wait);
-  tcase_add_test (tc, test_bytes_bound);
-  tcase_add_test (tc, test_queue_bound_changes_while_playing);
-  return s;
-}
-
-GST_CHECK_MAIN (landmarkpublish);
+LANDMARK_CHECK_MAIN (landmarkpublish);

@@ -5,6 +5,8 @@
  * errors; odometry carries the pose through frames without landmarks; a
  * bad map set while PLAYING is refused with a warning; a blob cut by the
  * image border is left out. */
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -110,7 +112,7 @@ drive (GstHarness * h, guint n)
   return out;
 }
 
-GST_START_TEST (test_no_map_builds_map)
+LANDMARK_TEST ("general", test_no_map_builds_map)
 {
   GstHarness *h = harness ("confirm-views=3 confirm-baseline=0.1");
   GstBuffer *out = drive (h, 60);
@@ -160,7 +162,7 @@ load_map_landmarks (const gchar * path, JsonParser * parser)
       (json_parser_get_root (parser)), "landmarks");
 }
 
-GST_START_TEST (test_map_out_keeps_ids)
+LANDMARK_TEST ("general", test_map_out_keeps_ids)
 {
   /* the map knows one red disc and the green one; the second red disc,
    * 0.5 m from the first, and the blue one are added */
@@ -207,7 +209,7 @@ GST_START_TEST (test_map_out_keeps_ids)
 
 GST_END_TEST;
 
-GST_START_TEST (test_map_out_unwritable)
+LANDMARK_TEST ("general", test_map_out_unwritable)
 {
   GstHarness *h = harness ("map-out=/nonexistent-dir/map.json");
   GstBus *bus = gst_bus_new ();
@@ -232,7 +234,7 @@ GST_START_TEST (test_map_out_unwritable)
 
 GST_END_TEST;
 
-GST_START_TEST (test_bad_odometry_fails_ready)
+LANDMARK_TEST ("general", test_bad_odometry_fails_ready)
 {
   gchar *odo = write_tmp ("{\"t\": 0.1, \"dx\": 0.01, \"dheading\": 0}\n"
       "{\"t\": 0.05, \"dx\": 0.01, \"dheading\": 0}\n");
@@ -263,7 +265,7 @@ GST_START_TEST (test_bad_odometry_fails_ready)
 
 GST_END_TEST;
 
-GST_START_TEST (test_odometry_bridges)
+LANDMARK_TEST ("general", test_odometry_bridges)
 {
   /* 0.01 m forward per frame; landmarks only in the first 30 frames */
   GString *text = g_string_new (NULL);
@@ -302,7 +304,7 @@ GST_START_TEST (test_odometry_bridges)
 
 GST_END_TEST;
 
-GST_START_TEST (test_bad_map_while_playing_keeps_previous)
+LANDMARK_TEST ("general", test_bad_map_while_playing_keeps_previous)
 {
   GstHarness *h = harness ("");
   GstBus *bus = gst_bus_new ();
@@ -329,7 +331,7 @@ GST_START_TEST (test_bad_map_while_playing_keeps_previous)
 GST_END_TEST;
 
 /* a blob touching the image border is left out of the estimate */
-GST_START_TEST (test_cut_blob_left_out)
+LANDMARK_TEST ("general", test_cut_blob_left_out)
 {
   GstHarness *h = harness ("");
   GstBuffer *b = frame (0);
@@ -359,20 +361,4 @@ GST_START_TEST (test_cut_blob_left_out)
 
 GST_END_TEST;
 
-static Suite *
-landmarkslam_suite (void)
-{
-  Suite *s = suite_create ("landmarkslam");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_no_map_builds_map);
-  tcase_add_test (tc, test_map_out_keeps_ids);
-  tcase_add_test (tc, test_map_out_unwritable);
-  tcase_add_test (tc, test_bad_odometry_fails_ready);
-  tcase_add_test (tc, test_odometry_bridges);
-  tcase_add_test (tc, test_bad_map_while_playing_keeps_previous);
-  tcase_add_test (tc, test_cut_blob_left_out);
-  return s;
-}
-
-GST_CHECK_MAIN (landmarkslam);
+LANDMARK_CHECK_MAIN (landmarkslam);

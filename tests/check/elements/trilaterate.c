@@ -2,6 +2,8 @@
  * known pose recover it (one, two, three landmarks), the pose meta,
  * landmark-match and landmark-pose message fields, frames without a pose,
  * bad maps failing READY, filter=ekf bridging frames without landmarks. */
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -200,7 +202,7 @@ check_matched (GstBuffer * buf, gint id, const gchar * landmark)
   }
 }
 
-GST_START_TEST (test_three_landmarks)
+LANDMARK_TEST ("general", test_three_landmarks)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
@@ -258,7 +260,7 @@ GST_START_TEST (test_three_landmarks)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_two_and_one)
+LANDMARK_TEST ("general", test_two_and_one)
 {
   GstBus *bus;
   GstHarness *h = harness ("heading=30", &bus);
@@ -291,7 +293,7 @@ GST_START_TEST (test_two_and_one)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_no_pose)
+LANDMARK_TEST ("general", test_no_pose)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
@@ -338,7 +340,7 @@ GST_START_TEST (test_no_pose)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_outlier_and_gate)
+LANDMARK_TEST ("general", test_outlier_and_gate)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
@@ -374,7 +376,7 @@ GST_START_TEST (test_outlier_and_gate)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_ekf_bridges)
+LANDMARK_TEST ("general", test_ekf_bridges)
 {
   GstBus *bus;
   GstHarness *h = harness ("filter=ekf max-age=0.5", &bus);
@@ -449,7 +451,7 @@ expect_ready_error (const gchar * launch, const gchar * what1,
   gst_object_unref (e);
 }
 
-GST_START_TEST (test_bad_maps)
+LANDMARK_TEST ("general", test_bad_maps)
 {
   gchar *bad = write_tmp ("{\"landmarks\": [{\"id\": \"A\", \"class\": "
       "\"red\", \"x\": 1, \"y\": 2}, {\"id\": \"B7\", \"class\": \"red\", "
@@ -473,20 +475,5 @@ GST_START_TEST (test_bad_maps)
 }
 GST_END_TEST;
 
-static Suite *
-trilaterate_suite (void)
-{
-  Suite *s = suite_create ("trilaterate");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_checked_fixture (tc, setup, teardown);
-  tcase_add_test (tc, test_three_landmarks);
-  tcase_add_test (tc, test_two_and_one);
-  tcase_add_test (tc, test_no_pose);
-  tcase_add_test (tc, test_outlier_and_gate);
-  tcase_add_test (tc, test_ekf_bridges);
-  tcase_add_test (tc, test_bad_maps);
-  return s;
-}
-
-GST_CHECK_MAIN (trilaterate);
+LANDMARK_CHECK_MAIN (trilaterate, .setup = setup, .teardown = teardown,
+    .checked = TRUE);

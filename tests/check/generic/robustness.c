@@ -18,6 +18,8 @@
  * templates, so a new element of the plugin is covered without editing this
  * file. Flushing seeks on a file pipeline are in tests/python/test_seek.py. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -719,7 +721,8 @@ check_geometry_cb (GstBuffer * out, guint i, gpointer data)
 /* Each format x size x (packed, padded): a frame with every metadata the
  * elements read, then one with none. Analysers return both frames byte
  * for byte; an element that draws returns the bare frame unchanged. */
-GST_START_TEST (test_element_formats_and_sizes)
+LANDMARK_TEST_LOOP ("formats", test_element_formats_and_sizes,
+    LANDMARK_CHECK_PER_ELEMENT)
 {
   const gchar *name = element_name (__i__);
   GPtrArray *formats = sink_formats (name);
@@ -834,7 +837,7 @@ check_chain_cb (GstBuffer * out, guint i, gpointer data)
 
 /* The chain with every overlay part off: all six elements leave the bytes
  * alone, and the metadata has the frame's geometry. */
-GST_START_TEST (test_chain_formats_and_sizes)
+LANDMARK_TEST ("formats", test_chain_formats_and_sizes)
 {
   GPtrArray *formats = sink_formats ("labsegment");
   GPtrArray *overlay = sink_formats ("landmarkoverlay");
@@ -1052,7 +1055,7 @@ check_phase_cb (GstBuffer * out, guint i, gpointer data)
 
 /* The disc moves with each caps change; labels, detection, range and
  * overlay follow. */
-GST_START_TEST (test_chain_renegotiation)
+LANDMARK_TEST ("renegotiation", test_chain_renegotiation)
 {
   GstHarness *h = chain_harness ("show-rejected=false show-pose=false "
       "show-histogram=false show-indicators=false show-minimap=false", NULL);
@@ -1250,7 +1253,8 @@ meta_case_frame (const GstVideoInfo * info, MetaCase c, guint index)
  * frame comes out in order, analysers leave the bytes alone (and the
  * overlay too when there is nothing to draw), boxes stay inside the frame,
  * at most one warning per stream and no error. */
-GST_START_TEST (test_element_bad_metadata)
+LANDMARK_TEST_LOOP ("metadata", test_element_bad_metadata,
+    LANDMARK_CHECK_PER_ELEMENT)
 {
   const gchar *name = element_name (__i__);
   const gboolean paints = draws (name);
@@ -1485,7 +1489,8 @@ stress_thread (gpointer data)
 
 /* Every settable property set from another thread, to random valid
  * values, while 220 frames flow: each comes out, in order. */
-GST_START_TEST (test_element_property_stress)
+LANDMARK_TEST_LOOP ("properties", test_element_property_stress,
+    LANDMARK_CHECK_PER_ELEMENT)
 {
   const gchar *name = element_name (__i__);
   GstHarness *h = harness_for (name);
@@ -1579,7 +1584,8 @@ cycle (GstHarness * h, const gchar * what)
   /* the figure is printed, not asserted: speed lives in benchmarks */
 }
 
-GST_START_TEST (test_element_state_cycles)
+LANDMARK_TEST_LOOP ("states", test_element_state_cycles,
+    LANDMARK_CHECK_PER_ELEMENT)
 {
   const gchar *name = element_name (__i__);
   GstHarness *h = harness_for (name);
@@ -1589,7 +1595,7 @@ GST_START_TEST (test_element_state_cycles)
 
 GST_END_TEST;
 
-GST_START_TEST (test_chain_state_cycles)
+LANDMARK_TEST ("states", test_chain_state_cycles)
 {
   GstHarness *h = chain_harness ("", NULL);
   cycle (h, "chain");
@@ -1629,47 +1635,15 @@ suite_teardown (void)
   g_clear_pointer (&tmp_dir, g_free);
 }
 
-static Suite *
-robustness_suite (void)
+static gint
+count_elements (void)
 {
-  Suite *s = suite_create ("robustness");
-  TCase *formats = tcase_create ("formats");
-  TCase *caps = tcase_create ("renegotiation");
-  TCase *meta = tcase_create ("metadata");
-  TCase *props = tcase_create ("properties");
-  TCase *states = tcase_create ("states");
-  guint n;
-
   element_names = plugin_element_names ();
-  n = g_list_length (element_names);
-  /* 3840x2160 frames, and labsegment rebuilding its class table for each
-   * max-distance a thread sets, take several seconds on a shared 2-core
-   * machine: more than check's 20 s default when it is busy */
-  tcase_set_timeout (formats, 120);
-  tcase_set_timeout (props, 120);
-
-  suite_add_tcase (s, formats);
-  tcase_add_unchecked_fixture (formats, suite_setup, suite_teardown);
-  tcase_add_loop_test (formats, test_element_formats_and_sizes, 0, n);
-  tcase_add_test (formats, test_chain_formats_and_sizes);
-
-  suite_add_tcase (s, caps);
-  tcase_add_unchecked_fixture (caps, suite_setup, suite_teardown);
-  tcase_add_test (caps, test_chain_renegotiation);
-
-  suite_add_tcase (s, meta);
-  tcase_add_unchecked_fixture (meta, suite_setup, suite_teardown);
-  tcase_add_loop_test (meta, test_element_bad_metadata, 0, n);
-
-  suite_add_tcase (s, props);
-  tcase_add_unchecked_fixture (props, suite_setup, suite_teardown);
-  tcase_add_loop_test (props, test_element_property_stress, 0, n);
-
-  suite_add_tcase (s, states);
-  tcase_add_unchecked_fixture (states, suite_setup, suite_teardown);
-  tcase_add_loop_test (states, test_element_state_cycles, 0, n);
-  tcase_add_test (states, test_chain_state_cycles);
-  return s;
+  return g_list_length (element_names);
 }
 
-GST_CHECK_MAIN (robustness);
+/* 3840x2160 frames, and labsegment rebuilding its class table for each
+ * max-distance a thread sets, take several seconds on a shared 2-core
+ * machine: more than check's 20 s default when it is busy */
+LANDMARK_CHECK_MAIN (robustness, .setup = suite_setup,
+    .teardown = suite_teardown, .timeout = 120, .elements = count_elements);

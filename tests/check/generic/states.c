@@ -4,6 +4,8 @@
  * The element list comes from the registry, so new elements of the plugin
  * are covered without editing this file. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <glib/gstdio.h>
 #include <unistd.h>
@@ -111,7 +113,7 @@ cycle_every_element (const GstState * sequence, guint n, guint rounds)
   g_list_free_full (names, g_free);
 }
 
-GST_START_TEST (test_state_changes_up_and_down_seq)
+LANDMARK_TEST ("general", test_state_changes_up_and_down_seq)
 {
   static const GstState seq[] = {
     GST_STATE_READY, GST_STATE_PAUSED, GST_STATE_PLAYING,
@@ -122,7 +124,7 @@ GST_START_TEST (test_state_changes_up_and_down_seq)
 
 GST_END_TEST;
 
-GST_START_TEST (test_state_changes_up_seq_down_jumps)
+LANDMARK_TEST ("general", test_state_changes_up_seq_down_jumps)
 {
   /* up one step at a time, down in single jumps */
   static const GstState seq[] = {
@@ -135,7 +137,7 @@ GST_START_TEST (test_state_changes_up_seq_down_jumps)
 
 GST_END_TEST;
 
-GST_START_TEST (test_state_changes_jumps)
+LANDMARK_TEST ("general", test_state_changes_jumps)
 {
   /* skipping states both ways: the element must handle every transition
    * GstElement walks through on its behalf */
@@ -152,7 +154,7 @@ GST_END_TEST;
 /* Elements with one always sink and one always src pad: each in a
  * videotestsrc ! element ! fakesink pipeline, so state changes also happen
  * while buffers flow (caps negotiated, streaming thread running). */
-GST_START_TEST (test_state_changes_while_streaming)
+LANDMARK_TEST ("general", test_state_changes_while_streaming)
 {
   GList *names = plugin_element_names (), *l;
   guint tested = 0;
@@ -231,18 +233,4 @@ GST_START_TEST (test_state_changes_while_streaming)
 
 GST_END_TEST;
 
-static Suite *
-states_suite (void)
-{
-  Suite *s = suite_create ("states");
-  TCase *tc = tcase_create ("general");
-
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_state_changes_up_and_down_seq);
-  tcase_add_test (tc, test_state_changes_up_seq_down_jumps);
-  tcase_add_test (tc, test_state_changes_jumps);
-  tcase_add_test (tc, test_state_changes_while_streaming);
-  return s;
-}
-
-GST_CHECK_MAIN (states);
+LANDMARK_CHECK_MAIN (states);

@@ -1,0 +1,283 @@
+/* Helpers shared by the GstHarness tests (landmarkcheck.h). */
+#include "landmarkcheck.h"
+
+#include <glib/gstdio.h>
+#include <string.h>
+
+/* ---- tests and the suite --------------------------------------------- */
+
+typedef struct
+{
+  const gchar *tcase;
+  TFun func;
+  const gchar *name;
+  gint loops, line;
+} Registered;
+
+/* filled by the constructors of LANDMARK_TEST, before main () */
+static GArray *registered;
+
+void
+landmark_check_register (const gchar * tcase, TFun func, const gchar * name,
+    gint loops, gint line)
+{
+  Registered r = { tcase, func, name, loops, line };
+  if (!registered)
+    registered = g_array_new (FALSE, FALSE, sizeof (Registered));
+  g_array_append_val (registered, r);
+}
+
+/* the order constructors run in is not specified: the file's order */
+static gint
+by_line (gconstpointer a, gconstpointer b)
+{
+  return ((const Registered *) a)->line - ((const Registered *) b)->line;
+}
+
+int
+landmark_check_run (int *argc, char ***argv, const gchar * name,
+    const LandmarkCheckOptions * opt)
+{
+  Suite *s;
+  GHashTable *cases = g_hash_table_new (g_str_hash, g_str_equal);
+  gint elements = -1;
+  guint i;
+  int ret;
+
+  gst_check_init (argc, argv);
+  s = suite_create (name);
+  g_assert (registered != NULL);
+  g_array_sort (registered, by_line);
+  for (i = 0; i < registered->len; i++) {
+    const Registered *r = &g_array_index (registered, Registered, i);
+    TCase *tc = g_hash_table_lookup (cases, r->tcase);
+    gint loops = r->loops;
+    if (!tc) {
+      tc = tcase_create (r->tcase);
+      if (opt->timeout)
+        tcase_set_timeout (tc, opt->timeout);
+      if (opt->setup || opt->teardown) {
+        if (opt->checked)
+          tcase_add_checked_fixture (tc, opt->setup, opt->teardown);
+        else
+          tcase_add_unchecked_fixture (tc, opt->setup, opt->teardown);
+      }
+      suite_add_tcase (s, tc);
+      g_hash_table_insert (cases, (gpointer) r->tcase, tc);
+    }
+    if (loops == LANDMARK_CHECK_PER_ELEMENT) {
+      g_assert (opt->elements != NULL);
+      if (elements < 0)
+        elements = opt->elements ();
+      loops = elements;
+    }
+    /* through gstcheck's wrapper, so GST_CHECKS still picks tests */
+    _tcase_add_test (tc, r->func, r->name, 0, 0, 0, loops);
+  }
+  g_hash_table_unref (cases);
+  ret = gst_check_run_suite (s, name, __FILE__);
+  return ret;
+}
+
+/* ---- metadata made by hand ------------------------------------------- */
+
+const gchar *landmark_check_names7[7] = { "red", "green", "yellow", "pink",
+  "blue", "white", "grey"
+};
+
+const gboolean landmark_check_markers7[7] = { TRUE, TRUE, TRUE, TRUE, TRUE,
+  FALSE, FALSE
+};
+
+GstStructure *
+landmark_check_meta_add (GstBuffer * buf, const gchar * name)
+{
+  GstCustomMeta *m = gst_buffer_add_custom_meta (buf, name);
+  fail_unless (m != NULL, "%s is not registered: plugin not loaded?", name);
+  return gst_custom_meta_get_structure (m);
+}
+
+void
+landmark_check_set_array (GstStructure * s, const gchar * field, GType type,
+    gconstpointer values, guint n)
+{
+  GValue a = G_VALUE_INIT;
+  guint i;
+  gst_value_array_init (&a, n);
+  for (i = 0; i < n; i++) {
+    GValue x = G_VALUE_INIT;
+    g_value_init (&x, type);
+    if (type == G_TYPE_STRING)
+      g_value_set_string (&x, ((const gchar * const *) values)[i]);
+    else if (type == G_TYPE_BOOLEAN)
+      g_value_set_boolean (&x, ((const gboolean *) values)[i]);
+    else if (type == G_TYPE_INT)
+      g_value_set_int (&x, ((const gint *) values)[i]);
+    else if (type == G_TYPE_UINT)
+      g_value_set_uint (&x, ((const guint *) values)[i]);
+    else if (type == G_TYPE_FLOAT)
+      g_value_set_float (&x, ((const gfloat *) values)[i]);
+    else if (type == G_TYPE_DOUBLE)
+      g_value_set_double (&x, ((const gdouble *) values)[i]);
+    else
+      g_assert_not_reached ();
+    gst_value_array_append_and_take_value (&a, &x);
+  }
+  gst_structure_take_value (s, field, &a);
+}
+
+GstStructure *
+landmark_check_labels_attach (GstBuffer * buf, const guint8 * plane, guint w,
+    guint h, guint stride, const gchar ** names, const gboolean * markers,
+    guint n)
+{
+  GstStructure *s = landmark_check_meta_add (buf, LANDMARK_LABELS_META);
+  GstBuffer *pb = gst_buffer_new_memdup (plane, (gsize) MAX (stride * h, 1));
+  gst_structure_set (s, "labels", GST_TYPE_BUFFER, pb,
+      "width", G_TYPE_UINT, w, "height", G_TYPE_UINT, h,
+      "stride", G_TYPE_UINT, stride,
+      "analysis-width", G_TYPE_UINT, w,
+      "analysis-height", G_TYPE_UINT, h, NULL);
+  gst_buffer_unref (pb);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING, names, n);
+  landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
+  return s;
+}
+
+/* ---- running elements ------------------------------------------------ */
+
+GstHarness *
+landmark_check_harness_new (const gchar * desc, const gchar * caps)
+{
+  GError *err = NULL;
+  /* one element: gst_parse_launch returns it, properties set */
+  GstElement *e = gst_parse_launch (desc, &err);
+  GstHarness *h;
+  fail_unless (e != NULL && err == NULL, "%s: %s", desc,
+      err ? err->message : "?");
+  h = gst_harness_new_with_element (e, "sink", "src");
+  gst_object_unref (e);
+  if (caps)
+    gst_harness_set_src_caps_str (h, caps);
+  return h;
+}
+
+guint
+landmark_check_count_messages (GstBus * bus, GstMessageType type,
+    GError ** first)
+{
+  GstMessage *msg;
+  guint n = 0;
+  while ((msg = gst_bus_pop_filtered (bus, type))) {
+    if (n == 0 && first) {
+      if (GST_MESSAGE_TYPE (msg) == GST_MESSAGE_WARNING)
+        gst_message_parse_warning (msg, first, NULL);
+      else if (GST_MESSAGE_TYPE (msg) == GST_MESSAGE_ERROR)
+        gst_message_parse_error (msg, first, NULL);
+    }
+    n++;
+    gst_message_unref (msg);
+  }
+  return n;
+}
+
+GList *
+landmark_check_pop_all (GstBus * bus, GstMessageType types)
+{
+  GList *out = NULL;
+  GstMessage *m;
+  while ((m = gst_bus_pop_filtered (bus, types)))
+    out = g_list_append (out, m);
+  return out;
+}
+
+static gboolean
+has_words (const gchar * text, const gchar * what, const gchar * also)
+{
+  return text && strstr (text, what) && (!also || strstr (text, also));
+}
+
+void
+landmark_check_start_fails (GstElement * e, GstState state,
+    LandmarkCheckWhere where, const gchar * what, const gchar * also)
+{
+  GstBus *bus = gst_bus_new ();
+  GstMessage *msg;
+  GError *err = NULL;
+  gchar *dbg = NULL;
+  gboolean found;
+
+  fail_unless (e != NULL);
+  gst_element_set_bus (e, bus);
+  fail_unless_equals_int (gst_element_set_state (e, state),
+      GST_STATE_CHANGE_FAILURE);
+  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
+  fail_unless (msg != NULL, "no error from %s", GST_OBJECT_NAME (e));
+  gst_message_parse_error (msg, &err, &dbg);
+  gst_message_unref (msg);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, NULL), 0);
+  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
+          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
+  found = (where != LANDMARK_CHECK_IN_DEBUG &&
+      has_words (err->message, what, also)) ||
+      (where != LANDMARK_CHECK_IN_MESSAGE && has_words (dbg, what, also));
+  fail_unless (found, "'%s' / '%s' not in '%s' / '%s'", what,
+      also ? also : "", err->message, dbg ? dbg : "");
+  g_error_free (err);
+  g_free (dbg);
+  gst_element_set_state (e, GST_STATE_NULL);
+  gst_element_set_bus (e, NULL);
+  gst_object_unref (bus);
+  gst_object_unref (e);
+}
+
+/* ---- files ----------------------------------------------------------- */
+
+gchar *
+landmark_check_tmp_dir_new (const gchar * prefix)
+{
+  GError *err = NULL;
+  gchar *tmpl = g_strconcat (prefix, "-XXXXXX", NULL);
+  gchar *dir = g_dir_make_tmp (tmpl, &err);
+  fail_unless (dir != NULL, "%s", err ? err->message : "?");
+  g_free (tmpl);
+  return dir;
+}
+
+void
+landmark_check_tmp_dir_remove (const gchar * dir)
+{
+  GDir *d = g_dir_open (dir, 0, NULL);
+  const gchar *name;
+  while (d && (name = g_dir_read_name (d))) {
+    gchar *p = g_build_filename (dir, name, NULL);
+    if (g_file_test (p, G_FILE_TEST_IS_DIR)) {
+      /* tests make unwritable folders to see writes fail */
+      g_chmod (p, 0700);
+      landmark_check_tmp_dir_remove (p);
+    } else {
+      g_remove (p);
+    }
+    g_free (p);
+  }
+  if (d)
+    g_dir_close (d);
+  g_rmdir (dir);
+}
+
+gchar *
+landmark_check_write_tmp (const gchar * prefix, const gchar * suffix,
+    const gchar * text)
+{
+  gchar *tmpl = g_strconcat (prefix, "-XXXXXX", suffix, NULL);
+  gchar *path = NULL;
+  GError *err = NULL;
+  gint fd = g_file_open_tmp (tmpl, &path, &err);
+  fail_unless (fd >= 0, "%s", err ? err->message : "?");
+  g_close (fd, NULL);
+  fail_unless (g_file_set_contents (path, text, -1, &err), "%s: %s", path,
+      err ? err->message : "?");
+  g_free (tmpl);
+  return path;
+}

@@ -1,0 +1,127 @@
+/* Helpers shared by the GstHarness tests: tests that register themselves
+ * (no hand-written suite function), metadata made by hand, harnesses from a
+ * launch description, bus messages, a temporary folder, and the start of an
+ * element with a bad setting. */
+#ifndef LANDMARK_CHECK_H
+#define LANDMARK_CHECK_H
+
+#include <gst/check/gstcheck.h>
+#include <gst/check/gstharness.h>
+
+G_BEGIN_DECLS
+
+#define LANDMARK_LABELS_META "GstLandmarkLabelsMeta"
+#define LANDMARK_POSE_META "GstLandmarkPoseMeta"
+#define LANDMARK_FLOOR_META "GstLandmarkFloorMeta"
+
+/* ---- tests and the suite --------------------------------------------- */
+
+/* the loop count of a test run once per element of the plugin */
+#define LANDMARK_CHECK_PER_ELEMENT (-1)
+
+void landmark_check_register (const gchar * tcase, TFun func,
+    const gchar * name, gint loops, gint line);
+
+/* A test of test case `tcase` run with __i__ = 0 .. loops - 1; it adds
+ * itself to the suite LANDMARK_CHECK_MAIN builds, in the order of the file. */
+#define LANDMARK_TEST_LOOP(tcase, name, loops) \
+  static void name (int); \
+  __attribute__ ((constructor)) static void name ## _register (void) \
+  { \
+    landmark_check_register (tcase, name, #name, loops, __LINE__); \
+  } \
+  GST_START_TEST (name)
+
+#define LANDMARK_TEST(tcase, name) LANDMARK_TEST_LOOP (tcase, name, 1)
+
+typedef struct
+{
+  /* around every test case (unchecked, once in the parent) or, when
+   * `checked`, around every test in its own process */
+  SFun setup, teardown;
+  gboolean checked;
+  /* seconds per test; 0 keeps check's default (CK_DEFAULT_TIMEOUT) */
+  gint timeout;
+  /* the loop count of LANDMARK_CHECK_PER_ELEMENT tests, asked once the
+   * plugin can be loaded */
+  gint (*elements) (void);
+} LandmarkCheckOptions;
+
+int landmark_check_run (int *argc, char ***argv, const gchar * suite,
+    const LandmarkCheckOptions * options);
+
+/* main () of a test file: LANDMARK_CHECK_MAIN (name) or, with options,
+ * LANDMARK_CHECK_MAIN (name, .setup = s, .teardown = t) */
+#define LANDMARK_CHECK_MAIN(name, ...) \
+  int \
+  main (int argc, char **argv) \
+  { \
+    static const LandmarkCheckOptions options = { __VA_ARGS__ }; \
+    return landmark_check_run (&argc, &argv, #name, &options); \
+  }
+
+/* ---- metadata made by hand ------------------------------------------- */
+
+/* the default palette's seven classes, in its order, and which are markers */
+extern const gchar *landmark_check_names7[7];
+extern const gboolean landmark_check_markers7[7];
+
+/* The structure of a new custom meta `name` on buf; fails when the meta is
+ * not registered (the plugin is not loaded). */
+GstStructure *landmark_check_meta_add (GstBuffer * buf, const gchar * name);
+
+/* Sets field to a GstValueArray of n values of type (string, boolean, int,
+ * uint, float or double) read from the C array `values`. */
+void landmark_check_set_array (GstStructure * s, const gchar * field,
+    GType type, gconstpointer values, guint n);
+
+/* Attaches a labels meta (docs/metadata.md) holding a copy of the w x h
+ * plane with the given class names and markers. */
+GstStructure *landmark_check_labels_attach (GstBuffer * buf,
+    const guint8 * plane, guint w, guint h, guint stride,
+    const gchar ** names, const gboolean * markers, guint n);
+
+/* ---- running elements ------------------------------------------------ */
+
+/* A harness around the one element `desc` describes (gst_parse_launch
+ * syntax, properties set) with the given source caps, or none. */
+GstHarness *landmark_check_harness_new (const gchar * desc,
+    const gchar * caps);
+
+/* How many messages of `type` the bus holds, popping them all; the first
+ * one's error or warning in *first when asked. */
+guint landmark_check_count_messages (GstBus * bus, GstMessageType type,
+    GError ** first);
+
+/* Every message of the given types on the bus, in order (free with
+ * g_list_free_full (l, (GDestroyNotify) gst_message_unref)). */
+GList *landmark_check_pop_all (GstBus * bus, GstMessageType types);
+
+/* where landmark_check_start_fails looks for the words */
+typedef enum
+{
+  LANDMARK_CHECK_IN_MESSAGE,
+  LANDMARK_CHECK_IN_DEBUG,
+  LANDMARK_CHECK_IN_EITHER
+} LandmarkCheckWhere;
+
+/* Taking e to `state` fails with one RESOURCE/SETTINGS error whose message,
+ * debug text or either contains `what` and, unless NULL, `also`. Takes e. */
+void landmark_check_start_fails (GstElement * e, GstState state,
+    LandmarkCheckWhere where, const gchar * what, const gchar * also);
+
+/* ---- files ----------------------------------------------------------- */
+
+/* A new empty folder `prefix`-XXXXXX in the temporary folder. */
+gchar *landmark_check_tmp_dir_new (const gchar * prefix);
+
+/* Removes dir, its files and its (possibly read-only) subfolders. */
+void landmark_check_tmp_dir_remove (const gchar * dir);
+
+/* A new temporary file `prefix`-XXXXXX`suffix` holding text. */
+gchar *landmark_check_write_tmp (const gchar * prefix, const gchar * suffix,
+    const gchar * text);
+
+G_END_DECLS
+
+#endif

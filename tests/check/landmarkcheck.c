@@ -146,16 +146,22 @@ landmark_check_labels_attach (GstBuffer * buf, const guint8 * plane, guint w,
 
 /* ---- running elements ------------------------------------------------ */
 
-GstHarness *
-landmark_check_harness_new (const gchar * desc, const gchar * caps)
+GstElement *
+landmark_check_element (const gchar * desc)
 {
   GError *err = NULL;
   /* one element: gst_parse_launch returns it, properties set */
   GstElement *e = gst_parse_launch (desc, &err);
-  GstHarness *h;
   fail_unless (e != NULL && err == NULL, "%s: %s", desc,
       err ? err->message : "?");
-  h = gst_harness_new_with_element (e, "sink", "src");
+  return e;
+}
+
+GstHarness *
+landmark_check_harness_new (const gchar * desc, const gchar * caps)
+{
+  GstElement *e = landmark_check_element (desc);
+  GstHarness *h = gst_harness_new_with_element (e, "sink", "src");
   gst_object_unref (e);
   if (caps)
     gst_harness_set_src_caps_str (h, caps);

@@ -83,6 +83,10 @@ GstStructure *landmark_check_labels_attach (GstBuffer * buf,
 
 /* ---- running elements ------------------------------------------------ */
 
+/* The one element `desc` describes (gst_parse_launch syntax, properties
+ * set); fails on any parse error. */
+GstElement *landmark_check_element (const gchar * desc);
+
 /* A harness around the one element `desc` describes (gst_parse_launch
  * syntax, properties set) with the given source caps, or none. */
 GstHarness *landmark_check_harness_new (const gchar * desc,

@@ -58,13 +58,7 @@ harness_new (const gchar * props, guint w, guint h)
       "hfov=60 %s", props ? props : "");
   gchar *caps = g_strdup_printf ("video/x-raw,format=RGB,width=%u,"
       "height=%u,framerate=30/1", w, h);
-  GError *err = NULL;
-  GstElement *e = gst_parse_launch (desc, &err);
-  GstHarness *hr;
-  fail_unless (e != NULL, "%s: %s", desc, err ? err->message : "?");
-  hr = gst_harness_new_with_element (e, "sink", "src");
-  gst_object_unref (e);
-  gst_harness_set_src_caps_str (hr, caps);
+  GstHarness *hr = landmark_check_harness_new (desc, caps);
   g_free (caps);
   g_free (desc);
   return hr;
@@ -180,25 +174,9 @@ static void
 check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
 {
   GstElement *e = gst_element_factory_make ("birdseye", NULL);
-  GstBus *bus = gst_bus_new ();
-  GstMessage *msg;
-  GError *err = NULL;
   gst_util_set_object_arg (G_OBJECT (e), prop, value);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
-  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
-  fail_unless (msg != NULL);
-  gst_message_parse_error (msg, &err, NULL);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
-  fail_unless (strstr (err->message, named) != NULL, "%s", err->message);
-  g_clear_error (&err);
-  gst_message_unref (msg);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_start_fails (e, GST_STATE_PAUSED, LANDMARK_CHECK_IN_MESSAGE,
+      named, NULL);
 }
 
 LANDMARK_TEST ("general", test_bad_properties)

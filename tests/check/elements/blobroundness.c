@@ -16,7 +16,7 @@
 #include <math.h>
 #include <string.h>
 
-#define LABELS_META "GstLandmarkLabelsMeta"
+#define LABELS_META LANDMARK_LABELS_META
 #define BLOB "landmark-blob"
 
 /* ------------------------------------------------------------------ */
@@ -138,12 +138,6 @@ plane_draw (Plane * p, InsideFunc inside, const gdouble * s, guint8 label)
 }
 
 /* The palette of the tests: label k + 1 is names[k]. */
-static const gchar *names7[] = { "red", "green", "yellow", "pink", "blue",
-  "white", "grey"
-};
-static const gboolean markers7[] = { TRUE, TRUE, TRUE, TRUE, TRUE, FALSE,
-  FALSE
-};
 
 #define RED 1
 #define GREEN 2
@@ -153,46 +147,13 @@ static const gboolean markers7[] = { TRUE, TRUE, TRUE, TRUE, TRUE, FALSE,
 #define WHITE 6
 #define GREY 7
 
-static void
-set_array (GstStructure * s, const gchar * field, GType type,
-    gconstpointer values, guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, type);
-    if (type == G_TYPE_STRING)
-      g_value_set_string (&x, ((const gchar **) values)[i]);
-    else
-      g_value_set_boolean (&x, ((const gboolean *) values)[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
 /* Attaches a labels meta holding a copy of the plane. */
 static void
 labels_attach (GstBuffer * buf, const Plane * p, const gchar ** names,
     const gboolean * markers, guint n)
 {
-  GstCustomMeta *m = gst_buffer_add_custom_meta (buf, LABELS_META);
-  GstStructure *s;
-  GstBuffer *plane;
-
-  fail_unless (m != NULL, LABELS_META " is not registered: plugin not "
-      "loaded?");
-  s = gst_custom_meta_get_structure (m);
-  plane = gst_buffer_new_memdup (p->data, (gsize) MAX (p->stride * p->h, 1));
-  gst_structure_set (s, "labels", GST_TYPE_BUFFER, plane,
-      "width", G_TYPE_UINT, p->w, "height", G_TYPE_UINT, p->h,
-      "stride", G_TYPE_UINT, p->stride,
-      "analysis-width", G_TYPE_UINT, p->w,
-      "analysis-height", G_TYPE_UINT, p->h, NULL);
-  gst_buffer_unref (plane);
-  set_array (s, "class-names", G_TYPE_STRING, names, n);
-  set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
+  landmark_check_labels_attach (buf, p->data, p->w, p->h, p->stride, names,
+      markers, n);
 }
 
 /* A GRAY8 frame of the plane's size (contents: a ramp, to check that the
@@ -208,7 +169,8 @@ frame_with_labels (const Plane * p)
   for (i = 0; i < map.size; i++)
     map.data[i] = (guint8) (i * 7);
   gst_buffer_unmap (buf, &map);
-  labels_attach (buf, p, names7, markers7, G_N_ELEMENTS (names7));
+  labels_attach (buf, p, landmark_check_names7, landmark_check_markers7,
+      G_N_ELEMENTS (landmark_check_names7));
   return buf;
 }
 
@@ -227,15 +189,8 @@ static GstHarness *
 harness_new (const gchar * props, guint w, guint h)
 {
   gchar *desc = g_strdup_printf ("blobroundness %s", props ? props : "");
-  GError *err = NULL;
-  /* one element: gst_parse_launch returns it, properties set */
-  GstElement *e = gst_parse_launch (desc, &err);
-  GstHarness *hr;
   gchar *caps = gray_caps (w, h);
-  fail_unless (e != NULL, "%s: %s", desc, err ? err->message : "?");
-  hr = gst_harness_new_with_element (e, "sink", "src");
-  gst_object_unref (e);
-  gst_harness_set_src_caps_str (hr, caps);
+  GstHarness *hr = landmark_check_harness_new (desc, caps);
   g_free (caps);
   g_free (desc);
   return hr;
@@ -778,7 +733,7 @@ LANDMARK_TEST ("shapes", test_classes)
   for (i = 0; i < b.n; i++) {
     const guint c = i / per, k = i % per;
     fail_unless_equals_string (gst_structure_get_string (b.blob[i], "class"),
-        names7[c]);
+        landmark_check_names7[c]);
     fail_unless (fabs (dbl (b.blob[i], "centroid-x") - (14 + 28.0 * k +
                 (c % 2) * 0.4)) < 0.3);
     fail_unless (kept (b.blob[i]));
@@ -1028,24 +983,6 @@ GST_END_TEST;
 /* No labels, bad settings, live changes                              */
 /* ------------------------------------------------------------------ */
 
-static guint
-count_messages (GstBus * bus, GstMessageType type, GError ** first)
-{
-  GstMessage *msg;
-  guint n = 0;
-  while ((msg = gst_bus_pop_filtered (bus, type))) {
-    if (n == 0 && first) {
-      if (type == GST_MESSAGE_WARNING)
-        gst_message_parse_warning (msg, first, NULL);
-      else
-        gst_message_parse_error (msg, first, NULL);
-    }
-    n++;
-    gst_message_unref (msg);
-  }
-  return n;
-}
-
 LANDMARK_TEST ("errors", test_no_labels_meta)
 {
   GstHarness *hr = harness_new (NULL, 32, 24);
@@ -1064,12 +1001,14 @@ LANDMARK_TEST ("errors", test_no_labels_meta)
     fail_unless (gst_buffer_get_video_region_of_interest_meta (out) == NULL);
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
   fail_unless (g_error_matches (err, GST_STREAM_ERROR,
           GST_STREAM_ERROR_FORMAT));
   fail_unless (strstr (err->message, "labsegment") != NULL);
   g_clear_error (&err);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, NULL), 0);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, NULL), 0);
   gst_element_set_bus (hr->element, NULL);
   gst_object_unref (bus);
   gst_harness_teardown (hr);
@@ -1083,24 +1022,11 @@ check_bad_start (const gchar * prop, const gchar * value, const gchar * prop2,
     const gchar * value2, const gchar * named)
 {
   GstElement *e = gst_element_factory_make ("blobroundness", NULL);
-  GstBus *bus = gst_bus_new ();
-  GError *err = NULL;
   gst_util_set_object_arg (G_OBJECT (e), prop, value);
   if (prop2)
     gst_util_set_object_arg (G_OBJECT (e), prop2, value2);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
-  fail_unless (strstr (err->message, named) != NULL, "\"%s\" does not name "
-      "%s", err->message, named);
-  g_clear_error (&err);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_start_fails (e, GST_STATE_PAUSED, LANDMARK_CHECK_IN_MESSAGE,
+      named, NULL);
 }
 
 LANDMARK_TEST ("errors", test_bad_properties)
@@ -1124,7 +1050,8 @@ LANDMARK_TEST ("errors", test_unknown_class)
   gst_element_set_bus (hr->element, bus);
   fail_unless_equals_int (gst_harness_push (hr, frame_with_labels (p)),
       GST_FLOW_ERROR);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, &err), 1);
   fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
           GST_RESOURCE_ERROR_SETTINGS));
   fail_unless (strstr (err->message, "'classes'") != NULL);
@@ -1169,7 +1096,8 @@ LANDMARK_TEST ("properties", test_change_while_playing)
     fail_unless_equals_int (b.n, 1);    /* min-area=200 still in force */
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
   fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
           GST_RESOURCE_ERROR_SETTINGS));
   fail_unless (strstr (err->message, "'morphology'") != NULL);
@@ -1268,8 +1196,10 @@ prepared_frames (const Plane * p, guint n)
     gst_structure_set (s, "labels", GST_TYPE_BUFFER, plane,
         "width", G_TYPE_UINT, p->w, "height", G_TYPE_UINT, p->h,
         "stride", G_TYPE_UINT, p->stride, NULL);
-    set_array (s, "class-names", G_TYPE_STRING, names7, 7);
-    set_array (s, "class-markers", G_TYPE_BOOLEAN, markers7, 7);
+    landmark_check_set_array (s, "class-names", G_TYPE_STRING,
+        landmark_check_names7, 7);
+    landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN,
+        landmark_check_markers7, 7);
   }
   gst_buffer_unref (plane);
   return bufs;

@@ -15,19 +15,10 @@
 #include <string.h>
 #include <time.h>
 
-#define LABELS_META "GstLandmarkLabelsMeta"
-#define FLOOR_META "GstLandmarkFloorMeta"
+#define FLOOR_META LANDMARK_FLOOR_META
 
 enum
 { NONE, RED, GREEN, YELLOW, PINK, BLUE, WHITE, GREY };
-
-static const gchar *names7[] = { "red", "green", "yellow", "pink", "blue",
-  "white", "grey"
-};
-
-static const gboolean markers7[] = { TRUE, TRUE, TRUE, TRUE, TRUE, FALSE,
-  FALSE
-};
 
 #define W 640
 #define H 480
@@ -50,45 +41,13 @@ edge_distance (guint edge)
   return CAM_H / tan (below);
 }
 
-static void
-set_array (GstStructure * s, const gchar * field, GType type,
-    gconstpointer values, guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, type);
-    if (type == G_TYPE_STRING)
-      g_value_set_string (&x, ((const gchar **) values)[i]);
-    else
-      g_value_set_boolean (&x, ((const gboolean *) values)[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
 static GstBuffer *
 frame_with_labels (const guint8 * plane, guint w, guint h,
     const gchar ** names, const gboolean * markers, guint n)
 {
   GstBuffer *buf = gst_buffer_new_allocate (NULL, (gsize) w * h, NULL);
-  GstCustomMeta *m;
-  GstStructure *s;
-  GstBuffer *pb;
   gst_buffer_memset (buf, 0, 0x55, (gsize) w * h);
-  m = gst_buffer_add_custom_meta (buf, LABELS_META);
-  fail_unless (m != NULL, LABELS_META " is not registered");
-  s = gst_custom_meta_get_structure (m);
-  pb = gst_buffer_new_memdup (plane, (gsize) w * h);
-  gst_structure_set (s, "labels", GST_TYPE_BUFFER, pb,
-      "width", G_TYPE_UINT, w, "height", G_TYPE_UINT, h,
-      "stride", G_TYPE_UINT, w, "analysis-width", G_TYPE_UINT, w,
-      "analysis-height", G_TYPE_UINT, h, NULL);
-  gst_buffer_unref (pb);
-  set_array (s, "class-names", G_TYPE_STRING, names, n);
-  set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
+  landmark_check_labels_attach (buf, plane, w, h, w, names, markers, n);
   return buf;
 }
 
@@ -97,14 +56,8 @@ harness_new (const gchar * props)
 {
   gchar *desc = g_strdup_printf ("floorboundary camera-height=0.3 tilt=25 "
       "hfov=60 %s", props ? props : "");
-  GError *err = NULL;
-  GstElement *e = gst_parse_launch (desc, &err);
-  GstHarness *hr;
-  fail_unless (e != NULL, "%s: %s", desc, err ? err->message : "?");
-  hr = gst_harness_new_with_element (e, "sink", "src");
-  gst_object_unref (e);
-  gst_harness_set_src_caps_str (hr, "video/x-raw,format=GRAY8,width=640,"
-      "height=480,framerate=30/1");
+  GstHarness *hr = landmark_check_harness_new (desc,
+      "video/x-raw,format=GRAY8,width=640,height=480,framerate=30/1");
   g_free (desc);
   return hr;
 }
@@ -167,27 +120,9 @@ static GstBuffer *
 push (GstHarness * hr, const guint8 * plane)
 {
   GstBuffer *out = gst_harness_push_and_pull (hr, frame_with_labels (plane,
-          W, H, names7, markers7, G_N_ELEMENTS (names7)));
+          W, H, landmark_check_names7, landmark_check_markers7, 7));
   fail_unless (out != NULL);
   return out;
-}
-
-static guint
-count_messages (GstBus * bus, GstMessageType type, GError ** first)
-{
-  GstMessage *msg;
-  guint n = 0;
-  while ((msg = gst_bus_pop_filtered (bus, type))) {
-    if (n == 0 && first) {
-      if (type == GST_MESSAGE_WARNING)
-        gst_message_parse_warning (msg, first, NULL);
-      else
-        gst_message_parse_error (msg, first, NULL);
-    }
-    n++;
-    gst_message_unref (msg);
-  }
-  return n;
 }
 
 /* A wall straight ahead: white above a grey floor. Bin 0 and the centre
@@ -327,22 +262,9 @@ static void
 check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
 {
   GstElement *e = gst_element_factory_make ("floorboundary", NULL);
-  GstBus *bus = gst_bus_new ();
-  GError *err = NULL;
   gst_util_set_object_arg (G_OBJECT (e), prop, value);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
-  fail_unless (strstr (err->message, named) != NULL, "\"%s\" does not name "
-      "%s", err->message, named);
-  g_clear_error (&err);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_start_fails (e, GST_STATE_PAUSED, LANDMARK_CHECK_IN_MESSAGE,
+      named, NULL);
 }
 
 LANDMARK_TEST ("general", test_bad_properties)
@@ -371,7 +293,8 @@ check_bad_labels (const gchar * props, const gchar ** names,
   gst_element_set_bus (hr->element, bus);
   fail_unless_equals_int (gst_harness_push (hr, frame_with_labels (p, W, H,
               names, markers, n)), GST_FLOW_ERROR);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, &err), 1);
   fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
           GST_RESOURCE_ERROR_SETTINGS));
   fail_unless (strstr (err->message, text) != NULL, "%s", err->message);
@@ -386,7 +309,8 @@ LANDMARK_TEST ("general", test_no_floor_class)
 {
   static const gchar *markers_only[] = { "red", "blue" };
   static const gboolean all_markers[] = { TRUE, TRUE };
-  check_bad_labels ("floor-classes=carpet", names7, markers7, 7, "carpet");
+  check_bad_labels ("floor-classes=carpet", landmark_check_names7,
+      landmark_check_markers7, 7, "carpet");
   check_bad_labels (NULL, markers_only, all_markers, 2, "No floor class");
 }
 
@@ -411,7 +335,8 @@ LANDMARK_TEST ("general", test_change_while_playing)
     fail_unless (f.range[0] == 3.0f);
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
   fail_unless (strstr (err->message, "'tilt'") != NULL, "%s", err->message);
   g_clear_error (&err);
   g_object_set (hr->element, "tilt", 25.0, "max-range", 2.0, NULL);
@@ -419,7 +344,8 @@ LANDMARK_TEST ("general", test_change_while_playing)
   floor_read (out, &f);
   fail_unless (f.range[0] == 2.0f);
   gst_buffer_unref (out);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, NULL), 0);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, NULL), 0);
   gst_element_set_bus (hr->element, NULL);
   gst_object_unref (bus);
   g_free (p);
@@ -445,7 +371,8 @@ LANDMARK_TEST ("general", test_no_labels_meta)
     fail_unless (gst_buffer_get_custom_meta (out, FLOOR_META) == NULL);
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
   fail_unless (strstr (err->message, "labsegment") != NULL);
   g_clear_error (&err);
   gst_element_set_bus (hr->element, NULL);
@@ -485,7 +412,8 @@ LANDMARK_TEST ("general", test_cost_640x480)
     gint64 t0;
     /* one plane for every frame, as warm in the cache as the plane
      * labsegment has just written */
-    bufs[0] = frame_with_labels (p, W, H, names7, markers7, 7);
+    bufs[0] = frame_with_labels (p, W, H, landmark_check_names7,
+        landmark_check_markers7, 7);
     for (i = 1; i < 32; i++)
       bufs[i] = gst_buffer_copy (bufs[0]);
     for (i = 0; i < 10; i++)

@@ -185,31 +185,8 @@ GST_END_TEST;
 static void
 expect_ready_error (const gchar * launch, const gchar * what)
 {
-  GError *perr = NULL;
-  GstElement *e = gst_parse_launch (launch, &perr);
-  GstBus *bus = gst_bus_new ();
-  GstMessage *msg;
-  GError *err = NULL;
-  gchar *dbg = NULL;
-
-  fail_unless (e != NULL && perr == NULL, "%s", launch);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_FAILURE);
-  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
-  fail_unless (msg != NULL, "no error for %s", launch);
-  gst_message_parse_error (msg, &err, &dbg);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS));
-  fail_unless (strstr (err->message, what) || (dbg && strstr (dbg, what)),
-      "'%s' not in '%s' / '%s'", what, err->message, dbg);
-  g_error_free (err);
-  g_free (dbg);
-  gst_message_unref (msg);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_start_fails (landmark_check_element (launch),
+      GST_STATE_READY, LANDMARK_CHECK_IN_EITHER, what, NULL);
 }
 
 LANDMARK_TEST ("general", test_bad_properties)

@@ -43,18 +43,6 @@ frame_intact (GstBuffer * buf, guint i)
   return ok;
 }
 
-/* Every message of the given types on the bus, in order (the caller
- * frees the list with g_list_free_full (l, gst_message_unref)). */
-static GList *
-pop_all (GstBus * bus, GstMessageType types)
-{
-  GList *out = NULL;
-  GstMessage *m;
-  while ((m = gst_bus_pop_filtered (bus, types)))
-    out = g_list_append (out, m);
-  return out;
-}
-
 LANDMARK_TEST ("general", test_frames_pass_untouched_and_never_wait)
 {
   const guint n = 2000;
@@ -82,7 +70,8 @@ LANDMARK_TEST ("general", test_frames_pass_untouched_and_never_wait)
 
   /* the bound: dropping started once, when the 11th message came */
   /* popping by type drops the other types: take both kinds at once */
-  GList *all = pop_all (bus, GST_MESSAGE_ELEMENT | GST_MESSAGE_WARNING), *l;
+  GList *all = landmark_check_pop_all (bus,
+      GST_MESSAGE_ELEMENT | GST_MESSAGE_WARNING), *l;
   GList *elements = NULL, *warnings = NULL;
   for (l = all; l; l = l->next) {
     if (GST_MESSAGE_TYPE (l->data) == GST_MESSAGE_ELEMENT)
@@ -126,7 +115,7 @@ LANDMARK_TEST ("general", test_frames_pass_untouched_and_never_wait)
 
   /* stopping says how many results never left: the 10 kept */
   gst_element_set_state (h->element, GST_STATE_NULL);
-  GList *stop = pop_all (bus, GST_MESSAGE_WARNING);
+  GList *stop = landmark_check_pop_all (bus, GST_MESSAGE_WARNING);
   gboolean said = FALSE;
   for (l = stop; l; l = l->next) {
     GError *err = NULL;

@@ -31,12 +31,7 @@ static const struct
 static gchar *
 write_tmp (const gchar * text)
 {
-  gchar *path = NULL;
-  gint fd = g_file_open_tmp ("landmarkslam-XXXXXX.json", &path, NULL);
-  fail_unless (fd >= 0);
-  fail_unless (write (fd, text, strlen (text)) == (gssize) strlen (text));
-  close (fd);
-  return path;
+  return landmark_check_write_tmp ("landmarkslam", ".json", text);
 }
 
 /* landmark k seen from (x, y, h), robot frame (docs/conventions.md) */

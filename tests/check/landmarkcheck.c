@@ -3,6 +3,7 @@
 
 #include <glib/gstdio.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ---- tests and the suite --------------------------------------------- */
 
@@ -197,6 +198,27 @@ landmark_check_pop_all (GstBus * bus, GstMessageType types)
   return out;
 }
 
+void
+landmark_check_configure_element (GstElement * e)
+{
+  static gint counter = 0;
+  GParamSpec *p = g_object_class_find_property (G_OBJECT_GET_CLASS (e),
+      "location");
+  GstElementFactory *f = gst_element_get_factory (e);
+  if (p && G_PARAM_SPEC_VALUE_TYPE (p) == G_TYPE_STRING) {
+    gchar *name = g_strdup_printf ("%s-%d-%d.out", GST_OBJECT_NAME (e),
+        (gint) getpid (), g_atomic_int_add (&counter, 1));
+    gchar *path = g_build_filename (landmark_check_tmp_dir, name, NULL);
+    g_assert (landmark_check_tmp_dir != NULL);
+    g_object_set (e, "location", path, NULL);
+    g_object_set_data_full (G_OBJECT (e), LANDMARK_CHECK_FILE, path, g_free);
+    g_free (name);
+  }
+  if (f && !g_strcmp0 (GST_OBJECT_NAME (f), "trilaterate"))
+    g_object_set (e, "map", GST_TEST_FILES_PATH "/clips/path-small/map.json",
+        NULL);
+}
+
 static gboolean
 has_words (const gchar * text, const gchar * what, const gchar * also)
 {
@@ -240,19 +262,19 @@ landmark_check_start_fails (GstElement * e, GstState state,
 
 /* ---- files ----------------------------------------------------------- */
 
-gchar *
-landmark_check_tmp_dir_new (const gchar * prefix)
-{
-  GError *err = NULL;
-  gchar *tmpl = g_strconcat (prefix, "-XXXXXX", NULL);
-  gchar *dir = g_dir_make_tmp (tmpl, &err);
-  fail_unless (dir != NULL, "%s", err ? err->message : "?");
-  g_free (tmpl);
-  return dir;
-}
+gchar *landmark_check_tmp_dir;
 
 void
-landmark_check_tmp_dir_remove (const gchar * dir)
+landmark_check_tmp_dir_setup (void)
+{
+  GError *err = NULL;
+  landmark_check_tmp_dir = g_dir_make_tmp ("landmark-check-XXXXXX", &err);
+  fail_unless (landmark_check_tmp_dir != NULL, "%s",
+      err ? err->message : "?");
+}
+
+static void
+remove_tree (const gchar * dir)
 {
   GDir *d = g_dir_open (dir, 0, NULL);
   const gchar *name;
@@ -261,7 +283,7 @@ landmark_check_tmp_dir_remove (const gchar * dir)
     if (g_file_test (p, G_FILE_TEST_IS_DIR)) {
       /* tests make unwritable folders to see writes fail */
       g_chmod (p, 0700);
-      landmark_check_tmp_dir_remove (p);
+      remove_tree (p);
     } else {
       g_remove (p);
     }
@@ -270,6 +292,13 @@ landmark_check_tmp_dir_remove (const gchar * dir)
   if (d)
     g_dir_close (d);
   g_rmdir (dir);
+}
+
+void
+landmark_check_tmp_dir_teardown (void)
+{
+  remove_tree (landmark_check_tmp_dir);
+  g_clear_pointer (&landmark_check_tmp_dir, g_free);
 }
 
 gchar *

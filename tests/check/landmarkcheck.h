@@ -101,6 +101,12 @@ guint landmark_check_count_messages (GstBus * bus, GstMessageType type,
  * g_list_free_full (l, (GDestroyNotify) gst_message_unref)). */
 GList *landmark_check_pop_all (GstBus * bus, GstMessageType types);
 
+/* Gives e what it needs to start: a file to write (landmarklog location=)
+ * in landmark_check_tmp_dir, its path kept as e's LANDMARK_CHECK_FILE data,
+ * and a landmark map (trilaterate map=). */
+#define LANDMARK_CHECK_FILE "landmark-check-file"
+void landmark_check_configure_element (GstElement * e);
+
 /* where landmark_check_start_fails looks for the words */
 typedef enum
 {
@@ -116,11 +122,11 @@ void landmark_check_start_fails (GstElement * e, GstState state,
 
 /* ---- files ----------------------------------------------------------- */
 
-/* A new empty folder `prefix`-XXXXXX in the temporary folder. */
-gchar *landmark_check_tmp_dir_new (const gchar * prefix);
-
-/* Removes dir, its files and its (possibly read-only) subfolders. */
-void landmark_check_tmp_dir_remove (const gchar * dir);
+/* A new empty folder in the temporary folder while a test case runs (a
+ * fixture), removed with its files and (possibly read-only) subfolders. */
+extern gchar *landmark_check_tmp_dir;
+void landmark_check_tmp_dir_setup (void);
+void landmark_check_tmp_dir_teardown (void);
 
 /* A new temporary file `prefix`-XXXXXX`suffix` holding text. */
 gchar *landmark_check_write_tmp (const gchar * prefix, const gchar * suffix,

@@ -32,41 +32,10 @@
 /* Files                                                              */
 /* ------------------------------------------------------------------ */
 
-static gchar *tmp_dir;
-
-static void
-tmp_dir_setup (void)
-{
-  GError *err = NULL;
-  tmp_dir = g_dir_make_tmp ("landmarklog-XXXXXX", &err);
-  fail_unless (tmp_dir != NULL, "%s", err ? err->message : "?");
-}
-
-static void
-tmp_dir_teardown (void)
-{
-  GDir *d = g_dir_open (tmp_dir, 0, NULL);
-  const gchar *name;
-  while (d && (name = g_dir_read_name (d))) {
-    gchar *p = g_build_filename (tmp_dir, name, NULL);
-    if (g_file_test (p, G_FILE_TEST_IS_DIR)) {
-      g_chmod (p, 0700);
-      g_rmdir (p);
-    } else {
-      g_remove (p);
-    }
-    g_free (p);
-  }
-  if (d)
-    g_dir_close (d);
-  g_rmdir (tmp_dir);
-  g_clear_pointer (&tmp_dir, g_free);
-}
-
 static gchar *
 tmp_file (const gchar * name)
 {
-  return g_build_filename (tmp_dir, name, NULL);
+  return g_build_filename (landmark_check_tmp_dir, name, NULL);
 }
 
 /* A log file read back: every line parsed (the test fails on the first
@@ -251,78 +220,6 @@ frame_new (guint i)
   GST_BUFFER_PTS (buf) = i * 40 * GST_MSECOND;
   GST_BUFFER_DURATION (buf) = 40 * GST_MSECOND;
   return buf;
-}
-
-static GstStructure *
-custom_meta_add (GstBuffer * buf, const gchar * name)
-{
-  GstCustomMeta *m = gst_buffer_add_custom_meta (buf, name);
-  fail_unless (m != NULL, "%s is not registered: plugin not loaded?", name);
-  return gst_custom_meta_get_structure (m);
-}
-
-static void
-set_uint_array (GstStructure * s, const gchar * field, const guint * v,
-    guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, G_TYPE_UINT);
-    g_value_set_uint (&x, v[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
-static void
-set_bool_array (GstStructure * s, const gchar * field, const gboolean * v,
-    guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, G_TYPE_BOOLEAN);
-    g_value_set_boolean (&x, v[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
-static void
-set_double_array (GstStructure * s, const gchar * field, const gdouble * v,
-    guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, G_TYPE_DOUBLE);
-    g_value_set_double (&x, v[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
-static void
-set_string_array (GstStructure * s, const gchar * field,
-    const gchar * const *v, guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, G_TYPE_STRING);
-    g_value_set_string (&x, v[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
 }
 
 static GstVideoRegionOfInterestMeta *
@@ -571,7 +468,7 @@ LANDMARK_TEST ("format", test_labels_meta)
 
   /* frame 0: a full labels meta, as labsegment writes it */
   buf = frame_new (0);
-  s = custom_meta_add (buf, LABELS_META);
+  s = landmark_check_meta_add (buf, LABELS_META);
   plane = gst_buffer_new_allocate (NULL, 8 * 4, NULL);
   gst_buffer_memset (plane, 0, 2, 8 * 4);
   gst_structure_set (s, "labels", GST_TYPE_BUFFER, plane,
@@ -582,18 +479,18 @@ LANDMARK_TEST ("format", test_labels_meta)
       "max-distance", G_TYPE_DOUBLE, 12.3, "use-lightness", G_TYPE_BOOLEAN,
       FALSE, NULL);
   gst_buffer_unref (plane);
-  set_string_array (s, "class-names", names, 3);
-  set_bool_array (s, "class-markers", markers, 3);
-  set_uint_array (s, "class-rgb", rgb, 3);
-  set_uint_array (s, "class-counts", counts, 3);
-  set_bool_array (s, "class-active", active, 3);
-  set_uint_array (s, "label-counts", labelled, 3);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING, names, 3);
+  landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, 3);
+  landmark_check_set_array (s, "class-rgb", G_TYPE_UINT, rgb, 3);
+  landmark_check_set_array (s, "class-counts", G_TYPE_UINT, counts, 3);
+  landmark_check_set_array (s, "class-active", G_TYPE_BOOLEAN, active, 3);
+  landmark_check_set_array (s, "label-counts", G_TYPE_UINT, labelled, 3);
   fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
 
   /* frame 1: a meta with only some fields: only those are written */
   buf = frame_new (1);
-  s = custom_meta_add (buf, LABELS_META);
-  set_string_array (s, "class-names", names, 1);
+  s = landmark_check_meta_add (buf, LABELS_META);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING, names, 1);
   gst_structure_set (s, "unclassified", G_TYPE_UINT, 0, NULL);
   fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
 
@@ -699,7 +596,7 @@ LANDMARK_TEST ("format", test_detections)
         "matched", G_TYPE_BOOLEAN, TRUE,
         "landmark-id", G_TYPE_STRING, "L\"1\"\n\t\x01/\xc3\xa9",
         "residual", G_TYPE_DOUBLE, 1e300, NULL);
-    set_double_array (m, "axes", axes, 3);
+    landmark_check_set_array (m, "axes", G_TYPE_DOUBLE, axes, 3);
     gst_video_region_of_interest_meta_add_param (roi, m);
   }
 
@@ -813,7 +710,7 @@ LANDMARK_TEST ("format", test_pose_meta)
   };
   static const gchar *used[] = { "L1", "L2", "L4" };
   GstBuffer *buf = frame_new (0);
-  GstStructure *s = custom_meta_add (buf, POSE_META);
+  GstStructure *s = landmark_check_meta_add (buf, POSE_META);
   JsonObject *pose;
   JsonArray *a;
   LogFile lf;
@@ -823,8 +720,8 @@ LANDMARK_TEST ("format", test_pose_meta)
       "heading", G_TYPE_DOUBLE, G_PI, "residual", G_TYPE_DOUBLE, 0.0125,
       "solver", G_TYPE_STRING, "gauss-newton",
       "n-landmarks", G_TYPE_UINT, 3, "converged", G_TYPE_BOOLEAN, TRUE, NULL);
-  set_double_array (s, "covariance", cov, 9);
-  set_string_array (s, "landmarks", used, 3);
+  landmark_check_set_array (s, "covariance", G_TYPE_DOUBLE, cov, 9);
+  landmark_check_set_array (s, "landmarks", G_TYPE_STRING, used, 3);
   fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
   fail_unless_equals_int (gst_harness_push (h, frame_new (1)), GST_FLOW_OK);
   push_eos (h);
@@ -1157,7 +1054,8 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
 
 LANDMARK_TEST ("errors", test_missing_directory)
 {
-  gchar *path = g_build_filename (tmp_dir, "no-such-dir", "x.jsonl", NULL);
+  gchar *path = g_build_filename (landmark_check_tmp_dir, "no-such-dir",
+      "x.jsonl", NULL);
   expect_start_error (path, GST_RESOURCE_ERROR, GST_RESOURCE_ERROR_OPEN_WRITE,
       g_strerror (ENOENT));
   fail_if (g_file_test (path, G_FILE_TEST_EXISTS));
@@ -1168,7 +1066,7 @@ GST_END_TEST;
 
 LANDMARK_TEST ("errors", test_location_is_a_directory)
 {
-  expect_start_error (tmp_dir, GST_RESOURCE_ERROR,
+  expect_start_error (landmark_check_tmp_dir, GST_RESOURCE_ERROR,
       GST_RESOURCE_ERROR_OPEN_WRITE, g_strerror (EISDIR));
 }
 
@@ -1667,5 +1565,6 @@ LANDMARK_TEST ("output", test_many_frames)
 GST_END_TEST;
 
 /* a fresh folder for every test's log files */
-LANDMARK_CHECK_MAIN (landmarklog, .setup = tmp_dir_setup,
-    .teardown = tmp_dir_teardown, .checked = TRUE);
+LANDMARK_CHECK_MAIN (landmarklog,
+    .setup = landmark_check_tmp_dir_setup,
+    .teardown = landmark_check_tmp_dir_teardown, .checked = TRUE);

@@ -544,36 +544,10 @@ add_floor (GstBuffer * buf, guint cols, guint rows, const gfloat * row,
 /* Files                                                              */
 /* ------------------------------------------------------------------ */
 
-static gchar *tmp_dir;
-
-static void
-tmp_dir_setup (void)
-{
-  GError *err = NULL;
-  tmp_dir = g_dir_make_tmp ("landmarkoverlay-XXXXXX", &err);
-  fail_unless (tmp_dir != NULL, "%s", err ? err->message : "?");
-}
-
-static void
-tmp_dir_teardown (void)
-{
-  GDir *d = g_dir_open (tmp_dir, 0, NULL);
-  const gchar *name;
-  while (d && (name = g_dir_read_name (d))) {
-    gchar *p = g_build_filename (tmp_dir, name, NULL);
-    g_remove (p);
-    g_free (p);
-  }
-  if (d)
-    g_dir_close (d);
-  g_rmdir (tmp_dir);
-  g_clear_pointer (&tmp_dir, g_free);
-}
-
 static gchar *
 write_file (const gchar * name, const gchar * text)
 {
-  gchar *path = g_build_filename (tmp_dir, name, NULL);
+  gchar *path = g_build_filename (landmark_check_tmp_dir, name, NULL);
   fail_unless (g_file_set_contents (path, text, -1, NULL));
   return path;
 }
@@ -1653,7 +1627,7 @@ LANDMARK_TEST_LOOP ("configuration", test_bad_map_fails_start,
 {
   const BadMap *b = &bad_maps[__i__];
   gchar *path = b->json ? write_file ("bad.json", b->json) :
-      g_build_filename (tmp_dir, "missing.json", NULL);
+      g_build_filename (landmark_check_tmp_dir, "missing.json", NULL);
   gchar *good = write_file ("good.json", map2_json);
   GstElement *e = gst_element_factory_make ("landmarkoverlay", NULL);
   GstBus *bus = gst_bus_new ();
@@ -1869,5 +1843,6 @@ LANDMARK_TEST ("streaming", test_no_buffer_dropped)
 GST_END_TEST;
 
 /* a temporary folder for map and palette files */
-LANDMARK_CHECK_MAIN (landmarkoverlay, .setup = tmp_dir_setup,
-    .teardown = tmp_dir_teardown);
+LANDMARK_CHECK_MAIN (landmarkoverlay,
+    .setup = landmark_check_tmp_dir_setup,
+    .teardown = landmark_check_tmp_dir_teardown);

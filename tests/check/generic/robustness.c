@@ -55,8 +55,6 @@ static const Size sizes[] = {
 
 /* the elements of the plugin, sorted; filled when the suite is built */
 static GList *element_names;
-static gchar *tmp_dir;
-
 /* ------------------------------------------------------------------ */
 /* The plugin's elements and how to configure them                     */
 /* ------------------------------------------------------------------ */
@@ -117,25 +115,9 @@ tmp_file (const gchar * stem)
   static gint counter = 0;
   gchar *name = g_strdup_printf ("%s-%d-%d.jsonl", stem, (gint) getpid (),
       g_atomic_int_add (&counter, 1));
-  gchar *path = g_build_filename (tmp_dir, name, NULL);
+  gchar *path = g_build_filename (landmark_check_tmp_dir, name, NULL);
   g_free (name);
   return path;
-}
-
-/* What elements need to start: a file to write (landmarklog location=), a
- * landmark map (trilaterate map=), as in states.c. */
-static void
-configure_element (GstElement * e)
-{
-  GParamSpec *p = g_object_class_find_property (G_OBJECT_GET_CLASS (e),
-      "location");
-  if (p && G_PARAM_SPEC_VALUE_TYPE (p) == G_TYPE_STRING) {
-    gchar *path = tmp_file (GST_OBJECT_NAME (e));
-    g_object_set (e, "location", path, NULL);
-    g_object_set_data_full (G_OBJECT (e), "robustness-file", path, g_free);
-  }
-  if (!g_strcmp0 (factory_name (e), "trilaterate"))
-    g_object_set (e, "map", MAP_FILE, NULL);
 }
 
 static GstElement *
@@ -143,7 +125,7 @@ make_element (const gchar * name)
 {
   GstElement *e = gst_element_factory_make (name, NULL);
   fail_unless (e != NULL, "cannot create %s", name);
-  configure_element (e);
+  landmark_check_configure_element (e);
   return e;
 }
 
@@ -391,34 +373,6 @@ disc_at (guint w, guint h, gdouble nx, gdouble ny)
 /* Metadata made by hand, for elements tested without their upstream   */
 /* ------------------------------------------------------------------ */
 
-static const gchar *class_names[] = { "red", "green", "yellow", "pink",
-  "blue", "white", "grey"
-};
-
-static const gboolean class_markers[] = { TRUE, TRUE, TRUE, TRUE, TRUE,
-  FALSE, FALSE
-};
-
-static void
-take_array (GstStructure * s, const gchar * field, GType type,
-    gconstpointer values, guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, type);
-    if (type == G_TYPE_STRING)
-      g_value_set_string (&x, ((const gchar **) values)[i]);
-    else if (type == G_TYPE_BOOLEAN)
-      g_value_set_boolean (&x, ((const gboolean *) values)[i]);
-    else
-      g_value_set_uint (&x, ((const guint *) values)[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
 
 /* A labels meta with a w x h plane (stride, and plane_bytes bytes of
  * storage, may disagree with it on purpose): label 1 (red) in the disc,
@@ -460,10 +414,12 @@ add_labels (GstBuffer * buf, guint w, guint h, guint stride,
       "analysis-width", G_TYPE_UINT, w, "analysis-height", G_TYPE_UINT, h,
       "min-class-pixels", G_TYPE_UINT, 1, NULL);
   gst_buffer_unref (plane);
-  take_array (s, "class-names", G_TYPE_STRING, class_names, 7);
-  take_array (s, "class-markers", G_TYPE_BOOLEAN, class_markers, 7);
-  take_array (s, "class-counts", G_TYPE_UINT, counts, 7);
-  take_array (s, "class-active", G_TYPE_BOOLEAN, active, 7);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING,
+      landmark_check_names7, 7);
+  landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN,
+      landmark_check_markers7, 7);
+  landmark_check_set_array (s, "class-counts", G_TYPE_UINT, counts, 7);
+  landmark_check_set_array (s, "class-active", G_TYPE_BOOLEAN, active, 7);
 }
 
 /* A detection of the disc, as blobroundness would attach it, for a frame
@@ -734,7 +690,7 @@ LANDMARK_TEST_LOOP ("formats", test_element_formats_and_sizes,
     const gchar *format = g_ptr_array_index (formats, f);
     GstHarness *h = harness_for (name);
     gchar *log = g_strdup (g_object_get_data (G_OBJECT (h->element),
-            "robustness-file"));
+            LANDMARK_CHECK_FILE));
     guint pushed = 0;
 
     for (s = 0; s < G_N_ELEMENTS (sizes); s++) {
@@ -1216,8 +1172,8 @@ meta_case_frame (const GstVideoInfo * info, MetaCase c, guint index)
       GstCustomMeta *m = gst_buffer_add_custom_meta (b, LABELS_META);
       gst_structure_set (gst_custom_meta_get_structure (m), "width",
           G_TYPE_UINT, MW, "height", G_TYPE_UINT, MH, NULL);
-      take_array (gst_custom_meta_get_structure (m), "class-names",
-          G_TYPE_STRING, class_names, 7);
+      landmark_check_set_array (gst_custom_meta_get_structure (m),
+          "class-names", G_TYPE_STRING, landmark_check_names7, 7);
       break;
     }
     case BLOB_ZERO_FRAME:
@@ -1265,7 +1221,7 @@ LANDMARK_TEST_LOOP ("metadata", test_element_bad_metadata,
   for (c = 0; c < N_META_CASES; c++) {
     GstHarness *h = harness_for (name);
     gchar *log = g_strdup (g_object_get_data (G_OBJECT (h->element),
-            "robustness-file"));
+            LANDMARK_CHECK_FILE));
     GstBus *bus = gst_bus_new ();
     gchar *what = g_strdup_printf ("%s, %s", name, meta_case_names[c]);
     GeometryCheck g = { MW, MH, what };
@@ -1609,30 +1565,18 @@ GST_END_TEST;
 static void
 suite_setup (void)
 {
-  GError *err = NULL;
   /* load the plugin so its metas are registered by name */
   GstPlugin *plugin = gst_plugin_load_by_name (PLUGIN_NAME);
   g_assert (plugin != NULL);
   gst_object_unref (plugin);
   load_red ();
-  tmp_dir = g_dir_make_tmp ("landmark-robustness-XXXXXX", &err);
-  g_assert (tmp_dir != NULL);
+  landmark_check_tmp_dir_setup ();
 }
 
 static void
 suite_teardown (void)
 {
-  GDir *dir = g_dir_open (tmp_dir, 0, NULL);
-  const gchar *f;
-  while (dir && (f = g_dir_read_name (dir))) {
-    gchar *path = g_build_filename (tmp_dir, f, NULL);
-    g_remove (path);
-    g_free (path);
-  }
-  if (dir)
-    g_dir_close (dir);
-  g_rmdir (tmp_dir);
-  g_clear_pointer (&tmp_dir, g_free);
+  landmark_check_tmp_dir_teardown ();
 }
 
 static gint

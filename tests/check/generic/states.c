@@ -41,37 +41,6 @@ plugin_element_names (void)
   return names;
 }
 
-/* Elements that need a file to start (landmarklog) get one in the
- * temporary directory. */
-static void
-configure_element (GstElement * element)
-{
-  GParamSpec *p = g_object_class_find_property (G_OBJECT_GET_CLASS (element),
-      "location");
-  if (p && G_PARAM_SPEC_VALUE_TYPE (p) == G_TYPE_STRING) {
-    gchar *name = g_strdup_printf ("states-%s-%u.out",
-        GST_OBJECT_NAME (element), (guint) getpid ());
-    gchar *path = g_build_filename (g_get_tmp_dir (), name, NULL);
-    g_object_set (element, "location", path, NULL);
-    g_object_set_data_full (G_OBJECT (element), "states-file", path,
-        (GDestroyNotify) g_free);
-    g_free (name);
-  }
-  /* trilaterate needs a map to reach READY */
-  if (!g_strcmp0 (GST_OBJECT_NAME (gst_element_get_factory (element)),
-          "trilaterate"))
-    g_object_set (element, "map",
-        GST_TEST_FILES_PATH "/clips/path-small/map.json", NULL);
-}
-
-static void
-remove_element_file (GstElement * element)
-{
-  const gchar *path = g_object_get_data (G_OBJECT (element), "states-file");
-  if (path)
-    g_remove (path);
-}
-
 /* Sets the state and waits until it is reached. */
 static void
 go_to_state (GstElement * element, GstState target)
@@ -101,13 +70,12 @@ cycle_every_element (const GstState * sequence, guint n, guint rounds)
     guint r, i;
 
     fail_unless (element != NULL, "cannot create %s", (gchar *) l->data);
-    configure_element (element);
+    landmark_check_configure_element (element);
     GST_INFO ("cycling %s", (gchar *) l->data);
     for (r = 0; r < rounds; r++)
       for (i = 0; i < n; i++)
         go_to_state (element, sequence[i]);
     go_to_state (element, GST_STATE_NULL);
-    remove_element_file (element);
     gst_object_unref (element);
   }
   g_list_free_full (names, g_free);
@@ -202,7 +170,7 @@ LANDMARK_TEST ("general", test_state_changes_while_streaming)
 
       fail_unless (pipeline != NULL, "%s: %s", desc, err ? err->message : "");
       under = gst_bin_get_by_name (GST_BIN (pipeline), "under");
-      configure_element (under);
+      landmark_check_configure_element (under);
       bus = gst_element_get_bus (pipeline);
       for (r = 0; r < 3; r++) {
         for (i = 0; i < G_N_ELEMENTS (seq); i++) {
@@ -220,7 +188,6 @@ LANDMARK_TEST ("general", test_state_changes_while_streaming)
             error->message, debug ? debug : "");
       }
       gst_object_unref (bus);
-      remove_element_file (under);
       gst_object_unref (under);
       gst_object_unref (pipeline);
       g_free (desc);
@@ -233,4 +200,6 @@ LANDMARK_TEST ("general", test_state_changes_while_streaming)
 
 GST_END_TEST;
 
-LANDMARK_CHECK_MAIN (states);
+/* a folder for the files elements write (landmarklog) */
+LANDMARK_CHECK_MAIN (states, .setup = landmark_check_tmp_dir_setup,
+    .teardown = landmark_check_tmp_dir_teardown);

@@ -61,6 +61,8 @@ int landmark_check_run (int *argc, char ***argv, const gchar * suite,
   }
 
 /* ---- metadata made by hand ------------------------------------------- */
+/* (these and landmark_check_harness_new also serve the benchmarks, which
+ * run no check suite) */
 
 /* the default palette's seven classes, in its order, and which are markers */
 extern const gchar *landmark_check_names7[7];

@@ -1,7 +1,7 @@
 /* Unit tests of birdseye: output size and scale, a line on the floor at a
  * known distance (its image row from the pinhole model written out here),
  * strides of odd widths, the frame's metadata kept and image metadata
- * dropped, bad settings, and the cost of a 640x480 -> 400x400 remap. */
+ * dropped, bad settings (the cost of a remap: tests/bench/element-cost.c). */
 
 #include "landmarkcheck.h"
 
@@ -11,7 +11,6 @@
 
 #include <math.h>
 #include <string.h>
-#include <time.h>
 
 #define CAM_H 0.3
 #define TILT 25.0
@@ -186,37 +185,6 @@ LANDMARK_TEST ("general", test_bad_properties)
   check_bad_start ("tilt", "-45", "'tilt'");
   check_bad_start ("calibration", "/nonexistent/camera.yaml",
       "'calibration'");
-}
-
-GST_END_TEST;
-
-/* 640x480 -> 400x400 RGB, per frame; printed, not asserted. */
-LANDMARK_TEST ("general", test_cost_640x480)
-{
-  GstHarness *hr = harness_new (NULL, 640, 480);
-  GstVideoInfo in;
-  GstBuffer *buf;
-  const guint n = 300;
-  gint64 t0;
-  gdouble cpu0, cpu1;
-  guint i;
-  struct timespec ts;
-  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, 640, 480);
-  buf = frame_with_band (&in, 1, 2);
-  for (i = 0; i < 10; i++)
-    gst_buffer_unref (gst_harness_push_and_pull (hr, gst_buffer_ref (buf)));
-  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
-  cpu0 = ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
-  t0 = g_get_monotonic_time ();
-  for (i = 0; i < n; i++)
-    gst_buffer_unref (gst_harness_push_and_pull (hr, gst_buffer_ref (buf)));
-  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
-  cpu1 = ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
-  g_print ("birdseye 640x480 RGB -> 400x400: %.1f us per frame wall-clock, "
-      "%.1f us CPU\n", (g_get_monotonic_time () - t0) / (gdouble) n,
-      (cpu1 - cpu0) / n);
-  gst_buffer_unref (buf);
-  gst_harness_teardown (hr);
 }
 
 GST_END_TEST;

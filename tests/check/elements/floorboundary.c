@@ -13,7 +13,6 @@
 
 #include <math.h>
 #include <string.h>
-#include <time.h>
 
 #define FLOOR_META LANDMARK_FLOOR_META
 
@@ -378,63 +377,6 @@ LANDMARK_TEST ("general", test_no_labels_meta)
   gst_element_set_bus (hr->element, NULL);
   gst_object_unref (bus);
   gst_harness_teardown (hr);
-}
-
-GST_END_TEST;
-
-/* CPU time of the process, microseconds: the machine is shared */
-static gdouble
-cpu_us (void)
-{
-  struct timespec ts;
-  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
-}
-
-/* Per-frame cost at 640x480 beside identity; printed, not asserted. */
-LANDMARK_TEST ("general", test_cost_640x480)
-{
-  GstHarness *hr = harness_new ("floor-classes=grey");
-  GstHarness *ref = gst_harness_new ("identity");
-  guint8 *p = plane_floor_below (120, GREY, WHITE);
-  const guint n = 300;
-  gdouble t[2], cpu[2];
-  guint k, i;
-  GstHarness *hs[2] = { ref, hr };
-  gst_harness_set_src_caps_str (ref, "video/x-raw,format=GRAY8,width=640,"
-      "height=480,framerate=30/1");
-  /* boxes and specks */
-  for (i = 0; i < (guint) W * H; i++)
-    if (i % 53 == 0)
-      p[i] = WHITE;
-  for (k = 0; k < 2; k++) {
-    GstBuffer *bufs[32];
-    gint64 t0;
-    /* one plane for every frame, as warm in the cache as the plane
-     * labsegment has just written */
-    bufs[0] = frame_with_labels (p, W, H, landmark_check_names7,
-        landmark_check_markers7, 7);
-    for (i = 1; i < 32; i++)
-      bufs[i] = gst_buffer_copy (bufs[0]);
-    for (i = 0; i < 10; i++)
-      gst_buffer_unref (gst_harness_push_and_pull (hs[k],
-              gst_buffer_ref (bufs[i % 32])));
-    t0 = g_get_monotonic_time ();
-    cpu[k] = cpu_us ();
-    for (i = 0; i < n; i++)
-      gst_buffer_unref (gst_harness_push_and_pull (hs[k],
-              gst_buffer_copy (bufs[i % 32])));
-    t[k] = (g_get_monotonic_time () - t0) / (gdouble) n;
-    cpu[k] = (cpu_us () - cpu[k]) / n;
-    for (i = 0; i < 32; i++)
-      gst_buffer_unref (bufs[i]);
-  }
-  g_print ("floorboundary 640x480: %.1f us per frame (identity %.1f us, so "
-      "%.1f us of work); CPU time %.1f us (identity %.1f us)\n", t[1], t[0],
-      t[1] - t[0], cpu[1], cpu[0]);
-  g_free (p);
-  gst_harness_teardown (hr);
-  gst_harness_teardown (ref);
 }
 
 GST_END_TEST;

@@ -172,6 +172,32 @@ landmark_check_harness_new (const gchar * desc, const gchar * caps)
   return h;
 }
 
+void
+landmark_check_no_frame_dropped (GstHarness * h, GstBuffer * templ, guint n,
+    const gchar * meta)
+{
+  guint i;
+  fail_unless (gst_harness_push_upstream_event (h,
+          gst_event_new_qos (GST_QOS_TYPE_UNDERFLOW, 2.0, 60 * GST_SECOND,
+              0)));
+  for (i = 0; i < n; i++) {
+    GstBuffer *in = gst_buffer_copy (templ);
+    GST_BUFFER_PTS (in) = i * 40 * GST_MSECOND;
+    GST_BUFFER_DURATION (in) = 40 * GST_MSECOND;
+    fail_unless_equals_int (gst_harness_push (h, in), GST_FLOW_OK);
+  }
+  for (i = 0; i < n; i++) {
+    GstBuffer *out = gst_harness_try_pull (h);
+    fail_unless (out != NULL, "only %u of %u buffers came out", i, n);
+    fail_unless_equals_uint64 (GST_BUFFER_PTS (out), i * 40 * GST_MSECOND);
+    fail_unless (!meta || gst_buffer_get_custom_meta (out, meta) != NULL,
+        "buffer %u has no %s", i, meta);
+    gst_buffer_unref (out);
+  }
+  fail_unless (gst_harness_try_pull (h) == NULL);
+  fail_unless_equals_int (gst_harness_buffers_received (h), n);
+}
+
 guint
 landmark_check_count_messages (GstBus * bus, GstMessageType type,
     GError ** first)

@@ -94,6 +94,13 @@ GstElement *landmark_check_element (const gchar * desc);
 GstHarness *landmark_check_harness_new (const gchar * desc,
     const gchar * caps);
 
+/* Sends a QoS event saying everything is very late, pushes n copies of
+ * templ (pts i * 40 ms) and pulls them all: a measuring element drops
+ * none, keeps their order and, unless meta is NULL, attaches that custom
+ * meta to each. */
+void landmark_check_no_frame_dropped (GstHarness * h, GstBuffer * templ,
+    guint n, const gchar * meta);
+
 /* How many messages of `type` the bus holds, popping them all; the first
  * one's error or warning in *first when asked. */
 guint landmark_check_count_messages (GstBus * bus, GstMessageType type,

@@ -248,6 +248,23 @@ landmark_check_configure_element (GstElement * e)
         NULL);
 }
 
+void
+landmark_check_fixed_setting_starts (GstElement * e, GstBus * bus,
+    const gchar * property, const gchar * value)
+{
+  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
+      GST_STATE_CHANGE_SUCCESS);
+  g_object_set (e, property, value, NULL);
+  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
+      GST_STATE_CHANGE_SUCCESS);
+  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR) == NULL);
+  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_NULL),
+      GST_STATE_CHANGE_SUCCESS);
+  gst_element_set_bus (e, NULL);
+  gst_object_unref (bus);
+  gst_object_unref (e);
+}
+
 static gboolean
 has_words (const gchar * text, const gchar * what, const gchar * also)
 {

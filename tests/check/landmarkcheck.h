@@ -116,6 +116,12 @@ GList *landmark_check_pop_all (GstBus * bus, GstMessageType types);
 #define LANDMARK_CHECK_FILE "landmark-check-file"
 void landmark_check_configure_element (GstElement * e);
 
+/* After a failed start of e (its bus set to bus): setting `property` to
+ * the good `value` is enough to start, without another error. Takes e and
+ * bus. */
+void landmark_check_fixed_setting_starts (GstElement * e, GstBus * bus,
+    const gchar * property, const gchar * value);
+
 /* where landmark_check_start_fails looks for the words */
 typedef enum
 {

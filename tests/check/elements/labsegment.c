@@ -1707,18 +1707,8 @@ LANDMARK_TEST_LOOP ("configuration", test_bad_palette_fails_start,
   check_palette_error (bus, e, b, path, GST_MESSAGE_ERROR);
 
   /* fixing the setting is enough to start */
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  g_object_set (e, "palette", PALETTES "good-custom.json", NULL);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR) == NULL);
-
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_NULL),
-      GST_STATE_CHANGE_SUCCESS);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_fixed_setting_starts (e, bus, "palette",
+      PALETTES "good-custom.json");
   g_free (path);
 }
 

@@ -249,6 +249,33 @@ landmark_check_configure_element (GstElement * e)
 }
 
 void
+landmark_check_bad_settings (const gchar * factory,
+    const gchar * const *settings)
+{
+  for (; *settings; settings++) {
+    GstElement *e = gst_element_factory_make (factory, NULL);
+    gchar **words = g_strsplit (*settings, ";", -1);
+    gchar **kv = NULL, *named;
+    guint i;
+    fail_unless (e != NULL, "no element %s", factory);
+    for (i = 0; words[i]; i++) {
+      g_strfreev (kv);
+      kv = g_strsplit (words[i], "=", 2);
+      fail_unless (kv[0] && kv[1], "not property=value: %s", words[i]);
+      gst_util_set_object_arg (G_OBJECT (e), kv[0], kv[1]);
+    }
+    g_strfreev (kv);
+    kv = g_strsplit (words[0], "=", 2);
+    named = g_strdup_printf ("'%s'", kv[0]);
+    landmark_check_start_fails (e, GST_STATE_PAUSED, LANDMARK_CHECK_IN_MESSAGE,
+        named, NULL);
+    g_free (named);
+    g_strfreev (kv);
+    g_strfreev (words);
+  }
+}
+
+void
 landmark_check_fixed_setting_starts (GstElement * e, GstBus * bus,
     const gchar * property, const gchar * value)
 {

@@ -116,6 +116,13 @@ GList *landmark_check_pop_all (GstBus * bus, GstMessageType types);
 #define LANDMARK_CHECK_FILE "landmark-check-file"
 void landmark_check_configure_element (GstElement * e);
 
+/* For each entry of the NULL-terminated `settings` ("property=value", or
+ * several separated by ';'): a new `factory` element so configured fails
+ * to reach PAUSED with one RESOURCE/SETTINGS error naming the first
+ * property in quotes ('property'). */
+void landmark_check_bad_settings (const gchar * factory,
+    const gchar * const *settings);
+
 /* After a failed start of e (its bus set to bus): setting `property` to
  * the good `value` is enough to start, without another error. Takes e and
  * bus. */

@@ -169,22 +169,16 @@ LANDMARK_TEST ("general", test_metadata)
 
 GST_END_TEST;
 
-static void
-check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
-{
-  GstElement *e = gst_element_factory_make ("birdseye", NULL);
-  gst_util_set_object_arg (G_OBJECT (e), prop, value);
-  landmark_check_start_fails (e, GST_STATE_PAUSED, LANDMARK_CHECK_IN_MESSAGE,
-      named, NULL);
-}
-
 LANDMARK_TEST ("general", test_bad_properties)
 {
-  check_bad_start ("side", "0", "'side'");
-  check_bad_start ("forward", "0", "'forward'");
-  check_bad_start ("tilt", "-45", "'tilt'");
-  check_bad_start ("calibration", "/nonexistent/camera.yaml",
-      "'calibration'");
+  static const gchar *const bad[] = {
+    "side=0",
+    "forward=0",
+    "tilt=-45",
+    "calibration=/nonexistent/camera.yaml",
+    NULL
+  };
+  landmark_check_bad_settings ("birdseye", bad);
 }
 
 GST_END_TEST;

@@ -276,6 +276,16 @@ landmark_check_bad_settings (const gchar * factory,
 }
 
 void
+landmark_check_refuses_paused (GstElement * e, GstBus * bus)
+{
+  gst_element_set_bus (e, bus);
+  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
+      GST_STATE_CHANGE_SUCCESS);
+  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
+      GST_STATE_CHANGE_FAILURE);
+}
+
+void
 landmark_check_fixed_setting_starts (GstElement * e, GstBus * bus,
     const gchar * property, const gchar * value)
 {

@@ -123,6 +123,10 @@ void landmark_check_configure_element (GstElement * e);
 void landmark_check_bad_settings (const gchar * factory,
     const gchar * const *settings);
 
+/* e, its bus set to bus, reaches READY but refuses PAUSED (settings checked
+ * when it starts). */
+void landmark_check_refuses_paused (GstElement * e, GstBus * bus);
+
 /* After a failed start of e (its bus set to bus): setting `property` to
  * the good `value` is enough to start, without another error. Takes e and
  * bus. */

@@ -1699,11 +1699,7 @@ LANDMARK_TEST_LOOP ("configuration", test_bad_palette_fails_start,
 
   fail_unless (e != NULL);
   g_object_set (e, "palette", path, NULL);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
+  landmark_check_refuses_paused (e, bus);
   check_palette_error (bus, e, b, path, GST_MESSAGE_ERROR);
 
   /* fixing the setting is enough to start */

@@ -1012,11 +1012,7 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
 
   if (location)
     g_object_set (e, "location", location, NULL);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
+  landmark_check_refuses_paused (e, bus);
   msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
   fail_unless (msg != NULL, "no error message");
   fail_unless (GST_MESSAGE_SRC (msg) == GST_OBJECT (e));

@@ -1633,11 +1633,7 @@ LANDMARK_TEST_LOOP ("configuration", test_bad_map_fails_start,
   GstBus *bus = gst_bus_new ();
 
   g_object_set (e, "map", path, NULL);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
+  landmark_check_refuses_paused (e, bus);
   check_map_error (bus, path, b->expect, GST_MESSAGE_ERROR);
 
   /* a good map is enough to start */

@@ -2,6 +2,7 @@
 #include "landmarkcheck.h"
 
 #include <glib/gstdio.h>
+#include <gst/video/video.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -146,6 +147,24 @@ landmark_check_labels_attach (GstBuffer * buf, const guint8 * plane, guint w,
   landmark_check_set_array (s, "class-names", G_TYPE_STRING, names, n);
   landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
   return s;
+}
+
+GstBuffer *
+landmark_check_frame_new (gsize size, guint n)
+{
+  GstBuffer *b = gst_buffer_new_and_alloc (size);
+  GST_BUFFER_PTS (b) = gst_util_uint64_scale (n, GST_SECOND, 30);
+  GST_BUFFER_DURATION (b) = GST_SECOND / 30;
+  return b;
+}
+
+const GstStructure *
+landmark_check_roi_param (GstBuffer * buf, gint id, const gchar * name)
+{
+  GstVideoRegionOfInterestMeta *roi =
+      gst_buffer_get_video_region_of_interest_meta_id (buf, id);
+  fail_unless (roi != NULL, "no region of interest %d", id);
+  return gst_video_region_of_interest_meta_get_param (roi, name);
 }
 
 /* ---- running elements ------------------------------------------------ */

@@ -83,6 +83,14 @@ GstStructure *landmark_check_labels_attach (GstBuffer * buf,
     const guint8 * plane, guint w, guint h, guint stride,
     const gchar ** names, const gboolean * markers, guint n);
 
+/* Frame n of a 30 fps stream: `size` bytes, its timestamp and duration. */
+GstBuffer *landmark_check_frame_new (gsize size, guint n);
+
+/* The parameter structure `name` of buf's region-of-interest meta `id`
+ * (the test fails when there is no such meta), or NULL. */
+const GstStructure *landmark_check_roi_param (GstBuffer * buf, gint id,
+    const gchar * name);
+
 /* ---- running elements ------------------------------------------------ */
 
 /* The one element `desc` describes (gst_parse_launch syntax, properties

@@ -41,10 +41,7 @@ run_one (GstHarness * h, GstBuffer * in)
 static const GstStructure *
 range_of (GstBuffer * buf, gint id)
 {
-  GstVideoRegionOfInterestMeta *roi =
-      gst_buffer_get_video_region_of_interest_meta_id (buf, id);
-  fail_unless (roi != NULL);
-  return gst_video_region_of_interest_meta_get_param (roi, "landmark-range");
+  return landmark_check_roi_param (buf, id, "landmark-range");
 }
 
 /* Floor point of normalized camera coordinates (xn, yn) for a camera at

@@ -56,10 +56,7 @@ add_seen (GstBuffer * buf, gint id, guint k, double x, double y, double h)
 static GstBuffer *
 frame (guint n)
 {
-  GstBuffer *b = gst_buffer_new_and_alloc (64 * 48);
-  GST_BUFFER_PTS (b) = n * GST_SECOND / 30;
-  GST_BUFFER_DURATION (b) = GST_SECOND / 30;
-  return b;
+  return landmark_check_frame_new (64 * 48, n);
 }
 
 static GstHarness *

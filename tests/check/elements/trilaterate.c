@@ -114,10 +114,7 @@ harness_done (GstHarness * h, GstBus * bus)
 static GstBuffer *
 frame (guint n)
 {
-  GstBuffer *b = gst_buffer_new_and_alloc (64 * 48);
-  GST_BUFFER_PTS (b) = n * GST_SECOND / 30;
-  GST_BUFFER_DURATION (b) = GST_SECOND / 30;
-  return b;
+  return landmark_check_frame_new (64 * 48, n);
 }
 
 /* the trilaterate element's landmark-pose message for the last frame */
@@ -171,10 +168,7 @@ check_pose_structure (const GstStructure * s, double x, double y, double h,
 static const GstStructure *
 match_of (GstBuffer * buf, gint id)
 {
-  GstVideoRegionOfInterestMeta *roi =
-      gst_buffer_get_video_region_of_interest_meta_id (buf, id);
-  fail_unless (roi != NULL);
-  return gst_video_region_of_interest_meta_get_param (roi, "landmark-match");
+  return landmark_check_roi_param (buf, id, "landmark-match");
 }
 
 static void

@@ -2,6 +2,7 @@
 #include "landmarkcheck.h"
 
 #include <glib/gstdio.h>
+#include <math.h>
 #include <gst/video/video.h>
 #include <string.h>
 #include <unistd.h>
@@ -165,6 +166,38 @@ landmark_check_roi_param (GstBuffer * buf, gint id, const gchar * name)
       gst_buffer_get_video_region_of_interest_meta_id (buf, id);
   fail_unless (roi != NULL, "no region of interest %d", id);
   return gst_video_region_of_interest_meta_get_param (roi, name);
+}
+
+/* ---- colour ---------------------------------------------------------- */
+
+static gdouble
+cie_f_inverse (gdouble f)
+{
+  const gdouble d = 6.0 / 29.0;
+  return f > d ? f * f * f : 3.0 * d * d * (f - 4.0 / 29.0);
+}
+
+static gdouble
+srgb_encode (gdouble v)
+{
+  v = CLAMP (v, 0.0, 1.0);
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * pow (v, 1.0 / 2.4) - 0.055;
+}
+
+/* CIE L*a*b* (D65) -> 0xRRGGBB, each linear component clipped */
+guint
+landmark_check_lab_to_rgb24 (const gdouble lab[3])
+{
+  const gdouble fy = (lab[0] + 16.0) / 116.0;
+  const gdouble x = 0.95047 * cie_f_inverse (fy + lab[1] / 500.0);
+  const gdouble y = cie_f_inverse (fy);
+  const gdouble z = 1.08883 * cie_f_inverse (fy - lab[2] / 200.0);
+  const gdouble r = 3.2404542 * x - 1.5371385 * y - 0.4985314 * z;
+  const gdouble g = -0.9692660 * x + 1.8760108 * y + 0.0415560 * z;
+  const gdouble b = 0.0556434 * x - 0.2040259 * y + 1.0572252 * z;
+  return ((guint) lround (255.0 * srgb_encode (r)) << 16) |
+      ((guint) lround (255.0 * srgb_encode (g)) << 8) |
+      (guint) lround (255.0 * srgb_encode (b));
 }
 
 /* ---- running elements ------------------------------------------------ */

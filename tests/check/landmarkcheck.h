@@ -91,6 +91,12 @@ GstBuffer *landmark_check_frame_new (gsize size, guint n);
 const GstStructure *landmark_check_roi_param (GstBuffer * buf, gint id,
     const gchar * name);
 
+/* ---- colour ---------------------------------------------------------- */
+
+/* CIE L*a*b* (D65) -> sRGB 0xRRGGBB, each linear component clipped: the
+ * published formulas, written out independently of the plugin. */
+guint landmark_check_lab_to_rgb24 (const gdouble lab[3]);
+
 /* ---- running elements ------------------------------------------------ */
 
 /* The one element `desc` describes (gst_parse_launch syntax, properties

@@ -129,36 +129,6 @@ rgb01_to_lab (const gdouble rgb[3], gdouble lab[3])
   lab[2] = 200.0 * (cie_f (y) - cie_f (z));
 }
 
-static gdouble
-cie_f_inverse (gdouble f)
-{
-  const gdouble d = 6.0 / 29.0;
-  return f > d ? f * f * f : 3.0 * d * d * (f - 4.0 / 29.0);
-}
-
-static gdouble
-srgb_encode (gdouble v)
-{
-  v = CLAMP (v, 0.0, 1.0);
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * pow (v, 1.0 / 2.4) - 0.055;
-}
-
-/* CIE L*a*b* (D65) -> 0xRRGGBB, each linear component clipped */
-static guint
-lab_to_rgb24 (const gdouble lab[3])
-{
-  const gdouble fy = (lab[0] + 16.0) / 116.0;
-  const gdouble x = 0.95047 * cie_f_inverse (fy + lab[1] / 500.0);
-  const gdouble y = cie_f_inverse (fy);
-  const gdouble z = 1.08883 * cie_f_inverse (fy - lab[2] / 200.0);
-  const gdouble r = 3.2404542 * x - 1.5371385 * y - 0.4985314 * z;
-  const gdouble g = -0.9692660 * x + 1.8760108 * y + 0.0415560 * z;
-  const gdouble b = 0.0556434 * x - 0.2040259 * y + 1.0572252 * z;
-  return ((guint) lround (255.0 * srgb_encode (r)) << 16) |
-      ((guint) lround (255.0 * srgb_encode (g)) << 8) |
-      (guint) lround (255.0 * srgb_encode (b));
-}
-
 static guint8
 clamp8 (gdouble v)
 {
@@ -768,7 +738,7 @@ check_labels_meta (GstBuffer * out, const Picture * pic, const Config * cfg,
     {
       /* the display colour of the reference, within rounding */
       const guint got = array_uint (s, "class-rgb", k);
-      const guint want = lab_to_rgb24 (p->cls[k].lab);
+      const guint want = landmark_check_lab_to_rgb24 (p->cls[k].lab);
       guint shift;
       fail_unless (got <= 0xffffff);
       for (shift = 0; shift <= 16; shift += 8)

@@ -204,27 +204,13 @@ typedef struct
  * file's L*a*b*, not taken from the plugin */
 static guint8 red_rgb[3];
 
-static gdouble
-lab_f_inverse (gdouble t)
-{
-  const gdouble d = 6.0 / 29.0;
-  return t > d ? t * t * t : 3 * d * d * (t - 4.0 / 29.0);
-}
-
-static guint8
-srgb_byte (gdouble v)
-{
-  v = v <= 0.0031308 ? 12.92 * v : 1.055 * pow (v, 1 / 2.4) - 0.055;
-  return (guint8) CLAMP (v * 255 + 0.5, 0, 255);
-}
-
 static void
 load_red (void)
 {
   JsonParser *parser = json_parser_new ();
   JsonArray *classes;
   GError *err = NULL;
-  guint i;
+  guint i, k;
   gboolean found = FALSE;
 
   fail_unless (json_parser_load_from_file (parser, LANDMARK_DEFAULT_PALETTE,
@@ -234,21 +220,17 @@ load_red (void)
   for (i = 0; i < json_array_get_length (classes); i++) {
     JsonObject *c = json_array_get_object_element (classes, i);
     JsonArray *lab;
-    gdouble L, a, b, fy, X, Y, Z;
+    gdouble v[3];
+    guint rgb;
     if (g_strcmp0 (json_object_get_string_member (c, "name"), "red"))
       continue;
     lab = json_object_get_array_member (c, "lab");
-    L = json_array_get_double_element (lab, 0);
-    a = json_array_get_double_element (lab, 1);
-    b = json_array_get_double_element (lab, 2);
-    /* CIE L*a*b* (D65) -> XYZ -> linear sRGB -> sRGB */
-    fy = (L + 16) / 116;
-    X = 0.95047 * lab_f_inverse (fy + a / 500);
-    Y = lab_f_inverse (fy);
-    Z = 1.08883 * lab_f_inverse (fy - b / 200);
-    red_rgb[0] = srgb_byte (3.2404542 * X - 1.5371385 * Y - 0.4985314 * Z);
-    red_rgb[1] = srgb_byte (-0.9692660 * X + 1.8760108 * Y + 0.0415560 * Z);
-    red_rgb[2] = srgb_byte (0.0556434 * X - 0.2040259 * Y + 1.0572252 * Z);
+    for (k = 0; k < 3; k++)
+      v[k] = json_array_get_double_element (lab, k);
+    rgb = landmark_check_lab_to_rgb24 (v);
+    red_rgb[0] = rgb >> 16;
+    red_rgb[1] = (rgb >> 8) & 0xff;
+    red_rgb[2] = rgb & 0xff;
     found = TRUE;
   }
   g_object_unref (parser);

@@ -455,51 +455,35 @@ typedef struct
 } TestClass;
 
 static void
-array_append (GValue * array, GType type, gconstpointer value)
-{
-  GValue v = G_VALUE_INIT;
-  g_value_init (&v, type);
-  if (type == G_TYPE_STRING)
-    g_value_set_string (&v, value);
-  else if (type == G_TYPE_UINT)
-    g_value_set_uint (&v, *(const guint *) value);
-  else
-    g_value_set_boolean (&v, *(const gboolean *) value);
-  gst_value_array_append_and_take_value (array, &v);
-}
-
-static void
 add_labels (GstBuffer * buf, const TestClass * classes, guint n,
     guint min_class_pixels, guint aw, guint ah)
 {
-  GstCustomMeta *m = gst_buffer_add_custom_meta (buf, LABELS_META);
-  GstStructure *s;
-  GValue names = G_VALUE_INIT, rgb = G_VALUE_INIT, counts = G_VALUE_INIT,
-      active = G_VALUE_INIT, markers = G_VALUE_INIT;
+  GstStructure *s = landmark_check_meta_add (buf, LABELS_META);
+  const gchar **names = g_new (const gchar *, n);
+  guint *rgb = g_new (guint, n), *counts = g_new (guint, n);
+  gboolean *active = g_new (gboolean, n), *markers = g_new (gboolean, n);
   guint k;
 
-  fail_unless (m != NULL, "labels meta not registered");
-  s = gst_custom_meta_get_structure (m);
-  gst_value_array_init (&names, n);
-  gst_value_array_init (&rgb, n);
-  gst_value_array_init (&counts, n);
-  gst_value_array_init (&active, n);
-  gst_value_array_init (&markers, n);
   for (k = 0; k < n; k++) {
-    array_append (&names, G_TYPE_STRING, classes[k].name);
-    array_append (&rgb, G_TYPE_UINT, &classes[k].rgb);
-    array_append (&counts, G_TYPE_UINT, &classes[k].count);
-    array_append (&active, G_TYPE_BOOLEAN, &classes[k].active);
-    array_append (&markers, G_TYPE_BOOLEAN, &classes[k].marker);
+    names[k] = classes[k].name;
+    rgb[k] = classes[k].rgb;
+    counts[k] = classes[k].count;
+    active[k] = classes[k].active;
+    markers[k] = classes[k].marker;
   }
-  gst_structure_take_value (s, "class-names", &names);
-  gst_structure_take_value (s, "class-rgb", &rgb);
-  gst_structure_take_value (s, "class-counts", &counts);
-  gst_structure_take_value (s, "class-active", &active);
-  gst_structure_take_value (s, "class-markers", &markers);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING, names, n);
+  landmark_check_set_array (s, "class-rgb", G_TYPE_UINT, rgb, n);
+  landmark_check_set_array (s, "class-counts", G_TYPE_UINT, counts, n);
+  landmark_check_set_array (s, "class-active", G_TYPE_BOOLEAN, active, n);
+  landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
   gst_structure_set (s, "min-class-pixels", G_TYPE_UINT, min_class_pixels,
       "analysis-width", G_TYPE_UINT, aw, "analysis-height", G_TYPE_UINT, ah,
       "width", G_TYPE_UINT, aw, "height", G_TYPE_UINT, ah, NULL);
+  g_free (names);
+  g_free (rgb);
+  g_free (counts);
+  g_free (active);
+  g_free (markers);
 }
 
 static void

@@ -5,6 +5,9 @@
 #pragma once
 
 #include <cstdio>
+#include <string>
+
+#include "camerageometry.h"
 
 namespace corecheck {
 inline int passed = 0;
@@ -29,4 +32,14 @@ corecheck_summary ()
   std::printf ("%d passed, %d failed\n", corecheck::passed,
       corecheck::failures);
   return corecheck::failures ? 1 : 0;
+}
+
+/* The camera geometry of p; parameters it refuses are a failed check. */
+static inline landmark::CameraGeometry
+corecheck_camera (const landmark::CameraParams & p)
+{
+  landmark::CameraGeometry g;
+  std::string err;
+  CHECK (g.configure (p, &err), "camera: %s", err.c_str ());
+  return g;
 }

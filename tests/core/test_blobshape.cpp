@@ -194,9 +194,9 @@ opencv_arc_length (const cv::Mat & m)
 static void
 test_against_opencv ()
 {
+  int compared = 0;
   std::mt19937 rng (7);
   std::uniform_real_distribution<double> U (0, 1);
-  int compared = 0;
   for (int trial = 0; trial < 60; trial++) {
     const int w = 20 + (int) (U (rng) * 60), h = 15 + (int) (U (rng) * 50);
     cv::Mat m (h, w, CV_8UC1, cv::Scalar (0));

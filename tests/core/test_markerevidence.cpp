@@ -36,11 +36,7 @@ pinhole (double hfov, double height, double tilt, int w = 640, int h = 480)
   p.camera_height = height;
   p.tilt_deg = tilt;
   intrinsics_from_hfov (hfov, w, h, &p.fx, &p.fy, &p.cx, &p.cy);
-  CameraGeometry g;
-  std::string err;
-  if (!g.configure (p, &err))
-    std::fprintf (stderr, "configure: %s\n", err.c_str ());
-  return g;
+  return corecheck_camera (p);
 }
 
 static void

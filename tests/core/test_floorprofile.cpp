@@ -32,6 +32,28 @@ roles (LabelRole r[256])
   r[MARKER] = LabelRole::Marker;
 }
 
+/* A floor profile for camera g configured with fp (a refusal is a failed
+ * check), and the roles of the labels above. */
+struct Scanner
+{
+  CameraGeometry g;
+  FloorProfile prof;
+  LabelRole r[256];
+
+  Scanner (const CameraGeometry & camera, const FloorProfileParams & fp)
+    : g (camera)
+  {
+    roles (r);
+    configure (fp);
+  }
+
+  void configure (const FloorProfileParams & fp)
+  {
+    std::string err;
+    CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
+  }
+};
+
 /* roll of the camera the tests ray-cast with, degrees */
 static double roll_deg = 0;
 
@@ -124,25 +146,20 @@ row_of_distance (double x)
 static void
 test_wall_on_a_pixel_edge ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.max_range = 5.0;
   fp.bearing_bins = 360;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   for (int edge : {60, 150, 240, 330}) {
     std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
     std::fill (plane.begin (), plane.begin () + (size_t) edge * W, BOX);
-    prof.scan (plane.data (), W, r);
+    sc.prof.scan (plane.data (), W, sc.r);
     /* the floor point of the edge at v = edge - 1/2, by hand: h / tan */
     const double below = TILT * M_PI / 180 + std::atan ((edge - 0.5 - CY) / F);
     const double X = CAM_H / std::tan (below);
     double worst = 0;
     for (int u = 0; u < W; u++) {
-      const ColumnBoundary & c = prof.columns ()[u];
+      const ColumnBoundary & c = sc.prof.columns ()[u];
       CHECK (c.state == FreeState::Obstacle, "edge %d col %d: %s", edge, u,
           free_state_name (c.state));
       worst = std::max (worst, std::fabs (c.x - X) / X);
@@ -155,8 +172,8 @@ test_wall_on_a_pixel_edge ()
     const double d = 2 * M_PI / fp.bearing_bins;
     int obstacle_bins = 0;
     for (int k = 0; k < fp.bearing_bins; k++) {
-      const RopBin & b = prof.bins ()[k];
-      const double bk = std::fabs (prof.bin_bearing (k));
+      const RopBin & b = sc.prof.bins ()[k];
+      const double bk = std::fabs (sc.prof.bin_bearing (k));
       if (bk > 45 * M_PI / 180) {
         CHECK (b.state == FreeState::NotSeen, "bin %d outside the view: %s",
             k, free_state_name (b.state));
@@ -184,20 +201,15 @@ test_wall_on_a_pixel_edge ()
 static void
 test_box_specks_shadows_markers ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.max_range = 4.0;
   fp.min_obstacle_rows = 6;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   const Box box {1.37, -0.3, 0.2, 0.4, 0.5};
   std::vector<uint8_t> plane = render ({box});
-  prof.scan (plane.data (), W, r);
-  const std::vector<ColumnBoundary> clean = prof.columns ();
-  const std::vector<RopBin> clean_bins = prof.bins ();
+  sc.prof.scan (plane.data (), W, sc.r);
+  const std::vector<ColumnBoundary> clean = sc.prof.columns ();
+  const std::vector<RopBin> clean_bins = sc.prof.bins ();
 
   double worst_box = 0, worst_free = 0;
   int box_cols = 0;
@@ -259,10 +271,10 @@ test_box_specks_shadows_markers ()
   const double mv = row_of_distance (0.9);
   cv::ellipse (m, cv::Point (120, (int) mv), cv::Size (40, 12), 0, 0, 360,
       cv::Scalar (MARKER), -1);
-  prof.scan (plane.data (), W, r);
+  sc.prof.scan (plane.data (), W, sc.r);
   int changed = 0, marked = 0;
   for (int u = 0; u < W; u++) {
-    const ColumnBoundary & a = clean[u], &b = prof.columns ()[u];
+    const ColumnBoundary & a = clean[u], &b = sc.prof.columns ()[u];
     const bool differs = a.state != b.state ||
         std::fabs (a.range - b.range) > 1e-6;
     if (differs)
@@ -284,11 +296,11 @@ test_box_specks_shadows_markers ()
   for (int u = 0; u < W; u++)
     for (int v = 300; v < 306; v++)
       plane[(size_t) v * W + u] = SHADOW;
-  prof.scan (plane.data (), W, r);
-  CHECK (prof.columns ()[W / 2].state == FreeState::Obstacle &&
-      std::fabs (prof.columns ()[W / 2].row - 305.5f) < 1e-4,
-      "6-row band: %s at row %g", free_state_name (prof.columns ()[W /
-              2].state), prof.columns ()[W / 2].row);
+  sc.prof.scan (plane.data (), W, sc.r);
+  CHECK (sc.prof.columns ()[W / 2].state == FreeState::Obstacle &&
+      std::fabs (sc.prof.columns ()[W / 2].row - 305.5f) < 1e-4,
+      "6-row band: %s at row %g", free_state_name (sc.prof.columns ()[W /
+              2].state), sc.prof.columns ()[W / 2].row);
 }
 
 /* The border cuts the view: floor to the top row within max-range is a
@@ -297,24 +309,19 @@ test_box_specks_shadows_markers ()
 static void
 test_border_cut ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.max_range = 50.0;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
   /* the left quarter: something right in front of the lens */
   for (int v = 0; v < H; v++)
     for (int u = 0; u < W / 4; u++)
       plane[(size_t) v * W + u] = BOX;
-  prof.scan (plane.data (), W, r);
+  sc.prof.scan (plane.data (), W, sc.r);
   const double top_x = CAM_H / std::tan (TILT * M_PI / 180 +
       std::atan ((-0.5 - CY) / F));
   for (int u = 0; u < W; u++) {
-    const ColumnBoundary & c = prof.columns ()[u];
+    const ColumnBoundary & c = sc.prof.columns ()[u];
     if (u < W / 4) {
       CHECK (c.state == FreeState::NotSeen, "col %d: %s", u,
           free_state_name (c.state));
@@ -327,21 +334,23 @@ test_border_cut ()
   }
   int behind = 0;
   for (int k = 0; k < fp.bearing_bins; k++)
-    if (std::fabs (prof.bin_bearing (k)) > M_PI / 2) {
+    if (std::fabs (sc.prof.bin_bearing (k)) > M_PI / 2) {
       behind++;
-      CHECK (prof.bins ()[k].state == FreeState::NotSeen, "bin %d", k);
+      CHECK (sc.prof.bins ()[k].state == FreeState::NotSeen, "bin %d", k);
     }
   CHECK (behind > 0, "no bins behind");
   /* left of the view (positive bearings) is where the image's left
    * quarter looks: not seen there */
-  CHECK (prof.bins ()[prof.bin_of (25 * M_PI / 180)].state ==
+  CHECK (sc.prof.bins ()[sc.prof.bin_of (25 * M_PI / 180)].state ==
       FreeState::NotSeen, "bin at +25 deg: %s",
-      free_state_name (prof.bins ()[prof.bin_of (25 * M_PI / 180)].state));
-  CHECK (prof.bins ()[prof.bin_of (-20 * M_PI / 180)].state ==
+      free_state_name (sc.prof.bins ()[sc.prof.bin_of (25 * M_PI /
+                  180)].state));
+  CHECK (sc.prof.bins ()[sc.prof.bin_of (-20 * M_PI / 180)].state ==
       FreeState::ViewEdge, "bin at -20 deg");
 
   /* a camera looking above the horizon sees no floor at all */
-  CameraParams p = g.params ();
+  CameraParams p = sc.g.params ();
+  std::string err;
   p.tilt_deg = -40;
   CameraGeometry up;
   if (up.configure (p, &err)) {
@@ -354,19 +363,17 @@ test_border_cut ()
 static void
 test_bins ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.bearing_bins = 8;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  CHECK (prof.bin_of (0) == 0, "0");
-  CHECK (prof.bin_of (M_PI / 4) == 1, "45 deg left");
-  CHECK (prof.bin_of (-M_PI / 4) == 7, "45 deg right");
-  CHECK (prof.bin_of (M_PI / 8 - 1e-9) == 0 && prof.bin_of (M_PI / 8) == 1,
+  Scanner sc (camera (), fp);
+  CHECK (sc.prof.bin_of (0) == 0, "0");
+  CHECK (sc.prof.bin_of (M_PI / 4) == 1, "45 deg left");
+  CHECK (sc.prof.bin_of (-M_PI / 4) == 7, "45 deg right");
+  CHECK (sc.prof.bin_of (M_PI / 8 - 1e-9) == 0 &&
+      sc.prof.bin_of (M_PI / 8) == 1,
       "edges");
-  CHECK (prof.bin_of (M_PI) == 4 && prof.bin_of (-M_PI) == 4, "behind");
-  CHECK (std::fabs (prof.bin_bearing (7) + M_PI / 4) < 1e-12, "bearing 7");
+  CHECK (sc.prof.bin_of (M_PI) == 4 && sc.prof.bin_of (-M_PI) == 4, "behind");
+  CHECK (std::fabs (sc.prof.bin_bearing (7) + M_PI / 4) < 1e-12, "bearing 7");
 }
 
 /* CPU time of this thread, ms: the machine is shared, and wall-clock
@@ -492,19 +499,14 @@ static void
 test_rolled_camera ()
 {
   roll_deg = 8;
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   const double X = 1.2;
   std::vector<uint8_t> plane = render ({{X, -5, 5, 1.0, 1.0}});
-  prof.scan (plane.data (), W, r);
+  sc.prof.scan (plane.data (), W, sc.r);
   double worst = 0;
   int n = 0;
-  for (const ColumnBoundary & c : prof.columns ()) {
+  for (const ColumnBoundary & c : sc.prof.columns ()) {
     if (c.state != FreeState::Obstacle)
       continue;
     worst = std::max (worst, std::fabs (c.x - X) / X);
@@ -534,14 +536,9 @@ test_seed_model ()
   p.blind_distance = 0.3;
   p.view_depth = 0.9;
   p.half_width = 0.6;
-  CameraGeometry g = corecheck_camera (p);
-  std::string err;
   FloorProfileParams fp;
   fp.max_range = 10;
-  FloorProfile prof;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (corecheck_camera (p), fp);
   /* the seed's angles from b, d and h, by hand: the bottom row looks
    * gamma from the vertical (to b), the centre row gamma + alpha (to
    * b + d) */
@@ -551,11 +548,11 @@ test_seed_model ()
   for (int e : {240, 300, 400}) {
     std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
     std::fill (plane.begin (), plane.begin () + (size_t) e * W, BOX);
-    prof.scan (plane.data (), W, r);
+    sc.prof.scan (plane.data (), W, sc.r);
     const double v = e - 0.5;
     const double want = h * std::tan (gamma + 2 * alpha * (H - 1 - v) /
         (H - 1));
-    const ColumnBoundary & c = prof.columns ()[W / 2];
+    const ColumnBoundary & c = sc.prof.columns ()[W / 2];
     CHECK (c.state == FreeState::Obstacle && std::fabs (c.x - want) <
         1e-4 * want, "seed, edge %d: %s x %g, want %g", e,
         free_state_name (c.state), c.x, want);
@@ -568,14 +565,9 @@ test_seed_model ()
 static void
 test_marker_length ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.max_marker_length = 0.15;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   const double bx = 1.0, by = -0.3, br = 0.08;   /* the ball, right */
   const double dx = 1.0, dy = 0.3, dr = 0.05;    /* the disc, left */
   std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
@@ -598,10 +590,10 @@ test_marker_length ()
       if (ball || std::hypot (fx - dx, fy - dy) <= dr)
         plane[(size_t) v * W + u] = MARKER;
     }
-  prof.scan (plane.data (), W, r);
+  sc.prof.scan (plane.data (), W, sc.r);
   int disc_cols = 0, ball_cols = 0;
   double best = 1e9;
-  for (const ColumnBoundary & c : prof.columns ()) {
+  for (const ColumnBoundary & c : sc.prof.columns ()) {
     const double bearing = std::atan2 (c.y, c.x);
     if (std::fabs (bearing - std::atan2 (dy, dx)) < 0.02) {
       disc_cols++;
@@ -635,18 +627,18 @@ test_marker_length ()
       }
     }
   }
-  prof.scan (shaded.data (), W, r);
+  sc.prof.scan (shaded.data (), W, sc.r);
   double best_shaded = 1e9;
-  for (const ColumnBoundary & c : prof.columns ())
+  for (const ColumnBoundary & c : sc.prof.columns ())
     if (c.state == FreeState::Obstacle)
       best_shaded = std::min (best_shaded, (double) c.range);
   CHECK (std::fabs (best_shaded - bulge) < 0.01 * bulge, "shaded ball: "
       "nearest %g, bulge %g", best_shaded, bulge);
   fp.max_marker_length = 0;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  prof.scan (plane.data (), W, r);
+  sc.configure (fp);
+  sc.prof.scan (plane.data (), W, sc.r);
   int obstacles = 0;
-  for (const ColumnBoundary & c : prof.columns ())
+  for (const ColumnBoundary & c : sc.prof.columns ())
     obstacles += c.state == FreeState::Obstacle;
   CHECK (obstacles == 0, "off: %d obstacle columns", obstacles);
 }

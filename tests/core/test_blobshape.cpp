@@ -108,15 +108,24 @@ draw_disc (int w, int h, double cx, double cy, double r)
       });
 }
 
+/* a shape given in its own axes (x along angle), centred on (cx, cy) */
+template <typename Inside>
+static cv::Mat
+draw_turned (int w, int h, double cx, double cy, double angle, Inside inside)
+{
+  const double c = std::cos (angle), s = std::sin (angle);
+  return draw (w, h, [=](int u, int v) {
+        return inside ((u - cx) * c + (v - cy) * s,
+            -(u - cx) * s + (v - cy) * c);
+      });
+}
+
 /* ellipse with full axes a (along angle) and b */
 static cv::Mat
 draw_ellipse (int w, int h, double cx, double cy, double a, double b,
     double angle)
 {
-  const double c = std::cos (angle), s = std::sin (angle);
-  return draw (w, h, [=](int u, int v) {
-        const double x = (u - cx) * c + (v - cy) * s;
-        const double y = -(u - cx) * s + (v - cy) * c;
+  return draw_turned (w, h, cx, cy, angle, [=](double x, double y) {
         return (x * x) / (a * a / 4) + (y * y) / (b * b / 4) <= 1;
       });
 }
@@ -125,10 +134,7 @@ static cv::Mat
 draw_rect (int w, int h, double cx, double cy, double sx, double sy,
     double angle)
 {
-  const double c = std::cos (angle), s = std::sin (angle);
-  return draw (w, h, [=](int u, int v) {
-        const double x = (u - cx) * c + (v - cy) * s;
-        const double y = -(u - cx) * s + (v - cy) * c;
+  return draw_turned (w, h, cx, cy, angle, [=](double x, double y) {
         return std::fabs (x) <= sx / 2 && std::fabs (y) <= sy / 2;
       });
 }

@@ -201,11 +201,11 @@ test_wall_on_a_pixel_edge ()
 static void
 test_box_specks_shadows_markers ()
 {
+  const Box box {1.37, -0.3, 0.2, 0.4, 0.5};
   FloorProfileParams fp;
   fp.max_range = 4.0;
   fp.min_obstacle_rows = 6;
   Scanner sc (camera (), fp);
-  const Box box {1.37, -0.3, 0.2, 0.4, 0.5};
   std::vector<uint8_t> plane = render ({box});
   sc.prof.scan (plane.data (), W, sc.r);
   const std::vector<ColumnBoundary> clean = sc.prof.columns ();

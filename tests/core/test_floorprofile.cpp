@@ -89,6 +89,20 @@ ray (double u, double v, double d[3])
   }
 }
 
+/* Calls f (u, v, d) for every pixel whose ray d points down. */
+template <typename F>
+static void
+each_downward_ray (F f)
+{
+  for (int v = 0; v < H; v++)
+    for (int u = 0; u < W; u++) {
+      double d[3];
+      ray (u, v, d);
+      if (d[2] < 0)
+        f (u, v, d);
+    }
+}
+
 /* A box standing on the floor: front face at x = x0, y in [y0, y1],
  * z in [0, top], depth along x. */
 struct Box {
@@ -423,18 +437,13 @@ test_birdseye_grid ()
 {
   CameraGeometry g = camera ();
   std::vector<uint8_t> img ((size_t) W * H, 0);
-  for (int v = 0; v < H; v++)
-    for (int u = 0; u < W; u++) {
-      double d[3];
-      ray (u, v, d);
-      if (d[2] >= 0)
-        continue;
-      const double t = CAM_H / -d[2], x = t * d[0], y = t * d[1];
-      auto near_line = [](double a) {
-        return std::fabs (a - 0.5 * std::round (a / 0.5)) < 0.015;
-      };
-      img[(size_t) v * W + u] = near_line (x) || near_line (y) ? 255 : 20;
-    }
+  each_downward_ray ([&](int u, int v, const double d[3]) {
+        const double t = CAM_H / -d[2], x = t * d[0], y = t * d[1];
+        auto near_line = [](double a) {
+          return std::fabs (a - 0.5 * std::round (a / 0.5)) < 0.015;
+        };
+        img[(size_t) v * W + u] = near_line (x) || near_line (y) ? 255 : 20;
+      });
   BirdsEyeParams b;             /* 400x400, 100 px/m, origin bottom centre */
   std::vector<float> mx, my;
   std::string err;
@@ -571,25 +580,20 @@ test_marker_length ()
   const double bx = 1.0, by = -0.3, br = 0.08;   /* the ball, right */
   const double dx = 1.0, dy = 0.3, dr = 0.05;    /* the disc, left */
   std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
-  for (int v = 0; v < H; v++)
-    for (int u = 0; u < W; u++) {
-      double d[3];
-      ray (u, v, d);
-      if (d[2] >= 0)
-        continue;
-      const double t_floor = CAM_H / -d[2];
-      const double fx = t_floor * d[0], fy = t_floor * d[1];
-      /* the sphere: |C + t d - P|^2 = r^2, C = (0, 0, h) */
-      const double o[3] = {-bx, -by, CAM_H - br};
-      const double qa = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-      const double qb = 2 * (o[0] * d[0] + o[1] * d[1] + o[2] * d[2]);
-      const double qc = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - br * br;
-      const double disc = qb * qb - 4 * qa * qc;
-      const bool ball = disc >= 0 && (-qb - std::sqrt (disc)) / (2 * qa) <
-          t_floor;
-      if (ball || std::hypot (fx - dx, fy - dy) <= dr)
-        plane[(size_t) v * W + u] = MARKER;
-    }
+  each_downward_ray ([&](int u, int v, const double d[3]) {
+        const double t_floor = CAM_H / -d[2];
+        const double fx = t_floor * d[0], fy = t_floor * d[1];
+        /* the sphere: |C + t d - P|^2 = r^2, C = (0, 0, h) */
+        const double o[3] = {-bx, -by, CAM_H - br};
+        const double qa = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        const double qb = 2 * (o[0] * d[0] + o[1] * d[1] + o[2] * d[2]);
+        const double qc = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - br * br;
+        const double disc = qb * qb - 4 * qa * qc;
+        const bool ball = disc >= 0 && (-qb - std::sqrt (disc)) / (2 * qa) <
+            t_floor;
+        if (ball || std::hypot (fx - dx, fy - dy) <= dr)
+          plane[(size_t) v * W + u] = MARKER;
+      });
   sc.prof.scan (plane.data (), W, sc.r);
   int disc_cols = 0, ball_cols = 0;
   double best = 1e9;

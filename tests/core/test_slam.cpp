@@ -470,10 +470,10 @@ static void
 test_stationary ()
 {
   const auto truth = field ();
+  SimResult r;
   SimOptions o;
   o.speed = 0;
   o.frames = 300;
-  SimResult r;
   run (o, truth, &r);
   size_t visible = 0;
   for (int s : r.seen)

@@ -63,6 +63,22 @@ harness_new (const gchar * props, guint w, guint h)
   return hr;
 }
 
+/* A w x h frame with a bright band from 1.9 to 2.1 m ahead, remapped: the
+ * output and its video info. */
+static GstBuffer *
+remap_band (GstHarness * hr, guint w, guint h, GstVideoInfo * out_info)
+{
+  GstVideoInfo in;
+  GstCaps *caps;
+  GstBuffer *out;
+  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, w, h);
+  out = gst_harness_push_and_pull (hr, frame_with_band (&in, 1.9, 2.1));
+  caps = gst_pad_get_current_caps (hr->sinkpad);
+  fail_unless (gst_video_info_from_caps (out_info, caps));
+  gst_caps_unref (caps);
+  return out;
+}
+
 static guint8
 pixel (GstBuffer * out, const GstVideoInfo * info, guint i, guint j)
 {
@@ -84,15 +100,9 @@ LANDMARK_TEST ("general", test_band_at_two_metres)
   for (k = 0; k < G_N_ELEMENTS (sizes); k++) {
     const guint w = sizes[k][0], h = sizes[k][1];
     GstHarness *hr = harness_new (NULL, w, h);
-    GstVideoInfo in, out_info;
-    GstBuffer *out;
-    GstCaps *caps;
+    GstVideoInfo out_info;
+    GstBuffer *out = remap_band (hr, w, h, &out_info);
     guint i;
-    gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, w, h);
-    out = gst_harness_push_and_pull (hr, frame_with_band (&in, 1.9, 2.1));
-    caps = gst_pad_get_current_caps (hr->sinkpad);
-    fail_unless (gst_video_info_from_caps (&out_info, caps));
-    gst_caps_unref (caps);
     fail_unless_equals_int (GST_VIDEO_INFO_WIDTH (&out_info), 400);
     fail_unless_equals_int (GST_VIDEO_INFO_HEIGHT (&out_info), 400);
     for (i = 150; i <= 250; i += 10) {
@@ -117,14 +127,8 @@ LANDMARK_TEST ("general", test_scale_and_extent)
 {
   GstHarness *hr = harness_new ("pixels-per-metre=50 forward=3 behind=1 "
       "side=1.5", 640, 480);
-  GstVideoInfo in, out_info;
-  GstBuffer *out;
-  GstCaps *caps;
-  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, 640, 480);
-  out = gst_harness_push_and_pull (hr, frame_with_band (&in, 1.9, 2.1));
-  caps = gst_pad_get_current_caps (hr->sinkpad);
-  fail_unless (gst_video_info_from_caps (&out_info, caps));
-  gst_caps_unref (caps);
+  GstVideoInfo out_info;
+  GstBuffer *out = remap_band (hr, 640, 480, &out_info);
   fail_unless_equals_int (GST_VIDEO_INFO_WIDTH (&out_info), 150);
   fail_unless_equals_int (GST_VIDEO_INFO_HEIGHT (&out_info), 200);
   /* the camera's floor point is 1 m (50 px) above the bottom: 2 m ahead

@@ -162,8 +162,8 @@ GST_END_TEST;
  * row's floor point, the view ends there (state 3). */
 LANDMARK_TEST ("general", test_free_and_view_edge)
 {
-  GstHarness *hr = harness_new ("max-range=3");
   guint8 *p = plane_floor_below (0, GREY, GREY);
+  GstHarness *hr = harness_new ("max-range=3");
   GstBuffer *out = push (hr, p);
   Floor f;
   floor_read (out, &f);

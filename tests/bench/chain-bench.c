@@ -40,7 +40,7 @@
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
 
-#include "benchtiming.h"
+#include "benchinput.h"
 
 #define POSE_META_NAME "GstLandmarkPoseMeta"
 #define MAX_ELEMENTS 16
@@ -291,33 +291,20 @@ main (int argc, char **argv)
   }
   const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
 
-  gchar *contents = NULL;
-  gsize data_size = 0;
-  if (!g_file_get_contents (input, &contents, &data_size, &err)) {
-    g_printerr ("chain-bench: %s\n", err->message);
+  guint8 *contents = NULL;
+  guint n_frames = 0;
+  if (!bench_read_frames ("chain-bench", input, frame_size, &contents,
+          &n_frames))
     return 1;
-  }
-  if (data_size == 0 || data_size % frame_size != 0) {
-    g_printerr ("chain-bench: %s holds %" G_GSIZE_FORMAT " bytes, not whole "
-        "frames of %" G_GSIZE_FORMAT " bytes\n", input, data_size,
-        frame_size);
-    return 1;
-  }
-  Feeder feed = {.data = (guint8 *) contents,.frame_size = frame_size,
-    .n_distinct = data_size / frame_size,
+  Feeder feed = {.data = contents,.frame_size = frame_size,
+    .n_distinct = n_frames,
     .duration = gst_util_uint64_scale_int (GST_SECOND, 1, 30)
   };
   if ((guint) warmup < feed.n_distinct)
     warmup = feed.n_distinct;
 
-  GstElement *check = gst_parse_launch_full (launch, NULL,
-      GST_PARSE_FLAG_FATAL_ERRORS, &err);
-  if (!check) {
-    g_printerr ("chain-bench: bad --launch \"%s\": %s\n", launch,
-        err ? err->message : "unknown error");
+  if (!bench_launch_ok ("chain-bench", launch))
     return 1;
-  }
-  gst_object_unref (check);
 
   GstHarness *h = gst_harness_new_parse (launch);
   Stage stages[MAX_ELEMENTS] = { {0} };
@@ -331,13 +318,8 @@ main (int argc, char **argv)
   feed.scratch = g_malloc (frame_size);
 
   /* where the plugin came from, so the caller can check the build tree */
-  gchar *plugin_file = NULL;
-  GstPlugin *plugin = GST_PLUGIN (gst_plugin_feature_get_plugin
-      (GST_PLUGIN_FEATURE (gst_element_get_factory (stages[0].element))));
-  if (plugin) {
-    plugin_file = g_strdup (gst_plugin_get_filename (plugin));
-    gst_object_unref (plugin);
-  }
+  gchar *plugin_file =
+      bench_plugin_file (gst_element_get_factory (stages[0].element));
 
   Timing per[MAX_ELEMENTS];
   for (guint k = 0; k < n_stages; k++)
@@ -351,22 +333,15 @@ main (int argc, char **argv)
     GstBuffer *in = next_buffer (&feed);
     for (guint k = 0; k < n_stages; k++)
       stages[k].t_in = stages[k].t_out = 0;
-    const gint64 t0 = now_ns ();
-    if (gst_harness_push (h, in) != GST_FLOW_OK) {
-      g_printerr ("chain-bench: push of frame %u failed\n", i);
+    gint64 ns;
+    GstBuffer *out = bench_push_pull ("chain-bench", h, in, i, &ns);
+    if (!out)
       return 1;
-    }
-    GstBuffer *out = gst_harness_pull (h);
-    const gint64 t1 = now_ns ();
-    if (!out) {
-      g_printerr ("chain-bench: no output for frame %u\n", i);
-      return 1;
-    }
     if (i >= (guint) warmup) {
       for (guint k = 0; k < n_stages; k++)
         per[k].ns[per[k].n++] = stages[k].t_out - stages[k].t_in;
       chain.ns[chain.n++] = stages[n_stages - 1].t_out - stages[0].t_in;
-      round.ns[round.n++] = t1 - t0;
+      round.ns[round.n++] = ns;
       inspect_output (out, &produced);
     }
     gst_buffer_unref (out);
@@ -447,22 +422,10 @@ main (int argc, char **argv)
   gst_harness_teardown (h);
 
   if (!no_copy) {
-    Timing copy = {.name = "copy",.ns = g_new (gint64, frames) };
-    guint8 *dst = g_malloc (frame_size);
-    memset (dst, 0, frame_size);
-    for (guint i = 0; i < (guint) (warmup + frames); i++) {
-      const guint8 *src = feed.data + (gsize) (i % feed.n_distinct) *
-          frame_size;
-      const gint64 t0 = now_ns ();
-      memcpy (dst, src, frame_size);
-      __asm__ __volatile__ ("":::"memory");
-      const gint64 t1 = now_ns ();
-      if (i >= (guint) warmup)
-        copy.ns[copy.n++] = t1 - t0;
-    }
-    summarise (&copy);
+    Timing copy;
+    bench_time_copy (feed.data, feed.n_distinct, frame_size, warmup, frames,
+        &copy);
     print_timing (&copy, "memcpy", "copy", &info, feed.n_distinct, NULL);
-    g_free (dst);
     g_free (copy.ns);
   }
 

@@ -28,7 +28,7 @@
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
 
-#include "benchtiming.h"
+#include "benchinput.h"
 
 #define LABELS_META_NAME "GstLandmarkLabelsMeta"
 
@@ -64,20 +64,6 @@ print_timing (const Timing * t, const gchar * launch,
   fputs (s->str, stdout);
   fflush (stdout);
   g_string_free (s, TRUE);
-}
-
-static gboolean
-read_file (const gchar * path, guint8 ** data, gsize * size)
-{
-  GError *err = NULL;
-  gchar *contents = NULL;
-  if (!g_file_get_contents (path, &contents, size, &err)) {
-    g_printerr ("labsegment-bench: %s\n", err->message);
-    g_error_free (err);
-    return FALSE;
-  }
-  *data = (guint8 *) contents;
-  return TRUE;
 }
 
 /* Writes the label plane of buf (width bytes per row, stride dropped) to
@@ -202,47 +188,25 @@ main (int argc, char **argv)
   const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
 
   guint8 *data = NULL;
-  gsize data_size = 0;
-  if (!read_file (input, &data, &data_size))
+  guint n_distinct = 0;
+  if (!bench_read_frames ("labsegment-bench", input, frame_size, &data,
+          &n_distinct))
     return 1;
-  if (data_size == 0 || data_size % frame_size != 0) {
-    g_printerr ("labsegment-bench: %s holds %" G_GSIZE_FORMAT " bytes, not "
-        "a whole number of %s %dx%d frames of %" G_GSIZE_FORMAT " bytes\n",
-        input, data_size, format_name, width, height, frame_size);
-    return 1;
-  }
-  const guint n_distinct = data_size / frame_size;
   if ((guint) warmup < n_distinct)
     warmup = n_distinct;
 
-  /* gst_harness_new_parse asserts on a bad description: check it first so
-   * the user gets the parser's message. */
-  GstElement *probe = gst_parse_launch_full (launch, NULL,
-      GST_PARSE_FLAG_FATAL_ERRORS, &err);
-  if (!probe) {
-    g_printerr ("labsegment-bench: bad --launch \"%s\": %s\n", launch,
-        err ? err->message : "unknown error");
+  if (!bench_launch_ok ("labsegment-bench", launch))
     return 1;
-  }
-  gst_object_unref (probe);
 
   GstHarness *h = gst_harness_new_parse (launch);
   gst_harness_set_src_caps (h, gst_video_info_to_caps (&info));
   const gboolean fresh_input = element_writes_frames (h);
   guint8 *scratch = g_malloc (frame_size);
 
-  const gchar *plugin_file = NULL;
   GstElementFactory *factory = gst_element_factory_find ("labsegment");
-  if (factory) {
-    GstPlugin *plugin =
-        GST_PLUGIN (gst_plugin_feature_get_plugin (GST_PLUGIN_FEATURE
-            (factory)));
-    if (plugin) {
-      plugin_file = g_strdup (gst_plugin_get_filename (plugin));
-      gst_object_unref (plugin);
-    }
+  gchar *plugin_file = bench_plugin_file (factory);
+  if (factory)
     gst_object_unref (factory);
-  }
 
   FILE *dump = NULL;
   if (dump_path && !(dump = fopen (dump_path, "wb"))) {
@@ -264,23 +228,16 @@ main (int argc, char **argv)
     GST_BUFFER_PTS (in) = i * duration;
     GST_BUFFER_DURATION (in) = duration;
 
-    const gint64 t0 = now_ns ();
-    if (gst_harness_push (h, in) != GST_FLOW_OK) {
-      g_printerr ("labsegment-bench: push of frame %u failed\n", i);
+    gint64 ns;
+    GstBuffer *out = bench_push_pull ("labsegment-bench", h, in, i, &ns);
+    if (!out)
       return 1;
-    }
-    GstBuffer *out = gst_harness_pull (h);
-    const gint64 t1 = now_ns ();
-    if (!out) {
-      g_printerr ("labsegment-bench: no output for frame %u\n", i);
-      return 1;
-    }
     if (dump && i < n_distinct && !dump_labels (out, dump, &info))
       return 1;
     /* drops the meta, so the label plane goes back to its pool */
     gst_buffer_unref (out);
     if (i >= (guint) warmup)
-      element.ns[element.n++] = t1 - t0;
+      element.ns[element.n++] = ns;
   }
   if (dump && fclose (dump) != 0) {
     g_printerr ("labsegment-bench: %s: %s\n", dump_path, g_strerror (errno));
@@ -291,22 +248,9 @@ main (int argc, char **argv)
   gst_harness_teardown (h);
 
   if (!no_copy) {
-    Timing copy = {.name = "copy",.ns = g_new (gint64, frames) };
-    guint8 *dst = g_malloc (frame_size);
-    memset (dst, 0, frame_size);
-    for (guint i = 0; i < (guint) (warmup + frames); i++) {
-      const guint8 *src = data + (gsize) (i % n_distinct) * frame_size;
-      const gint64 t0 = now_ns ();
-      memcpy (dst, src, frame_size);
-      /* keep the compiler from dropping the copy */
-      __asm__ __volatile__ ("":::"memory");
-      const gint64 t1 = now_ns ();
-      if (i >= (guint) warmup)
-        copy.ns[copy.n++] = t1 - t0;
-    }
-    summarise (&copy);
+    Timing copy;
+    bench_time_copy (data, n_distinct, frame_size, warmup, frames, &copy);
     print_timing (&copy, "memcpy", &info, n_distinct, warmup, NULL);
-    g_free (dst);
     g_free (copy.ns);
   }
 
@@ -318,7 +262,7 @@ main (int argc, char **argv)
   g_free (launch);
   g_free (colorimetry);
   g_free (dump_path);
-  g_free ((gchar *) plugin_file);
+  g_free (plugin_file);
   gst_deinit ();
   return 0;
 }

@@ -1,0 +1,114 @@
+/* Input and harness helpers shared by the benchmark programs that read raw
+ * frames from a file (labsegment-bench, chain-bench): the frames, a checked
+ * launch description, the plugin's file, a timed push and pull, and the
+ * frame-copy floor. Each prints its own error, prefixed with the program's
+ * name, and returns FALSE or NULL. */
+#pragma once
+
+#include <string.h>
+
+#include <gst/gst.h>
+#include <gst/check/gstharness.h>
+
+#include "benchtiming.h"
+
+/* The whole frames of `frame_size` bytes in `path`: *data (g_free it) and
+ * their number. */
+static inline gboolean
+bench_read_frames (const gchar * prog, const gchar * path, gsize frame_size,
+    guint8 ** data, guint * n_frames)
+{
+  GError *err = NULL;
+  gchar *contents = NULL;
+  gsize size = 0;
+  if (!g_file_get_contents (path, &contents, &size, &err)) {
+    g_printerr ("%s: %s\n", prog, err->message);
+    g_error_free (err);
+    return FALSE;
+  }
+  if (size == 0 || size % frame_size != 0) {
+    g_printerr ("%s: %s holds %" G_GSIZE_FORMAT " bytes, not whole frames "
+        "of %" G_GSIZE_FORMAT " bytes\n", prog, path, size, frame_size);
+    g_free (contents);
+    return FALSE;
+  }
+  *data = (guint8 *) contents;
+  *n_frames = size / frame_size;
+  return TRUE;
+}
+
+/* gst_harness_new_parse asserts on a bad description: parse it first so
+ * the user gets the parser's message. */
+static inline gboolean
+bench_launch_ok (const gchar * prog, const gchar * launch)
+{
+  GError *err = NULL;
+  GstElement *e = gst_parse_launch_full (launch, NULL,
+      GST_PARSE_FLAG_FATAL_ERRORS, &err);
+  if (!e) {
+    g_printerr ("%s: bad --launch \"%s\": %s\n", prog, launch,
+        err ? err->message : "unknown error");
+    g_clear_error (&err);
+    return FALSE;
+  }
+  gst_object_unref (e);
+  return TRUE;
+}
+
+/* The file the element factory was loaded from (g_free it), so the caller
+ * can check the build tree's plugin ran; NULL when unknown. */
+static inline gchar *
+bench_plugin_file (GstElementFactory * factory)
+{
+  gchar *file = NULL;
+  GstPlugin *plugin = factory ?
+      GST_PLUGIN (gst_plugin_feature_get_plugin (GST_PLUGIN_FEATURE
+          (factory))) : NULL;
+  if (plugin) {
+    file = g_strdup (gst_plugin_get_filename (plugin));
+    gst_object_unref (plugin);
+  }
+  return file;
+}
+
+/* Pushes frame i and pulls its output, *ns the time of the pair; NULL when
+ * either fails. */
+static inline GstBuffer *
+bench_push_pull (const gchar * prog, GstHarness * h, GstBuffer * in, guint i,
+    gint64 * ns)
+{
+  const gint64 t0 = now_ns ();
+  if (gst_harness_push (h, in) != GST_FLOW_OK) {
+    g_printerr ("%s: push of frame %u failed\n", prog, i);
+    return NULL;
+  }
+  GstBuffer *out = gst_harness_pull (h);
+  *ns = now_ns () - t0;
+  if (!out)
+    g_printerr ("%s: no output for frame %u\n", prog, i);
+  return out;
+}
+
+/* The memory-bound floor: a memcpy of each frame in turn into one
+ * preallocated buffer, `frames` timed after `warmup` (free t->ns). */
+static inline void
+bench_time_copy (const guint8 * data, guint n_frames, gsize frame_size,
+    guint warmup, guint frames, Timing * t)
+{
+  guint8 *dst = g_malloc0 (frame_size);
+  t->name = "copy";
+  t->ns = g_new (gint64, frames);
+  t->n = 0;
+  for (guint i = 0; i < warmup + frames; i++) {
+    const guint8 *src = data + (gsize) (i % n_frames) * frame_size;
+    const gint64 t0 = now_ns ();
+    memcpy (dst, src, frame_size);
+    /* keep the compiler from dropping the copy */
+    __asm__ __volatile__ ("":::"memory");
+    const gint64 t1 = now_ns ();
+    if (i >= warmup)
+      t->ns[t->n++] = t1 - t0;
+  }
+  summarise (t);
+  g_free (dst);
+}

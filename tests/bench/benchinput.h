@@ -9,14 +9,50 @@
 
 #include <gst/gst.h>
 #include <gst/check/gstharness.h>
+#include <gst/video/video.h>
 
 #include "benchtiming.h"
 
+/* Parses the command line (GStreamer's options too); FALSE, said, when it
+ * cannot. */
+static inline gboolean
+bench_parse_options (const gchar * prog, const gchar * summary,
+    const GOptionEntry * entries, int *argc, char ***argv)
+{
+  GError *err = NULL;
+  GOptionContext *ctx = g_option_context_new (summary);
+  g_option_context_add_main_entries (ctx, entries, NULL);
+  g_option_context_add_group (ctx, gst_init_get_option_group ());
+  const gboolean ok = g_option_context_parse (ctx, argc, argv, &err);
+  if (!ok) {
+    g_printerr ("%s: %s\n", prog, err->message);
+    g_error_free (err);
+  }
+  g_option_context_free (ctx);
+  return ok;
+}
+
+/* The video info of packed frames of a format and size; FALSE, said, for
+ * an unknown format or a bad size. */
+static inline gboolean
+bench_video_info (const gchar * prog, const gchar * format_name, gint width,
+    gint height, GstVideoInfo * info)
+{
+  const GstVideoFormat format = gst_video_format_from_string (format_name);
+  if (format == GST_VIDEO_FORMAT_UNKNOWN
+      || !gst_video_info_set_format (info, format, width, height)) {
+    g_printerr ("%s: unknown format or size %s %dx%d\n", prog, format_name,
+        width, height);
+    return FALSE;
+  }
+  return TRUE;
+}
+
 /* The whole frames of `frame_size` bytes in `path`: *data (g_free it) and
- * their number. */
+ * their number; *warmup raised to at least one pass over them. */
 static inline gboolean
 bench_read_frames (const gchar * prog, const gchar * path, gsize frame_size,
-    guint8 ** data, guint * n_frames)
+    guint8 ** data, guint * n_frames, gint * warmup)
 {
   GError *err = NULL;
   gchar *contents = NULL;
@@ -34,6 +70,8 @@ bench_read_frames (const gchar * prog, const gchar * path, gsize frame_size,
   }
   *data = (guint8 *) contents;
   *n_frames = size / frame_size;
+  if ((guint) * warmup < *n_frames)
+    *warmup = *n_frames;
   return TRUE;
 }
 

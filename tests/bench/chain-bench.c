@@ -262,16 +262,9 @@ main (int argc, char **argv)
         "N"},
     {NULL}
   };
-  GError *err = NULL;
-  GOptionContext *ctx =
-      g_option_context_new ("- time the landmark chain per element");
-  g_option_context_add_main_entries (ctx, entries, NULL);
-  g_option_context_add_group (ctx, gst_init_get_option_group ());
-  if (!g_option_context_parse (ctx, &argc, &argv, &err)) {
-    g_printerr ("chain-bench: %s\n", err->message);
+  if (!bench_parse_options ("chain-bench",
+          "- time the landmark chain per element", entries, &argc, &argv))
     return 2;
-  }
-  g_option_context_free (ctx);
   if (!input || !launch || width <= 0 || height <= 0 || frames <= 0
       || warmup < 0 || rss_frames < 0 || rss_every <= 0 || rss_warmup < 0) {
     g_printerr ("chain-bench: need --input, --launch, --width, --height "
@@ -281,27 +274,21 @@ main (int argc, char **argv)
   if (!label)
     label = g_strdup ("chain");
 
-  GstVideoFormat format =
-      gst_video_format_from_string (format_name ? format_name : "BGRx");
   GstVideoInfo info;
-  if (format == GST_VIDEO_FORMAT_UNKNOWN
-      || !gst_video_info_set_format (&info, format, width, height)) {
-    g_printerr ("chain-bench: unknown format or size\n");
+  if (!bench_video_info ("chain-bench", format_name ? format_name : "BGRx",
+          width, height, &info))
     return 2;
-  }
   const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
 
   guint8 *contents = NULL;
   guint n_frames = 0;
   if (!bench_read_frames ("chain-bench", input, frame_size, &contents,
-          &n_frames))
+          &n_frames, &warmup))
     return 1;
   Feeder feed = {.data = contents,.frame_size = frame_size,
     .n_distinct = n_frames,
     .duration = gst_util_uint64_scale_int (GST_SECOND, 1, 30)
   };
-  if ((guint) warmup < feed.n_distinct)
-    warmup = feed.n_distinct;
 
   if (!bench_launch_ok ("chain-bench", launch))
     return 1;

@@ -154,15 +154,9 @@ main (int argc, char **argv)
         "Skip the frame-copy measurement", NULL},
     {NULL}
   };
-  GError *err = NULL;
-  GOptionContext *ctx = g_option_context_new ("- time labsegment per frame");
-  g_option_context_add_main_entries (ctx, entries, NULL);
-  g_option_context_add_group (ctx, gst_init_get_option_group ());
-  if (!g_option_context_parse (ctx, &argc, &argv, &err)) {
-    g_printerr ("labsegment-bench: %s\n", err->message);
+  if (!bench_parse_options ("labsegment-bench",
+          "- time labsegment per frame", entries, &argc, &argv))
     return 2;
-  }
-  g_option_context_free (ctx);
   if (!input || !format_name || width <= 0 || height <= 0 || frames <= 0
       || warmup < 0) {
     g_printerr ("labsegment-bench: need --input, --format, --width, "
@@ -172,14 +166,10 @@ main (int argc, char **argv)
   if (!launch)
     launch = g_strdup ("labsegment");
 
-  GstVideoFormat format = gst_video_format_from_string (format_name);
   GstVideoInfo info;
-  if (format == GST_VIDEO_FORMAT_UNKNOWN
-      || !gst_video_info_set_format (&info, format, width, height)) {
-    g_printerr ("labsegment-bench: unknown format or size %s %dx%d\n",
-        format_name, width, height);
+  if (!bench_video_info ("labsegment-bench", format_name, width, height,
+          &info))
     return 2;
-  }
   if (colorimetry && !gst_video_colorimetry_from_string (&info.colorimetry,
           colorimetry)) {
     g_printerr ("labsegment-bench: unknown colorimetry %s\n", colorimetry);
@@ -190,10 +180,8 @@ main (int argc, char **argv)
   guint8 *data = NULL;
   guint n_distinct = 0;
   if (!bench_read_frames ("labsegment-bench", input, frame_size, &data,
-          &n_distinct))
+          &n_distinct, &warmup))
     return 1;
-  if ((guint) warmup < n_distinct)
-    warmup = n_distinct;
 
   if (!bench_launch_ok ("labsegment-bench", launch))
     return 1;

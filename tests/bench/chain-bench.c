@@ -45,13 +45,20 @@
 #define POSE_META_NAME "GstLandmarkPoseMeta"
 #define MAX_ELEMENTS 16
 
+/* A probe's record: the time of the current frame, and the number of
+ * calls (a check of 1:1 flow). */
+typedef struct
+{
+  gint64 t;
+  guint n;
+} Mark;
+
 /* One probed element: the probes write the time of the current frame. */
 typedef struct
 {
   GstElement *element;
   gchar *factory;
-  gint64 t_in, t_out;
-  guint n_in, n_out;            /* probe calls (a check of 1:1 flow) */
+  Mark in, out;                 /* at its sink pad and at its src pad */
 } Stage;
 
 static void
@@ -81,22 +88,12 @@ print_timing (const Timing * t, const gchar * label, const gchar * kind,
 }
 
 static GstPadProbeReturn
-probe_in (G_GNUC_UNUSED GstPad * pad, G_GNUC_UNUSED GstPadProbeInfo * pinfo,
-    gpointer user_data)
+probe_mark (G_GNUC_UNUSED GstPad * pad,
+    G_GNUC_UNUSED GstPadProbeInfo * pinfo, gpointer user_data)
 {
-  Stage *st = user_data;
-  st->t_in = now_ns ();
-  st->n_in++;
-  return GST_PAD_PROBE_OK;
-}
-
-static GstPadProbeReturn
-probe_out (G_GNUC_UNUSED GstPad * pad, G_GNUC_UNUSED GstPadProbeInfo * pinfo,
-    gpointer user_data)
-{
-  Stage *st = user_data;
-  st->t_out = now_ns ();
-  st->n_out++;
+  Mark *m = user_data;
+  m->t = now_ns ();
+  m->n++;
   return GST_PAD_PROBE_OK;
 }
 
@@ -122,12 +119,14 @@ find_stages (GstHarness * h, Stage * stages)
     st->element = el;
     st->factory = g_strdup (GST_OBJECT_NAME (gst_element_get_factory (el)));
     if (sink) {
-      gst_pad_add_probe (sink, GST_PAD_PROBE_TYPE_BUFFER, probe_in, st, NULL);
+      gst_pad_add_probe (sink, GST_PAD_PROBE_TYPE_BUFFER, probe_mark, &st->in,
+          NULL);
       gst_object_unref (sink);
     }
     GstElement *next = NULL;
     if (src) {
-      gst_pad_add_probe (src, GST_PAD_PROBE_TYPE_BUFFER, probe_out, st, NULL);
+      gst_pad_add_probe (src, GST_PAD_PROBE_TYPE_BUFFER, probe_mark, &st->out,
+          NULL);
       GstPad *peer = gst_pad_get_peer (src);
       if (peer) {
         next = gst_pad_get_parent_element (peer);
@@ -319,25 +318,25 @@ main (int argc, char **argv)
   for (guint i = 0; i < (guint) (warmup + frames); i++) {
     GstBuffer *in = next_buffer (&feed);
     for (guint k = 0; k < n_stages; k++)
-      stages[k].t_in = stages[k].t_out = 0;
+      stages[k].in.t = stages[k].out.t = 0;
     gint64 ns;
     GstBuffer *out = bench_push_pull ("chain-bench", h, in, i, &ns);
     if (!out)
       return 1;
     if (i >= (guint) warmup) {
       for (guint k = 0; k < n_stages; k++)
-        per[k].ns[per[k].n++] = stages[k].t_out - stages[k].t_in;
-      chain.ns[chain.n++] = stages[n_stages - 1].t_out - stages[0].t_in;
+        per[k].ns[per[k].n++] = stages[k].out.t - stages[k].in.t;
+      chain.ns[chain.n++] = stages[n_stages - 1].out.t - stages[0].in.t;
       round.ns[round.n++] = ns;
       inspect_output (out, &produced);
     }
     gst_buffer_unref (out);
   }
   for (guint k = 0; k < n_stages; k++) {
-    if (stages[k].n_in != stages[k].n_out
-        || stages[k].n_in != (guint) (warmup + frames)) {
+    if (stages[k].in.n != stages[k].out.n
+        || stages[k].in.n != (guint) (warmup + frames)) {
       g_printerr ("chain-bench: %s saw %u buffers in, %u out for %u "
-          "frames\n", stages[k].factory, stages[k].n_in, stages[k].n_out,
+          "frames\n", stages[k].factory, stages[k].in.n, stages[k].out.n,
           warmup + frames);
       return 1;
     }

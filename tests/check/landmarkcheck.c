@@ -250,6 +250,21 @@ landmark_check_no_frame_dropped (GstHarness * h, GstBuffer * templ, guint n,
   fail_unless_equals_int (gst_harness_buffers_received (h), n);
 }
 
+GstBus *
+landmark_check_bus_attach (GstElement * e)
+{
+  GstBus *bus = gst_bus_new ();
+  gst_element_set_bus (e, bus);
+  return bus;
+}
+
+void
+landmark_check_bus_detach (GstElement * e, GstBus * bus)
+{
+  gst_element_set_bus (e, NULL);
+  gst_object_unref (bus);
+}
+
 guint
 landmark_check_count_messages (GstBus * bus, GstMessageType type,
     GError ** first)

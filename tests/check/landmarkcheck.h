@@ -115,6 +115,11 @@ GstHarness *landmark_check_harness_new (const gchar * desc,
 void landmark_check_no_frame_dropped (GstHarness * h, GstBuffer * templ,
     guint n, const gchar * meta);
 
+/* A new bus set on e, to read its messages without a pipeline; detach it
+ * (unset and unref) when done. */
+GstBus *landmark_check_bus_attach (GstElement * e);
+void landmark_check_bus_detach (GstElement * e, GstBus * bus);
+
 /* How many messages of `type` the bus holds, popping them all; the first
  * one's error or warning in *first when asked. */
 guint landmark_check_count_messages (GstBus * bus, GstMessageType type,

@@ -204,8 +204,7 @@ GST_END_TEST;
 LANDMARK_TEST ("general", test_map_out_unwritable)
 {
   GstHarness *h = harness ("map-out=/nonexistent-dir/map.json");
-  GstBus *bus = gst_bus_new ();
-  gst_element_set_bus (h->element, bus);
+  GstBus *bus = landmark_check_bus_attach (h->element);
   gst_buffer_unref (drive (h, 5));
   gst_harness_push_event (h, gst_event_new_eos ());
   GstMessage *msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
@@ -219,8 +218,7 @@ LANDMARK_TEST ("general", test_map_out_unwritable)
   g_error_free (err);
   g_free (dbg);
   gst_message_unref (msg);
-  gst_element_set_bus (h->element, NULL);
-  gst_object_unref (bus);
+  landmark_check_bus_detach (h->element, bus);
   gst_harness_teardown (h);
 }
 
@@ -299,8 +297,7 @@ GST_END_TEST;
 LANDMARK_TEST ("general", test_bad_map_while_playing_keeps_previous)
 {
   GstHarness *h = harness ("");
-  GstBus *bus = gst_bus_new ();
-  gst_element_set_bus (h->element, bus);
+  GstBus *bus = landmark_check_bus_attach (h->element);
   gst_buffer_unref (drive (h, 10));
   GstElement *slam = gst_harness_find_element (h, "landmarkslam");
   g_object_set (slam, "map", "/nonexistent-dir/map.json", NULL);
@@ -315,8 +312,7 @@ LANDMARK_TEST ("general", test_bad_map_while_playing_keeps_previous)
   fail_unless_equals_int (gst_value_array_get_size (gst_structure_get_value
           (map, "ids")), N_LM);
   gst_buffer_unref (out);
-  gst_element_set_bus (h->element, NULL);
-  gst_object_unref (bus);
+  landmark_check_bus_detach (h->element, bus);
   gst_harness_teardown (h);
 }
 

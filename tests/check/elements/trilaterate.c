@@ -98,16 +98,14 @@ harness (const gchar * props, GstBus ** bus)
   g_free (launch);
   gst_harness_set_src_caps_str (h, "video/x-raw,format=GRAY8,width=64,"
       "height=48,framerate=30/1");
-  *bus = gst_bus_new ();
-  gst_element_set_bus (h->element, *bus);
+  *bus = landmark_check_bus_attach (h->element);
   return h;
 }
 
 static void
 harness_done (GstHarness * h, GstBus * bus)
 {
-  gst_element_set_bus (h->element, NULL);
-  gst_object_unref (bus);
+  landmark_check_bus_detach (h->element, bus);
   gst_harness_teardown (h);
 }
 
@@ -319,8 +317,7 @@ LANDMARK_TEST ("general", test_no_pose)
     g_free (launch);
     gst_harness_set_src_caps_str (h, "video/x-raw,format=GRAY8,width=64,"
         "height=48,framerate=30/1");
-    bus = gst_bus_new ();
-    gst_element_set_bus (h->element, bus);
+    bus = landmark_check_bus_attach (h->element);
   }
   out = gst_harness_push_and_pull (h, frame (1));
   fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT) == NULL);

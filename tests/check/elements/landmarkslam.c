@@ -297,9 +297,9 @@ GST_END_TEST;
 LANDMARK_TEST ("general", test_bad_map_while_playing_keeps_previous)
 {
   GstHarness *h = harness ("");
+  GstElement *slam = gst_harness_find_element (h, "landmarkslam");
   GstBus *bus = landmark_check_bus_attach (h->element);
   gst_buffer_unref (drive (h, 10));
-  GstElement *slam = gst_harness_find_element (h, "landmarkslam");
   g_object_set (slam, "map", "/nonexistent-dir/map.json", NULL);
   gst_object_unref (slam);
   GstBuffer *out = drive (h, 3);

@@ -1,7 +1,9 @@
 /* Helpers shared by the GstHarness tests: tests that register themselves
- * (no hand-written suite function), metadata made by hand, harnesses from a
- * launch description, bus messages, a temporary folder, and the start of an
- * element with a bad setting. */
+ * (no hand-written suite function), metadata made by hand, a reference
+ * colour conversion, harnesses from a launch description, bus messages,
+ * starts refused for bad settings, frames never dropped, and a temporary
+ * folder. Each helper asserts what it checks, so a test stays one line per
+ * behaviour. */
 #ifndef LANDMARK_CHECK_H
 #define LANDMARK_CHECK_H
 
@@ -11,7 +13,6 @@
 G_BEGIN_DECLS
 
 #define LANDMARK_LABELS_META "GstLandmarkLabelsMeta"
-#define LANDMARK_POSE_META "GstLandmarkPoseMeta"
 #define LANDMARK_FLOOR_META "GstLandmarkFloorMeta"
 
 /* ---- tests and the suite --------------------------------------------- */

@@ -13,22 +13,58 @@
 
 #include "benchtiming.h"
 
-/* Parses the command line (GStreamer's options too); FALSE, said, when it
- * cannot. */
-static inline gboolean
-bench_parse_options (const gchar * prog, const gchar * summary,
-    const GOptionEntry * entries, int *argc, char ***argv)
+/* The options of every frame benchmark; the caller sets the defaults. */
+typedef struct
 {
+  gchar *input, *format, *launch;
+  gint width, height, frames, warmup;
+  gboolean no_copy;
+} BenchArgs;
+
+/* Parses the command line: the common options into *a, the program's own
+ * `extra` entries and GStreamer's. FALSE, said, when it cannot, or when
+ * --input, --width, --height or a positive --frames is missing. */
+static inline gboolean
+bench_parse_args (const gchar * prog, const gchar * summary, BenchArgs * a,
+    const gchar * launch_help, const GOptionEntry * extra, int *argc,
+    char ***argv)
+{
+  gchar *frames_help = g_strdup_printf ("Timed frames (default %d)",
+      a->frames);
+  gchar *warmup_help = g_strdup_printf ("Untimed frames first; at least one "
+      "per distinct input frame (default %d)", a->warmup);
+  const GOptionEntry common[] = {
+    {"input", 'i', 0, G_OPTION_ARG_FILENAME, &a->input,
+        "Raw frames, default GStreamer strides, back to back", "FILE"},
+    {"format", 'f', 0, G_OPTION_ARG_STRING, &a->format,
+        "GStreamer video format name (BGRx, YUY2, I420, ...)", "FORMAT"},
+    {"width", 0, 0, G_OPTION_ARG_INT, &a->width, "Frame width", "PIXELS"},
+    {"height", 0, 0, G_OPTION_ARG_INT, &a->height, "Frame height", "PIXELS"},
+    {"launch", 'l', 0, G_OPTION_ARG_STRING, &a->launch, launch_help, "DESC"},
+    {"frames", 'n', 0, G_OPTION_ARG_INT, &a->frames, frames_help, "N"},
+    {"warmup", 0, 0, G_OPTION_ARG_INT, &a->warmup, warmup_help, "N"},
+    {"no-copy", 0, 0, G_OPTION_ARG_NONE, &a->no_copy,
+        "Skip the frame-copy measurement", NULL},
+    {NULL}
+  };
   GError *err = NULL;
   GOptionContext *ctx = g_option_context_new (summary);
-  g_option_context_add_main_entries (ctx, entries, NULL);
+  g_option_context_add_main_entries (ctx, common, NULL);
+  g_option_context_add_main_entries (ctx, extra, NULL);
   g_option_context_add_group (ctx, gst_init_get_option_group ());
-  const gboolean ok = g_option_context_parse (ctx, argc, argv, &err);
+  gboolean ok = g_option_context_parse (ctx, argc, argv, &err);
   if (!ok) {
     g_printerr ("%s: %s\n", prog, err->message);
     g_error_free (err);
+  } else if (!a->input || a->width <= 0 || a->height <= 0 || a->frames <= 0
+      || a->warmup < 0) {
+    g_printerr ("%s: need --input, --width, --height (and positive "
+        "--frames); see --help\n", prog);
+    ok = FALSE;
   }
   g_option_context_free (ctx);
+  g_free (frames_help);
+  g_free (warmup_help);
   return ok;
 }
 

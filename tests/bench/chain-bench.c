@@ -229,28 +229,12 @@ chain_has_writer (Stage * stages, guint n)
 int
 main (int argc, char **argv)
 {
-  gchar *input = NULL, *format_name = NULL, *launch = NULL, *label = NULL;
-  gint width = 0, height = 0, frames = 500, warmup = 20;
+  BenchArgs a = {.frames = 500,.warmup = 20 };
+  gchar *label = NULL;
   gint rss_frames = 0, rss_every = 1000, rss_warmup = 500;
-  gboolean no_copy = FALSE;
-  GOptionEntry entries[] = {
-    {"input", 'i', 0, G_OPTION_ARG_FILENAME, &input,
-        "Raw frames, default GStreamer strides, back to back", "FILE"},
-    {"format", 'f', 0, G_OPTION_ARG_STRING, &format_name,
-        "GStreamer video format name (default BGRx)", "FORMAT"},
-    {"width", 0, 0, G_OPTION_ARG_INT, &width, "Frame width", "PIXELS"},
-    {"height", 0, 0, G_OPTION_ARG_INT, &height, "Frame height", "PIXELS"},
-    {"launch", 'l', 0, G_OPTION_ARG_STRING, &launch,
-        "The chain, launch syntax", "DESC"},
+  const GOptionEntry entries[] = {
     {"label", 0, 0, G_OPTION_ARG_STRING, &label,
         "Name of this run in the output (default \"chain\")", "NAME"},
-    {"frames", 'n', 0, G_OPTION_ARG_INT, &frames,
-        "Timed frames (default 500)", "N"},
-    {"warmup", 0, 0, G_OPTION_ARG_INT, &warmup,
-        "Untimed frames first; at least one per distinct frame "
-          "(default 20)", "N"},
-    {"no-copy", 0, 0, G_OPTION_ARG_NONE, &no_copy,
-        "Skip the frame-copy measurement", NULL},
     {"rss-frames", 0, 0, G_OPTION_ARG_INT, &rss_frames,
         "Then push this many more frames and sample VmRSS (default 0: "
           "no memory run)", "N"},
@@ -261,42 +245,42 @@ main (int argc, char **argv)
         "N"},
     {NULL}
   };
-  if (!bench_parse_options ("chain-bench",
-          "- time the landmark chain per element", entries, &argc, &argv))
+  if (!bench_parse_args ("chain-bench",
+          "- time the landmark chain per element", &a,
+          "The chain, launch syntax (required)", entries, &argc, &argv))
     return 2;
-  if (!input || !launch || width <= 0 || height <= 0 || frames <= 0
-      || warmup < 0 || rss_frames < 0 || rss_every <= 0 || rss_warmup < 0) {
-    g_printerr ("chain-bench: need --input, --launch, --width, --height "
-        "(and positive --frames); see --help\n");
+  if (!a.launch || rss_frames < 0 || rss_every <= 0 || rss_warmup < 0) {
+    g_printerr ("chain-bench: need --launch (and --rss-every above 0); see "
+        "--help\n");
     return 2;
   }
   if (!label)
     label = g_strdup ("chain");
 
   GstVideoInfo info;
-  if (!bench_video_info ("chain-bench", format_name ? format_name : "BGRx",
-          width, height, &info))
+  if (!bench_video_info ("chain-bench", a.format ? a.format : "BGRx",
+          a.width, a.height, &info))
     return 2;
   const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
 
   guint8 *contents = NULL;
   guint n_frames = 0;
-  if (!bench_read_frames ("chain-bench", input, frame_size, &contents,
-          &n_frames, &warmup))
+  if (!bench_read_frames ("chain-bench", a.input, frame_size, &contents,
+          &n_frames, &a.warmup))
     return 1;
   Feeder feed = {.data = contents,.frame_size = frame_size,
     .n_distinct = n_frames,
     .duration = gst_util_uint64_scale_int (GST_SECOND, 1, 30)
   };
 
-  if (!bench_launch_ok ("chain-bench", launch))
+  if (!bench_launch_ok ("chain-bench", a.launch))
     return 1;
 
-  GstHarness *h = gst_harness_new_parse (launch);
+  GstHarness *h = gst_harness_new_parse (a.launch);
   Stage stages[MAX_ELEMENTS] = { {0} };
   const guint n_stages = find_stages (h, stages);
   if (n_stages == 0) {
-    g_printerr ("chain-bench: no elements found in \"%s\"\n", launch);
+    g_printerr ("chain-bench: no elements found in \"%s\"\n", a.launch);
     return 1;
   }
   gst_harness_set_src_caps (h, gst_video_info_to_caps (&info));
@@ -310,12 +294,12 @@ main (int argc, char **argv)
   Timing per[MAX_ELEMENTS];
   for (guint k = 0; k < n_stages; k++)
     per[k] = (Timing) {
-    .name = stages[k].factory,.ns = g_new (gint64, frames)};
-  Timing chain = {.name = "chain",.ns = g_new (gint64, frames) };
-  Timing round = {.name = "push+pull",.ns = g_new (gint64, frames) };
+    .name = stages[k].factory,.ns = g_new (gint64, a.frames)};
+  Timing chain = {.name = "chain",.ns = g_new (gint64, a.frames) };
+  Timing round = {.name = "push+pull",.ns = g_new (gint64, a.frames) };
   Output produced = { 0 };
 
-  for (guint i = 0; i < (guint) (warmup + frames); i++) {
+  for (guint i = 0; i < (guint) (a.warmup + a.frames); i++) {
     GstBuffer *in = next_buffer (&feed);
     for (guint k = 0; k < n_stages; k++)
       stages[k].in.t = stages[k].out.t = 0;
@@ -323,7 +307,7 @@ main (int argc, char **argv)
     GstBuffer *out = bench_push_pull ("chain-bench", h, in, i, &ns);
     if (!out)
       return 1;
-    if (i >= (guint) warmup) {
+    if (i >= (guint) a.warmup) {
       for (guint k = 0; k < n_stages; k++)
         per[k].ns[per[k].n++] = stages[k].out.t - stages[k].in.t;
       chain.ns[chain.n++] = stages[n_stages - 1].out.t - stages[0].in.t;
@@ -334,22 +318,22 @@ main (int argc, char **argv)
   }
   for (guint k = 0; k < n_stages; k++) {
     if (stages[k].in.n != stages[k].out.n
-        || stages[k].in.n != (guint) (warmup + frames)) {
+        || stages[k].in.n != (guint) (a.warmup + a.frames)) {
       g_printerr ("chain-bench: %s saw %u buffers in, %u out for %u "
           "frames\n", stages[k].factory, stages[k].in.n, stages[k].out.n,
-          warmup + frames);
+          a.warmup + a.frames);
       return 1;
     }
   }
 
   GString *extra = g_string_new (NULL);
   g_string_append (extra, ", \"launch\": ");
-  json_string (extra, launch);
+  json_string (extra, a.launch);
   g_string_append (extra, ", \"plugin_file\": ");
   json_string (extra, plugin_file ? plugin_file : "");
   g_string_append_printf (extra, ", \"warmup\": %d, \"output_frames\": %u, "
       "\"frames_with_pose\": %u, \"detections\": %u, \"ranged\": %u",
-      warmup, produced.frames, produced.with_pose, produced.detections,
+      a.warmup, produced.frames, produced.with_pose, produced.detections,
       produced.ranged);
   for (guint k = 0; k < n_stages; k++) {
     summarise (&per[k]);
@@ -367,7 +351,7 @@ main (int argc, char **argv)
     json_string (s, label);
     g_string_append_printf (s, ", \"width\": %d, \"height\": %d, "
         "\"frames\": %d, \"every\": %d, \"warmup\": %d, \"samples_kb\": [",
-        width, height, rss_frames, rss_every, rss_warmup);
+        a.width, a.height, rss_frames, rss_every, rss_warmup);
     glong first = -1, last = -1, peak = -1;
     Output mem = { 0 };
     const gint64 start = now_ns ();
@@ -407,9 +391,9 @@ main (int argc, char **argv)
   }
   gst_harness_teardown (h);
 
-  if (!no_copy) {
+  if (!a.no_copy) {
     Timing copy;
-    bench_time_copy (feed.data, feed.n_distinct, frame_size, warmup, frames,
+    bench_time_copy (feed.data, feed.n_distinct, frame_size, a.warmup, a.frames,
         &copy);
     print_timing (&copy, "memcpy", "copy", &info, feed.n_distinct, NULL);
     g_free (copy.ns);
@@ -424,9 +408,9 @@ main (int argc, char **argv)
   g_free (feed.scratch);
   g_free (contents);
   g_free (plugin_file);
-  g_free (input);
-  g_free (format_name);
-  g_free (launch);
+  g_free (a.input);
+  g_free (a.format);
+  g_free (a.launch);
   g_free (label);
   gst_deinit ();
   return 0;

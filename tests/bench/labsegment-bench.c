@@ -125,49 +125,30 @@ element_writes_frames (GstHarness * h)
 int
 main (int argc, char **argv)
 {
-  gchar *input = NULL, *format_name = NULL, *dump_path = NULL;
-  gchar *launch = NULL, *colorimetry = NULL;
-  gint width = 0, height = 0, frames = 500, warmup = 10;
-  gboolean no_copy = FALSE;
-  GOptionEntry entries[] = {
-    {"input", 'i', 0, G_OPTION_ARG_FILENAME, &input,
-        "Raw frames, default GStreamer strides, back to back", "FILE"},
-    {"format", 'f', 0, G_OPTION_ARG_STRING, &format_name,
-        "GStreamer video format name (BGRx, YUY2, I420, ...)", "FORMAT"},
-    {"width", 0, 0, G_OPTION_ARG_INT, &width, "Frame width", "PIXELS"},
-    {"height", 0, 0, G_OPTION_ARG_INT, &height, "Frame height", "PIXELS"},
+  BenchArgs a = {.frames = 500,.warmup = 10 };
+  gchar *dump_path = NULL, *colorimetry = NULL;
+  const GOptionEntry entries[] = {
     {"colorimetry", 0, 0, G_OPTION_ARG_STRING, &colorimetry,
         "Caps colorimetry, e.g. bt601 or bt709 (default: GStreamer's "
           "default for the format and size)", "NAME"},
-    {"launch", 'l', 0, G_OPTION_ARG_STRING, &launch,
-        "Element and properties, launch syntax (default \"labsegment\")",
-        "DESC"},
-    {"frames", 'n', 0, G_OPTION_ARG_INT, &frames,
-        "Timed frames (default 500)", "N"},
-    {"warmup", 0, 0, G_OPTION_ARG_INT, &warmup,
-        "Untimed frames first; at least one per distinct input frame "
-          "(default 10)", "N"},
     {"dump-labels", 0, 0, G_OPTION_ARG_FILENAME, &dump_path,
         "Write the label plane (width x height bytes) of each distinct "
           "input frame, in input order", "FILE"},
-    {"no-copy", 0, 0, G_OPTION_ARG_NONE, &no_copy,
-        "Skip the frame-copy measurement", NULL},
     {NULL}
   };
-  if (!bench_parse_options ("labsegment-bench",
-          "- time labsegment per frame", entries, &argc, &argv))
+  if (!bench_parse_args ("labsegment-bench", "- time labsegment per frame",
+          &a, "Element and properties, launch syntax (default "
+          "\"labsegment\")", entries, &argc, &argv))
     return 2;
-  if (!input || !format_name || width <= 0 || height <= 0 || frames <= 0
-      || warmup < 0) {
-    g_printerr ("labsegment-bench: need --input, --format, --width, "
-        "--height (and positive --frames); see --help\n");
+  if (!a.format) {
+    g_printerr ("labsegment-bench: need --format; see --help\n");
     return 2;
   }
-  if (!launch)
-    launch = g_strdup ("labsegment");
+  if (!a.launch)
+    a.launch = g_strdup ("labsegment");
 
   GstVideoInfo info;
-  if (!bench_video_info ("labsegment-bench", format_name, width, height,
+  if (!bench_video_info ("labsegment-bench", a.format, a.width, a.height,
           &info))
     return 2;
   if (colorimetry && !gst_video_colorimetry_from_string (&info.colorimetry,
@@ -179,14 +160,14 @@ main (int argc, char **argv)
 
   guint8 *data = NULL;
   guint n_distinct = 0;
-  if (!bench_read_frames ("labsegment-bench", input, frame_size, &data,
-          &n_distinct, &warmup))
+  if (!bench_read_frames ("labsegment-bench", a.input, frame_size, &data,
+          &n_distinct, &a.warmup))
     return 1;
 
-  if (!bench_launch_ok ("labsegment-bench", launch))
+  if (!bench_launch_ok ("labsegment-bench", a.launch))
     return 1;
 
-  GstHarness *h = gst_harness_new_parse (launch);
+  GstHarness *h = gst_harness_new_parse (a.launch);
   gst_harness_set_src_caps (h, gst_video_info_to_caps (&info));
   const gboolean fresh_input = element_writes_frames (h);
   guint8 *scratch = g_malloc (frame_size);
@@ -202,9 +183,9 @@ main (int argc, char **argv)
     return 1;
   }
 
-  Timing element = {.name = "labsegment",.ns = g_new (gint64, frames) };
+  Timing element = {.name = "labsegment",.ns = g_new (gint64, a.frames) };
   const GstClockTime duration = gst_util_uint64_scale_int (GST_SECOND, 1, 30);
-  for (guint i = 0; i < (guint) (warmup + frames); i++) {
+  for (guint i = 0; i < (guint) (a.warmup + a.frames); i++) {
     guint8 *src = data + (gsize) (i % n_distinct) * frame_size;
     if (fresh_input) {
       /* output=labels draws into the frame: keep the input pristine */
@@ -224,7 +205,7 @@ main (int argc, char **argv)
       return 1;
     /* drops the meta, so the label plane goes back to its pool */
     gst_buffer_unref (out);
-    if (i >= (guint) warmup)
+    if (i >= (guint) a.warmup)
       element.ns[element.n++] = ns;
   }
   if (dump && fclose (dump) != 0) {
@@ -232,22 +213,22 @@ main (int argc, char **argv)
     return 1;
   }
   summarise (&element);
-  print_timing (&element, launch, &info, n_distinct, warmup, plugin_file);
+  print_timing (&element, a.launch, &info, n_distinct, a.warmup, plugin_file);
   gst_harness_teardown (h);
 
-  if (!no_copy) {
+  if (!a.no_copy) {
     Timing copy;
-    bench_time_copy (data, n_distinct, frame_size, warmup, frames, &copy);
-    print_timing (&copy, "memcpy", &info, n_distinct, warmup, NULL);
+    bench_time_copy (data, n_distinct, frame_size, a.warmup, a.frames, &copy);
+    print_timing (&copy, "memcpy", &info, n_distinct, a.warmup, NULL);
     g_free (copy.ns);
   }
 
   g_free (element.ns);
   g_free (scratch);
   g_free (data);
-  g_free (input);
-  g_free (format_name);
-  g_free (launch);
+  g_free (a.input);
+  g_free (a.format);
+  g_free (a.launch);
   g_free (colorimetry);
   g_free (dump_path);
   g_free (plugin_file);

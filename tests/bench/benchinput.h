@@ -111,6 +111,34 @@ bench_read_frames (const gchar * prog, const gchar * path, gsize frame_size,
   return TRUE;
 }
 
+/* The frames of --input as --format (default_format when not given; NULL:
+ * required) and --width x --height, with the caps colorimetry when given:
+ * their video info, *data (g_free it) and number. 0, or the exit status
+ * after saying why not: 2 for a bad format, size or colorimetry, 1 for a
+ * file that cannot be read or is not whole frames. */
+static inline int
+bench_load_frames (const gchar * prog, BenchArgs * a,
+    const gchar * default_format, const gchar * colorimetry,
+    GstVideoInfo * info, guint8 ** data, guint * n_frames)
+{
+  const gchar *format = a->format ? a->format : default_format;
+  if (!format) {
+    g_printerr ("%s: need --format; see --help\n", prog);
+    return 2;
+  }
+  if (!bench_video_info (prog, format, a->width, a->height, info))
+    return 2;
+  if (colorimetry && !gst_video_colorimetry_from_string (&info->colorimetry,
+          colorimetry)) {
+    g_printerr ("%s: unknown colorimetry %s\n", prog, colorimetry);
+    return 2;
+  }
+  if (!bench_read_frames (prog, a->input, GST_VIDEO_INFO_SIZE (info), data,
+          n_frames, &a->warmup))
+    return 1;
+  return 0;
+}
+
 /* gst_harness_new_parse asserts on a bad description: parse it first so
  * the user gets the parser's message. */
 static inline gboolean

@@ -258,16 +258,13 @@ main (int argc, char **argv)
     label = g_strdup ("chain");
 
   GstVideoInfo info;
-  if (!bench_video_info ("chain-bench", a.format ? a.format : "BGRx",
-          a.width, a.height, &info))
-    return 2;
-  const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
-
   guint8 *contents = NULL;
   guint n_frames = 0;
-  if (!bench_read_frames ("chain-bench", a.input, frame_size, &contents,
-          &n_frames, &a.warmup))
-    return 1;
+  const int status = bench_load_frames ("chain-bench", &a, "BGRx", NULL,
+      &info, &contents, &n_frames);
+  if (status)
+    return status;
+  const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
   Feeder feed = {.data = contents,.frame_size = frame_size,
     .n_distinct = n_frames,
     .duration = gst_util_uint64_scale_int (GST_SECOND, 1, 30)

@@ -140,29 +140,17 @@ main (int argc, char **argv)
           &a, "Element and properties, launch syntax (default "
           "\"labsegment\")", entries, &argc, &argv))
     return 2;
-  if (!a.format) {
-    g_printerr ("labsegment-bench: need --format; see --help\n");
-    return 2;
-  }
   if (!a.launch)
     a.launch = g_strdup ("labsegment");
 
   GstVideoInfo info;
-  if (!bench_video_info ("labsegment-bench", a.format, a.width, a.height,
-          &info))
-    return 2;
-  if (colorimetry && !gst_video_colorimetry_from_string (&info.colorimetry,
-          colorimetry)) {
-    g_printerr ("labsegment-bench: unknown colorimetry %s\n", colorimetry);
-    return 2;
-  }
-  const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
-
   guint8 *data = NULL;
   guint n_distinct = 0;
-  if (!bench_read_frames ("labsegment-bench", a.input, frame_size, &data,
-          &n_distinct, &a.warmup))
-    return 1;
+  const int status = bench_load_frames ("labsegment-bench", &a, NULL,
+      colorimetry, &info, &data, &n_distinct);
+  if (status)
+    return status;
+  const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
 
   if (!bench_launch_ok ("labsegment-bench", a.launch))
     return 1;

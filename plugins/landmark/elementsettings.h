@@ -112,6 +112,19 @@ public:
         });
   }
 
+  /* The last property added may change only in this state or a lower
+   * one (e.g. GST_PARAM_MUTABLE_READY where it sets the caps). */
+  PropertyTable &mutable_in (guint mutability)
+  {
+    Spec spec = std::move (entries_.back ().spec);
+    entries_.back ().spec = [spec, mutability](GParamFlags f) {
+      return spec ((GParamFlags) ((f & ~(GST_PARAM_MUTABLE_PLAYING |
+                      GST_PARAM_MUTABLE_PAUSED | GST_PARAM_MUTABLE_READY)) |
+              mutability));
+    };
+    return *this;
+  }
+
   /* The properties of a part of the Settings (e.g. the camera's, shared by
    * several elements), in the order of the part's table. */
   template <typename Part>

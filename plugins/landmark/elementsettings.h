@@ -8,7 +8,10 @@
  * must not stop because a slider went wrong). */
 #pragma once
 
+#include <gst/base/gstbasetransform.h>
 #include <gst/gst.h>
+
+#include <exception>
 
 #include <functional>
 #include <mutex>
@@ -329,5 +332,46 @@ public:
 private:
   guint generation_ = G_MAXUINT;
 };
+
+/* The class set-up of an element that reads and writes metadata and
+ * passes any video through unchanged: ANY video caps on both pads. */
+inline void
+set_metadata_element_class (GstElementClass *klass, const char *longname,
+    const char *classification, const char *description)
+{
+  static GstStaticPadTemplate sink = GST_STATIC_PAD_TEMPLATE ("sink",
+      GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+  static GstStaticPadTemplate src = GST_STATIC_PAD_TEMPLATE ("src",
+      GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+  gst_element_class_set_static_metadata (klass, longname, classification,
+      description, "gst-landmark developers");
+  gst_element_class_add_static_pad_template (klass, &sink);
+  gst_element_class_add_static_pad_template (klass, &src);
+}
+
+/* Such an element works in place and never drops a late frame (frames
+ * are never dropped by our elements). */
+inline void
+init_metadata_element (GstBaseTransform *trans)
+{
+  gst_base_transform_set_in_place (trans, TRUE);
+  gst_base_transform_set_qos_enabled (trans, FALSE);
+}
+
+/* Runs a frame's work; an exception (e.g. from OpenCV) becomes an element
+ * ERROR with what failed, instead of unwinding into GStreamer's C. */
+template <typename Work>
+GstFlowReturn
+run_frame (GstElement *element, const char *what, Work work)
+{
+  try {
+    return work ();
+  }
+  catch (const std::exception &e) {
+    GST_ELEMENT_ERROR (element, STREAM, FAILED, ("%s", what),
+        ("%s", e.what ()));
+    return GST_FLOW_ERROR;
+  }
+}
 
 }  // namespace landmark

@@ -85,12 +85,6 @@ GST_DEBUG_CATEGORY_STATIC (gst_blob_roundness_debug);
 
 #define MAX_MORPHOLOGY 255
 
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
 /* *INDENT-OFF* */
 namespace {
 
@@ -243,10 +237,7 @@ static void
 gst_blob_roundness_init (GstBlobRoundness * self)
 {
   self->priv = new GstBlobRoundnessPrivate ();
-  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
-  gst_base_transform_set_in_place (trans, TRUE);
-  /* a measuring element never drops late frames */
-  gst_base_transform_set_qos_enabled (trans, FALSE);
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
 static void
@@ -568,26 +559,12 @@ gst_blob_roundness_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 
   gst_blob_roundness_sync_settings (self);
 
-  const GstStructure *labels = landmark_labels_meta_get (buf);
-  if (!labels) {
-    if (!st.warned_no_meta) {
-      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
-          ("No class labels on the video: blobroundness needs labsegment "
-              "upstream."),
-          ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
-              GST_LANDMARK_LABELS_META_NAME, buf));
-      st.warned_no_meta = true;
-    }
-    return GST_FLOW_OK;
-  }
-  try {
-    return gst_blob_roundness_process (self, buf, labels);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Blob measurement failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
+  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
+      buf, &st.warned_no_meta);
+  if (!labels)
+    return GST_FLOW_OK;         /* buffers pass unmeasured */
+  return landmark::run_frame (GST_ELEMENT (self), "Blob measurement failed.",
+      [&] { return gst_blob_roundness_process (self, buf, labels); });
 }
 
 static void
@@ -603,14 +580,11 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
       (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
           GST_PARAM_MUTABLE_PLAYING));
 
-  gst_element_class_set_static_metadata (element_class,
+  landmark::set_metadata_element_class (element_class,
       "Landmark blob roundness", "Filter/Analyzer/Video",
       "Finds the blobs of marker classes in the labels of labsegment, "
       "measures area, perimeter, roundness and a fitted ellipse, keeps the "
-      "round ones and attaches them as region-of-interest metadata",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "round ones and attaches them as region-of-interest metadata");
 
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);

@@ -76,12 +76,6 @@ GST_DEBUG_CATEGORY_STATIC (gst_floor_boundary_debug);
 
 #define MAX_BEARING_BINS 36000
 
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
 /* *INDENT-OFF* */
 namespace {
 
@@ -257,10 +251,7 @@ static void
 gst_floor_boundary_init (GstFloorBoundary * self)
 {
   self->priv = new GstFloorBoundaryPrivate ();
-  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
-  gst_base_transform_set_in_place (trans, TRUE);
-  /* a measuring element never drops late frames */
-  gst_base_transform_set_qos_enabled (trans, FALSE);
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
 static void
@@ -622,26 +613,12 @@ gst_floor_boundary_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   auto self = GST_FLOOR_BOUNDARY (trans);
   State & st = self->priv->state;
   gst_floor_boundary_sync_settings (self);
-  const GstStructure *labels = landmark_labels_meta_get (buf);
-  if (!labels) {
-    if (!st.warned_no_meta) {
-      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
-          ("No class labels on the video: floorboundary needs labsegment "
-              "upstream."),
-          ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
-              GST_LANDMARK_LABELS_META_NAME, buf));
-      st.warned_no_meta = true;
-    }
-    return GST_FLOW_OK;
-  }
-  try {
-    return gst_floor_boundary_process (self, buf, labels);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Floor boundary failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
+  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
+      buf, &st.warned_no_meta);
+  if (!labels)
+    return GST_FLOW_OK;         /* buffers pass unmeasured */
+  return landmark::run_frame (GST_ELEMENT (self), "Floor boundary failed.",
+      [&] { return gst_floor_boundary_process (self, buf, labels); });
 }
 
 static void
@@ -657,14 +634,11 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
       (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
           GST_PARAM_MUTABLE_PLAYING));
 
-  gst_element_class_set_static_metadata (element_class,
+  landmark::set_metadata_element_class (element_class,
       "Floor boundary", "Filter/Analyzer/Video",
       "Finds where the floor ends in every image column of labsegment's "
       "labels, maps it to the floor and attaches the radial obstacle "
-      "profile (free range per bearing) as metadata",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "profile (free range per bearing) as metadata");
 
   element_class->change_state =
       GST_DEBUG_FUNCPTR (gst_floor_boundary_change_state);

@@ -634,3 +634,18 @@ landmark_detections_collect (GstBuffer * buffer,
               GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE)))
     out->push_back ((GstVideoRegionOfInterestMeta *) meta);
 }
+
+const GstStructure *
+landmark_labels_or_warn (GstElement * element, GstBuffer * buf, bool *warned)
+{
+  const GstStructure *labels = landmark_labels_meta_get (buf);
+  if (!labels && !*warned) {
+    GST_ELEMENT_WARNING (element, STREAM, FORMAT,
+        ("No class labels on the video: %s needs labsegment upstream.",
+            GST_OBJECT_NAME (gst_element_get_factory (element))),
+        ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
+            GST_LANDMARK_LABELS_META_NAME, buf));
+    *warned = true;
+  }
+  return labels;
+}

@@ -180,6 +180,11 @@ void landmark_warn_map_classes_missing (GstElement * element,
     const std::vector<std::pair<std::string, std::string>> & map_classes,
     const char *consequence);
 
+/* The labels meta of buf; without one, posts one WARNING (while *warned
+ * is false) saying that element needs labsegment upstream. */
+const GstStructure *landmark_labels_or_warn (GstElement * element,
+    GstBuffer * buf, bool *warned);
+
 /* The region-of-interest metas of buffer, in its order (out is cleared
  * first; its storage is kept, so a reused vector does not allocate). */
 void landmark_detections_collect (GstBuffer * buffer,

@@ -226,6 +226,21 @@ private:
   guint generation_ = 0;
 };
 
+/* Defines TYPE_finalize (deleting the instance's priv) and TYPE_settings
+ * (its SharedSettings<Settings> priv->settings) for an element of this
+ * pattern; CAST is the element's instance cast macro. */
+#define LANDMARK_DEFINE_ELEMENT_PRIVATE(type_name, CAST)                     \
+  static void type_name##_finalize (GObject * object)                         \
+  {                                                                           \
+    delete CAST (object)->priv;                                               \
+    G_OBJECT_CLASS (type_name##_parent_class)->finalize (object);             \
+  }                                                                           \
+  static landmark::SharedSettings<Settings> &type_name##_settings (           \
+      GObject * object)                                                       \
+  {                                                                           \
+    return CAST (object)->priv->settings;                                     \
+  }
+
 /* Installs the table's properties and the set/get functions that read and
  * write them through shared (the element's SharedSettings). */
 template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
@@ -347,6 +362,24 @@ set_metadata_element_class (GstElementClass *klass, const char *longname,
       description, "gst-landmark developers");
   gst_element_class_add_static_pad_template (klass, &sink);
   gst_element_class_add_static_pad_template (klass, &src);
+}
+
+/* The class set-up of such an element: finalize, the properties of table
+ * (changeable while PLAYING unless the table says otherwise), its pads and
+ * description. */
+template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
+    const PropertyTable<Settings> &(*table) ()>
+void
+metadata_element_class_init (gpointer klass, void (*finalize) (GObject *),
+    const char *longname, const char *classification,
+    const char *description)
+{
+  G_OBJECT_CLASS (klass)->finalize = finalize;
+  install_properties<Settings, shared, table> (G_OBJECT_CLASS (klass),
+      (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+          GST_PARAM_MUTABLE_PLAYING));
+  set_metadata_element_class (GST_ELEMENT_CLASS (klass), longname,
+      classification, description);
 }
 
 /* Such an element works in place and never drops a late frame (frames

@@ -105,6 +105,7 @@ G_DEFINE_TYPE_WITH_CODE (GstBirdsEye, gst_birds_eye, GST_TYPE_VIDEO_FILTER,
         "Bird's-eye view of the floor"));
 GST_ELEMENT_REGISTER_DEFINE (birdseye, "birdseye", GST_RANK_NONE,
     GST_TYPE_BIRDS_EYE);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_birds_eye, GST_BIRDS_EYE);
 
 /* The output geometry of the settings. */
 static landmark::BirdsEyeParams
@@ -199,12 +200,6 @@ birds_eye_properties ()
   return table;
 }
 
-static landmark::SharedSettings<Settings> &
-birds_eye_settings (GObject * object)
-{
-  return GST_BIRDS_EYE (object)->priv->settings;
-}
-
 /* ---- GObject -------------------------------------------------------- */
 
 static void
@@ -212,13 +207,6 @@ gst_birds_eye_init (GstBirdsEye * self)
 {
   self->priv = new GstBirdsEyePrivate ();
   gst_base_transform_set_qos_enabled (GST_BASE_TRANSFORM (self), FALSE);
-}
-
-static void
-gst_birds_eye_finalize (GObject * object)
-{
-  delete GST_BIRDS_EYE (object)->priv;
-  G_OBJECT_CLASS (gst_birds_eye_parent_class)->finalize (object);
 }
 
 
@@ -355,7 +343,7 @@ gst_birds_eye_class_init (GstBirdsEyeClass * klass)
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
 
   gobject_class->finalize = gst_birds_eye_finalize;
-  landmark::install_properties<Settings, birds_eye_settings,
+  landmark::install_properties<Settings, gst_birds_eye_settings,
       birds_eye_properties> (gobject_class, (GParamFlags)
       (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
           GST_PARAM_MUTABLE_PLAYING));

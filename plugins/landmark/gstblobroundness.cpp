@@ -149,6 +149,7 @@ G_DEFINE_TYPE_WITH_CODE (GstBlobRoundness, gst_blob_roundness,
         "Landmark blob measurement"));
 GST_ELEMENT_REGISTER_DEFINE (blobroundness, "blobroundness", GST_RANK_NONE,
     GST_TYPE_BLOB_ROUNDNESS);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_blob_roundness, GST_BLOB_ROUNDNESS);
 
 GType
 gst_blob_roundness_shape_get_type (void)
@@ -225,12 +226,6 @@ blob_roundness_properties ()
   return table;
 }
 
-static landmark::SharedSettings<Settings> &
-blob_roundness_settings (GObject * object)
-{
-  return GST_BLOB_ROUNDNESS (object)->priv->settings;
-}
-
 /* ---- GObject -------------------------------------------------------- */
 
 static void
@@ -238,13 +233,6 @@ gst_blob_roundness_init (GstBlobRoundness * self)
 {
   self->priv = new GstBlobRoundnessPrivate ();
   landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
-
-static void
-gst_blob_roundness_finalize (GObject * object)
-{
-  delete GST_BLOB_ROUNDNESS (object)->priv;
-  G_OBJECT_CLASS (gst_blob_roundness_parent_class)->finalize (object);
 }
 
 
@@ -570,21 +558,13 @@ gst_blob_roundness_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 static void
 gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  gobject_class->finalize = gst_blob_roundness_finalize;
-  landmark::install_properties<Settings, blob_roundness_settings,
-      blob_roundness_properties> (gobject_class, (GParamFlags)
-      (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-          GST_PARAM_MUTABLE_PLAYING));
-
-  landmark::set_metadata_element_class (element_class,
+  landmark::metadata_element_class_init<Settings, gst_blob_roundness_settings,
+      blob_roundness_properties> (klass, gst_blob_roundness_finalize,
       "Landmark blob roundness", "Filter/Analyzer/Video",
       "Finds the blobs of marker classes in the labels of labsegment, "
       "measures area, perimeter, roundness and a fitted ellipse, keeps the "
       "round ones and attaches them as region-of-interest metadata");
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);

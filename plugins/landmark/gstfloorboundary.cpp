@@ -138,6 +138,7 @@ G_DEFINE_TYPE_WITH_CODE (GstFloorBoundary, gst_floor_boundary,
         "Floor boundary and radial obstacle profile"));
 GST_ELEMENT_REGISTER_DEFINE (floorboundary, "floorboundary", GST_RANK_NONE,
     GST_TYPE_FLOOR_BOUNDARY);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_floor_boundary, GST_FLOOR_BOUNDARY);
 
 GType
 gst_floor_boundary_markers_get_type (void)
@@ -239,12 +240,6 @@ floor_boundary_properties ()
   return table;
 }
 
-static landmark::SharedSettings<Settings> &
-floor_boundary_settings (GObject * object)
-{
-  return GST_FLOOR_BOUNDARY (object)->priv->settings;
-}
-
 /* ---- GObject -------------------------------------------------------- */
 
 static void
@@ -252,13 +247,6 @@ gst_floor_boundary_init (GstFloorBoundary * self)
 {
   self->priv = new GstFloorBoundaryPrivate ();
   landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
-
-static void
-gst_floor_boundary_finalize (GObject * object)
-{
-  delete GST_FLOOR_BOUNDARY (object)->priv;
-  G_OBJECT_CLASS (gst_floor_boundary_parent_class)->finalize (object);
 }
 
 
@@ -624,23 +612,15 @@ gst_floor_boundary_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 static void
 gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  gobject_class->finalize = gst_floor_boundary_finalize;
-  landmark::install_properties<Settings, floor_boundary_settings,
-      floor_boundary_properties> (gobject_class, (GParamFlags)
-      (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-          GST_PARAM_MUTABLE_PLAYING));
-
-  landmark::set_metadata_element_class (element_class,
+  landmark::metadata_element_class_init<Settings, gst_floor_boundary_settings,
+      floor_boundary_properties> (klass, gst_floor_boundary_finalize,
       "Floor boundary", "Filter/Analyzer/Video",
       "Finds where the floor ends in every image column of labsegment's "
       "labels, maps it to the floor and attaches the radial obstacle "
       "profile (free range per bearing) as metadata");
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  element_class->change_state =
+  GST_ELEMENT_CLASS (klass)->change_state =
       GST_DEBUG_FUNCPTR (gst_floor_boundary_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);

@@ -1,8 +1,9 @@
 """ipmrange on the synthetic range sweep: range and bearing against the
 exact truth (gstlandmark.evaluate), discs and balls from 0.3 to 4 m.
 
-Targets (issue 5): median range error <= 1 %, p95 <= 2 %, bearing median
-<= 0.3 degrees, with the pinhole model and the true camera."""
+Each band's median and p95 range error and median bearing error must stay
+within three times the figures docs/ranging.md gives for it (the sweep is
+rendered with a fixed seed, so they are this machine's figures too)."""
 
 import json
 import math
@@ -15,9 +16,6 @@ from gstlandmark import cli, evaluate as E, pipeline
 from gstlandmark.regress import read_jsonl
 
 MAX_RANGE = 4.0
-# distance bands reported and checked one by one, metres (upper bound
-# inclusive for the last)
-BANDS = ((0.3, 0.5), (0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0))
 
 
 @pytest.fixture(scope="module")
@@ -69,6 +67,60 @@ def errors(results, truth, kind):
     return rel, bearing, dist
 
 
+# docs/ranging.md, "Range sweep": per marker kind and method, per band
+# (and "all" 0.3-4 m): range error median and p95 (%), bearing error
+# median (degrees)
+DOCUMENTED = {
+    ("disc", "ground"): {
+        (0.3, 0.5): (0.01, 0.02, 0.002), (0.5, 1.0): (0.01, 0.03, 0.002),
+        (1.0, 2.0): (0.02, 0.04, 0.004), (2.0, 3.0): (0.03, 0.07, 0.005),
+        (3.0, 4.0): (0.08, 0.13, 0.012), "all": (0.02, 0.10, 0.004)},
+    ("disc", "size"): {
+        (0.3, 0.5): (0.08, 0.09, 0.002), (0.5, 1.0): (0.12, 0.24, 0.002),
+        (1.0, 2.0): (0.38, 0.55, 0.004), (2.0, 3.0): (0.72, 1.56, 0.005),
+        (3.0, 4.0): (2.29, 6.10, 0.012), "all": (0.24, 2.54, 0.004)},
+    ("disc", "fused"): {
+        (0.3, 0.5): (0.02, 0.03, 0.002), (0.5, 1.0): (0.01, 0.02, 0.002),
+        (1.0, 2.0): (0.02, 0.03, 0.004), (2.0, 3.0): (0.03, 0.08, 0.005),
+        (3.0, 4.0): (0.06, 0.10, 0.012), "all": (0.02, 0.07, 0.004)},
+    ("ball", "ground"): {
+        (0.3, 0.5): (0.07, 0.09, 0.010), (0.5, 1.0): (0.04, 0.13, 0.004),
+        (1.0, 2.0): (0.10, 0.16, 0.004), (2.0, 3.0): (0.15, 0.28, 0.005),
+        (3.0, 4.0): (0.19, 0.40, 0.005), "all": (0.10, 0.27, 0.005)},
+    ("ball", "size"): {
+        (0.3, 0.5): (0.13, 0.27, 0.010), (0.5, 1.0): (0.24, 0.42, 0.004),
+        (1.0, 2.0): (0.38, 0.64, 0.004), (2.0, 3.0): (0.54, 1.01, 0.005),
+        (3.0, 4.0): (1.05, 1.58, 0.005), "all": (0.35, 1.19, 0.005)},
+    ("ball", "fused"): {
+        (0.3, 0.5): (0.09, 0.15, 0.010), (0.5, 1.0): (0.13, 0.17, 0.004),
+        (1.0, 2.0): (0.14, 0.22, 0.004), (2.0, 3.0): (0.25, 0.34, 0.005),
+        (3.0, 4.0): (0.37, 0.56, 0.005), "all": (0.15, 0.43, 0.005)},
+}
+# how far a figure may grow before the test fails
+MARGIN = 3.0
+
+
+def check_bands(kind, method, rel, bearing, dist):
+    """Every band (and all of 0.3-4 m) within MARGIN times the documented
+    median and p95 range error and median bearing error."""
+    documented = DOCUMENTED[(kind, method)]
+    for band, (median, p95, bearing_median) in documented.items():
+        sel = (np.ones(dist.shape, bool) if band == "all"
+               else band_of(dist, *band))
+        if kind == "disc" and band == (0.3, 0.5):
+            assert sel.sum() >= 5      # 0.4 m only
+        else:
+            assert sel.sum() >= 8, band
+        got = (100 * np.median(rel[sel]), 100 * np.percentile(rel[sel], 95),
+               np.median(bearing[sel]))
+        print(f"  {band}: n={sel.sum()} median {got[0]:.3f}% p95 "
+              f"{got[1]:.3f}% bearing median {got[2]:.4f} deg (documented "
+              f"{median}% {p95}% {bearing_median} deg)")
+        assert got[0] <= MARGIN * median, (band, got)
+        assert got[1] <= MARGIN * p95, (band, got)
+        assert got[2] <= MARGIN * bearing_median, (band, got)
+
+
 def band_of(dist, lo, hi):
     return (dist >= lo - 1e-9) & ((dist < hi - 1e-9) if hi < MAX_RANGE
                                   else (dist <= hi + 1e-9))
@@ -80,32 +132,13 @@ def test_range_sweep_accuracy(gst, sweep, tmp_path, kind, method):
     results = range_run(gst, sweep, kind, method, tmp_path / "log.jsonl")
     truth = read_jsonl(str(sweep / "truth.jsonl"))
     rel, bearing, dist = errors(results, truth, kind)
-    print(f"\n{kind} {method}: n={rel.size} range median "
-          f"{100 * np.median(rel):.2f}% p95 "
-          f"{100 * np.percentile(rel, 95):.2f}% bearing median "
-          f"{np.median(bearing):.3f} deg p95 "
-          f"{np.percentile(bearing, 95):.3f} deg")
+    print(f"\n{kind} {method}: n={rel.size}")
     # every landmark not cut by the border is found, 0.3 (discs: 0.4) to
     # 4 m: 11 ranges x 5 bearings of discs, and the balls' too, less two
     # balls at 0.3 m cut by the side
     assert rel.size >= (55 if kind == "disc" else 58)
     assert dist.max() == pytest.approx(MAX_RANGE)
-    assert np.median(rel) <= 0.01
-    assert np.percentile(rel, 95) <= 0.02
-    assert np.median(bearing) <= 0.3
-    for lo, hi in BANDS:
-        sel = band_of(dist, lo, hi)
-        if kind == "disc" and hi <= 0.5:
-            assert sel.sum() >= 5      # 0.4 m only
-        else:
-            assert sel.sum() >= 8, (lo, hi)
-        print(f"  {lo}-{hi} m: n={sel.sum()} median "
-              f"{100 * np.median(rel[sel]):.2f}% p95 "
-              f"{100 * np.percentile(rel[sel], 95):.2f}% bearing median "
-              f"{np.median(bearing[sel]):.3f} deg")
-        assert np.median(rel[sel]) <= 0.01, (lo, hi)
-        assert np.percentile(rel[sel], 95) <= 0.02, (lo, hi)
-        assert np.median(bearing[sel]) <= 0.3, (lo, hi)
+    check_bands(kind, method, rel, bearing, dist)
     # every detection has a landmark-range, finite and non-negative
     for res in results:
         for det in res.get("detections", []):
@@ -124,17 +157,10 @@ def test_range_sweep_accuracy(gst, sweep, tmp_path, kind, method):
 def test_size_range_is_reported(gst, sweep, tmp_path, kind):
     results = range_run(gst, sweep, kind, "size", tmp_path / "log.jsonl")
     truth = read_jsonl(str(sweep / "truth.jsonl"))
-    rel, _, dist = errors(results, truth, kind)
-    print(f"\n{kind} size: n={rel.size} range median "
-          f"{100 * np.median(rel):.2f}% p95 "
-          f"{100 * np.percentile(rel, 95):.2f}%")
-    for lo, hi in BANDS:
-        sel = band_of(dist, lo, hi)
-        print(f"  {lo}-{hi} m: n={sel.sum()} median "
-              f"{100 * np.median(rel[sel]):.2f}% p95 "
-              f"{100 * np.percentile(rel[sel], 95):.2f}%")
-    assert rel.size >= 55
-    assert np.median(rel) <= 0.03
+    rel, bearing, dist = errors(results, truth, kind)
+    print(f"\n{kind} size: n={rel.size}")
+    assert rel.size >= (55 if kind == "disc" else 58)
+    check_bands(kind, "size", rel, bearing, dist)
     methods = {d["range"]["method"] for r in results
                for d in r.get("detections", []) if "range" in d}
     assert methods == {"size"}
@@ -421,8 +447,10 @@ def test_rendered_discs_at_random_floor_points(gst, tmp_path):
             continue
         got = by_class[lm["class"]]
         r = math.hypot(lm["x"], lm["y"])
+        # within three times the discs' documented p95 (0.10 %)
+        p95 = DOCUMENTED[("disc", "ground")]["all"][1] / 100
         assert math.hypot(got["ground-x"] - lm["x"],
-                          got["ground-y"] - lm["y"]) < 0.005 * r, lm
+                          got["ground-y"] - lm["y"]) < MARGIN * p95 * r, lm
 
 
 @pytest.mark.parametrize("seed", [3, 4])
@@ -468,7 +496,11 @@ def test_one_class_discs_and_balls_ranged_by_their_own_marker(gst, tmp_path,
         assert got["marker-height"] == lm["z"], got
         assert got["marker-diameter"] == lm["diameter"], got
         r = math.hypot(lm["x"], lm["y"])
+        # within three times the documented p95 of its kind (discs
+        # 0.10 %, balls 0.27 %)
+        p95 = DOCUMENTED[(lm["kind"], "ground")]["all"][1] / 100
         assert math.hypot(got["ground-x"] - lm["x"],
-                          got["ground-y"] - lm["y"]) < 0.01 * r, (t, got)
+                          got["ground-y"] - lm["y"]) < MARGIN * p95 * r, \
+            (t, got)
         checked += 1
     assert checked == len(whole)

@@ -66,36 +66,18 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
-#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "landmarkcv.h"
+#include "elementsettings.h"
+#include "frameformat.h"
 #include "landmarkmeta.h"
 #include "overlaydraw.h"
 #include "palette.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_landmark_overlay_debug);
 #define GST_CAT_DEFAULT gst_landmark_overlay_debug
-
-#define DEFAULT_SHOW TRUE
-#define DEFAULT_TEXT_SCALE 1.0
-
-enum
-{
-  PROP_0,
-  PROP_MAP,
-  PROP_SHOW_DETECTIONS,
-  PROP_SHOW_REJECTED,
-  PROP_SHOW_POSE,
-  PROP_SHOW_HISTOGRAM,
-  PROP_SHOW_INDICATORS,
-  PROP_SHOW_MINIMAP,
-  PROP_SHOW_BOUNDARY,
-  PROP_SHOW_FREE_SPACE,
-  PROP_TEXT_SCALE,
-};
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
     GST_PAD_SINK, GST_PAD_ALWAYS,
@@ -110,29 +92,34 @@ namespace {
 
 namespace ov = landmark::overlay;
 
-constexpr guint kMaxClasses = 64;
+using landmark::kMaxClasses;
 
-/* What the user sets; read by the streaming thread under the lock. */
+/* What the user sets (the initial values are the defaults). */
 struct Settings {
   std::string map;              /* empty: no map */
-  guint map_generation = 0;
-  gboolean show_detections = DEFAULT_SHOW;
-  gboolean show_rejected = DEFAULT_SHOW;
-  gboolean show_pose = DEFAULT_SHOW;
-  gboolean show_histogram = DEFAULT_SHOW;
-  gboolean show_indicators = DEFAULT_SHOW;
-  gboolean show_minimap = DEFAULT_SHOW;
-  gboolean show_boundary = DEFAULT_SHOW;
-  gboolean show_free_space = DEFAULT_SHOW;
-  gdouble text_scale = DEFAULT_TEXT_SCALE;
+  guint map_generation = 0;     /* sets of `map` */
+  gboolean show_detections = TRUE;
+  gboolean show_rejected = TRUE;
+  gboolean show_pose = TRUE;
+  gboolean show_histogram = TRUE;
+  gboolean show_indicators = TRUE;
+  gboolean show_minimap = TRUE;
+  gboolean show_boundary = TRUE;
+  gboolean show_free_space = TRUE;
+  gdouble text_scale = 1.0;
+};
+
+/* Every value the properties accept is valid; the map file is read apart
+ * (State::map). */
+struct Config {
+  Settings s;
 };
 
 /* Built in start() and set_info(), used by the streaming thread only. */
 struct State {
-  ov::LandmarkMap map;
+  landmark::AppliedSettings<Settings, Config> applied;
+  landmark::SettingsFile<ov::LandmarkMap> map;   /* path "": no map */
   ov::LandmarkMap no_map;       /* drawn without a pose: robot-centred */
-  bool has_map = false;
-  guint map_generation = 0;
 
   ov::Renderer renderer;
   ov::Target target;
@@ -149,11 +136,14 @@ struct State {
 
 }  // namespace
 
+struct GstLandmarkOverlayPrivate {
+  landmark::SharedSettings<Settings> settings;
+  State state;
+};
+
 struct _GstLandmarkOverlay {
   GstVideoFilter parent;
-  std::mutex *lock;    /* guards settings */
-  Settings *settings;
-  State *state;
+  GstLandmarkOverlayPrivate *priv;
 };
 /* *INDENT-ON* */
 
@@ -164,16 +154,88 @@ G_DEFINE_TYPE_WITH_CODE (GstLandmarkOverlay, gst_landmark_overlay,
 GST_ELEMENT_REGISTER_DEFINE (landmarkoverlay, "landmarkoverlay",
     GST_RANK_NONE, GST_TYPE_LANDMARK_OVERLAY);
 
+/* ---- configuration -------------------------------------------------- */
+
+static bool
+landmark_overlay_parse (const Settings & s, Config * cfg,
+    landmark::SettingsError *)
+{
+  cfg->s = s;
+  return true;
+}
+
+/* The map file; the empty path is no map. */
+static bool
+landmark_overlay_load_map (const std::string & path, ov::LandmarkMap * map,
+    std::string * why)
+{
+  return path.empty () || landmark::map_load_file (path, map, why);
+}
+
+static const landmark::PropertyTable<Settings> &
+landmark_overlay_properties ()
+{
+  static const auto table = landmark::PropertyTable<Settings> ()
+      .file ("map", "Map file",
+          "JSON landmark map (docs/conventions.md) for the mini-map; unset: "
+          "no mini-map", &Settings::map, &Settings::map_generation)
+      .boolean ("show-detections", "Show detections",
+          "Draw each detection: ellipse or box, class, roundness, range, "
+          "bearing and matched landmark", &Settings::show_detections)
+      .boolean ("show-rejected", "Show rejected blobs",
+          "Also draw blobs the filters rejected (landmark-blob kept=false), "
+          "dashed and grey", &Settings::show_rejected)
+      .boolean ("show-pose", "Show pose",
+          "Write the robot pose (x, y in metres, heading in degrees) at the "
+          "bottom left", &Settings::show_pose)
+      .boolean ("show-histogram", "Show histogram",
+          "Inset at the top left: pixels per class (log scale) with the "
+          "min-class-pixels threshold", &Settings::show_histogram)
+      .boolean ("show-indicators", "Show class indicators",
+          "One indicator per marker class, lit when the class is active",
+          &Settings::show_indicators)
+      .boolean ("show-minimap", "Show mini-map",
+          "Inset at the top right: the map, the robot pose and the range "
+          "circles (needs a pose meta and the map property), or the free "
+          "space alone", &Settings::show_minimap)
+      .boolean ("show-boundary", "Show floor boundary",
+          "The floor boundary of a floor meta across the image: red on "
+          "obstacles, cyan where the floor reaches max-range or the top "
+          "row", &Settings::show_boundary)
+      .boolean ("show-free-space", "Show free space",
+          "The floor meta's radial obstacle profile as a green polygon "
+          "around the robot in the mini-map (in the map frame with a pose, "
+          "robot-centred and forward up without one)",
+          &Settings::show_free_space)
+      .number ("text-scale", "Text scale",
+          "Factor on the automatic text size (which follows the frame "
+          "height)", &Settings::text_scale, 0.25, 8.0);
+  return table;
+}
+
+static landmark::SharedSettings<Settings> &
+landmark_overlay_settings (GObject * object)
+{
+  return GST_LANDMARK_OVERLAY (object)->priv->settings;
+}
+
+static void
+gst_landmark_overlay_map_changed (GstLandmarkOverlay * self)
+{
+  const auto & map = self->priv->state.map;
+  if (!map.path.empty ())
+    GST_INFO_OBJECT (self, "map %s: %zu landmarks", map.path.c_str (),
+        map.contents.landmarks.size ());
+}
+
 /* ---- GObject -------------------------------------------------------- */
 
 static void
 gst_landmark_overlay_init (GstLandmarkOverlay * self)
 {
-  self->lock = new std::mutex ();
-  self->settings = new Settings ();
-  self->state = new State ();
-  self->state->detections.reserve (64);
-  self->state->map_colours.reserve (64);
+  self->priv = new GstLandmarkOverlayPrivate ();
+  self->priv->state.detections.reserve (64);
+  self->priv->state.map_colours.reserve (64);
   gst_base_transform_set_in_place (GST_BASE_TRANSFORM (self), TRUE);
   /* an overlay of measurements never drops late frames */
   gst_base_transform_set_qos_enabled (GST_BASE_TRANSFORM (self), FALSE);
@@ -182,155 +244,25 @@ gst_landmark_overlay_init (GstLandmarkOverlay * self)
 static void
 gst_landmark_overlay_finalize (GObject * object)
 {
-  auto self = GST_LANDMARK_OVERLAY (object);
-  delete self->state;
-  delete self->settings;
-  delete self->lock;
+  delete GST_LANDMARK_OVERLAY (object)->priv;
   G_OBJECT_CLASS (gst_landmark_overlay_parent_class)->finalize (object);
 }
 
-static void
-gst_landmark_overlay_set_property (GObject * object, guint prop_id,
-    const GValue * value, GParamSpec * pspec)
-{
-  auto self = GST_LANDMARK_OVERLAY (object);
-  std::lock_guard<std::mutex> lk (*self->lock);
-  Settings & s = *self->settings;
-  switch (prop_id) {
-    case PROP_MAP:{
-      const gchar *path = g_value_get_string (value);
-      s.map = path ? path : "";
-      s.map_generation++;
-      break;
-    }
-    case PROP_SHOW_DETECTIONS:
-      s.show_detections = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_REJECTED:
-      s.show_rejected = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_POSE:
-      s.show_pose = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_HISTOGRAM:
-      s.show_histogram = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_INDICATORS:
-      s.show_indicators = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_MINIMAP:
-      s.show_minimap = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_BOUNDARY:
-      s.show_boundary = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_FREE_SPACE:
-      s.show_free_space = g_value_get_boolean (value);
-      break;
-    case PROP_TEXT_SCALE:
-      s.text_scale = g_value_get_double (value);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
-
-static void
-gst_landmark_overlay_get_property (GObject * object, guint prop_id,
-    GValue * value, GParamSpec * pspec)
-{
-  auto self = GST_LANDMARK_OVERLAY (object);
-  std::lock_guard<std::mutex> lk (*self->lock);
-  const Settings & s = *self->settings;
-  switch (prop_id) {
-    case PROP_MAP:
-      g_value_set_string (value, s.map.empty ()? nullptr : s.map.c_str ());
-      break;
-    case PROP_SHOW_DETECTIONS:
-      g_value_set_boolean (value, s.show_detections);
-      break;
-    case PROP_SHOW_REJECTED:
-      g_value_set_boolean (value, s.show_rejected);
-      break;
-    case PROP_SHOW_POSE:
-      g_value_set_boolean (value, s.show_pose);
-      break;
-    case PROP_SHOW_HISTOGRAM:
-      g_value_set_boolean (value, s.show_histogram);
-      break;
-    case PROP_SHOW_INDICATORS:
-      g_value_set_boolean (value, s.show_indicators);
-      break;
-    case PROP_SHOW_MINIMAP:
-      g_value_set_boolean (value, s.show_minimap);
-      break;
-    case PROP_SHOW_BOUNDARY:
-      g_value_set_boolean (value, s.show_boundary);
-      break;
-    case PROP_SHOW_FREE_SPACE:
-      g_value_set_boolean (value, s.show_free_space);
-      break;
-    case PROP_TEXT_SCALE:
-      g_value_set_double (value, s.text_scale);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
-
-/* ---- configuration -------------------------------------------------- */
-
-/* Loads the map named by the settings into the state. A bad file when
- * starting (fatal) posts an error and returns FALSE; one set while playing
- * posts a warning and the previous map stays, as in every element. */
-static gboolean
-gst_landmark_overlay_load_map (GstLandmarkOverlay * self,
-    const std::string & path, guint generation, gboolean fatal)
-{
-  State & st = *self->state;
-  if (path.empty ()) {
-    st.map.landmarks.clear ();
-    st.has_map = false;
-    st.map_generation = generation;
-    return TRUE;
-  }
-  ov::LandmarkMap map;
-  std::string why;
-  if (!landmark::map_load_file (path, &map, &why)) {
-    if (fatal) {
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Could not use map file \"%s\".", path.c_str ()),
-          ("%s", why.c_str ()));
-      return FALSE;
-    }
-    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-        ("Could not use map file \"%s\"; the previous map stays.",
-            path.c_str ()), ("%s", why.c_str ()));
-    st.map_generation = generation;
-    return TRUE;
-  }
-  st.map = std::move (map);
-  st.has_map = true;
-  st.map_generation = generation;
-  GST_INFO_OBJECT (self, "map %s: %zu landmarks", path.c_str (),
-      st.map.landmarks.size ());
-  return TRUE;
-}
+/* ---- states and caps ------------------------------------------------ */
 
 static gboolean
 gst_landmark_overlay_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
-  State & st = *self->state;
-  std::string path;
-  guint generation;
-  {
-    std::lock_guard<std::mutex> lk (*self->lock);
-    path = self->settings->map;
-    generation = self->settings->map_generation;
-  }
+  State & st = self->priv->state;
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
+          landmark_overlay_parse))
+    return FALSE;
+  const Settings & s = st.applied.config.s;
+  if (!st.map.start (GST_ELEMENT (self), "map", s.map, s.map_generation,
+          landmark_overlay_load_map))
+    return FALSE;
+  gst_landmark_overlay_map_changed (self);
   if (st.default_colours.empty ()) {
     for (const auto & c : landmark::palette_default ().classes) {
       double rgb[3];
@@ -342,14 +274,14 @@ gst_landmark_overlay_start (GstBaseTransform * trans)
       st.default_colours.emplace_back (c.name, col);
     }
   }
-  return gst_landmark_overlay_load_map (self, path, generation, TRUE);
+  return TRUE;
 }
 
 static gboolean
 gst_landmark_overlay_stop (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
-  self->state->renderer.configure (0, 0);
+  self->priv->state.renderer.configure (0, 0);
   return TRUE;
 }
 
@@ -358,7 +290,7 @@ gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
     GstVideoInfo * in_info, GstCaps * outcaps, GstVideoInfo * out_info)
 {
   auto self = GST_LANDMARK_OVERLAY (filter);
-  State & st = *self->state;
+  State & st = self->priv->state;
   (void) outcaps;
   (void) out_info;
 
@@ -453,7 +385,7 @@ static int
 gst_landmark_overlay_read_classes (State & st, const GstStructure * labels,
     ov::Histogram * hist)
 {
-  const guint n = MIN (landmark_labels_n_classes (labels), kMaxClasses);
+  const guint n = MIN (landmark_labels_n_classes (labels), (guint) kMaxClasses);
   for (guint k = 0; k < n; k++) {
     ov::ClassInfo & ci = st.classes[k];
     ci = ov::ClassInfo ();
@@ -501,7 +433,7 @@ static void
 gst_landmark_overlay_read_detections (GstLandmarkOverlay * self,
     GstBuffer * buf, int n_classes, int width, int height)
 {
-  State & st = *self->state;
+  State & st = self->priv->state;
   st.detections.clear ();
   gpointer iter = nullptr;
   GstMeta *meta;
@@ -642,36 +574,20 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
   GstVideoFilter *filter = GST_VIDEO_FILTER_CAST (self);
-  State & st = *self->state;
-
-  /* Snapshot the settings; copy the map path only when it changed, so the
-   * steady state allocates nothing here. */
-  Settings s;
-  std::string map_path;
-  bool reload = false;
-  {
-    std::lock_guard<std::mutex> lk (*self->lock);
-    const Settings & cur = *self->settings;
-    s.show_detections = cur.show_detections;
-    s.show_rejected = cur.show_rejected;
-    s.show_pose = cur.show_pose;
-    s.show_histogram = cur.show_histogram;
-    s.show_indicators = cur.show_indicators;
-    s.show_minimap = cur.show_minimap;
-    s.show_boundary = cur.show_boundary;
-    s.show_free_space = cur.show_free_space;
-    s.text_scale = cur.text_scale;
-    s.map_generation = cur.map_generation;
-    if (cur.map_generation != st.map_generation) {
-      map_path = cur.map;
-      reload = true;
-    }
-  }
+  State & st = self->priv->state;
 
   try {
-    if (reload && !gst_landmark_overlay_load_map (self, map_path,
-            s.map_generation, FALSE))
-      return GST_FLOW_ERROR;
+    /* the settings are copied only after a change, so the steady state
+     * allocates nothing here */
+    if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
+            landmark_overlay_parse)) {
+      const Settings & s = st.applied.config.s;
+      if (st.map.sync (GST_ELEMENT (self), "map", s.map, s.map_generation,
+              landmark_overlay_load_map))
+        gst_landmark_overlay_map_changed (self);
+    }
+    const Settings & s = st.applied.config.s;
+    const bool has_map = !st.map.path.empty ();
 
     /* what this frame has to show */
     const GstStructure *labels = landmark_labels_meta_get (buf);
@@ -694,7 +610,7 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
     const bool panel = labels && (s.show_histogram || s.show_indicators);
     /* the map needs a pose to be placed; the free space is drawn
      * robot-centred (forward up) without one */
-    const bool map_frame = has_pose && st.has_map;
+    const bool map_frame = has_pose && has_map;
     const bool minimap = s.show_minimap && (map_frame || free_space);
     const bool detections = s.show_detections && has_rois;
     const bool pose_text = s.show_pose && has_pose;
@@ -741,9 +657,9 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
       r.draw_class_panel (hist, s.show_histogram, s.show_indicators);
     if (minimap) {
       st.map_colours.clear ();
-      const bool with_map = st.has_map && has_pose;
+      const bool with_map = has_map && has_pose;
       if (with_map)
-        for (const auto & lm : st.map.landmarks)
+        for (const auto & lm : st.map.contents.landmarks)
           st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
                   n_classes, lm.class_name.c_str ()));
       ov::Pose where = pose;
@@ -751,7 +667,7 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         where = ov::Pose ();
         where.heading = M_PI / 2;
       }
-      r.draw_minimap (with_map ? st.map : st.no_map, st.map_colours.data (),
+      r.draw_minimap (with_map ? st.map.contents : st.no_map, st.map_colours.data (),
           where, st.detections.data (), (int) st.detections.size (),
           free_space ? &fa.floor : nullptr);
     }
@@ -780,55 +696,9 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
   const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
       G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
 
-  gobject_class->set_property = gst_landmark_overlay_set_property;
-  gobject_class->get_property = gst_landmark_overlay_get_property;
   gobject_class->finalize = gst_landmark_overlay_finalize;
-
-  g_object_class_install_property (gobject_class, PROP_MAP,
-      g_param_spec_string ("map", "Map file",
-          "JSON landmark map (docs/conventions.md) for the mini-map; unset: "
-          "no mini-map", nullptr, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_DETECTIONS,
-      g_param_spec_boolean ("show-detections", "Show detections",
-          "Draw each detection: ellipse or box, class, roundness, range, "
-          "bearing and matched landmark", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_REJECTED,
-      g_param_spec_boolean ("show-rejected", "Show rejected blobs",
-          "Also draw blobs the filters rejected (landmark-blob kept=false), "
-          "dashed and grey", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_POSE,
-      g_param_spec_boolean ("show-pose", "Show pose",
-          "Write the robot pose (x, y in metres, heading in degrees) at the "
-          "bottom left", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_HISTOGRAM,
-      g_param_spec_boolean ("show-histogram", "Show histogram",
-          "Inset at the top left: pixels per class (log scale) with the "
-          "min-class-pixels threshold", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_INDICATORS,
-      g_param_spec_boolean ("show-indicators", "Show class indicators",
-          "One indicator per marker class, lit when the class is active",
-          DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_MINIMAP,
-      g_param_spec_boolean ("show-minimap", "Show mini-map",
-          "Inset at the top right: the map, the robot pose and the range "
-          "circles (needs a pose meta and the map property), or the free "
-          "space alone", DEFAULT_SHOW,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_BOUNDARY,
-      g_param_spec_boolean ("show-boundary", "Show floor boundary",
-          "The floor boundary of a floor meta across the image: red on "
-          "obstacles, cyan where the floor reaches max-range or the top "
-          "row", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_FREE_SPACE,
-      g_param_spec_boolean ("show-free-space", "Show free space",
-          "The floor meta's radial obstacle profile as a green polygon "
-          "around the robot in the mini-map (in the map frame with a pose, "
-          "robot-centred and forward up without one)", DEFAULT_SHOW,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_TEXT_SCALE,
-      g_param_spec_double ("text-scale", "Text scale",
-          "Factor on the automatic text size (which follows the frame "
-          "height)", 0.25, 8.0, DEFAULT_TEXT_SCALE, flags));
+  landmark::install_properties<Settings, landmark_overlay_settings,
+      landmark_overlay_properties> (gobject_class, flags);
 
   gst_element_class_set_static_metadata (element_class,
       "Landmark overlay", "Filter/Effect/Video",

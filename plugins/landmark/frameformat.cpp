@@ -1,4 +1,4 @@
-#include "landmarkcv.h"
+#include "frameformat.h"
 
 gboolean
 landmark_frame_format (const GstVideoInfo * info, LandmarkFrameFormat * out)

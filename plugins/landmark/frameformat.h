@@ -1,5 +1,5 @@
-/* GStreamer <-> pixel helpers shared by the elements that read or draw
- * frames: how a negotiated format lays out its three colour components. */
+/* How a negotiated video format lays out the three colour components of a
+ * pixel, for the elements that read or draw frames (no OpenCV here). */
 #pragma once
 
 #include <gst/video/video.h>

@@ -43,7 +43,6 @@
 
 #include <array>
 #include <chrono>
-#include <exception>
 #include <string>
 #include <vector>
 
@@ -141,6 +140,7 @@ G_DEFINE_TYPE_WITH_CODE (GstLabSegment, gst_lab_segment,
         "CIE L*a*b* colour segmentation"));
 GST_ELEMENT_REGISTER_DEFINE (labsegment, "labsegment", GST_RANK_NONE,
     GST_TYPE_LAB_SEGMENT);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_lab_segment, GST_LAB_SEGMENT);
 
 GType
 gst_lab_segment_output_get_type (void)
@@ -224,12 +224,6 @@ lab_segment_properties ()
   return table;
 }
 
-static landmark::SharedSettings<Settings> &
-lab_segment_settings (GObject * object)
-{
-  return GST_LAB_SEGMENT (object)->priv->settings;
-}
-
 /* (Re)initialises v as an empty GstValueArray with room for n values. */
 static void
 value_array_init (GValue * v, guint n)
@@ -303,16 +297,7 @@ static void
 gst_lab_segment_init (GstLabSegment * self)
 {
   self->priv = new GstLabSegmentPrivate ();
-  gst_base_transform_set_in_place (GST_BASE_TRANSFORM (self), TRUE);
-  /* a measuring element never drops late frames */
-  gst_base_transform_set_qos_enabled (GST_BASE_TRANSFORM (self), FALSE);
-}
-
-static void
-gst_lab_segment_finalize (GObject * object)
-{
-  delete GST_LAB_SEGMENT (object)->priv;
-  G_OBJECT_CLASS (gst_lab_segment_parent_class)->finalize (object);
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
 /* ---- states and caps ------------------------------------------------ */
@@ -526,27 +511,24 @@ gst_lab_segment_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LAB_SEGMENT (trans);
   State & st = self->priv->state;
-  try {
-    /* the settings are copied only after a change, so the steady state
-     * allocates nothing here */
-    if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
-            lab_segment_parse)) {
-      const Settings & s = st.applied.config.s;
-      if (st.palette.sync (GST_ELEMENT (self), "palette", s.palette,
-              s.palette_generation, lab_segment_load_palette))
-        gst_lab_segment_palette_changed (self);
-    }
-    const Settings & s = st.applied.config.s;
-    if (!st.table_valid || st.table_max_distance != s.max_distance ||
-        st.table_use_lightness != s.use_lightness)
-      gst_lab_segment_build_table (self, s.max_distance, s.use_lightness);
-    return gst_lab_segment_process (self, buf, s);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Colour segmentation failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
+  return landmark::run_frame (GST_ELEMENT (self),
+      "Colour segmentation failed.", [&] {
+        /* the settings are copied only after a change, so the steady
+         * state allocates nothing here */
+        if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
+                lab_segment_parse)) {
+          const Settings & s = st.applied.config.s;
+          if (st.palette.sync (GST_ELEMENT (self), "palette", s.palette,
+                  s.palette_generation, lab_segment_load_palette))
+            gst_lab_segment_palette_changed (self);
+        }
+        const Settings & s = st.applied.config.s;
+        if (!st.table_valid || st.table_max_distance != s.max_distance ||
+            st.table_use_lightness != s.use_lightness)
+          gst_lab_segment_build_table (self, s.max_distance,
+              s.use_lightness);
+        return gst_lab_segment_process (self, buf, s);
+      });
 }
 
 static void
@@ -558,7 +540,7 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
 
   gobject_class->finalize = gst_lab_segment_finalize;
-  landmark::install_properties<Settings, lab_segment_settings,
+  landmark::install_properties<Settings, gst_lab_segment_settings,
       lab_segment_properties> (gobject_class,
       (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
           GST_PARAM_MUTABLE_PLAYING));

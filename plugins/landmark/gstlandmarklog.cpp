@@ -82,12 +82,6 @@ GST_DEBUG_CATEGORY_STATIC (gst_landmark_log_debug);
 /* Pending lines are handed to the file once they reach this size. */
 #define CHUNK_SIZE (64 * 1024)
 
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
 /* *INDENT-OFF* */
 namespace {
 
@@ -116,6 +110,8 @@ struct State {
   gint width = -1, height = -1;
   bool failed = false;        /* a write failed: error already posted */
   std::vector<GstVideoRegionOfInterestMeta *> rois;   /* reused */
+
+  ~State ();
 };
 
 }  // namespace
@@ -140,6 +136,7 @@ G_DEFINE_TYPE_WITH_CODE (GstLandmarkLog, gst_landmark_log,
         "Landmark metadata to JSON Lines"));
 GST_ELEMENT_REGISTER_DEFINE (landmarklog, "landmarklog", GST_RANK_NONE,
     GST_TYPE_LANDMARK_LOG);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_landmark_log, GST_LANDMARK_LOG);
 
 /* ---- JSON text ------------------------------------------------------ */
 
@@ -177,6 +174,18 @@ trim_partial_line (State & st, size_t done)
   const off_t cut = end - (off_t) (done - keep);
   if (ftruncate (st.fd, cut) == 0)
     lseek (st.fd, cut, SEEK_SET);
+}
+
+/* Hands every pending line to the file. Returns 0 or an errno value. */
+int write_pending (State & st);
+
+State::~State ()
+{
+  if (fd >= 0) {
+    /* stop() closes the file; this is only a safety net */
+    write_pending (*this);
+    close (fd);
+  }
 }
 
 /* Hands every pending line to the file. Returns 0 or an errno value. */
@@ -220,20 +229,6 @@ gst_landmark_log_init (GstLandmarkLog * self)
   gst_base_transform_set_qos_enabled (trans, FALSE);
 }
 
-static void
-gst_landmark_log_finalize (GObject * object)
-{
-  auto self = GST_LANDMARK_LOG (object);
-  State & st = self->priv->state;
-  if (st.fd >= 0) {
-    /* stop() closes the file; this is only a safety net */
-    write_pending (st);
-    close (st.fd);
-  }
-  delete self->priv;
-  G_OBJECT_CLASS (gst_landmark_log_parent_class)->finalize (object);
-}
-
 /* ---- configuration and file life ------------------------------------ */
 
 static bool
@@ -264,11 +259,6 @@ landmark_log_properties ()
   return table;
 }
 
-static landmark::SharedSettings<Settings> &
-landmark_log_settings (GObject * object)
-{
-  return GST_LANDMARK_LOG (object)->priv->settings;
-}
 
 static gboolean
 gst_landmark_log_start (GstBaseTransform * trans)
@@ -494,25 +484,16 @@ gst_landmark_log_change_state (GstElement * element,
 static void
 gst_landmark_log_class_init (GstLandmarkLogClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
   GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   landmark_json::init ();
 
-  gobject_class->finalize = gst_landmark_log_finalize;
-  landmark::install_properties<Settings, landmark_log_settings,
-      landmark_log_properties> (gobject_class,
-      (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-          GST_PARAM_MUTABLE_PLAYING));
-
-  gst_element_class_set_static_metadata (element_class,
+  landmark::metadata_element_class_init<Settings, gst_landmark_log_settings,
+      landmark_log_properties> (klass, gst_landmark_log_finalize,
       "Landmark metadata logger", "Filter/Analyzer/Video",
       "Writes the labels, detections and pose metadata of every buffer as "
-      "one JSON line per frame, passing the video through unchanged",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "one JSON line per frame, passing the video through unchanged");
 
   element_class->change_state =
       GST_DEBUG_FUNCPTR (gst_landmark_log_change_state);

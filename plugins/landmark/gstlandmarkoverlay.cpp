@@ -153,6 +153,7 @@ G_DEFINE_TYPE_WITH_CODE (GstLandmarkOverlay, gst_landmark_overlay,
         "Draws landmark detections, pose, class histogram and map"));
 GST_ELEMENT_REGISTER_DEFINE (landmarkoverlay, "landmarkoverlay",
     GST_RANK_NONE, GST_TYPE_LANDMARK_OVERLAY);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_landmark_overlay, GST_LANDMARK_OVERLAY);
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -213,12 +214,6 @@ landmark_overlay_properties ()
   return table;
 }
 
-static landmark::SharedSettings<Settings> &
-landmark_overlay_settings (GObject * object)
-{
-  return GST_LANDMARK_OVERLAY (object)->priv->settings;
-}
-
 static void
 gst_landmark_overlay_map_changed (GstLandmarkOverlay * self)
 {
@@ -236,16 +231,7 @@ gst_landmark_overlay_init (GstLandmarkOverlay * self)
   self->priv = new GstLandmarkOverlayPrivate ();
   self->priv->state.detections.reserve (64);
   self->priv->state.map_colours.reserve (64);
-  gst_base_transform_set_in_place (GST_BASE_TRANSFORM (self), TRUE);
-  /* an overlay of measurements never drops late frames */
-  gst_base_transform_set_qos_enabled (GST_BASE_TRANSFORM (self), FALSE);
-}
-
-static void
-gst_landmark_overlay_finalize (GObject * object)
-{
-  delete GST_LANDMARK_OVERLAY (object)->priv;
-  G_OBJECT_CLASS (gst_landmark_overlay_parent_class)->finalize (object);
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
 /* ---- states and caps ------------------------------------------------ */
@@ -697,7 +683,7 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
       G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
 
   gobject_class->finalize = gst_landmark_overlay_finalize;
-  landmark::install_properties<Settings, landmark_overlay_settings,
+  landmark::install_properties<Settings, gst_landmark_overlay_settings,
       landmark_overlay_properties> (gobject_class, flags);
 
   gst_element_class_set_static_metadata (element_class,

@@ -365,6 +365,16 @@ private:
   guint generation_ = G_MAXUINT;
 };
 
+/* The parse of an element every value of whose properties is valid: its
+ * Config is the Settings as set (member s). */
+template <typename Settings, typename Config>
+bool
+accept_settings (const Settings &s, Config *cfg, SettingsError *)
+{
+  cfg->s = s;
+  return true;
+}
+
 /* The streaming thread's view of the settings: the Config parsed from a
  * generation of them. parse is bool (const Settings &, Config *,
  * SettingsError *). */

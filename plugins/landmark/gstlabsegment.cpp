@@ -174,13 +174,6 @@ gst_lab_segment_rare_classes_get_type (void)
 
 /* ---- configuration -------------------------------------------------- */
 
-static bool
-lab_segment_parse (const Settings & s, Config * cfg, landmark::SettingsError *)
-{
-  cfg->s = s;
-  return true;
-}
-
 /* The palette file, or the built-in palette for the empty path. */
 static bool
 lab_segment_load_palette (const std::string & path,
@@ -308,7 +301,7 @@ gst_lab_segment_start (GstBaseTransform * trans)
   auto self = GST_LAB_SEGMENT (trans);
   State & st = self->priv->state;
   if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
-          lab_segment_parse))
+          landmark::accept_settings<Settings, Config>))
     return FALSE;
   const Settings & s = st.applied.config.s;
   if (!st.palette.start (GST_ELEMENT (self), "palette", s.palette,
@@ -516,7 +509,7 @@ gst_lab_segment_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         /* the settings are copied only after a change, so the steady
          * state allocates nothing here */
         if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
-                lab_segment_parse)) {
+                landmark::accept_settings<Settings, Config>)) {
           const Settings & s = st.applied.config.s;
           if (st.palette.sync (GST_ELEMENT (self), "palette", s.palette,
                   s.palette_generation, lab_segment_load_palette))

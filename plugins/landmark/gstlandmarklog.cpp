@@ -231,14 +231,6 @@ gst_landmark_log_init (GstLandmarkLog * self)
 
 /* ---- configuration and file life ------------------------------------ */
 
-static bool
-landmark_log_parse (const Settings & s, Config * cfg,
-    landmark::SettingsError *)
-{
-  cfg->s = s;
-  return true;
-}
-
 static const landmark::PropertyTable<Settings> &
 landmark_log_properties ()
 {
@@ -266,7 +258,7 @@ gst_landmark_log_start (GstBaseTransform * trans)
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
   if (!priv->applied.start (GST_ELEMENT (self), priv->settings,
-          landmark_log_parse))
+          landmark::accept_settings<Settings, Config>))
     return FALSE;
   const std::string & path = priv->applied.config.s.location;
   const gboolean append = priv->applied.config.s.append;
@@ -408,7 +400,8 @@ gst_landmark_log_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
-  priv->applied.sync (GST_ELEMENT (self), priv->settings, landmark_log_parse);
+  priv->applied.sync (GST_ELEMENT (self), priv->settings,
+      landmark::accept_settings<Settings, Config>);
   const guint flush_every = priv->applied.config.s.flush_every;
 
   int err = 0;

@@ -157,14 +157,6 @@ LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_landmark_overlay, GST_LANDMARK_OVERLAY);
 
 /* ---- configuration -------------------------------------------------- */
 
-static bool
-landmark_overlay_parse (const Settings & s, Config * cfg,
-    landmark::SettingsError *)
-{
-  cfg->s = s;
-  return true;
-}
-
 /* The map file; the empty path is no map. */
 static bool
 landmark_overlay_load_map (const std::string & path, ov::LandmarkMap * map,
@@ -242,7 +234,7 @@ gst_landmark_overlay_start (GstBaseTransform * trans)
   auto self = GST_LANDMARK_OVERLAY (trans);
   State & st = self->priv->state;
   if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
-          landmark_overlay_parse))
+          landmark::accept_settings<Settings, Config>))
     return FALSE;
   const Settings & s = st.applied.config.s;
   if (!st.map.start (GST_ELEMENT (self), "map", s.map, s.map_generation,
@@ -566,7 +558,7 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
     /* the settings are copied only after a change, so the steady state
      * allocates nothing here */
     if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
-            landmark_overlay_parse)) {
+            landmark::accept_settings<Settings, Config>)) {
       const Settings & s = st.applied.config.s;
       if (st.map.sync (GST_ELEMENT (self), "map", s.map, s.map_generation,
               landmark_overlay_load_map))

@@ -38,8 +38,25 @@ landmark_frame_format (const GstVideoInfo * info, LandmarkFrameFormat * out)
       break;
     }
     default:
+      GST_ERROR ("unsupported format %s", GST_VIDEO_INFO_NAME (info));
       return FALSE;
   }
   *out = f;
   return TRUE;
+}
+
+void
+landmark_set_pixel_element_class (GstElementClass * klass,
+    const char *longname, const char *classification, const char *description)
+{
+  static GstStaticPadTemplate sink = GST_STATIC_PAD_TEMPLATE ("sink",
+      GST_PAD_SINK, GST_PAD_ALWAYS,
+      GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
+  static GstStaticPadTemplate src = GST_STATIC_PAD_TEMPLATE ("src",
+      GST_PAD_SRC, GST_PAD_ALWAYS,
+      GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
+  gst_element_class_set_static_metadata (klass, longname, classification,
+      description, "gst-landmark developers");
+  gst_element_class_add_static_pad_template (klass, &sink);
+  gst_element_class_add_static_pad_template (klass, &src);
 }

@@ -19,7 +19,13 @@ struct LandmarkFrameFormat {
 };
 
 /* Describes a negotiated format; FALSE for formats outside
- * LANDMARK_VIDEO_FORMATS. YUV takes the caps' matrix (BT.601 when the
- * caps name none) and range. */
+ * LANDMARK_VIDEO_FORMATS (logged as an error). YUV takes the caps' matrix
+ * (BT.601 when the caps name none) and range. */
 gboolean landmark_frame_format (const GstVideoInfo * info,
     LandmarkFrameFormat * out);
+
+/* The class set-up of an element that reads or draws pixels: sink and src
+ * pads of LANDMARK_VIDEO_FORMATS, and its description. */
+void landmark_set_pixel_element_class (GstElementClass * klass,
+    const char *longname, const char *classification,
+    const char *description);

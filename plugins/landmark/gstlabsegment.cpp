@@ -56,14 +56,6 @@
 GST_DEBUG_CATEGORY_STATIC (gst_lab_segment_debug);
 #define GST_CAT_DEFAULT gst_lab_segment_debug
 
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
-
 /* *INDENT-OFF* */
 namespace {
 
@@ -336,11 +328,8 @@ gst_lab_segment_set_info (GstVideoFilter * filter, GstCaps * incaps,
   (void) out_info;
 
   LandmarkFrameFormat format;
-  if (!landmark_frame_format (in_info, &format)) {
-    GST_ERROR_OBJECT (self, "unsupported format %s",
-        GST_VIDEO_INFO_NAME (in_info));
+  if (!landmark_frame_format (in_info, &format))
     return FALSE;
-  }
   const landmark::FrameLayout layout = landmark::frame_layout (format);
   if (format.model != st.model || layout.order != st.layout.order)
     st.table_valid = false;
@@ -528,7 +517,6 @@ static void
 gst_lab_segment_class_init (GstLabSegmentClass * klass)
 {
   GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
 
@@ -538,13 +526,10 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
       (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
           GST_PARAM_MUTABLE_PLAYING));
 
-  gst_element_class_set_static_metadata (element_class,
+  landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass),
       "Lab colour segmentation", "Filter/Analyzer/Video",
       "Labels every pixel with its nearest palette colour in CIE L*a*b*, "
-      "with the dominant-colour rule, as buffer metadata",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "with the dominant-colour rule, as buffer metadata");
 
   trans_class->start = GST_DEBUG_FUNCPTR (gst_lab_segment_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_lab_segment_stop);

@@ -79,14 +79,6 @@
 GST_DEBUG_CATEGORY_STATIC (gst_landmark_overlay_debug);
 #define GST_CAT_DEFAULT gst_landmark_overlay_debug
 
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
-
 /* *INDENT-OFF* */
 namespace {
 
@@ -273,11 +265,8 @@ gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
   (void) out_info;
 
   LandmarkFrameFormat format;
-  if (!landmark_frame_format (in_info, &format)) {
-    GST_ERROR_OBJECT (self, "unsupported format %s",
-        GST_VIDEO_INFO_NAME (in_info));
+  if (!landmark_frame_format (in_info, &format))
     return FALSE;
-  }
   ov::Target t;
   t.kind = format.kind == LandmarkFrameFormat::Kind::I420 ?
       ov::Target::Kind::I420 : format.kind == LandmarkFrameFormat::Kind::NV12 ?
@@ -306,16 +295,6 @@ gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
 /* ---- reading the metadata ------------------------------------------- */
 
 namespace {
-
-const GValue *
-array_element (const GstStructure * s, const char *field, guint index)
-{
-  const GValue *array = gst_structure_get_value (s, field);
-  if (!array || !GST_VALUE_HOLDS_ARRAY (array) ||
-      index >= gst_value_array_get_size (array))
-    return nullptr;
-  return gst_value_array_get_value (array, index);
-}
 
 bool
 get_number (const GstStructure * s, const char *field, double *out)
@@ -368,13 +347,16 @@ gst_landmark_overlay_read_classes (State & st, const GstStructure * labels,
     ov::ClassInfo & ci = st.classes[k];
     ci = ov::ClassInfo ();
     ci.name = landmark_labels_class_name (labels, k);
-    const GValue *v = array_element (labels, LANDMARK_LABELS_CLASS_RGB, k);
+    const GValue *v = landmark_labels_class_value (labels,
+        LANDMARK_LABELS_CLASS_RGB, k);
     if (v && G_VALUE_HOLDS_UINT (v))
       ci.colour = rgb_from_uint (g_value_get_uint (v));
     ci.count = landmark_labels_class_count (labels, k);
-    v = array_element (labels, LANDMARK_LABELS_CLASS_ACTIVE, k);
+    v = landmark_labels_class_value (labels, LANDMARK_LABELS_CLASS_ACTIVE,
+        k);
     ci.active = v && G_VALUE_HOLDS_BOOLEAN (v) && g_value_get_boolean (v);
-    v = array_element (labels, LANDMARK_LABELS_CLASS_MARKERS, k);
+    v = landmark_labels_class_value (labels, LANDMARK_LABELS_CLASS_MARKERS,
+        k);
     ci.marker = !(v && G_VALUE_HOLDS_BOOLEAN (v)) || g_value_get_boolean (v);
   }
   hist->classes = st.classes.data ();
@@ -668,7 +650,6 @@ static void
 gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
 {
   GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
   const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
@@ -678,13 +659,10 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
   landmark::install_properties<Settings, gst_landmark_overlay_settings,
       landmark_overlay_properties> (gobject_class, flags);
 
-  gst_element_class_set_static_metadata (element_class,
+  landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass),
       "Landmark overlay", "Filter/Effect/Video",
       "Draws landmark detections, robot pose, class histogram, class "
-      "indicators and a mini-map of the landmark map onto the video",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "indicators and a mini-map of the landmark map onto the video");
 
   trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_overlay_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_overlay_stop);

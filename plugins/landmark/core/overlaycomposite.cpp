@@ -90,6 +90,20 @@ composite_packed (const cv::Mat & canvas, const cv::Rect & r,
   }
 }
 
+/* Adds a premultiplied canvas pixel to a chroma block's coverage and
+ * colour sums; false for a transparent pixel (nothing to blend). */
+inline bool
+add_to_block (const uint8_t * c, int *asum, int csum[3])
+{
+  if (c[3] == 0)
+    return false;
+  *asum += c[3];
+  csum[0] += c[0];
+  csum[1] += c[1];
+  csum[2] += c[2];
+  return true;
+}
+
 /* I420 and NV12: luma per pixel, chroma per 2x2 block from the block's
  * mean coverage and mean premultiplied colour. */
 void
@@ -116,12 +130,8 @@ composite_420 (const cv::Mat & canvas, const cv::Rect & r, const Target & t,
       for (int j = 0; j < rows; j++) {
         for (int i = 0; i < cols; i++) {
           const uint8_t *c = src[j] + 4 * (x + i);
-          if (c[3] == 0)
+          if (!add_to_block (c, &asum, csum))
             continue;
-          asum += c[3];
-          csum[0] += c[0];
-          csum[1] += c[1];
-          csum[2] += c[2];
           uint8_t *yp = yrow[j] + x + i;
           *yp = k.luma (*yp, c);
         }
@@ -151,12 +161,8 @@ composite_yuy2 (const cv::Mat & canvas, const cv::Rect & r,
       int csum[3] = { 0, 0, 0 };
       for (int i = 0; i < cols; i++) {
         const uint8_t *c = src + 4 * (x + i);
-        if (c[3] == 0)
+        if (!add_to_block (c, &asum, csum))
           continue;
-        asum += c[3];
-        csum[0] += c[0];
-        csum[1] += c[1];
-        csum[2] += c[2];
         mp[2 * i] = k.luma (mp[2 * i], c);
       }
       if (asum == 0)

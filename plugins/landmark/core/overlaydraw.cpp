@@ -24,6 +24,19 @@ clamp_point (cv::Point2d p)
       std::max (-kFar, std::min (kFar, p.y)));
 }
 
+/* Raises the coverage m of a pixel to cov (in pixels: 1 or more is full);
+ * true when the pixel is covered at all. */
+inline bool
+raise_coverage (uint8_t & m, double cov)
+{
+  if (cov <= 0)
+    return false;
+  const int v = cov >= 1 ? 255 : (int) (cov * 255 + 0.5);
+  if (v > m)
+    m = (uint8_t) v;
+  return true;
+}
+
 /* premultiplied "over" of colour c at coverage a (0..255) */
 inline void
 over (uint8_t * d, Rgb c, int a)
@@ -184,12 +197,7 @@ Renderer::cover_segment (cv::Point2d a, cv::Point2d b, double hw)
         py -= t * dy;
       }
       const double cov = reach - std::sqrt (px * px + py * py);
-      if (cov <= 0)
-        continue;
-      const int v = cov >= 1 ? 255 : (int) (cov * 255 + 0.5);
-      if (v > m[x])
-        m[x] = (uint8_t) v;
-      any = true;
+      any |= raise_coverage (m[x], cov);
     }
     if (any)
       cover_row (y, x0, x1);
@@ -243,12 +251,7 @@ Renderer::cover_disc (cv::Point2d c, double r, double inner)
         double cov = r + 0.5 - d;
         if (inner >= 0)
           cov = std::min (cov, d - inner + 0.5);
-        if (cov <= 0)
-          continue;
-        const int v = cov >= 1 ? 255 : (int) (cov * 255 + 0.5);
-        if (v > m[x])
-          m[x] = (uint8_t) v;
-        any = true;
+        any |= raise_coverage (m[x], cov);
       }
       if (any)
         cover_row (y, x0, x1);
@@ -290,12 +293,7 @@ Renderer::cover_convex (const cv::Point2d * p, int n)
         d = std::min (d, orient * ((x - q.x) * ey - (y - q.y) * ex) / -el);
       }
       const double cov = d + 0.5;
-      if (cov <= 0)
-        continue;
-      const int v = cov >= 1 ? 255 : (int) (cov * 255 + 0.5);
-      if (v > m[x])
-        m[x] = (uint8_t) v;
-      any = true;
+      any |= raise_coverage (m[x], cov);
     }
     if (any)
       cover_row (y, ix0, ix1);

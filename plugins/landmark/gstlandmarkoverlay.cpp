@@ -627,9 +627,9 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         where = ov::Pose ();
         where.heading = M_PI / 2;
       }
-      r.draw_minimap (with_map ? st.map.contents : st.no_map, st.map_colours.data (),
-          where, st.detections.data (), (int) st.detections.size (),
-          free_space ? &fa.floor : nullptr);
+      r.draw_minimap (with_map ? st.map.contents : st.no_map,
+          st.map_colours.data (), where, st.detections.data (),
+          (int) st.detections.size (), free_space ? &fa.floor : nullptr);
     }
     if (pose_text)
       r.draw_pose_text (pose);

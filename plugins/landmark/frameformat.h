@@ -24,6 +24,27 @@ struct LandmarkFrameFormat {
 gboolean landmark_frame_format (const GstVideoInfo * info,
     LandmarkFrameFormat * out);
 
+#ifdef __cplusplus
+#include <gst/video/gstvideofilter.h>
+
+/* The set_info of a GstVideoFilter that reads or draws pixels: describes
+ * the negotiated format and hands it, with the video info, to configure
+ * (which returns FALSE when it cannot work with them). */
+template <gboolean (*configure) (GstVideoFilter *, const LandmarkFrameFormat &,
+    const GstVideoInfo *)>
+gboolean
+landmark_pixel_set_info (GstVideoFilter * filter, GstCaps * incaps,
+    GstVideoInfo * in_info, GstCaps *, GstVideoInfo *)
+{
+  LandmarkFrameFormat format;
+  if (!landmark_frame_format (in_info, &format) ||
+      !configure (filter, format, in_info))
+    return FALSE;
+  GST_DEBUG_OBJECT (filter, "configured for %" GST_PTR_FORMAT, incaps);
+  return TRUE;
+}
+#endif
+
 /* The class set-up of an element that reads or draws pixels: sink and src
  * pads of LANDMARK_VIDEO_FORMATS, and its description. */
 void landmark_set_pixel_element_class (GstElementClass * klass,

@@ -319,17 +319,11 @@ gst_lab_segment_stop (GstBaseTransform * trans)
 }
 
 static gboolean
-gst_lab_segment_set_info (GstVideoFilter * filter, GstCaps * incaps,
-    GstVideoInfo * in_info, GstCaps * outcaps, GstVideoInfo * out_info)
+gst_lab_segment_configure (GstVideoFilter * filter,
+    const LandmarkFrameFormat & format, const GstVideoInfo * in_info)
 {
   auto self = GST_LAB_SEGMENT (filter);
   State & st = self->priv->state;
-  (void) outcaps;
-  (void) out_info;
-
-  LandmarkFrameFormat format;
-  if (!landmark_frame_format (in_info, &format))
-    return FALSE;
   const landmark::FrameLayout layout = landmark::frame_layout (format);
   if (format.model != st.model || layout.order != st.layout.order)
     st.table_valid = false;
@@ -358,7 +352,6 @@ gst_lab_segment_set_info (GstVideoFilter * filter, GstCaps * incaps,
     st.width = w;
     st.height = h;
   }
-  GST_DEBUG_OBJECT (self, "configured for %" GST_PTR_FORMAT, incaps);
   return TRUE;
 }
 
@@ -537,7 +530,8 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
    * mapped for writing only when output=labels, so analysing a shared
    * buffer (after a tee) does not copy it. */
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_lab_segment_transform_ip);
-  filter_class->set_info = GST_DEBUG_FUNCPTR (gst_lab_segment_set_info);
+  filter_class->set_info =
+      landmark_pixel_set_info<gst_lab_segment_configure>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_LAB_SEGMENT_OUTPUT,
       (GstPluginAPIFlags) 0);

@@ -256,17 +256,11 @@ gst_landmark_overlay_stop (GstBaseTransform * trans)
 }
 
 static gboolean
-gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
-    GstVideoInfo * in_info, GstCaps * outcaps, GstVideoInfo * out_info)
+gst_landmark_overlay_configure (GstVideoFilter * filter,
+    const LandmarkFrameFormat & format, const GstVideoInfo * in_info)
 {
   auto self = GST_LANDMARK_OVERLAY (filter);
   State & st = self->priv->state;
-  (void) outcaps;
-  (void) out_info;
-
-  LandmarkFrameFormat format;
-  if (!landmark_frame_format (in_info, &format))
-    return FALSE;
   ov::Target t;
   t.kind = format.kind == LandmarkFrameFormat::Kind::I420 ?
       ov::Target::Kind::I420 : format.kind == LandmarkFrameFormat::Kind::NV12 ?
@@ -288,7 +282,6 @@ gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
         e.what ());
     return FALSE;
   }
-  GST_DEBUG_OBJECT (self, "configured for %" GST_PTR_FORMAT, incaps);
   return TRUE;
 }
 
@@ -670,5 +663,6 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
    * mapped for writing only when there is something to draw. */
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_overlay_transform_ip);
-  filter_class->set_info = GST_DEBUG_FUNCPTR (gst_landmark_overlay_set_info);
+  filter_class->set_info =
+      landmark_pixel_set_info<gst_landmark_overlay_configure>;
 }

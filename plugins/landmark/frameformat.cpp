@@ -49,14 +49,13 @@ void
 landmark_set_pixel_element_class (GstElementClass * klass,
     const char *longname, const char *classification, const char *description)
 {
-  static GstStaticPadTemplate sink = GST_STATIC_PAD_TEMPLATE ("sink",
-      GST_PAD_SINK, GST_PAD_ALWAYS,
-      GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
-  static GstStaticPadTemplate src = GST_STATIC_PAD_TEMPLATE ("src",
-      GST_PAD_SRC, GST_PAD_ALWAYS,
-      GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
+  GstCaps *caps =
+      gst_caps_from_string (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS));
   gst_element_class_set_static_metadata (klass, longname, classification,
       description, "gst-landmark developers");
-  gst_element_class_add_static_pad_template (klass, &sink);
-  gst_element_class_add_static_pad_template (klass, &src);
+  gst_element_class_add_pad_template (klass,
+      gst_pad_template_new ("sink", GST_PAD_SINK, GST_PAD_ALWAYS, caps));
+  gst_element_class_add_pad_template (klass,
+      gst_pad_template_new ("src", GST_PAD_SRC, GST_PAD_ALWAYS, caps));
+  gst_caps_unref (caps);
 }

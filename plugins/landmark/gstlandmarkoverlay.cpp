@@ -529,114 +529,113 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   GstVideoFilter *filter = GST_VIDEO_FILTER_CAST (self);
   State & st = self->priv->state;
 
-  try {
-    /* the settings are copied only after a change, so the steady state
-     * allocates nothing here */
-    if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
-            landmark::accept_settings<Settings, Config>)) {
-      const Settings & s = st.applied.config.s;
-      if (st.map.sync (GST_ELEMENT (self), "map", s.map, s.map_generation,
-              landmark_overlay_load_map))
-        gst_landmark_overlay_map_changed (self);
-    }
-    const Settings & s = st.applied.config.s;
-    const bool has_map = !st.map.path.empty ();
+  const GstFlowReturn ret = landmark::run_frame (GST_ELEMENT (self),
+      "Drawing the overlay failed.", [&] {
+        /* the settings are copied only after a change, so the steady state
+         * allocates nothing here */
+        if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
+                landmark::accept_settings<Settings, Config>)) {
+          const Settings & s = st.applied.config.s;
+          if (st.map.sync (GST_ELEMENT (self), "map", s.map, s.map_generation,
+                  landmark_overlay_load_map))
+            gst_landmark_overlay_map_changed (self);
+        }
+        const Settings & s = st.applied.config.s;
+        const bool has_map = !st.map.path.empty ();
 
-    /* what this frame has to show */
-    const GstStructure *labels = landmark_labels_meta_get (buf);
-    const GstStructure *pose_s = landmark_pose_meta_get (buf);
-    ov::Pose pose;
-    const bool has_pose = pose_s && get_number (pose_s, "x", &pose.x) &&
-        get_number (pose_s, "y", &pose.y) &&
-        get_number (pose_s, "heading", &pose.heading);
-    const bool has_rois = gst_buffer_get_meta (buf,
-        GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE) != nullptr;
-    const GstStructure *floor_s = (s.show_boundary ||
-        (s.show_minimap && s.show_free_space)) ?
-        landmark_floor_meta_get (buf) : nullptr;
-    FloorArrays fa;
-    if (floor_s)
-      read_floor (floor_s, &fa);
-    const bool boundary = s.show_boundary && fa.floor.boundary_row;
-    const bool free_space = s.show_minimap && s.show_free_space &&
-        fa.floor.rop_range;
-    const bool panel = labels && (s.show_histogram || s.show_indicators);
-    /* the map needs a pose to be placed; the free space is drawn
-     * robot-centred (forward up) without one */
-    const bool map_frame = has_pose && has_map;
-    const bool minimap = s.show_minimap && (map_frame || free_space);
-    const bool detections = s.show_detections && has_rois;
-    const bool pose_text = s.show_pose && has_pose;
-    if (!panel && !minimap && !detections && !pose_text && !boundary)
-      return GST_FLOW_OK;
+        /* what this frame has to show */
+        const GstStructure *labels = landmark_labels_meta_get (buf);
+        const GstStructure *pose_s = landmark_pose_meta_get (buf);
+        ov::Pose pose;
+        const bool has_pose = pose_s && get_number (pose_s, "x", &pose.x) &&
+            get_number (pose_s, "y", &pose.y) &&
+            get_number (pose_s, "heading", &pose.heading);
+        const bool has_rois = gst_buffer_get_meta (buf,
+            GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE) != nullptr;
+        const GstStructure *floor_s = (s.show_boundary ||
+            (s.show_minimap && s.show_free_space)) ?
+            landmark_floor_meta_get (buf) : nullptr;
+        FloorArrays fa;
+        if (floor_s)
+          read_floor (floor_s, &fa);
+        const bool boundary = s.show_boundary && fa.floor.boundary_row;
+        const bool free_space = s.show_minimap && s.show_free_space &&
+            fa.floor.rop_range;
+        const bool panel = labels && (s.show_histogram || s.show_indicators);
+        /* the map needs a pose to be placed; the free space is drawn
+         * robot-centred (forward up) without one */
+        const bool map_frame = has_pose && has_map;
+        const bool minimap = s.show_minimap && (map_frame || free_space);
+        const bool detections = s.show_detections && has_rois;
+        const bool pose_text = s.show_pose && has_pose;
+        if (!panel && !minimap && !detections && !pose_text && !boundary)
+          return GST_FLOW_OK;
 
-    const int w = st.target.width, h = st.target.height;
-    ov::Histogram hist;
-    const int n_classes = labels ?
-        gst_landmark_overlay_read_classes (st, labels, &hist) : 0;
-    if (has_rois && (detections || minimap))
-      gst_landmark_overlay_read_detections (self, buf, n_classes, w, h);
-    else
-      st.detections.clear ();
+        const int w = st.target.width, h = st.target.height;
+        ov::Histogram hist;
+        const int n_classes = labels ?
+            gst_landmark_overlay_read_classes (st, labels, &hist) : 0;
+        if (has_rois && (detections || minimap))
+          gst_landmark_overlay_read_detections (self, buf, n_classes, w, h);
+        else
+          st.detections.clear ();
 
-    GstVideoFrame frame;
-    if (!gst_video_frame_map (&frame, &filter->in_info, buf,
-            GST_MAP_READWRITE)) {
-      GST_ELEMENT_ERROR (self, STREAM, FAILED,
-          ("Could not map video frame."), (nullptr));
-      return GST_FLOW_ERROR;
-    }
-    ov::Target t = st.target;
-    for (guint p = 0; p < GST_VIDEO_FRAME_N_PLANES (&frame) && p < 3; p++) {
-      t.data[p] = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (&frame, p);
-      t.stride[p] = GST_VIDEO_FRAME_PLANE_STRIDE (&frame, p);
-    }
+        GstVideoFrame frame;
+        if (!gst_video_frame_map (&frame, &filter->in_info, buf,
+                GST_MAP_READWRITE)) {
+          GST_ELEMENT_ERROR (self, STREAM, FAILED,
+              ("Could not map video frame."), (nullptr));
+          return GST_FLOW_ERROR;
+        }
+        ov::Target t = st.target;
+        for (guint p = 0; p < GST_VIDEO_FRAME_N_PLANES (&frame) && p < 3; p++) {
+          t.data[p] = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (&frame, p);
+          t.stride[p] = GST_VIDEO_FRAME_PLANE_STRIDE (&frame, p);
+        }
 
-    ov::Renderer & r = st.renderer;
-    r.begin_frame (s.text_scale);
-    if (detections) {
-      /* rejected blobs first, so kept ones are drawn over them */
-      if (s.show_rejected)
-        for (const auto & d : st.detections)
-          if (!d.kept)
-            r.draw_detection (d);
-      for (const auto & d : st.detections)
-        if (d.kept)
-          r.draw_detection (d);
-    }
-    if (boundary)
-      r.draw_boundary (fa.floor);
-    if (panel)
-      r.draw_class_panel (hist, s.show_histogram, s.show_indicators);
-    if (minimap) {
-      st.map_colours.clear ();
-      const bool with_map = has_map && has_pose;
-      if (with_map)
-        for (const auto & lm : st.map.contents.landmarks)
-          st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
-                  n_classes, lm.class_name.c_str ()));
-      ov::Pose where = pose;
-      if (!has_pose) {
-        where = ov::Pose ();
-        where.heading = M_PI / 2;
-      }
-      r.draw_minimap (with_map ? st.map.contents : st.no_map,
-          st.map_colours.data (), where, st.detections.data (),
-          (int) st.detections.size (), free_space ? &fa.floor : nullptr);
-    }
-    if (pose_text)
-      r.draw_pose_text (pose);
-    r.draw_labels ();
-    r.composite (t);
-    gst_video_frame_unmap (&frame);
-    return GST_FLOW_OK;
-  }
-  catch (const std::exception & e) {
+        ov::Renderer & r = st.renderer;
+        r.begin_frame (s.text_scale);
+        if (detections) {
+          /* rejected blobs first, so kept ones are drawn over them */
+          if (s.show_rejected)
+            for (const auto & d : st.detections)
+              if (!d.kept)
+                r.draw_detection (d);
+          for (const auto & d : st.detections)
+            if (d.kept)
+              r.draw_detection (d);
+        }
+        if (boundary)
+          r.draw_boundary (fa.floor);
+        if (panel)
+          r.draw_class_panel (hist, s.show_histogram, s.show_indicators);
+        if (minimap) {
+          st.map_colours.clear ();
+          const bool with_map = has_map && has_pose;
+          if (with_map)
+            for (const auto & lm : st.map.contents.landmarks)
+              st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
+                      n_classes, lm.class_name.c_str ()));
+          ov::Pose where = pose;
+          if (!has_pose) {
+            where = ov::Pose ();
+            where.heading = M_PI / 2;
+          }
+          r.draw_minimap (with_map ? st.map.contents : st.no_map,
+              st.map_colours.data (), where, st.detections.data (),
+              (int) st.detections.size (), free_space ? &fa.floor : nullptr);
+        }
+        if (pose_text)
+          r.draw_pose_text (pose);
+        r.draw_labels ();
+        r.composite (t);
+        gst_video_frame_unmap (&frame);
+        return GST_FLOW_OK;
+      });
+  /* a frame that failed half drawn leaves nothing on the canvas */
+  if (ret != GST_FLOW_OK)
     st.renderer.discard ();
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Drawing the overlay failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
+  return ret;
 }
 
 static void

@@ -332,24 +332,40 @@ count_in (const guint8 * mask, gint w, gint x0, gint y0, gint x1, gint y1)
 }
 
 /* Pixels of [x0, x1) x [y0, y1) whose decoded colour is within tol of c
- * in every channel. */
+ * in every channel: their number, and their mean x, y when asked. */
 static guint
-count_colour (const Layout * l, GstBuffer * buf, const guint8 c[3], gint tol,
-    gint x0, gint y0, gint x1, gint y1)
+colour_centroid (const Layout * l, GstBuffer * buf, const guint8 c[3],
+    gint tol, gint x0, gint y0, gint x1, gint y1, gdouble * mx, gdouble * my)
 {
   GstMapInfo map;
   guint n = 0;
+  gdouble sx = 0, sy = 0;
   gint x, y;
   gst_buffer_map (buf, &map, GST_MAP_READ);
   for (y = y0; y < y1; y++)
     for (x = x0; x < x1; x++) {
       guint8 p[3];
       get_rgb (l, map.data, x, y, p);
-      n += ABS (p[0] - c[0]) <= tol && ABS (p[1] - c[1]) <= tol &&
-          ABS (p[2] - c[2]) <= tol;
+      if (ABS (p[0] - c[0]) <= tol && ABS (p[1] - c[1]) <= tol &&
+          ABS (p[2] - c[2]) <= tol) {
+        n++;
+        sx += x;
+        sy += y;
+      }
     }
   gst_buffer_unmap (buf, &map);
+  if (mx && my) {
+    *mx = n ? sx / n : 0;
+    *my = n ? sy / n : 0;
+  }
   return n;
+}
+
+static guint
+count_colour (const Layout * l, GstBuffer * buf, const guint8 c[3], gint tol,
+    gint x0, gint y0, gint x1, gint y1)
+{
+  return colour_centroid (l, buf, c, tol, x0, y0, x1, y1, NULL, NULL);
 }
 
 /* ------------------------------------------------------------------ */
@@ -1430,33 +1446,6 @@ LANDMARK_TEST ("insets", test_floor_boundary)
 }
 
 GST_END_TEST;
-
-/* Mean x, y of the pixels of [x0, x1) x [y0, y1) within tol of c. */
-static guint
-colour_centroid (const Layout * l, GstBuffer * buf, const guint8 c[3],
-    gint tol, gint x0, gint y0, gint x1, gint y1, gdouble * mx, gdouble * my)
-{
-  GstMapInfo map;
-  guint n = 0;
-  gdouble sx = 0, sy = 0;
-  gint x, y;
-  gst_buffer_map (buf, &map, GST_MAP_READ);
-  for (y = y0; y < y1; y++)
-    for (x = x0; x < x1; x++) {
-      guint8 p[3];
-      get_rgb (l, map.data, x, y, p);
-      if (ABS (p[0] - c[0]) <= tol && ABS (p[1] - c[1]) <= tol &&
-          ABS (p[2] - c[2]) <= tol) {
-        n++;
-        sx += x;
-        sy += y;
-      }
-    }
-  gst_buffer_unmap (buf, &map);
-  *mx = n ? sx / n : 0;
-  *my = n ? sy / n : 0;
-  return n;
-}
 
 /* The free space: a wedge of +-30 degrees around straight ahead, an
  * obstacle 1 m away. Its green fill (translucent over grey) and its red

@@ -78,32 +78,20 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
-#include <map>
 #include <mutex>
 #include <string>
 #include <vector>
 
-#include "camerageometry.h"
+#include "cameraprops.h"
 #include "fileutil.h"
-#include "landmarkmap.h"
+#include "floorprofile.h"
 #include "landmarkmeta.h"
+#include "markerclasses.h"
 #include "markerevidence.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
 #define GST_CAT_DEFAULT gst_ipm_range_debug
 
-#define DEFAULT_MODEL GST_IPM_RANGE_MODEL_PINHOLE
-#define DEFAULT_CAMERA_HEIGHT 0.30
-#define DEFAULT_TILT 25.0
-#define DEFAULT_ROLL 0.0
-#define DEFAULT_HFOV 60.0
-#define DEFAULT_FX 0.0
-#define DEFAULT_FY 0.0
-#define DEFAULT_CX -1.0
-#define DEFAULT_CY -1.0
-#define DEFAULT_BLIND 0.0
-#define DEFAULT_DEPTH 0.0
-#define DEFAULT_HALF_WIDTH 0.0
 #define DEFAULT_MARKER_HEIGHT 0.0
 #define DEFAULT_MARKER_DIAMETER 0.0
 #define DEFAULT_MARKER_KIND GST_IPM_RANGE_MARKER_DISC
@@ -111,27 +99,11 @@ GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
 #define DEFAULT_PIXEL_SIGMA 0.5
 #define DEFAULT_CHECK_SIZE TRUE
 
-/* frame size assumed to check the geometry before caps are known */
-#define NOMINAL_WIDTH 640
-#define NOMINAL_HEIGHT 480
-
 enum
 {
   PROP_0,
-  PROP_MODEL,
-  PROP_CAMERA_HEIGHT,
-  PROP_TILT,
-  PROP_ROLL,
-  PROP_HFOV,
-  PROP_FX,
-  PROP_FY,
-  PROP_CX,
-  PROP_CY,
-  PROP_CALIBRATION,
-  PROP_BLIND_DISTANCE,
-  PROP_VIEW_DEPTH,
-  PROP_HALF_WIDTH,
-  PROP_MARKER_HEIGHT,
+  PROP_CAMERA_FIRST,            /* cameraprops.h: CAMERA_PROP_COUNT ids */
+  PROP_MARKER_HEIGHT = PROP_CAMERA_FIRST + CAMERA_PROP_COUNT,
   PROP_MARKER_DIAMETER,
   PROP_MARKER_KIND,
   PROP_MAP,
@@ -150,13 +122,7 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
 namespace {
 
 struct Settings {
-  GstIpmRangeModel model = DEFAULT_MODEL;
-  gdouble camera_height = DEFAULT_CAMERA_HEIGHT;
-  gdouble tilt = DEFAULT_TILT, roll = DEFAULT_ROLL, hfov = DEFAULT_HFOV;
-  gdouble fx = DEFAULT_FX, fy = DEFAULT_FY, cx = DEFAULT_CX, cy = DEFAULT_CY;
-  std::string calibration;
-  gdouble blind = DEFAULT_BLIND, depth = DEFAULT_DEPTH;
-  gdouble half_width = DEFAULT_HALF_WIDTH;
+  landmark::CameraSettings camera;
   gdouble marker_height = DEFAULT_MARKER_HEIGHT;
   gdouble marker_diameter = DEFAULT_MARKER_DIAMETER;
   GstIpmRangeMarkerKind marker_kind = DEFAULT_MARKER_KIND;
@@ -170,20 +136,8 @@ struct Settings {
 /* Settings checked, with the files read. */
 struct Config {
   Settings s;
-  /* intrinsics from the calibration file, for calib_w x calib_h (0: the
-   * frame's size) */
-  bool have_calibration = false;
-  double cal_fx = 0, cal_fy = 0, cal_cx = 0, cal_cy = 0;
-  std::vector<double> cal_dist;
-  int calib_w = 0, calib_h = 0;
-  bool calib_has_tilt = false;    /* tilt_deg came from the file */
-  landmark::MarkerSpec default_marker;
-  std::map<std::string, landmark::MarkerSpec> markers;   /* from the map */
-  std::vector<std::string> ambiguous;    /* map classes that disagree */
-  /* their distinct marker specs, one ranging hypothesis each */
-  std::map<std::string, std::vector<landmark::MarkerSpec>> hypotheses;
-  /* (class, id) of every map landmark, checked against the labels */
-  std::vector<std::pair<std::string, std::string>> map_classes;
+  landmark::CameraSetup camera;       /* the camera file merged */
+  landmark::MarkerClasses markers;    /* the map read */
 };
 
 struct State {
@@ -194,6 +148,7 @@ struct State {
   gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
   std::vector<double> outline;            /* size test scratch */
   bool map_classes_checked = false;       /* against the first labels */
+  bool config_fresh = false;  /* parsed at NULL -> READY, for start () */
 };
 
 }  // namespace
@@ -275,49 +230,6 @@ gst_ipm_range_marker_kind_get_type (void)
 
 /* ---- configuration -------------------------------------------------- */
 
-/* Camera parameters for a frame of width x height. */
-static bool
-ipm_range_camera_params (const Config & cfg, int width, int height,
-    landmark::CameraParams * p, const char **property, std::string * why)
-{
-  const Settings & s = cfg.s;
-  *p = landmark::CameraParams ();
-  p->width = width;
-  p->height = height;
-  p->camera_height = s.camera_height;
-  if (s.model == GST_IPM_RANGE_MODEL_SEED) {
-    p->model = landmark::CameraModel::Seed;
-    p->blind_distance = s.blind;
-    p->view_depth = s.depth;
-    p->half_width = s.half_width;
-    return true;
-  }
-  p->model = landmark::CameraModel::Pinhole;
-  p->tilt_deg = s.tilt;
-  p->roll_deg = s.roll;
-  if (cfg.have_calibration) {
-    const double kx = cfg.calib_w > 0 ? (double) width / cfg.calib_w : 1.0;
-    const double ky = cfg.calib_h > 0 ? (double) height / cfg.calib_h : 1.0;
-    p->fx = cfg.cal_fx * kx;
-    p->fy = cfg.cal_fy * ky;
-    p->cx = (cfg.cal_cx + 0.5) * kx - 0.5;
-    p->cy = (cfg.cal_cy + 0.5) * ky - 0.5;
-    p->dist = cfg.cal_dist;
-  } else if (s.fx > 0) {
-    p->fx = s.fx;
-    p->fy = s.fy > 0 ? s.fy : s.fx;
-    p->cx = s.cx >= 0 ? s.cx : (width - 1) / 2.0;
-    p->cy = s.cy >= 0 ? s.cy : (height - 1) / 2.0;
-  } else if (!landmark::intrinsics_from_hfov (s.hfov, width, height,
-          &p->fx, &p->fy, &p->cx, &p->cy)) {
-    *property = "hfov";
-    *why = "the horizontal field of view must be within (0, 180) degrees, "
-        "got " + std::to_string (s.hfov);
-    return false;
-  }
-  return true;
-}
-
 /* Checks the settings and reads the files; on failure returns FALSE with
  * the property's name and a message. */
 static gboolean
@@ -326,157 +238,25 @@ ipm_range_parse (const Settings & s, Config * cfg, const char **property,
 {
   *cfg = Config ();
   cfg->s = s;
-  /* A camera file wins for what it holds: its model (a seed file selects
-   * model=seed, a camera_matrix file model=pinhole), its intrinsics or seed
-   * lengths, and camera_height, tilt_deg, roll_deg when present; the
-   * properties give the rest. */
-  if (!s.calibration.empty ()) {
-    landmark::CameraFile f;
-    std::string err;
-    if (!landmark::load_camera_file (s.calibration, &f, &err)) {
-      *property = "calibration";
-      *why = err;
-      return FALSE;
-    }
-    Settings & m = cfg->s;
-    cfg->calib_w = f.image_width;
-    cfg->calib_h = f.image_height;
-    if (f.seed) {
-      m.model = GST_IPM_RANGE_MODEL_SEED;
-      m.camera_height = f.camera_height;
-      m.blind = f.blind_distance;
-      m.depth = f.view_depth;
-      m.half_width = f.half_width;
-    } else {
-      m.model = GST_IPM_RANGE_MODEL_PINHOLE;
-      cfg->have_calibration = true;
-      cfg->cal_fx = f.fx;
-      cfg->cal_fy = f.fy;
-      cfg->cal_cx = f.cx;
-      cfg->cal_cy = f.cy;
-      cfg->cal_dist = f.dist;
-      if (f.has_camera_height)
-        m.camera_height = f.camera_height;
-      if (f.has_tilt)
-        m.tilt = f.tilt_deg;
-      cfg->calib_has_tilt = f.has_tilt;
-      if (f.has_roll)
-        m.roll = f.roll_deg;
-    }
-  }
-  const Settings & e = cfg->s;    /* the effective settings */
-  if (!(e.camera_height > 0)) {
-    *property = "camera-height";
-    *why = "the camera height must be positive, got " +
-        std::to_string (e.camera_height);
+  /* the camera file wins for what it holds (floorprofile.h) */
+  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera, property,
+          why))
     return FALSE;
-  }
-  if (e.model == GST_IPM_RANGE_MODEL_PINHOLE) {
-    if (!(e.hfov > 0 && e.hfov < 180) && e.fx <= 0 && !cfg->have_calibration) {
-      *property = "hfov";
-      *why = "the horizontal field of view must be within (0, 180) degrees, "
-          "got " + std::to_string (e.hfov);
-      return FALSE;
-    }
-    if (!(e.tilt >= -90 && e.tilt <= 90)) {
-      *property = "tilt";
-      *why = "the tilt must be within [-90, 90] degrees, got " +
-          std::to_string (e.tilt);
-      return FALSE;
-    }
-  } else {
-    if (!(e.depth > 0)) {
-      *property = "view-depth";
-      *why = "model=seed needs view-depth > 0 (and blind-distance, "
-          "half-width), got " + std::to_string (e.depth);
-      return FALSE;
-    }
-    if (!(e.half_width > 0)) {
-      *property = "half-width";
-      *why = "model=seed needs half-width > 0, got " +
-          std::to_string (e.half_width);
-      return FALSE;
-    }
-  }
-  if (e.marker_height >= e.camera_height) {
+  const double camera_height = cfg->camera.e.camera_height;
+  if (s.marker_height >= camera_height) {
     *property = "marker-height";
     *why = "the marker centre must be below the camera (marker-height " +
-        std::to_string (s.marker_height) + " >= camera-height " +
-        std::to_string (e.camera_height) + ")";
+        landmark::number_text (s.marker_height) + " >= camera-height " +
+        landmark::number_text (camera_height) + ")";
     return FALSE;
   }
-  cfg->default_marker.z = s.marker_height;
-  cfg->default_marker.diameter = s.marker_diameter;
-  cfg->default_marker.ball = s.marker_kind == GST_IPM_RANGE_MARKER_BALL;
-
-  if (!s.map.empty ()) {
-    landmark::LandmarkMap map;
-    std::string err;
-    if (!landmark::map_load_file (s.map, &map, &err)) {
-      *property = "map";
-      *why = err;
-      return FALSE;
-    }
-    for (const auto & lm : map.landmarks) {
-      /* the same rule as marker-height: a marker plane at or above the
-       * camera is never seen from above */
-      if (lm.z >= e.camera_height) {
-        *property = "map";
-        *why = s.map + ": landmark \"" + lm.id + "\" (class " +
-            lm.class_name + ") has z " + landmark::number_text (lm.z) +
-            " m: a marker centre must be below the camera (camera-height " +
-            landmark::number_text (e.camera_height) + " m)";
-        return FALSE;
-      }
-      cfg->map_classes.push_back ({ lm.class_name, lm.id });
-      landmark::MarkerSpec m;
-      m.z = lm.z;
-      m.diameter = lm.diameter;
-      m.ball = lm.ball;
-      auto & specs = cfg->hypotheses[lm.class_name];
-      const bool known = std::any_of (specs.begin (), specs.end (),
-          [&](const landmark::MarkerSpec & o) {
-            return std::fabs (o.z - m.z) <= 1e-9
-                && std::fabs (o.diameter - m.diameter) <= 1e-9
-                && o.ball == m.ball;
-          });
-      if (!known)
-        specs.push_back (m);
-    }
-    for (auto it = cfg->hypotheses.begin (); it != cfg->hypotheses.end ();) {
-      if (it->second.size () == 1) {
-        cfg->markers[it->first] = it->second[0];
-        it = cfg->hypotheses.erase (it);
-      } else {
-        cfg->ambiguous.push_back (it->first);
-        ++it;
-      }
-    }
-  }
-
-  /* the geometry, at the calibration's or a nominal frame size */
-  landmark::CameraParams p;
-  const int w = cfg->calib_w > 0 ? cfg->calib_w : NOMINAL_WIDTH;
-  const int h = cfg->calib_h > 0 ? cfg->calib_h : NOMINAL_HEIGHT;
-  if (!ipm_range_camera_params (*cfg, w, h, &p, property, why))
-    return FALSE;
-  landmark::CameraGeometry g;
-  std::string err;
-  if (!g.configure (p, &err)) {
-    /* blame what set the geometry: the camera file when it holds the
-     * model or the tilt, otherwise the property */
-    const bool from_file = !s.calibration.empty () &&
-        (cfg->calib_has_tilt || e.model == GST_IPM_RANGE_MODEL_SEED);
-    *property = from_file ? "calibration" :
-        e.model == GST_IPM_RANGE_MODEL_SEED ? "model" : "tilt";
-    *why = err;
-    if (from_file)
-      *why = s.calibration + ": " + err + (cfg->calib_has_tilt ?
-          " (tilt_deg " + landmark::number_text (e.tilt) + ", camera_height " +
-          landmark::number_text (e.camera_height) + " m)" : std::string ());
-    else if (!s.calibration.empty ())
-      *why = err + " (tilt property with the intrinsics of " +
-          s.calibration + ")";
+  landmark::MarkerSpec marker;
+  marker.z = s.marker_height;
+  marker.diameter = s.marker_diameter;
+  marker.ball = s.marker_kind == GST_IPM_RANGE_MARKER_BALL;
+  if (!landmark::marker_classes_load (s.map, marker, camera_height,
+          &cfg->markers, why)) {
+    *property = "map";
     return FALSE;
   }
   return TRUE;
@@ -491,8 +271,8 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
   landmark::CameraParams p;
   const char *property = nullptr;
   std::string why;
-  if (ipm_range_camera_params (st.config, width, height, &p, &property,
-          &why)) {
+  if (landmark::camera_setup_params (st.config.camera, width, height, &p,
+          &property, &why)) {
     property = "tilt";
     if (st.geometry.configure (p, &why)) {
       st.geometry_w = width;
@@ -543,48 +323,11 @@ gst_ipm_range_set_property (GObject * object, guint prop_id,
   auto priv = GST_IPM_RANGE (object)->priv;
   std::lock_guard<std::mutex> lk (priv->lock);
   Settings & s = priv->settings;
+  if (camera_props_set (&s.camera, PROP_CAMERA_FIRST, prop_id, value)) {
+    s.generation++;
+    return;
+  }
   switch (prop_id) {
-    case PROP_MODEL:
-      s.model = (GstIpmRangeModel) g_value_get_enum (value);
-      break;
-    case PROP_CAMERA_HEIGHT:
-      s.camera_height = g_value_get_double (value);
-      break;
-    case PROP_TILT:
-      s.tilt = g_value_get_double (value);
-      break;
-    case PROP_ROLL:
-      s.roll = g_value_get_double (value);
-      break;
-    case PROP_HFOV:
-      s.hfov = g_value_get_double (value);
-      break;
-    case PROP_FX:
-      s.fx = g_value_get_double (value);
-      break;
-    case PROP_FY:
-      s.fy = g_value_get_double (value);
-      break;
-    case PROP_CX:
-      s.cx = g_value_get_double (value);
-      break;
-    case PROP_CY:
-      s.cy = g_value_get_double (value);
-      break;
-    case PROP_CALIBRATION:{
-      const gchar *v = g_value_get_string (value);
-      s.calibration = v ? v : "";
-      break;
-    }
-    case PROP_BLIND_DISTANCE:
-      s.blind = g_value_get_double (value);
-      break;
-    case PROP_VIEW_DEPTH:
-      s.depth = g_value_get_double (value);
-      break;
-    case PROP_HALF_WIDTH:
-      s.half_width = g_value_get_double (value);
-      break;
     case PROP_MARKER_HEIGHT:
       s.marker_height = g_value_get_double (value);
       break;
@@ -622,47 +365,9 @@ gst_ipm_range_get_property (GObject * object, guint prop_id,
   auto priv = GST_IPM_RANGE (object)->priv;
   std::lock_guard<std::mutex> lk (priv->lock);
   const Settings & s = priv->settings;
+  if (camera_props_get (s.camera, PROP_CAMERA_FIRST, prop_id, value))
+    return;
   switch (prop_id) {
-    case PROP_MODEL:
-      g_value_set_enum (value, s.model);
-      break;
-    case PROP_CAMERA_HEIGHT:
-      g_value_set_double (value, s.camera_height);
-      break;
-    case PROP_TILT:
-      g_value_set_double (value, s.tilt);
-      break;
-    case PROP_ROLL:
-      g_value_set_double (value, s.roll);
-      break;
-    case PROP_HFOV:
-      g_value_set_double (value, s.hfov);
-      break;
-    case PROP_FX:
-      g_value_set_double (value, s.fx);
-      break;
-    case PROP_FY:
-      g_value_set_double (value, s.fy);
-      break;
-    case PROP_CX:
-      g_value_set_double (value, s.cx);
-      break;
-    case PROP_CY:
-      g_value_set_double (value, s.cy);
-      break;
-    case PROP_CALIBRATION:
-      g_value_set_string (value, s.calibration.empty ()? nullptr :
-          s.calibration.c_str ());
-      break;
-    case PROP_BLIND_DISTANCE:
-      g_value_set_double (value, s.blind);
-      break;
-    case PROP_VIEW_DEPTH:
-      g_value_set_double (value, s.depth);
-      break;
-    case PROP_HALF_WIDTH:
-      g_value_set_double (value, s.half_width);
-      break;
     case PROP_MARKER_HEIGHT:
       g_value_set_double (value, s.marker_height);
       break;
@@ -717,13 +422,13 @@ gst_ipm_range_configure (GstIpmRange * self, gboolean fatal)
           ("%s", why.c_str ()));
     return FALSE;
   }
-  for (const auto & name : cfg.ambiguous)
+  for (const auto & h : cfg.markers.hypotheses)
     GST_INFO_OBJECT (self, "map %s: the '%s' landmarks differ in height, "
         "diameter or kind: each detection is ranged under every spec and the "
         "one whose ground and size ranges agree is kept", s.map.c_str (),
-        name.c_str ());
+        h.first.c_str ());
   const Config old = st.config;
-  if (cfg.map_classes != old.map_classes)
+  if (cfg.markers.map_classes != old.markers.map_classes)
     st.map_classes_checked = false;
   st.config = std::move (cfg);
   if (st.geometry_w > 0 && !gst_ipm_range_build (self, st.geometry_w,
@@ -744,20 +449,13 @@ gst_ipm_range_change_state (GstElement * element, GstStateChange transition)
 {
   auto self = GST_IPM_RANGE (element);
   if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
-    /* check the settings and files early: bad geometry fails READY */
-    Settings s;
-    {
-      std::lock_guard<std::mutex> lk (self->priv->lock);
-      s = self->priv->settings;
-    }
-    Config cfg;
-    const char *property = nullptr;
-    std::string why;
-    if (!ipm_range_parse (s, &cfg, &property, &why)) {
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+    /* check the settings and read the files once, here: bad geometry
+     * fails READY, and start () keeps what was read */
+    State & st = self->priv->state;
+    st.geometry_w = st.geometry_h = 0;
+    st.config_fresh = gst_ipm_range_configure (self, TRUE);
+    if (!st.config_fresh)
       return GST_STATE_CHANGE_FAILURE;
-    }
   }
   return GST_ELEMENT_CLASS (gst_ipm_range_parent_class)->change_state
       (element, transition);
@@ -771,7 +469,15 @@ gst_ipm_range_start (GstBaseTransform * trans)
   st.geometry_w = st.geometry_h = 0;
   st.caps_w = st.caps_h = 0;
   st.map_classes_checked = false;
-  return gst_ipm_range_configure (self, TRUE);
+  guint generation;
+  {
+    std::lock_guard<std::mutex> lk (self->priv->lock);
+    generation = self->priv->settings.generation;
+  }
+  const bool fresh = st.config_fresh && generation == st.generation;
+  st.config_fresh = false;
+  /* a later start (PAUSED -> READY -> PAUSED) reads the files again */
+  return fresh || gst_ipm_range_configure (self, TRUE);
 }
 
 static gboolean
@@ -779,6 +485,7 @@ gst_ipm_range_stop (GstBaseTransform * trans)
 {
   State & st = GST_IPM_RANGE (trans)->priv->state;
   st.geometry_w = st.geometry_h = 0;
+  st.config_fresh = false;
   return TRUE;
 }
 
@@ -915,18 +622,10 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   obs.sx = (double) st.geometry_w / fw;
   obs.sy = (double) st.geometry_h / fh;
 
-  landmark::MarkerSpec marker = cfg.default_marker;
-  const gchar *cls = g_quark_to_string (roi->roi_type);
   const std::vector<landmark::MarkerSpec> *hypotheses = nullptr;
-  if (cls) {
-    auto it = cfg.markers.find (cls);
-    if (it != cfg.markers.end ())
-      marker = it->second;
-    auto h = cfg.hypotheses.find (cls);
-    if (h != cfg.hypotheses.end ())
-      hypotheses = &h->second;
-  }
-  if (marker.z >= cfg.s.camera_height)
+  landmark::MarkerSpec marker = cfg.markers.spec (g_quark_to_string
+      (roi->roi_type), &hypotheses);
+  if (marker.z >= cfg.camera.e.camera_height)
     marker.z = 0;   /* cannot range it; treat as on the floor */
 
   landmark::RangeEstimate e;
@@ -1047,11 +746,11 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   /* A map class that the palette lacks is legal (a map may serve several
    * robots) but never matches: say so once, with the first labels. */
   const GstStructure *labels;
-  if (!st.map_classes_checked && !st.config.map_classes.empty ()
+  if (!st.map_classes_checked && !st.config.markers.map_classes.empty ()
       && (labels = landmark_labels_meta_get (buf))) {
     st.map_classes_checked = true;
     landmark_warn_map_classes_missing (GST_ELEMENT_CAST (self), labels,
-        st.config.s.map, st.config.map_classes,
+        st.config.s.map, st.config.markers.map_classes,
         "their heights and sizes are never used.");
   }
   try {
@@ -1086,64 +785,7 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
 
   const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
       G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-  g_object_class_install_property (gobject_class, PROP_MODEL,
-      g_param_spec_enum ("model", "Camera model",
-          "How pixels map to the floor", GST_TYPE_IPM_RANGE_MODEL,
-          DEFAULT_MODEL, flags));
-  g_object_class_install_property (gobject_class, PROP_CAMERA_HEIGHT,
-      g_param_spec_double ("camera-height", "Camera height",
-          "Height of the camera's optical centre above the floor, metres "
-          "(must be > 0)", 0.0, 1000.0, DEFAULT_CAMERA_HEIGHT, flags));
-  g_object_class_install_property (gobject_class, PROP_TILT,
-      g_param_spec_double ("tilt", "Tilt",
-          "model=pinhole: degrees below the horizontal",
-          -90.0, 90.0, DEFAULT_TILT, flags));
-  g_object_class_install_property (gobject_class, PROP_ROLL,
-      g_param_spec_double ("roll", "Roll",
-          "model=pinhole: degrees about the optical axis, clockwise as seen "
-          "from behind the camera", -360.0, 360.0, DEFAULT_ROLL, flags));
-  g_object_class_install_property (gobject_class, PROP_HFOV,
-      g_param_spec_double ("hfov", "Horizontal field of view",
-          "model=pinhole: degrees, (0, 180), principal point at the image "
-          "centre; unused when fx or calibration is set", 0.0, 180.0,
-          DEFAULT_HFOV, flags));
-  g_object_class_install_property (gobject_class, PROP_FX,
-      g_param_spec_double ("fx", "Focal length x",
-          "model=pinhole: pixels; 0: from hfov", 0.0, G_MAXDOUBLE,
-          DEFAULT_FX, flags));
-  g_object_class_install_property (gobject_class, PROP_FY,
-      g_param_spec_double ("fy", "Focal length y",
-          "model=pinhole: pixels; 0: as fx", 0.0, G_MAXDOUBLE, DEFAULT_FY,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_CX,
-      g_param_spec_double ("cx", "Principal point x",
-          "model=pinhole with fx: pixels; < 0: (width - 1) / 2", -1.0,
-          G_MAXDOUBLE, DEFAULT_CX, flags));
-  g_object_class_install_property (gobject_class, PROP_CY,
-      g_param_spec_double ("cy", "Principal point y",
-          "model=pinhole with fx: pixels; < 0: (height - 1) / 2", -1.0,
-          G_MAXDOUBLE, DEFAULT_CY, flags));
-  g_object_class_install_property (gobject_class, PROP_CALIBRATION,
-      g_param_spec_string ("calibration", "Calibration file",
-          "Camera file (OpenCV FileStorage YAML or XML, as gst-landmark "
-          "calibrate writes it): camera_matrix and distortion_coefficients "
-          "(model pinhole), or model: seed with its four lengths (model "
-          "seed); what the file holds (also camera_height, tilt_deg, "
-          "roll_deg) overrides the properties", nullptr, flags));
-  g_object_class_install_property (gobject_class, PROP_BLIND_DISTANCE,
-      g_param_spec_double ("blind-distance", "Blind distance",
-          "model=seed: metres along the floor from the camera's floor point "
-          "to the first visible floor point (b)", 0.0, 1000.0,
-          DEFAULT_BLIND, flags));
-  g_object_class_install_property (gobject_class, PROP_VIEW_DEPTH,
-      g_param_spec_double ("view-depth", "View depth",
-          "model=seed: metres of floor from the first visible point to the "
-          "point seen at the image centre line (d)", 0.0, 1000.0,
-          DEFAULT_DEPTH, flags));
-  g_object_class_install_property (gobject_class, PROP_HALF_WIDTH,
-      g_param_spec_double ("half-width", "Half width",
-          "model=seed: half-width of the visible floor at distance b + d, "
-          "metres (w)", 0.0, 1000.0, DEFAULT_HALF_WIDTH, flags));
+  camera_props_install (gobject_class, PROP_CAMERA_FIRST, flags);
   g_object_class_install_property (gobject_class, PROP_MARKER_HEIGHT,
       g_param_spec_double ("marker-height", "Marker height",
           "Height of the markers' centre above the floor, metres (a ball: "

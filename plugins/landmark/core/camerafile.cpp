@@ -333,6 +333,8 @@ struct XmlShape {
   static void fail (GMarkupParseContext * ctx, GError ** err, XmlShape * s,
       const std::string & what)
   {
+    if (!s->why.empty () || *err)
+      return;                   /* one error: the first */
     int line = 0;
     g_markup_parse_context_get_position (ctx, &line, nullptr);
     s->why = *s->path + ": line " + std::to_string (line) + ": " + what;
@@ -421,7 +423,7 @@ struct XmlShape {
     const std::string t (text, len);
     const bool declaration = t.rfind ("<?xml ", 0) == 0 && !s->root_seen;
     const bool comment = t.rfind ("<!--", 0) == 0;
-    if (!declaration && !comment) {
+    if (!declaration && !comment && s->why.empty () && !*err) {
       /* GMarkup's position is past it here: name it by its text */
       s->why = *s->path + ": `" + t.substr (0, 40) + "`: only the <?xml "
           "...?> declaration and comments may accompany <opencv_storage>";
@@ -546,6 +548,11 @@ shape_ok (const std::string & text, const std::string & path,
       *error = path + ": control characters in a camera file";
       return false;
     }
+  if (!g_utf8_validate (text.data (), (gssize) text.size (), nullptr)) {
+    /* GMarkup goes on after its own error on some of these */
+    *error = path + ": not UTF-8 text";
+    return false;
+  }
   if (text.rfind ("%YAML", 0) == 0)
     return YamlShape (path).check (text, error);
   if (text.rfind ("<?xml", 0) == 0)

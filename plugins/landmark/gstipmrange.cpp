@@ -77,12 +77,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
-#include <mutex>
 #include <string>
 #include <vector>
 
 #include "cameraprops.h"
+#include "elementsettings.h"
 #include "fileutil.h"
 #include "floorprofile.h"
 #include "landmarkmeta.h"
@@ -92,45 +91,19 @@
 GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
 #define GST_CAT_DEFAULT gst_ipm_range_debug
 
-#define DEFAULT_MARKER_HEIGHT 0.0
-#define DEFAULT_MARKER_DIAMETER 0.0
-#define DEFAULT_MARKER_KIND GST_IPM_RANGE_MARKER_DISC
-#define DEFAULT_METHOD GST_IPM_RANGE_METHOD_GROUND
-#define DEFAULT_PIXEL_SIGMA 0.5
-#define DEFAULT_CHECK_SIZE TRUE
-
-enum
-{
-  PROP_0,
-  PROP_CAMERA_FIRST,            /* cameraprops.h: CAMERA_PROP_COUNT ids */
-  PROP_MARKER_HEIGHT = PROP_CAMERA_FIRST + CAMERA_PROP_COUNT,
-  PROP_MARKER_DIAMETER,
-  PROP_MARKER_KIND,
-  PROP_MAP,
-  PROP_RANGE_METHOD,
-  PROP_PIXEL_SIGMA,
-  PROP_CHECK_SIZE,
-};
-
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
 /* *INDENT-OFF* */
 namespace {
 
+/* What the user sets (the initial values are the defaults). */
 struct Settings {
   landmark::CameraSettings camera;
-  gdouble marker_height = DEFAULT_MARKER_HEIGHT;
-  gdouble marker_diameter = DEFAULT_MARKER_DIAMETER;
-  GstIpmRangeMarkerKind marker_kind = DEFAULT_MARKER_KIND;
+  gdouble marker_height = 0.0;
+  gdouble marker_diameter = 0.0;
+  GstIpmRangeMarkerKind marker_kind = GST_IPM_RANGE_MARKER_DISC;
   std::string map;
-  GstIpmRangeMethod method = DEFAULT_METHOD;
-  gdouble pixel_sigma = DEFAULT_PIXEL_SIGMA;
-  gboolean check_size = DEFAULT_CHECK_SIZE;
-  guint generation = 0;
+  GstIpmRangeMethod method = GST_IPM_RANGE_METHOD_GROUND;
+  gdouble pixel_sigma = 0.5;
+  gboolean check_size = TRUE;
 };
 
 /* Settings checked, with the files read. */
@@ -141,21 +114,19 @@ struct Config {
 };
 
 struct State {
-  Config config;
-  guint generation = G_MAXUINT;
+  landmark::AppliedSettings<Settings, Config> applied;
   landmark::CameraGeometry geometry;
   gint geometry_w = 0, geometry_h = 0;    /* what geometry was built for */
   gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
   std::vector<double> outline;            /* size test scratch */
+  std::vector<GstVideoRegionOfInterestMeta *> rois;
   bool map_classes_checked = false;       /* against the first labels */
-  bool config_fresh = false;  /* parsed at NULL -> READY, for start () */
 };
 
 }  // namespace
 
 struct GstIpmRangePrivate {
-  std::mutex lock;              /* guards settings */
-  Settings settings;
+  landmark::SharedSettings<Settings> settings;
   State state;
 };
 
@@ -171,11 +142,11 @@ G_DEFINE_TYPE_WITH_CODE (GstIpmRange, gst_ipm_range,
         "Landmark range and bearing by inverse perspective mapping"));
 GST_ELEMENT_REGISTER_DEFINE (ipmrange, "ipmrange", GST_RANK_NONE,
     GST_TYPE_IPM_RANGE);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_ipm_range, GST_IPM_RANGE);
 
 GType
 gst_ipm_range_model_get_type (void)
 {
-  static GType type = 0;
   static const GEnumValue values[] = {
     {GST_IPM_RANGE_MODEL_PINHOLE, "Pinhole camera (OpenCV intrinsics, "
           "optional distortion), exact ray-floor intersection", "pinhole"},
@@ -183,17 +154,13 @@ gst_ipm_range_model_get_type (void)
           "camera-height, blind-distance, view-depth, half-width", "seed"},
     {0, nullptr, nullptr},
   };
-  if (g_once_init_enter (&type)) {
-    GType t = g_enum_register_static ("GstIpmRangeModel", values);
-    g_once_init_leave (&type, t);
-  }
+  static const GType type = g_enum_register_static ("GstIpmRangeModel", values);
   return type;
 }
 
 GType
 gst_ipm_range_method_get_type (void)
 {
-  static GType type = 0;
   static const GEnumValue values[] = {
     {GST_IPM_RANGE_METHOD_GROUND, "Where the ray meets the marker's plane",
         "ground"},
@@ -203,17 +170,13 @@ gst_ipm_range_method_get_type (void)
           "and size", "fused"},
     {0, nullptr, nullptr},
   };
-  if (g_once_init_enter (&type)) {
-    GType t = g_enum_register_static ("GstIpmRangeMethod", values);
-    g_once_init_leave (&type, t);
-  }
+  static const GType type = g_enum_register_static ("GstIpmRangeMethod", values);
   return type;
 }
 
 GType
 gst_ipm_range_marker_kind_get_type (void)
 {
-  static GType type = 0;
   static const GEnumValue values[] = {
     {GST_IPM_RANGE_MARKER_DISC, "A flat disc, centre at marker-height",
         "disc"},
@@ -221,45 +184,67 @@ gst_ipm_range_marker_kind_get_type (void)
           "radius when it rests on the floor)", "ball"},
     {0, nullptr, nullptr},
   };
-  if (g_once_init_enter (&type)) {
-    GType t = g_enum_register_static ("GstIpmRangeMarkerKind", values);
-    g_once_init_leave (&type, t);
-  }
+  static const GType type = g_enum_register_static ("GstIpmRangeMarkerKind", values);
   return type;
 }
 
 /* ---- configuration -------------------------------------------------- */
 
-/* Checks the settings and reads the files; on failure returns FALSE with
- * the property's name and a message. */
-static gboolean
-ipm_range_parse (const Settings & s, Config * cfg, const char **property,
-    std::string * why)
+/* Checks the settings and reads the files. */
+static bool
+ipm_range_parse (const Settings & s, Config * cfg,
+    landmark::SettingsError * err)
 {
   *cfg = Config ();
   cfg->s = s;
   /* the camera file wins for what it holds (floorprofile.h) */
-  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera, property,
-          why))
-    return FALSE;
+  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera,
+          &err->property, &err->why))
+    return false;
   const double camera_height = cfg->camera.e.camera_height;
-  if (s.marker_height >= camera_height) {
-    *property = "marker-height";
-    *why = "the marker centre must be below the camera (marker-height " +
-        landmark::number_text (s.marker_height) + " >= camera-height " +
-        landmark::number_text (camera_height) + ")";
-    return FALSE;
-  }
+  if (s.marker_height >= camera_height)
+    return err->fail ("marker-height", "the marker centre must be below the "
+        "camera (marker-height " + landmark::number_text (s.marker_height) +
+        " >= camera-height " + landmark::number_text (camera_height) + ")");
   landmark::MarkerSpec marker;
   marker.z = s.marker_height;
   marker.diameter = s.marker_diameter;
   marker.ball = s.marker_kind == GST_IPM_RANGE_MARKER_BALL;
-  if (!landmark::marker_classes_load (s.map, marker, camera_height,
-          &cfg->markers, why)) {
-    *property = "map";
-    return FALSE;
-  }
-  return TRUE;
+  err->property = "map";
+  return landmark::marker_classes_load (s.map, marker, camera_height,
+      &cfg->markers, &err->why);
+}
+
+static const landmark::PropertyTable<Settings> &
+ipm_range_properties ()
+{
+  static const auto table = landmark::PropertyTable<Settings> ()
+      .part (&Settings::camera, camera_properties ())
+      .number ("marker-height", "Marker height",
+          "Height of the markers' centre above the floor, metres (a ball: "
+          "its radius); the map's z overrides it per class",
+          &Settings::marker_height, 0.0, 1000.0)
+      .number ("marker-diameter", "Marker diameter",
+          "Diameter of the markers, metres, for the size range (0: "
+          "unknown); the map's diameter overrides it per class",
+          &Settings::marker_diameter, 0.0, 1000.0)
+      .enumeration ("marker-kind", "Marker kind",
+          "Shape of the markers; the map's kind overrides it per class",
+          &Settings::marker_kind, GST_TYPE_IPM_RANGE_MARKER_KIND)
+      .string ("map", "Map file",
+          "Landmark map JSON: z, diameter and kind of each class's "
+          "landmarks", &Settings::map)
+      .enumeration ("range-method", "Range method", "What range reports",
+          &Settings::method, GST_TYPE_IPM_RANGE_METHOD)
+      .number ("pixel-sigma", "Pixel sigma",
+          "One-sigma error of a measured image point, pixels, for "
+          "range-sigma, bearing-sigma and the fused weights",
+          &Settings::pixel_sigma, 0.0, 100.0)
+      .boolean ("check-size", "Check size",
+          "Reject a detection (kept=false, reject-reason=size) whose image "
+          "disagrees in size or aspect with a marker of known diameter at "
+          "its floor position", &Settings::check_size);
+  return table;
 }
 
 /* Builds the geometry for a frame size; posts an error on failure. */
@@ -271,7 +256,7 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
   landmark::CameraParams p;
   const char *property = nullptr;
   std::string why;
-  if (landmark::camera_setup_params (st.config.camera, width, height, &p,
+  if (landmark::camera_setup_params (st.applied.config.camera, width, height, &p,
           &property, &why)) {
     property = "tilt";
     if (st.geometry.configure (p, &why)) {
@@ -304,158 +289,63 @@ static void
 gst_ipm_range_init (GstIpmRange * self)
 {
   self->priv = new GstIpmRangePrivate ();
-  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
-  gst_base_transform_set_in_place (trans, TRUE);
-  gst_base_transform_set_qos_enabled (trans, FALSE);
-}
-
-static void
-gst_ipm_range_finalize (GObject * object)
-{
-  delete GST_IPM_RANGE (object)->priv;
-  G_OBJECT_CLASS (gst_ipm_range_parent_class)->finalize (object);
-}
-
-static void
-gst_ipm_range_set_property (GObject * object, guint prop_id,
-    const GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_IPM_RANGE (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  Settings & s = priv->settings;
-  if (camera_props_set (&s.camera, PROP_CAMERA_FIRST, prop_id, value)) {
-    s.generation++;
-    return;
-  }
-  switch (prop_id) {
-    case PROP_MARKER_HEIGHT:
-      s.marker_height = g_value_get_double (value);
-      break;
-    case PROP_MARKER_DIAMETER:
-      s.marker_diameter = g_value_get_double (value);
-      break;
-    case PROP_MARKER_KIND:
-      s.marker_kind = (GstIpmRangeMarkerKind) g_value_get_enum (value);
-      break;
-    case PROP_MAP:{
-      const gchar *v = g_value_get_string (value);
-      s.map = v ? v : "";
-      break;
-    }
-    case PROP_RANGE_METHOD:
-      s.method = (GstIpmRangeMethod) g_value_get_enum (value);
-      break;
-    case PROP_PIXEL_SIGMA:
-      s.pixel_sigma = g_value_get_double (value);
-      break;
-    case PROP_CHECK_SIZE:
-      s.check_size = g_value_get_boolean (value);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      return;
-  }
-  s.generation++;
-}
-
-static void
-gst_ipm_range_get_property (GObject * object, guint prop_id,
-    GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_IPM_RANGE (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  const Settings & s = priv->settings;
-  if (camera_props_get (s.camera, PROP_CAMERA_FIRST, prop_id, value))
-    return;
-  switch (prop_id) {
-    case PROP_MARKER_HEIGHT:
-      g_value_set_double (value, s.marker_height);
-      break;
-    case PROP_MARKER_DIAMETER:
-      g_value_set_double (value, s.marker_diameter);
-      break;
-    case PROP_MARKER_KIND:
-      g_value_set_enum (value, s.marker_kind);
-      break;
-    case PROP_MAP:
-      g_value_set_string (value, s.map.empty ()? nullptr : s.map.c_str ());
-      break;
-    case PROP_RANGE_METHOD:
-      g_value_set_enum (value, s.method);
-      break;
-    case PROP_PIXEL_SIGMA:
-      g_value_set_double (value, s.pixel_sigma);
-      break;
-    case PROP_CHECK_SIZE:
-      g_value_set_boolean (value, s.check_size);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
 /* ---- states and caps ------------------------------------------------ */
 
-/* Parses the current settings into the state; posts an error (fatal) or a
- * warning and keeps the previous configuration. */
-static gboolean
-gst_ipm_range_configure (GstIpmRange * self, gboolean fatal)
+/* Settings changed while playing: parsed, and the geometry rebuilt at the
+ * current size; a bad value (or a geometry that sees no floor) is a
+ * warning and the previous settings and geometry stay. */
+static void
+gst_ipm_range_sync_settings (GstIpmRange * self)
 {
   State & st = self->priv->state;
-  Settings s;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    s = self->priv->settings;
-  }
-  const char *property = nullptr;
-  std::string why;
-  Config cfg;
-  st.generation = s.generation;
-  if (!ipm_range_parse (s, &cfg, &property, &why)) {
-    if (fatal)
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
-    else
-      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value; the previous settings stay.", property),
-          ("%s", why.c_str ()));
-    return FALSE;
-  }
-  for (const auto & h : cfg.markers.hypotheses)
-    GST_INFO_OBJECT (self, "map %s: the '%s' landmarks differ in height, "
-        "diameter or kind: each detection is ranged under every spec and the "
-        "one whose ground and size ranges agree is kept", s.map.c_str (),
-        h.first.c_str ());
-  const Config old = st.config;
-  if (cfg.markers.map_classes != old.markers.map_classes)
+  landmark::CameraGeometry geometry;
+  bool classes_changed = false;
+  const gint w = st.geometry_w ? st.geometry_w : st.caps_w;
+  const gint h = st.geometry_w ? st.geometry_h : st.caps_h;
+  auto parse_and_build = [&](const Settings & s, Config * cfg,
+      landmark::SettingsError * err) {
+    landmark::CameraParams p;
+    if (!ipm_range_parse (s, cfg, err))
+      return false;
+    classes_changed = cfg->markers.map_classes !=
+        st.applied.config.markers.map_classes;
+    if (w < 2 || h < 2)
+      return true;
+    if (!landmark::camera_setup_params (cfg->camera, w, h, &p,
+            &err->property, &err->why))
+      return false;
+    err->property = cfg->camera.e.seed ? "model" : "tilt";
+    return geometry.configure (p, &err->why);
+  };
+  if (!st.applied.sync (GST_ELEMENT (self), self->priv->settings,
+          parse_and_build))
+    return;
+  if (classes_changed)
     st.map_classes_checked = false;
-  st.config = std::move (cfg);
-  if (st.geometry_w > 0 && !gst_ipm_range_build (self, st.geometry_w,
-          st.geometry_h, fatal)) {
-    /* keep the previous, working configuration */
-    if (!fatal) {
-      st.config = old;
-      gst_ipm_range_build (self, st.geometry_w ? st.geometry_w :
-          st.caps_w, st.geometry_h ? st.geometry_h : st.caps_h, FALSE);
-    }
-    return FALSE;
+  if (w >= 2 && h >= 2) {
+    st.geometry = std::move (geometry);
+    st.geometry_w = w;
+    st.geometry_h = h;
   }
-  return TRUE;
 }
 
 static GstStateChangeReturn
 gst_ipm_range_change_state (GstElement * element, GstStateChange transition)
 {
   auto self = GST_IPM_RANGE (element);
+  /* bad settings and files fail READY; the files are read here once */
   if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
-    /* check the settings and read the files once, here: bad geometry
-     * fails READY, and start () keeps what was read */
     State & st = self->priv->state;
-    st.geometry_w = st.geometry_h = 0;
-    st.config_fresh = gst_ipm_range_configure (self, TRUE);
-    if (!st.config_fresh)
+    if (!st.applied.start (element, self->priv->settings, ipm_range_parse))
       return GST_STATE_CHANGE_FAILURE;
+    for (const auto & h : st.applied.config.markers.hypotheses)
+      GST_INFO_OBJECT (self, "map %s: the '%s' landmarks differ in height, "
+          "diameter or kind: each detection is ranged under every spec and "
+          "the one whose ground and size ranges agree is kept",
+          st.applied.config.s.map.c_str (), h.first.c_str ());
   }
   return GST_ELEMENT_CLASS (gst_ipm_range_parent_class)->change_state
       (element, transition);
@@ -469,15 +359,7 @@ gst_ipm_range_start (GstBaseTransform * trans)
   st.geometry_w = st.geometry_h = 0;
   st.caps_w = st.caps_h = 0;
   st.map_classes_checked = false;
-  guint generation;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    generation = self->priv->settings.generation;
-  }
-  const bool fresh = st.config_fresh && generation == st.generation;
-  st.config_fresh = false;
-  /* a later start (PAUSED -> READY -> PAUSED) reads the files again */
-  return fresh || gst_ipm_range_configure (self, TRUE);
+  return TRUE;
 }
 
 static gboolean
@@ -485,7 +367,6 @@ gst_ipm_range_stop (GstBaseTransform * trans)
 {
   State & st = GST_IPM_RANGE (trans)->priv->state;
   st.geometry_w = st.geometry_h = 0;
-  st.config_fresh = false;
   return TRUE;
 }
 
@@ -570,7 +451,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     GstVideoRegionOfInterestMeta * roi)
 {
   State & st = self->priv->state;
-  const Config & cfg = st.config;
+  const Config & cfg = st.applied.config;
   const GstStructure *blob = landmark_detection_get_param (buf, roi,
       LANDMARK_BLOB_PARAMS);
 
@@ -733,100 +614,40 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_IPM_RANGE (trans);
   State & st = self->priv->state;
-  guint generation;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    generation = self->priv->settings.generation;
-  }
-  if (generation != st.generation) {
-    gst_ipm_range_configure (self, FALSE);
-    if (st.geometry_w == 0 && st.caps_w >= 2 && st.caps_h >= 2)
-      gst_ipm_range_build (self, st.caps_w, st.caps_h, FALSE);
-  }
+  gst_ipm_range_sync_settings (self);
+  if (st.geometry_w == 0 && st.caps_w >= 2 && st.caps_h >= 2)
+    gst_ipm_range_build (self, st.caps_w, st.caps_h, FALSE);
   /* A map class that the palette lacks is legal (a map may serve several
    * robots) but never matches: say so once, with the first labels. */
+  const Config & cfg = st.applied.config;
   const GstStructure *labels;
-  if (!st.map_classes_checked && !st.config.markers.map_classes.empty ()
+  if (!st.map_classes_checked && !cfg.markers.map_classes.empty ()
       && (labels = landmark_labels_meta_get (buf))) {
     st.map_classes_checked = true;
     landmark_warn_map_classes_missing (GST_ELEMENT_CAST (self), labels,
-        st.config.s.map, st.config.markers.map_classes,
+        cfg.s.map, cfg.markers.map_classes,
         "their heights and sizes are never used.");
   }
-  try {
-    /* collect first: adding parameters adds metas to the buffer */
-    std::vector<GstVideoRegionOfInterestMeta *> rois;
-    gpointer iter = nullptr;
-    GstMeta *meta;
-    while ((meta = gst_buffer_iterate_meta_filtered (buf, &iter,
-                GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE)))
-      rois.push_back ((GstVideoRegionOfInterestMeta *) meta);
-    for (GstVideoRegionOfInterestMeta * roi : rois)
-      gst_ipm_range_measure (self, buf, roi);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Ranging failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
-  return GST_FLOW_OK;
+  return landmark::run_frame (GST_ELEMENT (self), "Ranging failed.", [&] {
+        /* collect first: adding parameters adds metas to the buffer */
+        landmark_detections_collect (buf, &st.rois);
+        for (GstVideoRegionOfInterestMeta * roi : st.rois)
+          gst_ipm_range_measure (self, buf, roi);
+        return GST_FLOW_OK;
+      });
 }
 
 static void
 gst_ipm_range_class_init (GstIpmRangeClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  gobject_class->set_property = gst_ipm_range_set_property;
-  gobject_class->get_property = gst_ipm_range_get_property;
-  gobject_class->finalize = gst_ipm_range_finalize;
-
-  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
-      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-  camera_props_install (gobject_class, PROP_CAMERA_FIRST, flags);
-  g_object_class_install_property (gobject_class, PROP_MARKER_HEIGHT,
-      g_param_spec_double ("marker-height", "Marker height",
-          "Height of the markers' centre above the floor, metres (a ball: "
-          "its radius); the map's z overrides it per class", 0.0, 1000.0,
-          DEFAULT_MARKER_HEIGHT, flags));
-  g_object_class_install_property (gobject_class, PROP_MARKER_DIAMETER,
-      g_param_spec_double ("marker-diameter", "Marker diameter",
-          "Diameter of the markers, metres, for the size range (0: "
-          "unknown); the map's diameter overrides it per class", 0.0,
-          1000.0, DEFAULT_MARKER_DIAMETER, flags));
-  g_object_class_install_property (gobject_class, PROP_MARKER_KIND,
-      g_param_spec_enum ("marker-kind", "Marker kind",
-          "Shape of the markers; the map's kind overrides it per class",
-          GST_TYPE_IPM_RANGE_MARKER_KIND, DEFAULT_MARKER_KIND, flags));
-  g_object_class_install_property (gobject_class, PROP_MAP,
-      g_param_spec_string ("map", "Map file",
-          "Landmark map JSON: z, diameter and kind of each class's "
-          "landmarks", nullptr, flags));
-  g_object_class_install_property (gobject_class, PROP_RANGE_METHOD,
-      g_param_spec_enum ("range-method", "Range method",
-          "What range reports", GST_TYPE_IPM_RANGE_METHOD, DEFAULT_METHOD,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_PIXEL_SIGMA,
-      g_param_spec_double ("pixel-sigma", "Pixel sigma",
-          "One-sigma error of a measured image point, pixels, for "
-          "range-sigma, bearing-sigma and the fused weights", 0.0, 100.0,
-          DEFAULT_PIXEL_SIGMA, flags));
-  g_object_class_install_property (gobject_class, PROP_CHECK_SIZE,
-      g_param_spec_boolean ("check-size", "Check size",
-          "Reject a detection (kept=false, reject-reason=size) whose image "
-          "disagrees in size or aspect with a marker of known diameter at "
-          "its floor position", DEFAULT_CHECK_SIZE, flags));
-
-  gst_element_class_set_static_metadata (element_class,
+  landmark::metadata_element_class_init<Settings, gst_ipm_range_settings,
+      ipm_range_properties> (klass, gst_ipm_range_finalize,
       "Landmark range by inverse perspective mapping",
       "Filter/Analyzer/Video",
       "Adds range and bearing (robot frame) to every landmark detection, "
-      "from a pinhole or the seed's camera model and the markers' size",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "from a pinhole or the seed's camera model and the markers' size");
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   element_class->change_state = GST_DEBUG_FUNCPTR (gst_ipm_range_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_ipm_range_start);

@@ -4,9 +4,7 @@
  * OpenCV's FileStorage parsers loop forever, overflow the stack or throw
  * on some malformed files (tests/fuzz/regressions/calibration). They are
  * only handed text of the shape OpenCV itself writes: the whole file is
- * read once (size-limited), its structure checked here (YAML line by line,
- * XML with GMarkup, JSON with json-glib: top-level keys with numbers, words,
- * quoted strings, flat number lists or !!opencv-matrix entries), and only
+ * read once (size-limited), its shape checked (camerafileshape.h), and only
  * then parsed by cv::FileStorage from memory, in this process. No GStreamer
  * types. */
 #pragma once

@@ -154,7 +154,8 @@ gst_ipm_range_model_get_type (void)
           "camera-height, blind-distance, view-depth, half-width", "seed"},
     {0, nullptr, nullptr},
   };
-  static const GType type = g_enum_register_static ("GstIpmRangeModel", values);
+  static const GType type =
+      g_enum_register_static ("GstIpmRangeModel", values);
   return type;
 }
 
@@ -170,7 +171,8 @@ gst_ipm_range_method_get_type (void)
           "and size", "fused"},
     {0, nullptr, nullptr},
   };
-  static const GType type = g_enum_register_static ("GstIpmRangeMethod", values);
+  static const GType type =
+      g_enum_register_static ("GstIpmRangeMethod", values);
   return type;
 }
 
@@ -184,7 +186,8 @@ gst_ipm_range_marker_kind_get_type (void)
           "radius when it rests on the floor)", "ball"},
     {0, nullptr, nullptr},
   };
-  static const GType type = g_enum_register_static ("GstIpmRangeMarkerKind", values);
+  static const GType type =
+      g_enum_register_static ("GstIpmRangeMarkerKind", values);
   return type;
 }
 
@@ -256,8 +259,8 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
   landmark::CameraParams p;
   const char *property = nullptr;
   std::string why;
-  if (landmark::camera_setup_params (st.applied.config.camera, width, height, &p,
-          &property, &why)) {
+  if (landmark::camera_setup_params (st.applied.config.camera, width, height,
+          &p, &property, &why)) {
     property = "tilt";
     if (st.geometry.configure (p, &why)) {
       st.geometry_w = width;

@@ -43,7 +43,8 @@ test_opencv_written ()
       fs << "calibration_time" << "Wed 25 Nov 2026 15:00:00 UTC";
       fs << "nr_of_frames" << 12 << "image_width" << 640 << "image_height"
           << 480 << "square_size" << 0.025;
-      if (std::string (suffix) != ".json")   /* OpenCV's JSON comment is no JSON */
+      /* OpenCV writes a comment into JSON as // ..., which is no JSON */
+      if (std::string (suffix) != ".json")
         fs.writeComment ("flags: +fix_aspectRatio");
       fs << "camera_matrix" << cv::Mat (cv::Matx33d (500.25, 0, 320.5, 0,
               502, 240.125, 0, 0, 1));
@@ -148,8 +149,8 @@ test_refused ()
           "numbers or an opencv-matrix (rows, cols, dt, data), as OpenCV "
           "writes them" },
     { "<?xml version=\"1.0\"?>\n<!DOCTYPE x>\n<opencv_storage>\n"
-          "</opencv_storage>\n", path + ": `<!DOCTYPE x>`: only the <?xml ...?> "
-          "declaration and comments may accompany <opencv_storage>" },
+          "</opencv_storage>\n", path + ": `<!DOCTYPE x>`: only the "
+          "<?xml ...?> declaration and comments may accompany <opencv_storage>" },
     { "{ \"camera_matrix\": { \"rows\": 3 } }", path + ": camera_matrix: a "
           "camera file holds top-level keys with a number, a word, a quoted "
           "text, a list of numbers or an opencv-matrix (rows, cols, dt, "

@@ -247,8 +247,8 @@ load_camera_file (const std::string & path, CameraFile * out,
     *error = path + ": the calibration file is empty";
     return false;
   }
-  return camera_file_shape_ok (text, path, error) && read_values (path, text, out,
-      error);
+  return camera_file_shape_ok (text, path, error)
+      && read_values (path, text, out, error);
 }
 
 }  // namespace landmark

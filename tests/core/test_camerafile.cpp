@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -200,12 +202,130 @@ test_refused ()
       err == ".: is a directory, not a calibration file", "%s", err.c_str ());
 }
 
+/* Random files inside the accepted shape (keys, scalars, number lists and
+ * matrices of any declared size and type, odd spacing, comments, special
+ * numbers): each is handed to OpenCV, which must answer (load or refuse
+ * on the values) without hanging, crashing or throwing past the loader. */
+static std::mt19937 rng (7);
+
+static int
+pick (int n)
+{
+  return (int) (rng () % (unsigned) n);
+}
+
+static std::string
+random_number ()
+{
+  const char *special[] = { ".nan", "-.inf", "1e308", "-1e-308", "0", "-0.",
+    ".5", "1.", "+3", "1e999", "2147483647", "99999999999999999999"
+  };
+  if (pick (4) == 0)
+    return special[pick (12)];
+  return std::to_string (pick (2000001) / 1000.0 - 1000.0) +
+      (pick (3) ? "" : "e" + std::to_string (pick (41) - 20));
+}
+
+static std::string
+random_numbers (const char *sep, int n)
+{
+  std::string out;
+  for (int j = 0; j < n; j++)
+    out += (j ? sep : "") + random_number ();
+  return out;
+}
+
+static std::string
+random_file (int format)
+{
+  const char *keys[] = { "camera_matrix", "cameraMatrix",
+    "distortion_coefficients", "distCoeffs", "image_width", "image_height",
+    "camera_height", "tilt_deg", "roll_deg", "model", "blind_distance",
+    "view_depth", "half_width", "image_points", "calibration_time"
+  };
+  const char *scalars[] = { "seed", "pinhole", "fisheye", "\"a b: [c]\"",
+    "7", "-3", "0.25"
+  };
+  const char *counts[] = { "0", "1", "3", "5", "14", "100000", "999999999" };
+  const char *dts[] = { "d", "f", "i", "u", "\"2f\"", "\"3d\"", "c", "w" };
+  std::string text = format == 0 ? "%YAML:1.0\n---\n# a comment\n" :
+      format == 1 ? "<?xml version=\"1.0\"?>\n<opencv_storage>\n" : "{\n";
+  std::set<std::string> used;
+  for (int i = 0, n = 1 + pick (8); i < n; i++) {
+    const std::string key = keys[pick (15)];
+    if (!used.insert (key).second)
+      continue;
+    const int kind = pick (3), items = pick (16);
+    const std::string rows = counts[pick (7)], cols = counts[pick (7)];
+    const std::string dt = dts[pick (format == 2 ? 2 : 8)];
+    std::string v;
+    if (format == 0) {
+      const std::string list = "[ " + random_numbers (",\n      ", items) +
+          " ]";
+      v = kind == 0 ? std::string (scalars[pick (7)]) : kind == 1 ? list :
+          "!!opencv-matrix\n   rows: " + rows + "\n   cols: " + cols +
+          "\n   dt: " + dt + "\n   data: " + list;
+      text += key + ": " + v + "\n";
+    } else if (format == 1) {
+      v = kind == 0 ? std::string (scalars[pick (7)]) : kind == 1 ?
+          random_numbers ("\n  ", items) : "\n  <rows>" + rows +
+          "</rows><cols>" + cols + "</cols><dt>" + dt + "</dt><data>" +
+          random_numbers (" ", items) + "</data>";
+      text += "<" + key + (kind == 2 ? " type_id=\"opencv-matrix\">" : ">")
+          + v + "</" + key + ">\n";
+    } else {
+      /* JSON numbers: no .nan, no leading + or . */
+      std::string list = "[";
+      for (int j = 0; j < items; j++)
+        list += std::string (j ? ", " : "") + std::to_string (pick (2001) -
+            1000) + "." + std::to_string (pick (1000));
+      v = kind == 0 ? std::string ("\"seed\"") : kind == 1 ? list + "]" :
+          "{ \"type_id\": \"opencv-matrix\", \"rows\": " + rows +
+          ", \"cols\": " + cols + ", \"dt\": " + (dt[0] == '"' ? dt : "\""
+          + dt + "\"") + ", \"data\": " + list + "] }";
+      text += std::string (used.size () > 1 ? ",\n" : "") + "\"" + key +
+          "\": " + v;
+    }
+  }
+  return text + (format == 1 ? "</opencv_storage>\n" : format == 2 ?
+      "\n}\n" : "");
+}
+
+static void
+test_random_files_in_shape ()
+{
+  const std::string path = "test-camerafile-random.txt";
+  int shape_ok = 0, loaded = 0;
+  const int n = 600;
+  const auto t0 = std::chrono::steady_clock::now ();
+  for (int i = 0; i < n; i++) {
+    write_text (path, random_file (i % 3));
+    CameraFile f;
+    std::string err;
+    const bool ok = load_camera_file (path, &f, &err);
+    loaded += ok;
+    /* refused by the shape: the messages with a line, or JSON's */
+    shape_ok += ok || (err.find (": line ") == std::string::npos &&
+        err.find ("a camera file holds") == std::string::npos);
+  }
+  std::remove (path.c_str ());
+  const double s = std::chrono::duration<double> (
+      std::chrono::steady_clock::now () - t0).count ();
+  /* most pass the shape and reach OpenCV (a few repeat an element type
+   * JSON or XML cannot hold) */
+  CHECK (shape_ok > n * 8 / 10, "%d of %d random files passed the shape",
+      shape_ok, n);
+  std::printf ("random files in shape: %d of %d reached OpenCV, %d loaded, "
+      "%.1f s\n", shape_ok, n, loaded, s);
+}
+
 int
 main ()
 {
   test_opencv_written ();
   test_hand_written ();
   test_refused ();
+  test_random_files_in_shape ();
   std::printf ("%d passed, %d failed\n", checks - failures, failures);
   return failures ? 1 : 0;
 }

@@ -296,7 +296,7 @@ test_random_files_in_shape ()
 {
   const std::string path = "test-camerafile-random.txt";
   int shape_ok = 0, loaded = 0;
-  const int n = 600;
+  const int n = 2000;
   const auto t0 = std::chrono::steady_clock::now ();
   for (int i = 0; i < n; i++) {
     write_text (path, random_file (i % 3));

@@ -179,14 +179,8 @@ test_seed ()
   const double gamma = std::atan (b / h);
   const double alpha = std::atan ((b + d) / h) - gamma;
   const double beta = std::atan (w / (b + d));
-  /* (3.1)-(3.4) */
-  CHECK (std::fabs (g.seed_alpha () + g.seed_gamma () + g.seed_tilt () -
-          M_PI / 2) < 1e-12, "3.1");
-  CHECK (std::fabs (std::tan (g.seed_gamma ()) - b / h) < 1e-12, "3.2");
-  CHECK (std::fabs (std::tan (g.seed_gamma () + g.seed_alpha ()) -
-          (b + d) / h) < 1e-12, "3.3");
-  CHECK (std::fabs (std::tan (g.seed_beta ()) - w / (b + d)) < 1e-12, "3.4");
-  /* (3.5)-(3.6) on a grid, against the equations written out here */
+  /* (3.2)-(3.6) on a grid, against the equations written out here; the
+   * bottom row and the left edge below check b, d and w themselves */
   const double m = 640, n = 480;
   double worst = 0;
   for (int v = 0; v < 480; v += 7)

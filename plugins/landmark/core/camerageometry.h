@@ -76,19 +76,12 @@ public:
    * False when the point is behind the camera. */
   bool project (const Vec3 & point, double *u, double *v) const;
 
-  /* Seed model derived angles (radians): alpha (half vertical fov), beta
-   * (half horizontal fov), gamma, theta (tilt). */
-  double seed_alpha () const { return alpha_; }
-  double seed_beta () const { return beta_; }
-  double seed_gamma () const { return gamma_; }
-  double seed_tilt () const { return M_PI_2_ - alpha_ - gamma_; }
-
 private:
-  static constexpr double M_PI_2_ = 1.57079632679489661923;
-
   CameraParams p_;
   bool ok_ = false;
   double r_[3][3] = { {0} };    /* rows: camera x', y', z in robot frame */
+  /* seed model (radians): alpha half the vertical field of view, beta half
+   * the horizontal one, gamma from the vertical to the bottom row's ray */
   double alpha_ = 0, beta_ = 0, gamma_ = 0;
 };
 

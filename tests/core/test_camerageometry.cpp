@@ -2,6 +2,7 @@
  * cv::projectPoints and the seed's equations (3.1)-(3.6), and the range
  * estimate (rangeestimate.h) against known markers. */
 #include "camerageometry.h"
+#include "corecheck.h"
 #include "rangeestimate.h"
 
 #include <opencv2/calib3d.hpp>
@@ -18,12 +19,6 @@
 
 using namespace landmark;
 
-static int failures = 0;
-
-#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
-      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
-  } while (0)
 
 /* The world-to-camera rotation of docs/conventions.md, written out
  * independently of camerageometry.cpp: rows x_c', y_c', z_c. */
@@ -270,7 +265,5 @@ main ()
   test_pinhole ();
   test_seed ();
   test_estimate ();
-  if (failures)
-    std::fprintf (stderr, "%d failures\n", failures);
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

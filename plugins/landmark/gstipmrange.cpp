@@ -83,7 +83,7 @@
 #include "cameraprops.h"
 #include "elementsettings.h"
 #include "fileutil.h"
-#include "floorprofile.h"
+#include "camerasetup.h"
 #include "landmarkmeta.h"
 #include "markerclasses.h"
 #include "markerevidence.h"

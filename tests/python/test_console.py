@@ -22,8 +22,8 @@ aiohttp = pytest.importorskip("aiohttp")
 from aiohttp.test_utils import TestClient, TestServer  # noqa: E402
 
 from gstlandmark import palette as pal  # noqa: E402
-from gstlandmark.console import server  # noqa: E402
-from gstlandmark.console.engine import Engine  # noqa: E402
+from gstlandmark.commands.console import server  # noqa: E402
+from gstlandmark.commands.console.engine import Engine  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))))
@@ -269,8 +269,8 @@ def test_save_config_round_trip(gst, tmp_path):
     config = json.loads(path.read_text())
     assert config["properties"]["ipmrange"]["tilt"] == 20.5
     assert config["properties"]["labsegment"]["min-class-pixels"] == 50
-    from gstlandmark import runner
-    from gstlandmark.console import read_project
+    from gstlandmark.commands import runner
+    from gstlandmark.commands.console import read_project
     variables = runner.read_config(str(path))
     assert pal.load_palette(variables["PALETTE"]).names == \
         pal.load_palette(os.path.join(CLIP, "palette.json")).names
@@ -504,7 +504,7 @@ def test_teach_sets_the_class_colour_live_and_undo_restores(gst, tmp_path):
 
 
 def test_console_command_refuses_a_short_token(gst, capsys):
-    from gstlandmark.cli import main
+    from gstlandmark.commands.cli import main
     assert main(["console", "--testsrc", "--listen", "0.0.0.0",
                  "--token", "short"]) == 1
     assert "--token must be at least 16 characters" in \
@@ -651,7 +651,7 @@ def run_command(args, tmp_path):
     import subprocess
     import sys
     proc = subprocess.Popen(
-        [sys.executable, "-m", "gstlandmark.cli", "console", *args,
+        [sys.executable, "-m", "gstlandmark.commands.cli", "console", *args,
          "--port", "0", "--out", str(tmp_path / "out")],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
@@ -815,7 +815,7 @@ def test_a_loop_that_falls_behind_gets_the_newest_item_only():
     """1,000 frames handed over while the loop is busy: one callback, the
     newest frame; nothing piles up."""
     import threading
-    from gstlandmark.console.engine import Handoff
+    from gstlandmark.commands.console.engine import Handoff
 
     async def main():
         got = []

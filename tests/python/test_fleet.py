@@ -16,8 +16,8 @@ import pytest
 
 from gi.repository import Gst
 
-from gstlandmark import calibrate
-from gstlandmark.fleet import FleetState
+from gstlandmark.commands import calibrate
+from gstlandmark.commands.fleet import FleetState
 
 from mqttbroker import MOSQUITTO, Broker, needs_mosquitto, wait_for
 
@@ -53,7 +53,7 @@ def test_two_robots(gst, tmp_path, camera_file):
     broker = Broker(tmp_path).start()
     out = tmp_path / "fleet.json"
     fleet = subprocess.Popen(
-        [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+        [sys.executable, "-m", "gstlandmark.commands.cli", "fleet", "--port",
          str(broker.port), "-o", str(out), "--write-every", "0.2",
          "--path-every", "0"],
         stderr=subprocess.PIPE, text=True)
@@ -154,7 +154,7 @@ def test_unreachable_broker_is_a_clear_error(tmp_path):
     from mqttbroker import free_port
     port = free_port()
     done = subprocess.run(
-        [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+        [sys.executable, "-m", "gstlandmark.commands.cli", "fleet", "--port",
          str(port), "-o", str(tmp_path / "f.json"), "--duration", "1"],
         capture_output=True, text=True, timeout=30)
     assert done.returncode == 1
@@ -167,7 +167,7 @@ def test_load_ten_robots(gst):
     short run): the fleet receives every frame message the broker
     acknowledged, once and in order, within half a second, and its memory
     does not grow over the last 6 s."""
-    from gstlandmark import fleetbench
+    from gstlandmark.devtools import fleetbench
     r = fleetbench.run_fleet_bench(robots=10, rate=30, seconds=10,
                                    window_s=6)
     assert r["sent"] == 10 * 30 * 10
@@ -190,7 +190,7 @@ def test_load_ten_robots(gst):
 
 def test_load_failures_are_reported():
     """The bench's verdict names each way a fleet can fall short."""
-    from gstlandmark import fleetbench
+    from gstlandmark.devtools import fleetbench
     good = {"sent": 6, "acked": 6, "received": 6, "missed": 0,
             "out-of-sequence": 0, "offline": 2, "robots": 2,
             "per-robot": [{"robot": "a", "sent": 3, "received": 3},
@@ -219,7 +219,7 @@ def test_retained_pose_of_a_quiet_robot_then_frames_only(tmp_path):
     repeats its frame message, it takes poses from the frame messages
     alone (the pose topic is left), losing none."""
     import paho.mqtt.client as mqtt
-    from gstlandmark.fleet import Fleet
+    from gstlandmark.commands.fleet import Fleet
     broker = Broker(tmp_path).start()
     pub = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id="pub",
                       protocol=mqtt.MQTTv311)
@@ -274,7 +274,7 @@ def test_delay_percentiles_against_numpy():
     (numpy's on the same values as the reference) and the exact maximum;
     clocks apart (negative delays) and delays beyond 100 s are counted."""
     import numpy as np
-    from gstlandmark.fleet import DelayHistogram
+    from gstlandmark.commands.fleet import DelayHistogram
     rng = np.random.default_rng(3)
     values = np.exp(rng.normal(np.log(0.004), 1.5, 20000))
     h = DelayHistogram()
@@ -303,7 +303,7 @@ NO_EXTERNAL = re.compile(r"(?:https?|wss?|ftp)://|[\"'(]//\w|@import|"
 def serve_map(state, check, **kwargs):
     """Runs ``check(client)`` against the map's app on a real port."""
     from aiohttp.test_utils import TestClient, TestServer
-    from gstlandmark import fleetweb
+    from gstlandmark.commands import fleetweb
 
     async def main():
         app = fleetweb.make_app(state, **kwargs)
@@ -349,8 +349,8 @@ def test_map_shows_two_simulated_robots_live(tmp_path):
     frames missed and the status, at most every push_every seconds."""
     if MOSQUITTO is None:
         pytest.skip("the mosquitto broker is not installed")
-    from gstlandmark import fleetweb
-    from gstlandmark.fleet import Fleet
+    from gstlandmark.commands import fleetweb
+    from gstlandmark.commands.fleet import Fleet
     broker = Broker(tmp_path).start()
     fleet = Fleet(port=broker.port, path_every=0).start()
     map_path = os.path.join(CLIP_DIR, "map.json")
@@ -502,7 +502,7 @@ def test_map_on_loopback_refuses_other_hosts_and_origins():
     ([], "give -o FLEET.json, --http"),
 ])
 def test_map_options_are_checked(args, message, capsys):
-    from gstlandmark import cli
+    from gstlandmark.commands import cli
     assert cli.main(["fleet", "--port", "1"] + args) != 0
     assert message in capsys.readouterr().err
 
@@ -517,7 +517,8 @@ def test_map_command_serves_the_map(tmp_path):
     broker = Broker(tmp_path).start()
     for listen in ("0", "0.0.0.0:0"):
         proc = subprocess.Popen(
-            [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+            [sys.executable, "-m", "gstlandmark.commands.cli",
+             "fleet", "--port",
              str(broker.port), "--http", listen],
             stderr=subprocess.PIPE, text=True)
         try:

@@ -269,7 +269,7 @@ def test_synthetic_boxes_against_the_truth(gst, tmp_path):
     """The seed robot's walled field with 10 random boxes (gst-landmark
     synth path --obstacles 10): every bin floorboundary sees against the
     truth's free range; no landmark disc reported as an obstacle."""
-    from gstlandmark import evaluate
+    from gstlandmark.commands import evaluate
     from gstlandmark.synth import render_scenario
     out = tmp_path / "clip"
     render_scenario("path", str(out), seed=1, frames=12, size=(320, 240),

@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import cli, floormap
+from gstlandmark.commands import cli, floormap
 
 WALL_X = 2.02            # the wall: the line x = 2.02 m of the map frame
 HALF_FOV = math.radians(30)

@@ -1,5 +1,5 @@
 """ipmrange on the synthetic range sweep: range and bearing against the
-exact truth (gstlandmark.evaluate), discs and balls from 0.3 to 4 m.
+exact truth (gstlandmark.commands.evaluate), discs and balls from 0.3 to 4 m.
 
 Targets (issue 5): median range error <= 1 %, p95 <= 2 %, bearing median
 <= 0.3 degrees, with the pinhole model and the true camera."""
@@ -11,8 +11,9 @@ import os
 import numpy as np
 import pytest
 
-from gstlandmark import cli, evaluate as E, pipeline
-from gstlandmark.regress import read_jsonl
+from gstlandmark import pipeline
+from gstlandmark.commands import cli, evaluate as E
+from gstlandmark.landmarklog import read_jsonl
 
 MAX_RANGE = 4.0
 # distance bands reported and checked one by one, metres (upper bound
@@ -150,7 +151,8 @@ import gi  # noqa: E402
 gi.require_version("GstVideo", "1.0")
 from gi.repository import GstVideo  # noqa: E402
 
-from gstlandmark import calibrate as C, meta  # noqa: E402
+from gstlandmark import meta  # noqa: E402
+from gstlandmark.commands import calibrate as C  # noqa: E402
 
 W, H = 640, 480
 K_TEST = np.array([[530.0, 0.0, 318.2], [0.0, 527.5, 243.9],

@@ -22,7 +22,9 @@ import time
 
 import pytest
 
-from gstlandmark import calibrate, demo, goldens, pipeline
+from gstlandmark import pipeline
+from gstlandmark.commands import calibrate
+from gstlandmark.devtools import bench, goldens
 
 from mqttbroker import (Broker, Subscriber, make_certificates,
                         needs_mosquitto, wait_for)
@@ -106,7 +108,7 @@ def chain_vars(tmp_path_factory):
 def run_old(name, desc, tmp_path):
     """Pipelines of labsegment alone, as they were always tested."""
     clip = tmp_path / "input.avi"
-    demo.write_clip(str(clip), 160, 120, CLIP_FRAMES)
+    bench.write_clip(str(clip), 160, 120, CLIP_FRAMES)
     out_ext = ".jsonl" if "landmarklog location=${OUTPUT}" in desc else ".avi"
     output = tmp_path / f"output{out_ext}"
     desc = without_devices(desc, 10)

@@ -22,7 +22,7 @@ import pytest
 
 from gi.repository import Gst
 
-from gstlandmark import calibrate
+from gstlandmark.commands import calibrate
 
 from mqttbroker import (Broker, Subscriber, make_certificates,
                         needs_mosquitto, wait_for)

@@ -13,8 +13,8 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import calibrate, record
-from gstlandmark.cli import CliError
+from gstlandmark.commands import calibrate, record
+from gstlandmark.commands.cli import CliError
 
 SOURCE_ROOT = os.environ.get(
     "LANDMARK_SOURCE_ROOT",
@@ -45,7 +45,7 @@ def chain_run(project, tmp_path_factory):
     overlay video), and `gst-landmark record --input` of the same clip."""
     out = tmp_path_factory.mktemp("run")
     env = dict(os.environ)
-    cmd = [sys.executable, "-m", "gstlandmark.cli"]
+    cmd = [sys.executable, "-m", "gstlandmark.commands.cli"]
     subprocess.run(cmd + ["run", "--input", f"{CLIP_DIR}/clip.avi",
                           "--config", project, "--out", str(out),
                           "--no-progress"],

@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from gstlandmark import goldens, regress
+from gstlandmark.devtools import goldens, regress
 
 
 @pytest.mark.parametrize("golden", goldens.GOLDENS, ids=lambda g: g.name)

@@ -1,4 +1,4 @@
-"""``gst-landmark run`` (gstlandmark.runner): the shipped ``file``
+"""``gst-landmark run`` (gstlandmark.commands.runner): the shipped ``file``
 pipeline on the shipped clip with a project config, --truth, a launch
 string, the error messages, and Ctrl-C finishing the outputs cleanly."""
 
@@ -11,7 +11,8 @@ import time
 
 import pytest
 
-from gstlandmark import calibrate, cli, goldens, runner
+from gstlandmark.commands import calibrate, cli, runner
+from gstlandmark.devtools import goldens
 
 CLIP_DIR = os.path.join(goldens.ROOT, "tests", "files", "clips",
                         "path-small")
@@ -162,7 +163,7 @@ def test_ctrl_c_finishes_outputs(gst, tmp_path):
               "labsegment ! landmarklog location=${LOG} ! videoconvert ! "
               "jpegenc ! avimux ! filesink location=${OUTPUT}")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "gstlandmark.cli", "run", launch,
+        [sys.executable, "-m", "gstlandmark.commands.cli", "run", launch,
          "--out", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     log = out / "log.jsonl"

@@ -15,8 +15,9 @@ import os
 import numpy as np
 import pytest
 
-from gstlandmark import cli, meta
-from gstlandmark.regress import read_jsonl
+from gstlandmark import meta
+from gstlandmark.commands import cli
+from gstlandmark.landmarklog import read_jsonl
 
 FRAMES = 150
 # landmarks seen in at least this many frames must be mapped (the seed

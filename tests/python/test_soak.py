@@ -1,4 +1,4 @@
-"""A short soak (gstlandmark.soak, `gst-landmark soak`): the checks of
+"""A short soak (gstlandmark.devtools.soak, `gst-landmark soak`): the checks of
 the 100,000-frame run of scripts/soak.sh on 3,000 frames.
 
 Each soak runs in a fresh Python process, as the full run does: in this
@@ -19,7 +19,7 @@ import json
 import subprocess
 import sys
 
-from gstlandmark import cli
+from gstlandmark.commands import cli
 
 FRAMES = 3000
 WARMUP = 1000
@@ -34,7 +34,7 @@ def soak_process(args, timeout_s=120):
 
 def test_short_soak(gst):
     status, report, err = soak_process(
-        ["-m", "gstlandmark.cli", "soak", "--frames", str(FRAMES),
+        ["-m", "gstlandmark.commands.cli", "soak", "--frames", str(FRAMES),
          "--every", "250", "--warmup", str(WARMUP),
          "--max-growth-kb", str(MAX_GROWTH_KB)])
     assert status == 0, (report["failures"], err)
@@ -51,7 +51,7 @@ def test_short_soak(gst):
 
 LEAKING = f"""
 import json
-from gstlandmark import soak
+from gstlandmark.devtools import soak
 kept = []
 def leak(pipe):
     def probe(pad, info):

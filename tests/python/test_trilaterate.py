@@ -11,8 +11,8 @@ import os
 import numpy as np
 import pytest
 
-from gstlandmark import cli
-from gstlandmark.regress import read_jsonl
+from gstlandmark.commands import cli
+from gstlandmark.landmarklog import read_jsonl
 
 CLIP = os.path.join(os.path.dirname(__file__), "..", "files", "clips",
                     "path-small")

@@ -43,7 +43,9 @@ import threading
 import time
 from typing import Any, Callable, Dict, List, Optional
 
-from .bench import BenchError
+from .. import plugin
+from .benchkit import BenchError
+from .sourcetree import ROOT
 
 DEFAULT_ROBOTS = 50
 DEFAULT_RATE = 30.0
@@ -146,12 +148,7 @@ def _plugin_env(build_dir: Optional[str]) -> Dict[str, str]:
     environment's, as under ``meson test``)."""
     env = dict(os.environ)
     if build_dir is None:
-        build_dir = os.environ.get("LANDMARK_BUILD_ROOT")
-    if build_dir is None:
-        here = os.path.dirname(os.path.abspath(__file__))
-        cand = os.path.join(here, os.pardir, os.pardir, "build")
-        if os.path.isdir(os.path.join(cand, "plugins")):
-            build_dir = cand
+        build_dir = plugin.find_build_dir("plugins")
     if build_dir is not None:
         plugins = os.path.abspath(os.path.join(build_dir, "plugins"))
         if not os.path.isdir(plugins):
@@ -170,8 +167,8 @@ def capture_messages(port: int, directory: str,
     in order."""
     import paho.mqtt.client as mqtt
 
-    from . import calibrate, goldens
-    clip = os.path.join(goldens.ROOT, "tests", "files", "clips",
+    from ..commands import calibrate
+    clip = os.path.join(ROOT, "tests", "files", "clips",
                         "path-small")
     if not os.path.isdir(clip):
         raise BenchError(f"{clip}: no such directory (the bench runs from "
@@ -424,7 +421,8 @@ def run_fleet_bench(robots: int = DEFAULT_ROBOTS, rate: float = DEFAULT_RATE,
             if os.path.exists(out):
                 os.remove(out)
             fleet = subprocess.Popen(
-                [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+                [sys.executable, "-m", "gstlandmark.commands.cli",
+                 "fleet", "--port",
                  str(broker.port), "-o", out],
                 stderr=subprocess.PIPE, text=True)
             deadline = time.monotonic() + 30

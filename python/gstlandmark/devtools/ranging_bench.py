@@ -30,7 +30,8 @@ def _gst():
     gi.require_version("Gst", "1.0")
     gi.require_version("GstVideo", "1.0")
     from gi.repository import Gst, GstVideo
-    Gst.init(None)
+    from .. import pipeline
+    pipeline.init()
     return Gst, GstVideo
 
 
@@ -38,7 +39,7 @@ def element_ranges(props, uv, size=(640, 480)):
     """landmark-range dicts of detections at pixel centroids ``uv``
     (no ellipse), through ``appsrc ! ipmrange props ! appsink``."""
     Gst, GstVideo = _gst()
-    from gstlandmark import meta
+    from .. import meta
     w, h = size
     caps = f"video/x-raw,format=GRAY8,width={w},height={h},framerate=30/1"
     pipe = Gst.parse_launch(f"appsrc name=src format=time caps={caps} ! "
@@ -101,8 +102,8 @@ def run_sweep(out_dir):
     """Renders the range sweep into out_dir and runs ipmrange with each
     method on discs and balls; returns {(kind, method): (dist, rel)}."""
     Gst, _ = _gst()
-    from gstlandmark import cli, evaluate as E
-    from gstlandmark.regress import read_jsonl
+    from ..commands import cli, evaluate as E
+    from ..landmarklog import read_jsonl
     if not os.path.exists(os.path.join(out_dir, "clip.avi")):
         if cli.main(["synth", "range-sweep", "--out", out_dir,
                      "--robot", "comfortable", "--no-progress"]) != 0:

@@ -15,52 +15,37 @@ from typing import Any, Dict, List, Optional
 
 from aiohttp import WSMsgType, web
 
-from . import webguard
-from .fleet import FleetState
+from .. import webguard
+from ..landmarkmap import read_map
 
 DEFAULT_PUSH_EVERY = 0.25
 IDLE_PUSH_S = 2.0       # pushed even unchanged: the page's ages move on
+DEFAULT_DIAMETER = 0.2  # metres, drawn for a map entry without one
 
 
 def static_dir() -> str:
-    return str(importlib.resources.files("gstlandmark") / "fleetmap")
+    return str(importlib.resources.files("gstlandmark.commands") / "fleetmap")
 
 
 def read_landmarks(path: str) -> List[Dict[str, Any]]:
     """The map file's landmarks (id, class, x, y, diameter) for the page;
     ValueError naming the file when it is not a landmark map."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as err:
-        raise ValueError(f"{path}: {err.strerror}") from None
-    except ValueError as err:
-        raise ValueError(f"{path}: not JSON: {err}") from None
-    marks = data.get("landmarks") if isinstance(data, dict) else None
-    if not isinstance(marks, list):
-        raise ValueError(f"{path}: no \"landmarks\" list (a landmark map "
-                         f"as the elements' map property reads)")
-    out = []
-    for i, m in enumerate(marks):
-        if not (isinstance(m, dict) and all(
-                isinstance(m.get(k), (int, float)) for k in ("x", "y"))):
-            raise ValueError(f"{path}: landmark {i} has no numeric x and y")
-        out.append({"id": str(m.get("id", i)), "class": m.get("class"),
-                    "x": m["x"], "y": m["y"],
-                    "diameter": m.get("diameter", 0.2)})
-    return out
+    return [{"id": m["id"], "class": m["class"], "x": m["x"], "y": m["y"],
+             "diameter": m["diameter"] or DEFAULT_DIAMETER}
+            for m in read_map(path)]
 
 
 def cookie_name(request: web.Request) -> str:
     return f"landmark-fleet-{request.url.port}"
 
 
-def make_app(state: FleetState, token: Optional[str] = None,
+def make_app(state, token: Optional[str] = None,
              loopback: bool = True,
              landmarks: Optional[List[Dict[str, Any]]] = None,
              push_every: float = DEFAULT_PUSH_EVERY) -> web.Application:
-    """``token``: required on every request when set; ``loopback``: the
-    server listens on loopback only (then Host must name loopback)."""
+    """``state``: the fleet.FleetState shown; ``token``: required on every
+    request when set; ``loopback``: the server listens on loopback only
+    (then Host must name loopback)."""
 
     @web.middleware
     async def guard(request: web.Request, handler):
@@ -155,7 +140,7 @@ class MapServer:
     """The server on its own thread and event loop, next to the fleet's
     MQTT thread and its file writes."""
 
-    def __init__(self, state: FleetState, host: str, port: int,
+    def __init__(self, state, host: str, port: int,
                  token: Optional[str] = None,
                  landmarks: Optional[List[Dict[str, Any]]] = None,
                  push_every: float = DEFAULT_PUSH_EVERY):

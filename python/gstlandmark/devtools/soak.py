@@ -31,11 +31,12 @@ import tempfile
 import time
 from typing import Any, Dict, List, Optional
 
-from . import goldens, pipeline
+from .. import pipeline
+from .sourcetree import ROOT
 
 Gst = pipeline.Gst
 
-CLIP_DIR = os.path.join(goldens.ROOT, "tests", "files", "clips",
+CLIP_DIR = os.path.join(ROOT, "tests", "files", "clips",
                         "path-small")
 DEFAULT_FRAMES = 100000
 DEFAULT_SIZE = (320, 240)

@@ -20,8 +20,8 @@ from typing import Any, Dict, List, Optional
 
 from aiohttp import WSMsgType, web
 
-from .. import webguard
-from ..webguard import LOOPBACK_NAMES, is_loopback  # noqa: F401
+from ... import webguard
+from ...webguard import LOOPBACK_NAMES, is_loopback  # noqa: F401
 from .engine import ConsoleError, Engine
 
 MAX_BODY = 16 * 1024
@@ -32,7 +32,8 @@ ENGINE = web.AppKey("engine", Engine) if hasattr(web, "AppKey") else "engine"
 
 
 def static_dir() -> str:
-    return str(importlib.resources.files("gstlandmark.console") / "static")
+    return str(importlib.resources.files("gstlandmark.commands.console")
+               / "static")
 
 
 def _error(status: int, text: str) -> web.Response:

@@ -33,7 +33,7 @@ def _landmark(entry: Any, index: int) -> Dict[str, Any]:
     lm_id = entry.get("id")
     if not isinstance(lm_id, str) or not lm_id:
         raise MapError(f"{where}: \"id\" must be a non-empty string")
-    where = f"{where} ({lm_id})"
+    where = f"{where} (\"{lm_id}\")"
     cls = entry.get("class")
     if not isinstance(cls, str) or not cls:
         raise MapError(f"{where}: \"class\" must be a non-empty string")
@@ -83,7 +83,7 @@ def parse_map(data: Any) -> List[Dict[str, Any]]:
     for i, entry in enumerate(marks):
         lm = _landmark(entry, i)
         if lm["id"] in seen:
-            raise MapError(f"landmarks[{i}] ({lm['id']}): duplicate id")
+            raise MapError(f"landmarks[{i}] (\"{lm['id']}\"): duplicate id")
         seen.add(lm["id"])
         out.append(lm)
     return out

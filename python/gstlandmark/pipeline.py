@@ -192,10 +192,19 @@ def wait_eos(pipe: Gst.Pipeline, timeout_s: float = 60.0,
         raise PipelineError(f"{err.message}: {dbg}")
 
 
-def run_to_eos(description: str, timeout_s: float = 60.0) -> None:
-    """Runs a launch line to its end (EOS); see ``wait_eos``."""
+def run_to_eos(description: str, timeout_s: float = 60.0,
+               on_buffer=None) -> None:
+    """Runs a launch line to its end (EOS); see ``wait_eos``.
+    ``on_buffer(pad, buffer)``: called with every buffer that reaches the
+    element named ``sink``."""
     init()
     pipe = Gst.parse_launch(description)
+    if on_buffer is not None:
+        def probe(pad, info):
+            on_buffer(pad, info.get_buffer())
+            return Gst.PadProbeReturn.OK
+        pipe.get_by_name("sink").get_static_pad("sink").add_probe(
+            Gst.PadProbeType.BUFFER, probe)
     pipe.set_state(Gst.State.PLAYING)
     try:
         wait_eos(pipe, timeout_s, description)

@@ -2,11 +2,11 @@
 Python (``pipeline.init``), so that the installed ``gst-landmark`` command
 uses the plugin the set-up built without GST_PLUGIN_PATH set by hand.
 
-In order: a GST_PLUGIN_PATH that already holds the plugin; the build
-directory named by LANDMARK_BUILD_DIR (scripts/setup.sh) or
-LANDMARK_BUILD_ROOT (``meson test``); the source tree's ``build/`` next to
-an editable install; else GStreamer's own registry (a ``meson install``ed
-plugin). Plain Python, no GStreamer: it runs before ``Gst.init``.
+In order: a GST_PLUGIN_PATH (or GST_PLUGIN_PATH_1_0, as ``meson test``
+sets it) that already holds the plugin; the build directory named by
+LANDMARK_BUILD_DIR (scripts/setup.sh) or LANDMARK_BUILD_ROOT (``meson
+test``); the source tree's ``build/`` next to an editable install; else
+GStreamer's own registry (a ``meson install``ed plugin). Plain Python, no GStreamer: it runs before ``Gst.init``.
 """
 
 import os
@@ -48,12 +48,13 @@ def find_build_dir(holding: str = os.path.join("plugins", "landmark",
 
 
 def use_built_plugin() -> Optional[str]:
-    """Puts the built plugin's directory on GST_PLUGIN_PATH unless the
-    variable already leads to the plugin; returns the directory added
+    """Puts the built plugin's directory on GST_PLUGIN_PATH unless that
+    variable or GST_PLUGIN_PATH_1_0 already leads to the plugin; returns the directory added
     (None: GST_PLUGIN_PATH or GStreamer's registry provides it)."""
     current = [p for p in os.environ.get("GST_PLUGIN_PATH", "").split(
         os.pathsep) if p]
-    if any(holds_plugin(p) for p in current):
+    versioned = os.environ.get("GST_PLUGIN_PATH_1_0", "").split(os.pathsep)
+    if any(holds_plugin(p) for p in current + versioned if p):
         return None
     build = find_build_dir()
     if build is None:

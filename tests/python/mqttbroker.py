@@ -13,6 +13,8 @@ import time
 
 import pytest
 
+from gstlandmark.devtools.fleetbench import start_mosquitto
+
 MOSQUITTO = shutil.which("mosquitto") or (
     "/usr/sbin/mosquitto" if os.access("/usr/sbin/mosquitto", os.X_OK)
     else None)
@@ -77,21 +79,9 @@ class Broker:
 
     def start(self, timeout_s=5.0):
         self._write_config()
-        self.proc = subprocess.Popen([MOSQUITTO, "-c", self.conf],
-                                     stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.PIPE)
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError("mosquitto exited: " +
-                                   self.proc.stderr.read().decode())
-            try:
-                with socket.create_connection(("127.0.0.1", self.port),
-                                              timeout=0.2):
-                    return self
-            except OSError:
-                time.sleep(0.02)
-        raise RuntimeError(f"mosquitto not listening on {self.port}")
+        self.proc = start_mosquitto([MOSQUITTO, "-c", self.conf], self.port,
+                                    timeout_s)
+        return self
 
     def reload(self):
         self.proc.send_signal(signal.SIGHUP)

@@ -146,13 +146,9 @@ def test_size_range_is_reported(gst, sweep, tmp_path, kind):
 # against OpenCV, on detections attached by hand
 
 import cv2  # noqa: E402
-import gi  # noqa: E402
 
-gi.require_version("GstVideo", "1.0")
-from gi.repository import GstVideo  # noqa: E402
-
-from gstlandmark import meta  # noqa: E402
 from gstlandmark.commands import calibrate as C  # noqa: E402
+from gstlandmark.devtools import ranging_bench  # noqa: E402
 
 W, H = 640, 480
 K_TEST = np.array([[530.0, 0.0, 318.2], [0.0, 527.5, 243.9],
@@ -163,36 +159,7 @@ DIST_TEST = np.array([-0.21, 0.06, 0.0008, -0.0012, -0.008])
 def range_points(Gst, props, uv, size=(W, H)):
     """landmark-range of detections at pixel centroids uv (no ellipse),
     through appsrc ! ipmrange props ! appsink; one dict per point."""
-    w, h = size
-    caps = f"video/x-raw,format=GRAY8,width={w},height={h},framerate=30/1"
-    pipe = Gst.parse_launch(f"appsrc name=src format=time caps={caps} ! "
-                            f"ipmrange {props} ! appsink name=sink "
-                            f"sync=false")
-    src, sink = pipe.get_by_name("src"), pipe.get_by_name("sink")
-    stride = (w + 3) // 4 * 4
-    buf = Gst.Buffer.new_wrapped(bytes(stride * h))
-    buf.pts = 0
-    for i, (u, v) in enumerate(uv):
-        u, v = float(u), float(v)
-        roi = GstVideo.buffer_add_video_region_of_interest_meta(
-            buf, "red", max(0, int(u) - 2), max(0, int(v) - 2), 5, 5)
-        roi.id = i
-        roi.add_param(Gst.Structure.new_from_string(
-            f"landmark-blob, class=(string)red, centroid-x=(double){u!r}, "
-            f"centroid-y=(double){v!r}, frame-width=(uint){w}, "
-            f"frame-height=(uint){h}"))
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        src.emit("push-buffer", buf)
-        src.emit("end-of-stream")
-        sample = sink.emit("try-pull-sample", 10 * Gst.SECOND)
-        if sample is None:
-            msg = pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
-            detail = msg.parse_error()[0].message if msg else "timeout"
-            raise AssertionError(f"ipmrange {props}: {detail}")
-        return [d.range for d in meta.detections(sample.get_buffer())]
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    return ranging_bench.element_ranges(props, uv, size)
 
 
 def ready_error(Gst, props):

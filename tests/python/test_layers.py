@@ -214,7 +214,8 @@ def test_the_checker_passes_a_clean_planted_package(tmp_path):
         "commands/__init__.py": "",
         "commands/run.py": "from .. import meta\n",
         "devtools/__init__.py": "",
-        "devtools/soak.py": "from ..commands import run\nfrom .. import meta\n",
+        "devtools/soak.py": "from ..commands import run\n"
+                            "from .. import meta\n",
     })
     graph, private = imports(mods)
     assert cycles(graph) == [] and layer_breaks(graph) == []

@@ -11,11 +11,10 @@ import time
 
 import pytest
 
-from gstlandmark.commands import calibrate, cli, runner
-from gstlandmark.devtools import goldens
+from gstlandmark.commands import cli, runner
 
-CLIP_DIR = os.path.join(goldens.ROOT, "tests", "files", "clips",
-                        "path-small")
+from shippedclip import CLIP_DIR, write_project
+
 CLIP = os.path.join(CLIP_DIR, "clip.avi")
 TRUTH = os.path.join(CLIP_DIR, "truth.jsonl")
 FRAMES = 45
@@ -23,18 +22,7 @@ FRAMES = 45
 
 @pytest.fixture(scope="module")
 def project(tmp_path_factory):
-    """A project folder: a camera file for the clip's synthetic camera
-    (as `gst-landmark calibrate floor` writes it) and a project.json
-    naming the palette, the map (absolute) and the camera (relative)."""
-    folder = tmp_path_factory.mktemp("project")
-    calibrate.scene_camera_file(os.path.join(CLIP_DIR, "scene.json"),
-                                folder / "camera.yml")
-    config = folder / "project.json"
-    config.write_text(json.dumps({
-        "palette": os.path.join(CLIP_DIR, "palette.json"),
-        "map": os.path.join(CLIP_DIR, "map.json"),
-        "camera": "camera.yml"}))
-    return str(config)
+    return write_project(tmp_path_factory.mktemp("project"))
 
 
 def decoded_frames(gst, path):

@@ -52,34 +52,27 @@ def parse_pair(text, what, sep="x", kind=int):
     return first, second
 
 
-def _pattern_type(text):
-    try:
-        cols, rows = parse_pair(text, "COLSxROWS (inner corners), e.g. 9x6")
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-    if cols < 2 or rows < 2:
-        raise argparse.ArgumentTypeError(
-            f"a pattern needs at least 2x2 inner corners, got {text!r}")
-    return cols, rows
+def _pair_type(what, sep="x", kind=int, least=None):
+    """argparse type for a pair (``parse_pair``); ``least``: (the smallest
+    value either may take, what the message says then)."""
+    def parse(text):
+        try:
+            pair = parse_pair(text, what, sep=sep, kind=kind)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        if least is not None and min(pair) < least[0]:
+            raise argparse.ArgumentTypeError(f"{least[1]}, got {text!r}")
+        return pair
+    return parse
 
 
-def _size_type(text):
-    try:
-        width, height = parse_pair(text, "WxH in pixels, e.g. 640x480")
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-    if width < 2 or height < 2:
-        raise argparse.ArgumentTypeError(
-            f"image size must be at least 2x2, got {text!r}")
-    return width, height
-
-
-def _origin_type(text):
-    try:
-        return parse_pair(text, "X,Y in metres, e.g. 0.5,0.1", sep=",",
+_pattern_type = _pair_type(
+    "COLSxROWS (inner corners), e.g. 9x6",
+    least=(2, "a pattern needs at least 2x2 inner corners"))
+_size_type = _pair_type("WxH in pixels, e.g. 640x480",
+                        least=(2, "image size must be at least 2x2"))
+_origin_type = _pair_type("X,Y in metres, e.g. 0.5,0.1", sep=",",
                           kind=float)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def _positive_type(text):

@@ -42,11 +42,11 @@ def _split_list(text):
     return [item.strip() for item in text.split(",")]
 
 
-def _read_image(path):
-    """Read an 8-bit BGR image or raise CliError."""
+def _read_image(path, flags=cv2.IMREAD_COLOR):
+    """Read an image (default 8-bit BGR) or raise CliError."""
     if not os.path.isfile(path):
         raise CliError(f"{path}: no such file")
-    image = cv2.imread(path, cv2.IMREAD_COLOR)
+    image = cv2.imread(path, flags)
     if image is None:
         raise CliError(f"{path}: cannot read as an image")
     return image
@@ -54,11 +54,7 @@ def _read_image(path):
 
 def _read_mask(path):
     """Read a class-index mask as a single-channel integer image."""
-    if not os.path.isfile(path):
-        raise CliError(f"{path}: no such file")
-    mask = cv2.imread(path, cv2.IMREAD_UNCHANGED)
-    if mask is None:
-        raise CliError(f"{path}: cannot read as an image")
+    mask = _read_image(path, cv2.IMREAD_UNCHANGED)
     if mask.ndim == 3:
         colour = mask[:, :, :3]
         # A grey mask saved as RGB is fine; real colours are not indices.

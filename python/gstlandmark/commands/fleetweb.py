@@ -46,22 +46,7 @@ def make_app(state, token: Optional[str] = None,
     """``state``: the fleet.FleetState shown; ``token``: required on every
     request when set; ``loopback``: the server listens on loopback only
     (then Host must name loopback)."""
-
-    @web.middleware
-    async def guard(request: web.Request, handler):
-        refused, from_query = webguard.check(request, token, loopback,
-                                             cookie_name(request))
-        if refused is not None:
-            return refused
-        try:
-            response = await handler(request)
-        except web.HTTPException as err:
-            if err.status < 400:
-                raise
-            return webguard.error(err.status, err.text or err.reason)
-        if from_query:
-            webguard.remember(response, cookie_name(request), token)
-        return response
+    guard = webguard.middleware(token, loopback, cookie_name)
 
     # nothing is posted: no body is read
     app = web.Application(middlewares=[guard], client_max_size=1024)

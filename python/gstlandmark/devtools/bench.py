@@ -37,7 +37,7 @@ from .. import reference
 from ..commands.common import CliError
 from ..palette import default_palette
 from .benchkit import (BenchError, OneCore, bench_environment, parse_size,
-                       pin_prefix)
+                       pin_prefix, write_json)
 from .benchkit import find_build_dir as find_program_build_dir
 
 DEFAULT_SIZES = ((640, 480), (1920, 1080))
@@ -698,9 +698,7 @@ def _handle_segmentation(args):
                 cells.append(f"  {100 * r['precision']:10.2f} /"
                              f"{100 * r['recall']:9.2f}")
         print(f"{cls:10s}" + "".join(cells))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(result, f, indent=2)
+    write_json(args.json, result)
     return 0
 
 

@@ -3,6 +3,7 @@
 build directory holding the C bench programs."""
 
 import argparse
+import json
 import os
 import shutil
 
@@ -84,3 +85,10 @@ def bench_environment(build_dir):
     env["GST_REGISTRY_1_0"] = os.path.join(build_dir, "tests", "bench",
                                            "registry.dat")
     return env
+
+
+def write_json(path, report):
+    """Writes a tool's report to ``path`` (--json) when one is given."""
+    if path:
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump(report, f, indent=2)

@@ -34,7 +34,7 @@ import numpy as np
 
 from .. import reference
 from .benchkit import (BenchError, OneCore, bench_environment, parse_size,
-                       pin_prefix)
+                       pin_prefix, write_json)
 from .benchkit import find_build_dir as find_program_build_dir
 
 CHAIN_EXE = os.path.join("tests", "bench", "chain-bench")
@@ -442,9 +442,7 @@ def _handle_chain(args):
         print(f"gst-landmark: error: {err}", file=sys.stderr)
         return 1
     print(format_table(result))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(result, f, indent=2)
+    write_json(args.json, result)
     return 0
 
 

@@ -77,6 +77,28 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def start_mosquitto(command, port, timeout_s=5.0):
+    """Starts mosquitto (``command``) and waits until it listens on
+    127.0.0.1:``port``; BenchError with its message when it exits first
+    or does not listen in time."""
+    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise BenchError("mosquitto exited: " +
+                             proc.stderr.read().decode())
+        try:
+            with socket.create_connection(("127.0.0.1", port),
+                                          timeout=0.2):
+                return proc
+        except OSError:
+            time.sleep(0.02)
+    proc.kill()
+    proc.wait()
+    raise BenchError(f"mosquitto not listening on {port}")
+
+
 class Broker:
     """mosquitto on 127.0.0.1 only, anonymous clients (nothing leaves the
     machine), persistence off; a queue of at most ``max_queued`` messages
@@ -111,22 +133,9 @@ class Broker:
         lines += [f"{k} {v}" for k, v in self.settings.items()]
         with open(self.conf, "w") as f:
             f.write("\n".join(lines) + "\n")
-        self.proc = subprocess.Popen([self.exe, "-c", self.conf],
-                                     stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.PIPE)
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise BenchError("mosquitto exited: " +
-                                 self.proc.stderr.read().decode())
-            try:
-                with socket.create_connection(("127.0.0.1", self.port),
-                                              timeout=0.2):
-                    return self
-            except OSError:
-                time.sleep(0.02)
-        self.stop()
-        raise BenchError(f"mosquitto not listening on {self.port}")
+        self.proc = start_mosquitto([self.exe, "-c", self.conf], self.port,
+                                    timeout_s)
+        return self
 
     def stop(self) -> None:
         if self.proc and self.proc.poll() is None:

@@ -63,7 +63,9 @@ def element_ranges(props, uv, size=(640, 480)):
         src.emit("end-of-stream")
         sample = sink.emit("try-pull-sample", 10 * Gst.SECOND)
         if sample is None:
-            raise RuntimeError(f"ipmrange {props}: no output")
+            msg = pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
+            detail = msg.parse_error()[0].message if msg else "no output"
+            raise RuntimeError(f"ipmrange {props}: {detail}")
         return [d.range for d in meta.detections(sample.get_buffer())]
     finally:
         pipe.set_state(Gst.State.NULL)

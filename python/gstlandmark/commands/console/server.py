@@ -51,28 +51,16 @@ def make_app(engine: Engine, token: Optional[str] = None,
     ``loopback``: the server listens on loopback only (then the Host
     header must be a loopback name)."""
 
-    @web.middleware
-    async def guard(request: web.Request, handler):
-        # the checks the fleet map shares (webguard)
-        refused, from_query = webguard.check(request, token, loopback,
-                                             cookie_name(request))
-        if refused is not None:
-            return refused
+    def json_posts_only(request):
         if request.method == "POST" and request.content_type != \
                 "application/json":
             return _error(415, "POST bodies must be application/json")
-        try:
-            response = await handler(request)
-            if from_query:
-                webguard.remember(response, cookie_name(request), token)
-            return response
-        except ConsoleError as err:
-            return _error(400, str(err))
-        except web.HTTPException as err:
-            if err.status < 400:
-                raise
-            return _error(err.status, err.text or err.reason)
+        return None
 
+    # the checks the fleet map shares (webguard)
+    guard = webguard.middleware(token, loopback, cookie_name,
+                                refuse=json_posts_only,
+                                bad_input=(ConsoleError,))
     app = web.Application(middlewares=[guard], client_max_size=MAX_BODY)
     app[ENGINE] = engine
     sockets: set = set()

@@ -43,27 +43,14 @@
 #include <vector>
 
 #include "cameraprops.h"
+#include "elementsettings.h"
 #include "fileutil.h"
 #include "floorprofile.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_birds_eye_debug);
 #define GST_CAT_DEFAULT gst_birds_eye_debug
 
-#define DEFAULT_PIXELS_PER_METRE 100.0
-#define DEFAULT_FORWARD 4.0
-#define DEFAULT_BEHIND 0.0
-#define DEFAULT_SIDE 2.0
 #define MAX_OUTPUT_SIZE 8192
-
-enum
-{
-  PROP_0,
-  PROP_CAMERA_FIRST,            /* cameraprops.h: CAMERA_PROP_COUNT ids */
-  PROP_PIXELS_PER_METRE = PROP_CAMERA_FIRST + CAMERA_PROP_COUNT,
-  PROP_FORWARD,
-  PROP_BEHIND,
-  PROP_SIDE,
-};
 
 #define FORMATS "{ RGB, BGR, RGBx, BGRx, xRGB, xBGR, RGBA, BGRA, ARGB, " \
   "ABGR, GRAY8 }"
@@ -79,27 +66,31 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
 /* *INDENT-OFF* */
 namespace {
 
+/* What the user sets (the initial values are the defaults). */
 struct Settings {
   landmark::CameraSettings camera;
-  gdouble pixels_per_metre = DEFAULT_PIXELS_PER_METRE;
-  gdouble forward = DEFAULT_FORWARD, behind = DEFAULT_BEHIND;
-  gdouble side = DEFAULT_SIDE;
-  guint generation = 0;
+  gdouble pixels_per_metre = 100.0;
+  gdouble forward = 4.0, behind = 0.0;
+  gdouble side = 2.0;
+};
+
+/* Settings checked, the camera file read, and the remap table for the
+ * input size (once the caps are known). */
+struct Config {
+  Settings s;
+  landmark::CameraSetup camera;
+  cv::Mat map1, map2;           /* fixed-point maps for cv::remap */
+  std::vector<float> map_x, map_y;
 };
 
 struct State {
-  landmark::CameraSetup camera;
-  guint generation = G_MAXUINT;
-  guint warned_generation = G_MAXUINT;
-  cv::Mat map1, map2;           /* fixed-point maps for cv::remap */
-  std::vector<float> map_x, map_y;
+  landmark::AppliedSettings<Settings, Config> applied;
 };
 
 }  // namespace
 
 struct GstBirdsEyePrivate {
-  std::mutex lock;              /* guards settings */
-  Settings settings;
+  landmark::SharedSettings<Settings> settings;
   State state;
 };
 
@@ -114,6 +105,7 @@ G_DEFINE_TYPE_WITH_CODE (GstBirdsEye, gst_birds_eye, GST_TYPE_VIDEO_FILTER,
         "Bird's-eye view of the floor"));
 GST_ELEMENT_REGISTER_DEFINE (birdseye, "birdseye", GST_RANK_NONE,
     GST_TYPE_BIRDS_EYE);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_birds_eye, GST_BIRDS_EYE);
 
 /* The output geometry of the settings. */
 static landmark::BirdsEyeParams
@@ -128,55 +120,84 @@ birds_eye_params (const Settings & s)
   return b;
 }
 
-static gboolean
-birds_eye_check (const Settings & s, landmark::CameraSetup * camera,
-    const char **property, std::string * why)
-{
-  if (!landmark::camera_setup_resolve (s.camera, camera, property, why))
-    return FALSE;
-  const landmark::BirdsEyeParams b = birds_eye_params (s);
-  if (b.out_w < 1 || b.out_h < 1 || b.out_w > MAX_OUTPUT_SIZE ||
-      b.out_h > MAX_OUTPUT_SIZE) {
-    *property = b.out_w < 1 || b.out_w > MAX_OUTPUT_SIZE ? "side" :
-        "forward";
-    *why = "the output would be " + std::to_string (b.out_w) + "x" +
-        std::to_string (b.out_h) + " pixels; each side must be within 1.." +
-        std::to_string (MAX_OUTPUT_SIZE) + " (pixels-per-metre " +
-        landmark::number_text (s.pixels_per_metre) + ")";
-    return FALSE;
-  }
-  return TRUE;
-}
-
-/* Builds the remap table for an input frame; FALSE with *why. */
-static gboolean
-birds_eye_build (const Settings & s, const landmark::CameraSetup & camera,
-    int in_w, int in_h, State * st, const char **property, std::string * why)
+/* Builds the remap table for an input frame. */
+static bool
+birds_eye_build (Config & cfg, int in_w, int in_h,
+    landmark::SettingsError * err)
 {
   landmark::CameraParams p;
-  if (!landmark::camera_setup_params (camera, in_w, in_h, &p, property, why))
-    return FALSE;
+  if (!landmark::camera_setup_params (cfg.camera, in_w, in_h, &p,
+          &err->property, &err->why))
+    return false;
   landmark::CameraGeometry g;
-  *property = camera.e.seed ? "model" : "tilt";
-  if (!g.configure (p, why))
-    return FALSE;
-  const landmark::BirdsEyeParams b = birds_eye_params (s);
-  std::vector<float> mx, my;
-  if (!landmark::birdseye_maps (g, b, &mx, &my, why))
-    return FALSE;
+  err->property = cfg.camera.e.seed ? "model" : "tilt";
+  if (!g.configure (p, &err->why))
+    return false;
+  const landmark::BirdsEyeParams b = birds_eye_params (cfg.s);
+  if (!landmark::birdseye_maps (g, b, &cfg.map_x, &cfg.map_y, &err->why))
+    return false;
   bool any = false;
-  for (float x : mx)
+  for (float x : cfg.map_x)
     any = any || x >= -1;
-  if (!any) {
-    *why = "the camera sees no floor within the view's extent";
-    return FALSE;
-  }
-  st->map_x = std::move (mx);
-  st->map_y = std::move (my);
-  cv::Mat fx (b.out_h, b.out_w, CV_32FC1, st->map_x.data ());
-  cv::Mat fy (b.out_h, b.out_w, CV_32FC1, st->map_y.data ());
-  cv::convertMaps (fx, fy, st->map1, st->map2, CV_16SC2);
-  return TRUE;
+  if (!any)
+    return err->fail (err->property,
+        "the camera sees no floor within the view's extent");
+  cv::Mat fx (b.out_h, b.out_w, CV_32FC1, cfg.map_x.data ());
+  cv::Mat fy (b.out_h, b.out_w, CV_32FC1, cfg.map_y.data ());
+  cv::convertMaps (fx, fy, cfg.map1, cfg.map2, CV_16SC2);
+  return true;
+}
+
+/* Checks the settings and reads the camera file; with in_w > 0 also
+ * checks the output against the negotiated out_w x out_h (fixed in READY)
+ * and builds the remap table for in_w x in_h input. */
+static bool
+birds_eye_configure (const Settings & s, int in_w, int in_h, int out_w,
+    int out_h, Config * cfg, landmark::SettingsError * err)
+{
+  cfg->s = s;
+  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera,
+          &err->property, &err->why))
+    return false;
+  const landmark::BirdsEyeParams b = birds_eye_params (s);
+  if (b.out_w < 1 || b.out_h < 1 || b.out_w > MAX_OUTPUT_SIZE ||
+      b.out_h > MAX_OUTPUT_SIZE)
+    return err->fail (b.out_w < 1 || b.out_w > MAX_OUTPUT_SIZE ? "side" :
+        "forward", "the output would be " + std::to_string (b.out_w) + "x" +
+        std::to_string (b.out_h) + " pixels; each side must be within 1.." +
+        std::to_string (MAX_OUTPUT_SIZE) + " (pixels-per-metre " +
+        landmark::number_text (s.pixels_per_metre) + ")");
+  if (in_w <= 0)
+    return true;
+  if (b.out_w != out_w || b.out_h != out_h)
+    return err->fail ("pixels-per-metre",
+        "the output size changes only in the READY state");
+  return birds_eye_build (*cfg, in_w, in_h, err);
+}
+
+static const landmark::PropertyTable<Settings> &
+birds_eye_properties ()
+{
+  static const auto table = landmark::PropertyTable<Settings> ()
+      .part (&Settings::camera, camera_properties ())
+      /* the output size is negotiated in READY */
+      .number ("pixels-per-metre", "Pixels per metre",
+          "Scale of the output: pixels per metre of floor",
+          &Settings::pixels_per_metre, 1.0, 10000.0)
+      .mutable_in (GST_PARAM_MUTABLE_READY)
+      .number ("forward", "Forward extent",
+          "Metres of floor shown ahead of the camera's floor point",
+          &Settings::forward, 0.0, 1000.0)
+      .mutable_in (GST_PARAM_MUTABLE_READY)
+      .number ("behind", "Behind extent",
+          "Metres shown behind the camera's floor point (the robot)",
+          &Settings::behind, 0.0, 1000.0)
+      .mutable_in (GST_PARAM_MUTABLE_READY)
+      .number ("side", "Side extent",
+          "Metres shown on each side of the robot's axis", &Settings::side,
+          0.0, 1000.0)
+      .mutable_in (GST_PARAM_MUTABLE_READY);
+  return table;
 }
 
 /* ---- GObject -------------------------------------------------------- */
@@ -188,71 +209,6 @@ gst_birds_eye_init (GstBirdsEye * self)
   gst_base_transform_set_qos_enabled (GST_BASE_TRANSFORM (self), FALSE);
 }
 
-static void
-gst_birds_eye_finalize (GObject * object)
-{
-  delete GST_BIRDS_EYE (object)->priv;
-  G_OBJECT_CLASS (gst_birds_eye_parent_class)->finalize (object);
-}
-
-static void
-gst_birds_eye_set_property (GObject * object, guint prop_id,
-    const GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_BIRDS_EYE (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  Settings & s = priv->settings;
-  if (camera_props_set (&s.camera, PROP_CAMERA_FIRST, prop_id, value)) {
-    s.generation++;
-    return;
-  }
-  switch (prop_id) {
-    case PROP_PIXELS_PER_METRE:
-      s.pixels_per_metre = g_value_get_double (value);
-      break;
-    case PROP_FORWARD:
-      s.forward = g_value_get_double (value);
-      break;
-    case PROP_BEHIND:
-      s.behind = g_value_get_double (value);
-      break;
-    case PROP_SIDE:
-      s.side = g_value_get_double (value);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      return;
-  }
-  s.generation++;
-}
-
-static void
-gst_birds_eye_get_property (GObject * object, guint prop_id,
-    GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_BIRDS_EYE (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  const Settings & s = priv->settings;
-  if (camera_props_get (s.camera, PROP_CAMERA_FIRST, prop_id, value))
-    return;
-  switch (prop_id) {
-    case PROP_PIXELS_PER_METRE:
-      g_value_set_double (value, s.pixels_per_metre);
-      break;
-    case PROP_FORWARD:
-      g_value_set_double (value, s.forward);
-      break;
-    case PROP_BEHIND:
-      g_value_set_double (value, s.behind);
-      break;
-    case PROP_SIDE:
-      g_value_set_double (value, s.side);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
 
 /* ---- states and caps ------------------------------------------------ */
 
@@ -260,21 +216,14 @@ static GstStateChangeReturn
 gst_birds_eye_change_state (GstElement * element, GstStateChange transition)
 {
   auto self = GST_BIRDS_EYE (element);
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
-    Settings s;
-    {
-      std::lock_guard<std::mutex> lk (self->priv->lock);
-      s = self->priv->settings;
-    }
-    landmark::CameraSetup camera;
-    const char *property = nullptr;
-    std::string why;
-    if (!birds_eye_check (s, &camera, &property, &why)) {
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
-      return GST_STATE_CHANGE_FAILURE;
-    }
-  }
+  auto check = [](const Settings & s, Config * cfg,
+      landmark::SettingsError * err) {
+    return birds_eye_configure (s, 0, 0, 0, 0, cfg, err);
+  };
+  if (transition == GST_STATE_CHANGE_NULL_TO_READY &&
+      !self->priv->state.applied.start (element, self->priv->settings,
+          check))
+    return GST_STATE_CHANGE_FAILURE;
   return GST_ELEMENT_CLASS (gst_birds_eye_parent_class)->change_state
       (element, transition);
 }
@@ -286,11 +235,8 @@ gst_birds_eye_transform_caps (GstBaseTransform * trans,
     GstPadDirection direction, GstCaps * caps, GstCaps * filter)
 {
   auto self = GST_BIRDS_EYE (trans);
-  landmark::BirdsEyeParams b;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    b = birds_eye_params (self->priv->settings);
-  }
+  const landmark::BirdsEyeParams b =
+      birds_eye_params (self->priv->settings.copy ());
   GstCaps *out = gst_caps_copy (caps);
   for (guint i = 0; i < gst_caps_get_size (out); i++) {
     GstStructure *st = gst_caps_get_structure (out, i);
@@ -325,24 +271,17 @@ gst_birds_eye_set_info (GstVideoFilter * filter, GstCaps * incaps,
     GST_ERROR_OBJECT (self, "input and output formats differ");
     return FALSE;
   }
-  Settings s;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    s = self->priv->settings;
-  }
-  const char *property = nullptr;
-  std::string why;
-  landmark::CameraSetup camera;
-  if (!birds_eye_check (s, &camera, &property, &why) ||
-      !birds_eye_build (s, camera, GST_VIDEO_INFO_WIDTH (in_info),
-          GST_VIDEO_INFO_HEIGHT (in_info), &st, &property, &why)) {
-    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-        ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+  const int in_w = GST_VIDEO_INFO_WIDTH (in_info);
+  const int in_h = GST_VIDEO_INFO_HEIGHT (in_info);
+  const int out_w = GST_VIDEO_INFO_WIDTH (out_info);
+  const int out_h = GST_VIDEO_INFO_HEIGHT (out_info);
+  auto configure = [=](const Settings & s, Config * cfg,
+      landmark::SettingsError * err) {
+    return birds_eye_configure (s, in_w, in_h, out_w, out_h, cfg, err);
+  };
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
+          configure))
     return FALSE;
-  }
-  st.camera = camera;
-  st.generation = s.generation;
-  st.warned_generation = G_MAXUINT;
   GST_INFO_OBJECT (self, "remap %dx%d -> %dx%d", GST_VIDEO_INFO_WIDTH
       (in_info), GST_VIDEO_INFO_HEIGHT (in_info),
       GST_VIDEO_INFO_WIDTH (out_info), GST_VIDEO_INFO_HEIGHT (out_info));
@@ -357,44 +296,15 @@ static void
 gst_birds_eye_sync_settings (GstBirdsEye * self)
 {
   GstVideoFilter *filter = GST_VIDEO_FILTER (self);
-  State & st = self->priv->state;
-  Settings s;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    if (self->priv->settings.generation == st.generation)
-      return;
-    s = self->priv->settings;
-  }
-  const landmark::BirdsEyeParams b = birds_eye_params (s);
-  const char *property = nullptr;
-  std::string why;
-  landmark::CameraSetup camera;
-  bool ok = birds_eye_check (s, &camera, &property, &why);
-  if (ok && (b.out_w != GST_VIDEO_INFO_WIDTH (&filter->out_info) ||
-          b.out_h != GST_VIDEO_INFO_HEIGHT (&filter->out_info))) {
-    ok = false;
-    property = "pixels-per-metre";
-    why = "the output size changes only in the READY state";
-  }
-  State next;
-  if (ok)
-    ok = birds_eye_build (s, camera, GST_VIDEO_INFO_WIDTH (&filter->in_info),
-        GST_VIDEO_INFO_HEIGHT (&filter->in_info), &next, &property, &why);
-  if (!ok) {
-    if (st.warned_generation != s.generation) {
-      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value; keeping the previous settings.", property),
-          ("%s", why.c_str ()));
-      st.warned_generation = s.generation;
-    }
-    return;
-  }
-  st.map1 = next.map1;
-  st.map2 = next.map2;
-  st.map_x = std::move (next.map_x);
-  st.map_y = std::move (next.map_y);
-  st.camera = camera;
-  st.generation = s.generation;
+  auto configure = [filter](const Settings & s, Config * cfg,
+      landmark::SettingsError * err) {
+    return birds_eye_configure (s, GST_VIDEO_INFO_WIDTH (&filter->in_info),
+        GST_VIDEO_INFO_HEIGHT (&filter->in_info),
+        GST_VIDEO_INFO_WIDTH (&filter->out_info),
+        GST_VIDEO_INFO_HEIGHT (&filter->out_info), cfg, err);
+  };
+  self->priv->state.applied.sync (GST_ELEMENT (self), self->priv->settings,
+      configure);
 }
 
 static GstFlowReturn
@@ -413,7 +323,7 @@ gst_birds_eye_transform_frame (GstVideoFilter * filter,
     cv::Mat dst (GST_VIDEO_FRAME_HEIGHT (out), GST_VIDEO_FRAME_WIDTH (out),
         type, GST_VIDEO_FRAME_PLANE_DATA (out, 0),
         GST_VIDEO_FRAME_PLANE_STRIDE (out, 0));
-    cv::remap (src, dst, st.map1, st.map2, cv::INTER_LINEAR,
+    cv::remap (src, dst, st.applied.config.map1, st.applied.config.map2, cv::INTER_LINEAR,
         cv::BORDER_CONSTANT, cv::Scalar::all (0));
   }
   catch (const std::exception & e) {
@@ -432,31 +342,11 @@ gst_birds_eye_class_init (GstBirdsEyeClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
 
-  gobject_class->set_property = gst_birds_eye_set_property;
-  gobject_class->get_property = gst_birds_eye_get_property;
   gobject_class->finalize = gst_birds_eye_finalize;
-
-  const GParamFlags playing = (GParamFlags) (G_PARAM_READWRITE |
-      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-  const GParamFlags ready = (GParamFlags) (G_PARAM_READWRITE |
-      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
-  camera_props_install (gobject_class, PROP_CAMERA_FIRST, playing);
-  g_object_class_install_property (gobject_class, PROP_PIXELS_PER_METRE,
-      g_param_spec_double ("pixels-per-metre", "Pixels per metre",
-          "Scale of the output: pixels per metre of floor", 1.0, 10000.0,
-          DEFAULT_PIXELS_PER_METRE, ready));
-  g_object_class_install_property (gobject_class, PROP_FORWARD,
-      g_param_spec_double ("forward", "Forward extent",
-          "Metres of floor shown ahead of the camera's floor point", 0.0,
-          1000.0, DEFAULT_FORWARD, ready));
-  g_object_class_install_property (gobject_class, PROP_BEHIND,
-      g_param_spec_double ("behind", "Behind extent",
-          "Metres shown behind the camera's floor point (the robot)", 0.0,
-          1000.0, DEFAULT_BEHIND, ready));
-  g_object_class_install_property (gobject_class, PROP_SIDE,
-      g_param_spec_double ("side", "Side extent",
-          "Metres shown on each side of the robot's axis", 0.0, 1000.0,
-          DEFAULT_SIDE, ready));
+  landmark::install_properties<Settings, gst_birds_eye_settings,
+      birds_eye_properties> (gobject_class, (GParamFlags)
+      (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+          GST_PARAM_MUTABLE_PLAYING));
 
   gst_element_class_set_static_metadata (element_class,
       "Bird's-eye view of the floor", "Filter/Converter/Video",

@@ -76,82 +76,42 @@
 #include <vector>
 
 #include "blobshape.h"
+#include "elementsettings.h"
 #include "landmarkmeta.h"
 #include "markerevidence.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_blob_roundness_debug);
 #define GST_CAT_DEFAULT gst_blob_roundness_debug
 
-#define DEFAULT_CLASSES nullptr
-#define DEFAULT_MORPHOLOGY 0
-#define DEFAULT_MIN_AREA 100
-#define DEFAULT_MAX_AREA 0
-/* off: ipmrange checks the aspect a marker has at its range */
-#define DEFAULT_MAX_ASPECT 0.0
-#define DEFAULT_MIN_ROUNDNESS 0.85
-/* -1: follow the blob's size (markerevidence.h, shape_fit_threshold) */
-#define DEFAULT_MIN_ELLIPSE_FIT -1.0
-#define DEFAULT_SHAPE GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE
-#define DEFAULT_KEEP_REJECTED FALSE
-
 #define MAX_MORPHOLOGY 255
-
-enum
-{
-  PROP_0,
-  PROP_CLASSES,
-  PROP_MORPHOLOGY,
-  PROP_MIN_AREA,
-  PROP_MAX_AREA,
-  PROP_MAX_ASPECT,
-  PROP_MIN_ROUNDNESS,
-  PROP_MIN_ELLIPSE_FIT,
-  PROP_SHAPE,
-  PROP_KEEP_REJECTED,
-};
-
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
 
 /* *INDENT-OFF* */
 namespace {
 
-/* What the user sets. generation counts changes, so the streaming thread
- * copies (and validates) only what changed. */
+/* What the user sets (the initial values are the defaults). */
 struct Settings {
   std::string classes;          /* empty: every marker class */
-  guint morphology = DEFAULT_MORPHOLOGY;
-  guint min_area = DEFAULT_MIN_AREA;
-  guint max_area = DEFAULT_MAX_AREA;
-  gdouble max_aspect = DEFAULT_MAX_ASPECT;
-  gdouble min_roundness = DEFAULT_MIN_ROUNDNESS;
-  gdouble min_ellipse_fit = DEFAULT_MIN_ELLIPSE_FIT;
-  GstBlobRoundnessShape shape = DEFAULT_SHAPE;
-  gboolean keep_rejected = DEFAULT_KEEP_REJECTED;
-  guint generation = 0;
+  guint morphology = 0;
+  guint min_area = 100;
+  guint max_area = 0;
+  /* off: ipmrange checks the aspect a marker has at its range */
+  gdouble max_aspect = 0.0;
+  gdouble min_roundness = 0.85;
+  /* -1: follow the blob's size (markerevidence.h, shape_fit_threshold) */
+  gdouble min_ellipse_fit = -1.0;
+  GstBlobRoundnessShape shape = GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE;
+  gboolean keep_rejected = FALSE;
 };
 
 /* Settings checked and parsed: what the streaming thread works with. */
 struct Config {
+  Settings s;
   std::vector<std::string> classes;   /* empty: every marker class */
-  guint morphology = DEFAULT_MORPHOLOGY;
-  guint min_area = DEFAULT_MIN_AREA;
-  guint max_area = DEFAULT_MAX_AREA;
-  gdouble max_aspect = DEFAULT_MAX_ASPECT;
-  gdouble min_roundness = DEFAULT_MIN_ROUNDNESS;
-  gdouble min_ellipse_fit = DEFAULT_MIN_ELLIPSE_FIT;
-  GstBlobRoundnessShape shape = DEFAULT_SHAPE;
-  gboolean keep_rejected = DEFAULT_KEEP_REJECTED;
 };
 
 /* Built in start(), used by the streaming thread only. */
 struct State {
-  Config config;
-  guint generation = G_MAXUINT;
-  guint warned_generation = G_MAXUINT;
+  landmark::AppliedSettings<Settings, Config> applied;
 
   /* label -> slot, rebuilt when the palette or `classes` change */
   std::vector<std::string> palette_names;
@@ -173,8 +133,7 @@ struct State {
 }  // namespace
 
 struct GstBlobRoundnessPrivate {
-  std::mutex lock;              /* guards settings */
-  Settings settings;
+  landmark::SharedSettings<Settings> settings;
   State state;
 };
 
@@ -190,11 +149,11 @@ G_DEFINE_TYPE_WITH_CODE (GstBlobRoundness, gst_blob_roundness,
         "Landmark blob measurement"));
 GST_ELEMENT_REGISTER_DEFINE (blobroundness, "blobroundness", GST_RANK_NONE,
     GST_TYPE_BLOB_ROUNDNESS);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_blob_roundness, GST_BLOB_ROUNDNESS);
 
 GType
 gst_blob_roundness_shape_get_type (void)
 {
-  static GType type = 0;
   static const GEnumValue values[] = {
     {GST_BLOB_ROUNDNESS_SHAPE_CIRCLE,
         "Roundness of the image blob at least min-roundness (the seed's test)",
@@ -205,57 +164,66 @@ gst_blob_roundness_shape_get_type (void)
         "ellipse"},
     {0, nullptr, nullptr},
   };
-  if (g_once_init_enter (&type)) {
-    GType t = g_enum_register_static ("GstBlobRoundnessShape", values);
-    g_once_init_leave (&type, t);
-  }
+  static const GType type =
+      g_enum_register_static ("GstBlobRoundnessShape", values);
   return type;
 }
 
 /* ---- configuration -------------------------------------------------- */
 
-/* Checks the settings and parses them into cfg; on failure returns FALSE
- * with the property's name and a message. */
-static gboolean
+/* Checks the settings and parses them into cfg. */
+static bool
 blob_roundness_parse (const Settings & s, Config * cfg,
-    const char **property, std::string * why)
+    landmark::SettingsError * err)
 {
-  if (s.morphology % 2 == 0 && s.morphology != 0) {
-    *property = "morphology";
-    *why = "the kernel size must be 0 (off) or odd, got " +
-        std::to_string (s.morphology);
-    return FALSE;
-  }
-  if (s.max_area != 0 && s.min_area > s.max_area) {
-    *property = "min-area";
-    *why = "min-area (" + std::to_string (s.min_area) +
-        ") is larger than max-area (" + std::to_string (s.max_area) + ")";
-    return FALSE;
-  }
-  cfg->classes.clear ();
-  if (!s.classes.empty ()) {
-    gchar **parts = g_strsplit (s.classes.c_str (), ",", -1);
-    for (gchar ** p = parts; *p; p++) {
-      gchar *name = g_strstrip (*p);
-      if (!*name) {
-        g_strfreev (parts);
-        *property = "classes";
-        *why = "empty class name in \"" + s.classes + "\"";
-        return FALSE;
-      }
-      cfg->classes.emplace_back (name);
-    }
-    g_strfreev (parts);
-  }
-  cfg->morphology = s.morphology;
-  cfg->min_area = s.min_area;
-  cfg->max_area = s.max_area;
-  cfg->max_aspect = s.max_aspect;
-  cfg->min_roundness = s.min_roundness;
-  cfg->min_ellipse_fit = s.min_ellipse_fit;
-  cfg->shape = s.shape;
-  cfg->keep_rejected = s.keep_rejected;
-  return TRUE;
+  if (s.morphology % 2 == 0 && s.morphology != 0)
+    return err->fail ("morphology", "the kernel size must be 0 (off) or "
+        "odd, got " + std::to_string (s.morphology));
+  if (s.max_area != 0 && s.min_area > s.max_area)
+    return err->fail ("min-area", "min-area (" + std::to_string (s.min_area)
+        + ") is larger than max-area (" + std::to_string (s.max_area) + ")");
+  if (!landmark::parse_name_list (s.classes, "classes", &cfg->classes, err))
+    return false;
+  cfg->s = s;
+  return true;
+}
+
+static const landmark::PropertyTable<Settings> &
+blob_roundness_properties ()
+{
+  static const auto table = landmark::PropertyTable<Settings> ()
+      .string ("classes", "Classes",
+          "Comma-separated class names to find blobs of (unset: every class "
+          "the palette marks as a marker)", &Settings::classes)
+      .number ("morphology", "Morphology kernel",
+          "Diameter in pixels of the disc each class is opened then closed "
+          "with before blobs are found; 0 = off, otherwise odd",
+          &Settings::morphology, 0u, (guint) MAX_MORPHOLOGY)
+      .number ("min-area", "Minimum area",
+          "Smallest blob kept, in pixels (the seed's noise threshold)",
+          &Settings::min_area, 0u, G_MAXUINT)
+      .number ("max-area", "Maximum area",
+          "Largest blob kept, in pixels (0 = no limit)",
+          &Settings::max_area, 0u, G_MAXUINT)
+      .number ("max-aspect", "Maximum aspect ratio",
+          "Largest ratio of the ellipse's major to minor axis kept (a floor "
+          "disc seen from camera height h at range r images at about r/h); "
+          "0 = no limit", &Settings::max_aspect, 0.0, G_MAXDOUBLE)
+      .number ("min-roundness", "Minimum roundness",
+          "shape=circle: smallest roundness 4 pi A / P^2 kept, 0..1",
+          &Settings::min_roundness, 0.0, 1.0)
+      .number ("min-ellipse-fit", "Minimum ellipse fit",
+          "shape=ellipse: smallest intersection over union of the blob and "
+          "its moment ellipse kept, 0..1; -1: from the blob's size (0.92 "
+          "for large blobs, lower for small ones whose outline blur and "
+          "compression move)", &Settings::min_ellipse_fit, -1.0, 1.0)
+      .enumeration ("shape", "Shape test",
+          "Which test tells landmarks from other blobs", &Settings::shape,
+          GST_TYPE_BLOB_ROUNDNESS_SHAPE)
+      .boolean ("keep-rejected", "Keep rejected",
+          "Also attach rejected blobs (kept=false, with reject-reason), for "
+          "tuning", &Settings::keep_rejected);
+  return table;
 }
 
 /* ---- GObject -------------------------------------------------------- */
@@ -264,104 +232,9 @@ static void
 gst_blob_roundness_init (GstBlobRoundness * self)
 {
   self->priv = new GstBlobRoundnessPrivate ();
-  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
-  gst_base_transform_set_in_place (trans, TRUE);
-  /* a measuring element never drops late frames */
-  gst_base_transform_set_qos_enabled (trans, FALSE);
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
-static void
-gst_blob_roundness_finalize (GObject * object)
-{
-  delete GST_BLOB_ROUNDNESS (object)->priv;
-  G_OBJECT_CLASS (gst_blob_roundness_parent_class)->finalize (object);
-}
-
-static void
-gst_blob_roundness_set_property (GObject * object, guint prop_id,
-    const GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_BLOB_ROUNDNESS (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  Settings & s = priv->settings;
-  switch (prop_id) {
-    case PROP_CLASSES:{
-      const gchar *v = g_value_get_string (value);
-      s.classes = v ? v : "";
-      break;
-    }
-    case PROP_MORPHOLOGY:
-      s.morphology = g_value_get_uint (value);
-      break;
-    case PROP_MIN_AREA:
-      s.min_area = g_value_get_uint (value);
-      break;
-    case PROP_MAX_AREA:
-      s.max_area = g_value_get_uint (value);
-      break;
-    case PROP_MAX_ASPECT:
-      s.max_aspect = g_value_get_double (value);
-      break;
-    case PROP_MIN_ROUNDNESS:
-      s.min_roundness = g_value_get_double (value);
-      break;
-    case PROP_MIN_ELLIPSE_FIT:
-      s.min_ellipse_fit = g_value_get_double (value);
-      break;
-    case PROP_SHAPE:
-      s.shape = (GstBlobRoundnessShape) g_value_get_enum (value);
-      break;
-    case PROP_KEEP_REJECTED:
-      s.keep_rejected = g_value_get_boolean (value);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      return;
-  }
-  s.generation++;
-}
-
-static void
-gst_blob_roundness_get_property (GObject * object, guint prop_id,
-    GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_BLOB_ROUNDNESS (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  const Settings & s = priv->settings;
-  switch (prop_id) {
-    case PROP_CLASSES:
-      g_value_set_string (value, s.classes.empty ()? nullptr :
-          s.classes.c_str ());
-      break;
-    case PROP_MORPHOLOGY:
-      g_value_set_uint (value, s.morphology);
-      break;
-    case PROP_MIN_AREA:
-      g_value_set_uint (value, s.min_area);
-      break;
-    case PROP_MAX_AREA:
-      g_value_set_uint (value, s.max_area);
-      break;
-    case PROP_MAX_ASPECT:
-      g_value_set_double (value, s.max_aspect);
-      break;
-    case PROP_MIN_ROUNDNESS:
-      g_value_set_double (value, s.min_roundness);
-      break;
-    case PROP_MIN_ELLIPSE_FIT:
-      g_value_set_double (value, s.min_ellipse_fit);
-      break;
-    case PROP_SHAPE:
-      g_value_set_enum (value, s.shape);
-      break;
-    case PROP_KEEP_REJECTED:
-      g_value_set_boolean (value, s.keep_rejected);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
 
 /* ---- states and caps ------------------------------------------------ */
 
@@ -370,36 +243,22 @@ gst_blob_roundness_start (GstBaseTransform * trans)
 {
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
-  Settings s;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    s = self->priv->settings;
-  }
-  const char *property = nullptr;
-  std::string why;
-  Config cfg;
-  if (!blob_roundness_parse (s, &cfg, &property, &why)) {
-    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-        ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
+          blob_roundness_parse))
     return FALSE;
-  }
-  st.config = std::move (cfg);
-  st.generation = s.generation;
-  st.warned_generation = G_MAXUINT;
   st.slots_valid = false;
   st.palette_names.clear ();
   st.palette_markers.clear ();
   st.warned_no_meta = false;
   st.warned_bad_plane = false;
   st.video_width = st.video_height = 0;
+  const Settings & s = st.applied.config.s;
   GST_INFO_OBJECT (self, "shape %s, min-area %u, max-area %u, max-aspect "
       "%.2f, min-roundness %.3f, min-ellipse-fit %.3f, morphology %u, "
-      "classes %s", st.config.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE ?
-      "circle" : "ellipse", st.config.min_area, st.config.max_area,
-      st.config.max_aspect,
-      st.config.min_roundness, st.config.min_ellipse_fit,
-      st.config.morphology, s.classes.empty ()? "(markers)" :
-      s.classes.c_str ());
+      "classes %s", s.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE ?
+      "circle" : "ellipse", s.min_area, s.max_area, s.max_aspect,
+      s.min_roundness, s.min_ellipse_fit, s.morphology,
+      s.classes.empty ()? "(markers)" : s.classes.c_str ());
   return TRUE;
 }
 
@@ -436,37 +295,17 @@ gst_blob_roundness_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 
 /* ---- streaming ------------------------------------------------------ */
 
-/* Brings the state up to date with settings changed while running. Bad
- * values set while streaming are reported once (a warning naming the
- * property) and the previous ones stay in force. */
+/* Brings the state up to date with settings changed while running (a
+ * bad value: a warning, and the previous settings stay). */
 static void
 gst_blob_roundness_sync_settings (GstBlobRoundness * self)
 {
   State & st = self->priv->state;
-  Settings s;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    if (self->priv->settings.generation == st.generation)
-      return;
-    s = self->priv->settings;
+  if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
+          blob_roundness_parse)) {
+    st.slots_valid = false;     /* `classes` may have changed */
+    GST_INFO_OBJECT (self, "settings changed");
   }
-  const char *property = nullptr;
-  std::string why;
-  Config cfg;
-  if (!blob_roundness_parse (s, &cfg, &property, &why)) {
-    if (st.warned_generation != s.generation) {
-      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value; keeping the previous settings.", property),
-          ("%s", why.c_str ()));
-      st.warned_generation = s.generation;
-    }
-    return;
-  }
-  if (cfg.classes != st.config.classes)
-    st.slots_valid = false;
-  st.config = std::move (cfg);
-  st.generation = s.generation;
-  GST_INFO_OBJECT (self, "settings changed");
 }
 
 /* Maps labels to slots for this frame's palette. Slot = label, so a slot
@@ -496,12 +335,12 @@ gst_blob_roundness_update_slots (GstBlobRoundness * self,
             k));
   }
   memset (st.slot_of, 0, sizeof (st.slot_of));
-  if (st.config.classes.empty ()) {
+  if (st.applied.config.classes.empty ()) {
     for (guint k = 0; k < n; k++)
       if (st.palette_markers[k])
         st.slot_of[k + 1] = k + 1;
   } else {
-    for (const std::string & want : st.config.classes) {
+    for (const std::string & want : st.applied.config.classes) {
       guint k = 0;
       while (k < n && st.palette_names[k] != want)
         k++;
@@ -620,7 +459,7 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
     const GstStructure * labels)
 {
   State & st = self->priv->state;
-  const Config & cfg = st.config;
+  const Settings & cfg = st.applied.config.s;
 
   GstBuffer *plane;
   guint w, h, stride;
@@ -708,90 +547,24 @@ gst_blob_roundness_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 
   gst_blob_roundness_sync_settings (self);
 
-  const GstStructure *labels = landmark_labels_meta_get (buf);
-  if (!labels) {
-    if (!st.warned_no_meta) {
-      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
-          ("No class labels on the video: blobroundness needs labsegment "
-              "upstream."),
-          ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
-              GST_LANDMARK_LABELS_META_NAME, buf));
-      st.warned_no_meta = true;
-    }
-    return GST_FLOW_OK;
-  }
-  try {
-    return gst_blob_roundness_process (self, buf, labels);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Blob measurement failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
+  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
+      buf, &st.warned_no_meta);
+  if (!labels)
+    return GST_FLOW_OK;         /* buffers pass unmeasured */
+  return landmark::run_frame (GST_ELEMENT (self), "Blob measurement failed.",
+      [&] { return gst_blob_roundness_process (self, buf, labels); });
 }
 
 static void
 gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  gobject_class->set_property = gst_blob_roundness_set_property;
-  gobject_class->get_property = gst_blob_roundness_get_property;
-  gobject_class->finalize = gst_blob_roundness_finalize;
-
-  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
-      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-  g_object_class_install_property (gobject_class, PROP_CLASSES,
-      g_param_spec_string ("classes", "Classes",
-          "Comma-separated class names to find blobs of (unset: every class "
-          "the palette marks as a marker)", DEFAULT_CLASSES, flags));
-  g_object_class_install_property (gobject_class, PROP_MORPHOLOGY,
-      g_param_spec_uint ("morphology", "Morphology kernel",
-          "Diameter in pixels of the disc each class is opened then closed "
-          "with before blobs are found; 0 = off, otherwise odd",
-          0, MAX_MORPHOLOGY, DEFAULT_MORPHOLOGY, flags));
-  g_object_class_install_property (gobject_class, PROP_MIN_AREA,
-      g_param_spec_uint ("min-area", "Minimum area",
-          "Smallest blob kept, in pixels (the seed's noise threshold)",
-          0, G_MAXUINT, DEFAULT_MIN_AREA, flags));
-  g_object_class_install_property (gobject_class, PROP_MAX_AREA,
-      g_param_spec_uint ("max-area", "Maximum area",
-          "Largest blob kept, in pixels (0 = no limit)",
-          0, G_MAXUINT, DEFAULT_MAX_AREA, flags));
-  g_object_class_install_property (gobject_class, PROP_MAX_ASPECT,
-      g_param_spec_double ("max-aspect", "Maximum aspect ratio",
-          "Largest ratio of the ellipse's major to minor axis kept (a floor "
-          "disc seen from camera height h at range r images at about r/h); "
-          "0 = no limit", 0.0, G_MAXDOUBLE, DEFAULT_MAX_ASPECT, flags));
-  g_object_class_install_property (gobject_class, PROP_MIN_ROUNDNESS,
-      g_param_spec_double ("min-roundness", "Minimum roundness",
-          "shape=circle: smallest roundness 4 pi A / P^2 kept, 0..1",
-          0.0, 1.0, DEFAULT_MIN_ROUNDNESS, flags));
-  g_object_class_install_property (gobject_class, PROP_MIN_ELLIPSE_FIT,
-      g_param_spec_double ("min-ellipse-fit", "Minimum ellipse fit",
-          "shape=ellipse: smallest intersection over union of the blob and "
-          "its moment ellipse kept, 0..1; -1: from the blob's size (0.92 "
-          "for large blobs, lower for small ones whose outline blur and "
-          "compression move)", -1.0, 1.0, DEFAULT_MIN_ELLIPSE_FIT, flags));
-  g_object_class_install_property (gobject_class, PROP_SHAPE,
-      g_param_spec_enum ("shape", "Shape test",
-          "Which test tells landmarks from other blobs",
-          GST_TYPE_BLOB_ROUNDNESS_SHAPE, DEFAULT_SHAPE, flags));
-  g_object_class_install_property (gobject_class, PROP_KEEP_REJECTED,
-      g_param_spec_boolean ("keep-rejected", "Keep rejected",
-          "Also attach rejected blobs (kept=false, with reject-reason), for "
-          "tuning", DEFAULT_KEEP_REJECTED, flags));
-
-  gst_element_class_set_static_metadata (element_class,
+  landmark::metadata_element_class_init<Settings, gst_blob_roundness_settings,
+      blob_roundness_properties> (klass, gst_blob_roundness_finalize,
       "Landmark blob roundness", "Filter/Analyzer/Video",
       "Finds the blobs of marker classes in the labels of labsegment, "
       "measures area, perimeter, roundness and a fitted ellipse, keeps the "
-      "round ones and attaches them as region-of-interest metadata",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "round ones and attaches them as region-of-interest metadata");
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);

@@ -68,68 +68,40 @@
 #include "fileutil.h"
 #include "floorprofile.h"
 #include "cameraprops.h"
+#include "elementsettings.h"
 #include "landmarkmeta.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_floor_boundary_debug);
 #define GST_CAT_DEFAULT gst_floor_boundary_debug
 
-#define DEFAULT_FLOOR_CLASSES nullptr
-#define DEFAULT_MARKERS GST_FLOOR_BOUNDARY_MARKERS_FLOOR
-#define DEFAULT_MIN_OBSTACLE_ROWS 6
-#define DEFAULT_BEARING_BINS 360
-#define DEFAULT_MAX_RANGE 4.0
-#define DEFAULT_POST_MESSAGES FALSE
-#define DEFAULT_MAX_MARKER_LENGTH 0.0
-
 #define MAX_BEARING_BINS 36000
-
-enum
-{
-  PROP_0,
-  PROP_CAMERA_FIRST,            /* cameraprops.h: CAMERA_PROP_COUNT ids */
-  PROP_FLOOR_CLASSES = PROP_CAMERA_FIRST + CAMERA_PROP_COUNT,
-  PROP_MARKERS,
-  PROP_MIN_OBSTACLE_ROWS,
-  PROP_BEARING_BINS,
-  PROP_MAX_RANGE,
-  PROP_POST_MESSAGES,
-  PROP_MAX_MARKER_LENGTH,
-};
-
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
 
 /* *INDENT-OFF* */
 namespace {
 
+/* What the user sets (the initial values are the defaults). */
 struct Settings {
   landmark::CameraSettings camera;
   std::string floor_classes;    /* empty: every non-marker class */
-  GstFloorBoundaryMarkers markers = DEFAULT_MARKERS;
-  guint min_obstacle_rows = DEFAULT_MIN_OBSTACLE_ROWS;
-  guint bearing_bins = DEFAULT_BEARING_BINS;
-  gdouble max_range = DEFAULT_MAX_RANGE;
-  gboolean post_messages = DEFAULT_POST_MESSAGES;
-  gdouble max_marker_length = DEFAULT_MAX_MARKER_LENGTH;
-  guint generation = 0;
+  GstFloorBoundaryMarkers markers = GST_FLOOR_BOUNDARY_MARKERS_FLOOR;
+  guint min_obstacle_rows = 6;
+  guint bearing_bins = 360;
+  gdouble max_range = 4.0;
+  gboolean post_messages = FALSE;
+  gdouble max_marker_length = 0.0;
 };
 
 /* Settings checked, with the camera file read. */
 struct Config {
   landmark::CameraSetup camera;
   std::vector<std::string> floor_classes;
-  GstFloorBoundaryMarkers markers = DEFAULT_MARKERS;
+  GstFloorBoundaryMarkers markers = GST_FLOOR_BOUNDARY_MARKERS_FLOOR;
   landmark::FloorProfileParams profile;
   bool post_messages = false;
 };
 
 struct State {
-  Config config;
-  guint generation = G_MAXUINT;
-  guint warned_generation = G_MAXUINT;
+  landmark::AppliedSettings<Settings, Config> applied;
   landmark::CameraGeometry geometry;
   landmark::FloorProfile profile;
   guint built_w = 0, built_h = 0;     /* what profile was built for */
@@ -150,8 +122,7 @@ struct State {
 }  // namespace
 
 struct GstFloorBoundaryPrivate {
-  std::mutex lock;              /* guards settings */
-  Settings settings;
+  landmark::SharedSettings<Settings> settings;
   State state;
 };
 
@@ -167,11 +138,11 @@ G_DEFINE_TYPE_WITH_CODE (GstFloorBoundary, gst_floor_boundary,
         "Floor boundary and radial obstacle profile"));
 GST_ELEMENT_REGISTER_DEFINE (floorboundary, "floorboundary", GST_RANK_NONE,
     GST_TYPE_FLOOR_BOUNDARY);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_floor_boundary, GST_FLOOR_BOUNDARY);
 
 GType
 gst_floor_boundary_markers_get_type (void)
 {
-  static GType type = 0;
   static const GEnumValue values[] = {
     {GST_FLOOR_BOUNDARY_MARKERS_FLOOR, "Marker pixels are walked over as "
           "floor and reported in rop-marker-range", "floor"},
@@ -182,71 +153,91 @@ gst_floor_boundary_markers_get_type (void)
           "like any obstacle", "obstacles"},
     {0, nullptr, nullptr},
   };
-  if (g_once_init_enter (&type)) {
-    GType t = g_enum_register_static ("GstFloorBoundaryMarkers", values);
-    g_once_init_leave (&type, t);
-  }
+  static const GType type =
+      g_enum_register_static ("GstFloorBoundaryMarkers", values);
   return type;
 }
 
 /* ---- configuration -------------------------------------------------- */
 
-static gboolean
+static bool
 floor_boundary_parse (const Settings & s, Config * cfg,
-    const char **property, std::string * why)
+    landmark::SettingsError * err)
 {
   *cfg = Config ();
-  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera, property,
-          why))
-    return FALSE;
-  if (!s.floor_classes.empty ()) {
-    gchar **parts = g_strsplit (s.floor_classes.c_str (), ",", -1);
-    for (gchar ** p = parts; *p; p++) {
-      gchar *name = g_strstrip (*p);
-      if (!*name) {
-        g_strfreev (parts);
-        *property = "floor-classes";
-        *why = "empty class name in \"" + s.floor_classes + "\"";
-        return FALSE;
-      }
-      cfg->floor_classes.emplace_back (name);
-    }
-    g_strfreev (parts);
-  }
-  if (!(s.max_range > 0)) {
-    *property = "max-range";
-    *why = "the range must be positive, got " +
-        landmark::number_text (s.max_range);
-    return FALSE;
-  }
+  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera,
+          &err->property, &err->why))
+    return false;
+  if (!landmark::parse_name_list (s.floor_classes, "floor-classes",
+          &cfg->floor_classes, err))
+    return false;
+  if (!(s.max_range > 0))
+    return err->fail ("max-range", "the range must be positive, got " +
+        landmark::number_text (s.max_range));
   cfg->markers = s.markers;
   cfg->profile.min_obstacle_rows = (int) s.min_obstacle_rows;
   cfg->profile.bearing_bins = (int) s.bearing_bins;
   cfg->profile.max_range = s.max_range;
   cfg->profile.max_marker_length = s.max_marker_length;
   cfg->post_messages = s.post_messages;
-  return TRUE;
+  return true;
 }
 
-/* Builds the geometry and the profile's tables for a plane size. FALSE
- * with *property and *why. */
-static gboolean
+/* Builds the geometry and the profile's tables for a plane size. */
+static bool
 floor_boundary_build (const Config & cfg, guint w, guint h,
     landmark::CameraGeometry * geometry, landmark::FloorProfile * profile,
-    const char **property, std::string * why)
+    landmark::SettingsError * err)
 {
   landmark::CameraParams p;
   if (!landmark::camera_setup_params (cfg.camera, (int) w, (int) h, &p,
-          property, why))
-    return FALSE;
-  *property = cfg.camera.e.seed ? "model" : "tilt";
-  if (!geometry->configure (p, why))
-    return FALSE;
-  if (!profile->configure (*geometry, cfg.profile, why)) {
-    *why += " (" + std::to_string (w) + "x" + std::to_string (h) + ")";
-    return FALSE;
+          &err->property, &err->why))
+    return false;
+  err->property = cfg.camera.e.seed ? "model" : "tilt";
+  if (!geometry->configure (p, &err->why))
+    return false;
+  if (!profile->configure (*geometry, cfg.profile, &err->why)) {
+    err->why += " (" + std::to_string (w) + "x" + std::to_string (h) + ")";
+    return false;
   }
-  return TRUE;
+  return true;
+}
+
+static const landmark::PropertyTable<Settings> &
+floor_boundary_properties ()
+{
+  static const auto table = landmark::PropertyTable<Settings> ()
+      /* the camera: ipmrange's properties, the same meanings */
+      .part (&Settings::camera, camera_properties ())
+      /* the floor */
+      .string ("floor-classes", "Floor classes",
+          "Comma-separated class names that are floor (unset: every class "
+          "the palette does not mark as a marker)", &Settings::floor_classes)
+      .enumeration ("markers", "Markers",
+          "What pixels of marker classes are for the walk: floor (landmark "
+          "discs lie on it), floor only inside accepted detections (put "
+          "floorboundary after blobroundness), or obstacles (landmark "
+          "balls)", &Settings::markers, GST_TYPE_FLOOR_BOUNDARY_MARKERS)
+      .number ("min-obstacle-rows", "Minimum obstacle rows",
+          "Rows of non-floor pixels in a column, one above the other, that "
+          "end the floor; shorter runs (specks, texture, thin shadows) do "
+          "not", &Settings::min_obstacle_rows, 1u, 255u)
+      .number ("bearing-bins", "Bearing bins",
+          "Bins of the radial obstacle profile over the full circle; bin 0 "
+          "straight ahead, bin k at k * 360 / bearing-bins degrees to the "
+          "left", &Settings::bearing_bins, 1u, (guint) MAX_BEARING_BINS)
+      .number ("max-range", "Maximum range",
+          "Metres: floor free this far counts as free, farther obstacles "
+          "are not reported", &Settings::max_range, 0.0, 1000.0)
+      .number ("max-marker-length", "Maximum marker length",
+          "Metres: a run of walked-over marker pixels whose floor points "
+          "span more than this stands up (a landmark ball) and ends the "
+          "floor at its bulge; about 1.5 x the landmark discs' diameter; 0: "
+          "off", &Settings::max_marker_length, 0.0, 1000.0)
+      .boolean ("post-messages", "Post messages",
+          "Post a landmark-obstacles element message per frame",
+          &Settings::post_messages);
+  return table;
 }
 
 /* ---- GObject -------------------------------------------------------- */
@@ -255,98 +246,9 @@ static void
 gst_floor_boundary_init (GstFloorBoundary * self)
 {
   self->priv = new GstFloorBoundaryPrivate ();
-  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
-  gst_base_transform_set_in_place (trans, TRUE);
-  /* a measuring element never drops late frames */
-  gst_base_transform_set_qos_enabled (trans, FALSE);
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
-static void
-gst_floor_boundary_finalize (GObject * object)
-{
-  delete GST_FLOOR_BOUNDARY (object)->priv;
-  G_OBJECT_CLASS (gst_floor_boundary_parent_class)->finalize (object);
-}
-
-static void
-gst_floor_boundary_set_property (GObject * object, guint prop_id,
-    const GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_FLOOR_BOUNDARY (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  Settings & s = priv->settings;
-  if (camera_props_set (&s.camera, PROP_CAMERA_FIRST, prop_id, value)) {
-    s.generation++;
-    return;
-  }
-  switch (prop_id) {
-    case PROP_FLOOR_CLASSES:{
-      const gchar *v = g_value_get_string (value);
-      s.floor_classes = v ? v : "";
-      break;
-    }
-    case PROP_MARKERS:
-      s.markers = (GstFloorBoundaryMarkers) g_value_get_enum (value);
-      break;
-    case PROP_MIN_OBSTACLE_ROWS:
-      s.min_obstacle_rows = g_value_get_uint (value);
-      break;
-    case PROP_BEARING_BINS:
-      s.bearing_bins = g_value_get_uint (value);
-      break;
-    case PROP_MAX_RANGE:
-      s.max_range = g_value_get_double (value);
-      break;
-    case PROP_POST_MESSAGES:
-      s.post_messages = g_value_get_boolean (value);
-      break;
-    case PROP_MAX_MARKER_LENGTH:
-      s.max_marker_length = g_value_get_double (value);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      return;
-  }
-  s.generation++;
-}
-
-static void
-gst_floor_boundary_get_property (GObject * object, guint prop_id,
-    GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_FLOOR_BOUNDARY (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  const Settings & s = priv->settings;
-  if (camera_props_get (s.camera, PROP_CAMERA_FIRST, prop_id, value))
-    return;
-  switch (prop_id) {
-    case PROP_FLOOR_CLASSES:
-      g_value_set_string (value, s.floor_classes.empty ()? nullptr :
-          s.floor_classes.c_str ());
-      break;
-    case PROP_MARKERS:
-      g_value_set_enum (value, s.markers);
-      break;
-    case PROP_MIN_OBSTACLE_ROWS:
-      g_value_set_uint (value, s.min_obstacle_rows);
-      break;
-    case PROP_BEARING_BINS:
-      g_value_set_uint (value, s.bearing_bins);
-      break;
-    case PROP_MAX_RANGE:
-      g_value_set_double (value, s.max_range);
-      break;
-    case PROP_POST_MESSAGES:
-      g_value_set_boolean (value, s.post_messages);
-      break;
-    case PROP_MAX_MARKER_LENGTH:
-      g_value_set_double (value, s.max_marker_length);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
 
 /* ---- states --------------------------------------------------------- */
 
@@ -355,22 +257,12 @@ gst_floor_boundary_change_state (GstElement * element,
     GstStateChange transition)
 {
   auto self = GST_FLOOR_BOUNDARY (element);
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
-    /* bad settings and camera files fail READY, as in ipmrange */
-    Settings s;
-    {
-      std::lock_guard<std::mutex> lk (self->priv->lock);
-      s = self->priv->settings;
-    }
-    Config cfg;
-    const char *property = nullptr;
-    std::string why;
-    if (!floor_boundary_parse (s, &cfg, &property, &why)) {
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
-      return GST_STATE_CHANGE_FAILURE;
-    }
-  }
+  /* bad settings and camera files fail READY, as in ipmrange; the camera
+   * file is read here once */
+  if (transition == GST_STATE_CHANGE_NULL_TO_READY &&
+      !self->priv->state.applied.start (element, self->priv->settings,
+          floor_boundary_parse))
+    return GST_STATE_CHANGE_FAILURE;
   return GST_ELEMENT_CLASS (gst_floor_boundary_parent_class)->change_state
       (element, transition);
 }
@@ -380,22 +272,6 @@ gst_floor_boundary_start (GstBaseTransform * trans)
 {
   auto self = GST_FLOOR_BOUNDARY (trans);
   State & st = self->priv->state;
-  Settings s;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    s = self->priv->settings;
-  }
-  const char *property = nullptr;
-  std::string why;
-  Config cfg;
-  if (!floor_boundary_parse (s, &cfg, &property, &why)) {
-    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-        ("Invalid '%s' value.", property), ("%s", why.c_str ()));
-    return FALSE;
-  }
-  st.config = std::move (cfg);
-  st.generation = s.generation;
-  st.warned_generation = G_MAXUINT;
   st.built_w = st.built_h = 0;
   st.roles_valid = false;
   st.palette_names.clear ();
@@ -434,42 +310,24 @@ gst_floor_boundary_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 /* ---- streaming ------------------------------------------------------ */
 
 /* Brings the state up to date with settings changed while running. A bad
- * value (or a camera that then sees no floor) is reported once with a
- * warning and the previous settings stay in force. */
+ * value (or a camera that then sees no floor) is reported with a warning
+ * and the previous settings stay in force. */
 static void
 gst_floor_boundary_sync_settings (GstFloorBoundary * self)
 {
   State & st = self->priv->state;
-  Settings s;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    if (self->priv->settings.generation == st.generation)
-      return;
-    s = self->priv->settings;
-  }
-  const char *property = nullptr;
-  std::string why;
-  Config cfg;
-  bool ok = floor_boundary_parse (s, &cfg, &property, &why);
   landmark::CameraGeometry geometry;
   landmark::FloorProfile profile;
-  if (ok && st.built_w > 0)
-    ok = floor_boundary_build (cfg, st.built_w, st.built_h, &geometry,
-        &profile, &property, &why);
-  if (!ok) {
-    if (st.warned_generation != s.generation) {
-      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value; keeping the previous settings.", property),
-          ("%s", why.c_str ()));
-      st.warned_generation = s.generation;
-    }
+  auto parse_and_build = [&](const Settings & s, Config * cfg,
+      landmark::SettingsError * err) {
+    return floor_boundary_parse (s, cfg, err) && (st.built_w == 0 ||
+        floor_boundary_build (*cfg, st.built_w, st.built_h, &geometry,
+            &profile, err));
+  };
+  if (!st.applied.sync (GST_ELEMENT (self), self->priv->settings,
+          parse_and_build))
     return;
-  }
-  if (cfg.floor_classes != st.config.floor_classes ||
-      cfg.markers != st.config.markers)
-    st.roles_valid = false;
-  st.config = std::move (cfg);
-  st.generation = s.generation;
+  st.roles_valid = false;       /* floor-classes or markers may have changed */
   if (st.built_w > 0) {
     st.geometry = std::move (geometry);
     st.profile = std::move (profile);
@@ -508,7 +366,7 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
   /* label 0 (no class) and labels beyond the palette: not floor */
   for (auto & r : st.role)
     r = landmark::LabelRole::Obstacle;
-  const Config & cfg = st.config;
+  const Config & cfg = st.applied.config;
   const landmark::LabelRole marker_role =
       cfg.markers == GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES ?
       landmark::LabelRole::Obstacle : landmark::LabelRole::Marker;
@@ -614,7 +472,7 @@ gst_floor_boundary_attach (GstFloorBoundary * self, GstBuffer * buf)
         LANDMARK_FLOOR_NEAREST_BEARING, G_TYPE_DOUBLE, nearest_bearing,
         nullptr);
 
-  if (!st.config.post_messages)
+  if (!st.applied.config.post_messages)
     return;
   GstBaseTransform *trans = GST_BASE_TRANSFORM_CAST (self);
   const GstClockTime ts = GST_BUFFER_PTS (buf);
@@ -704,15 +562,14 @@ gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
     return GST_FLOW_ERROR;
   }
   if (w != st.built_w || h != st.built_h) {
-    const char *property = nullptr;
-    std::string why;
-    if (!floor_boundary_build (st.config, w, h, &st.geometry, &st.profile,
-            &property, &why)) {
+    landmark::SettingsError err;
+    if (!floor_boundary_build (st.applied.config, w, h, &st.geometry,
+            &st.profile, &err)) {
       gst_buffer_unref (plane);
       st.built_w = st.built_h = 0;
       GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Invalid camera geometry for %ux%u ('%s').", w, h, property),
-          ("%s", why.c_str ()));
+          ("Invalid camera geometry for %ux%u ('%s').", w, h, err.property),
+          ("%s", err.why.c_str ()));
       return GST_FLOW_ERROR;
     }
     st.built_w = w;
@@ -727,7 +584,7 @@ gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
     return GST_FLOW_ERROR;
   }
   const std::vector<landmark::MarkerBox> *boxes = nullptr;
-  if (st.config.markers == GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS) {
+  if (st.applied.config.markers == GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS) {
     gst_floor_boundary_marker_boxes (self, buf, w, h);
     boxes = &st.marker_boxes;
   }
@@ -744,90 +601,26 @@ gst_floor_boundary_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   auto self = GST_FLOOR_BOUNDARY (trans);
   State & st = self->priv->state;
   gst_floor_boundary_sync_settings (self);
-  const GstStructure *labels = landmark_labels_meta_get (buf);
-  if (!labels) {
-    if (!st.warned_no_meta) {
-      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
-          ("No class labels on the video: floorboundary needs labsegment "
-              "upstream."),
-          ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
-              GST_LANDMARK_LABELS_META_NAME, buf));
-      st.warned_no_meta = true;
-    }
-    return GST_FLOW_OK;
-  }
-  try {
-    return gst_floor_boundary_process (self, buf, labels);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Floor boundary failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
+  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
+      buf, &st.warned_no_meta);
+  if (!labels)
+    return GST_FLOW_OK;         /* buffers pass unmeasured */
+  return landmark::run_frame (GST_ELEMENT (self), "Floor boundary failed.",
+      [&] { return gst_floor_boundary_process (self, buf, labels); });
 }
 
 static void
 gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  gobject_class->set_property = gst_floor_boundary_set_property;
-  gobject_class->get_property = gst_floor_boundary_get_property;
-  gobject_class->finalize = gst_floor_boundary_finalize;
-
-  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
-      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-  /* the camera: ipmrange's properties, the same meanings */
-  camera_props_install (gobject_class, PROP_CAMERA_FIRST, flags);
-  /* the floor */
-  g_object_class_install_property (gobject_class, PROP_FLOOR_CLASSES,
-      g_param_spec_string ("floor-classes", "Floor classes",
-          "Comma-separated class names that are floor (unset: every class "
-          "the palette does not mark as a marker)", DEFAULT_FLOOR_CLASSES,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_MARKERS,
-      g_param_spec_enum ("markers", "Markers",
-          "What pixels of marker classes are for the walk: floor (landmark "
-          "discs lie on it), floor only inside accepted detections (put "
-          "floorboundary after blobroundness), or obstacles (landmark "
-          "balls)", GST_TYPE_FLOOR_BOUNDARY_MARKERS, DEFAULT_MARKERS, flags));
-  g_object_class_install_property (gobject_class, PROP_MIN_OBSTACLE_ROWS,
-      g_param_spec_uint ("min-obstacle-rows", "Minimum obstacle rows",
-          "Rows of non-floor pixels in a column, one above the other, that "
-          "end the floor; shorter runs (specks, texture, thin shadows) do "
-          "not", 1, 255, DEFAULT_MIN_OBSTACLE_ROWS, flags));
-  g_object_class_install_property (gobject_class, PROP_BEARING_BINS,
-      g_param_spec_uint ("bearing-bins", "Bearing bins",
-          "Bins of the radial obstacle profile over the full circle; bin 0 "
-          "straight ahead, bin k at k * 360 / bearing-bins degrees to the "
-          "left", 1, MAX_BEARING_BINS, DEFAULT_BEARING_BINS, flags));
-  g_object_class_install_property (gobject_class, PROP_MAX_RANGE,
-      g_param_spec_double ("max-range", "Maximum range",
-          "Metres: floor free this far counts as free, farther obstacles "
-          "are not reported", 0.0, 1000.0, DEFAULT_MAX_RANGE, flags));
-  g_object_class_install_property (gobject_class, PROP_MAX_MARKER_LENGTH,
-      g_param_spec_double ("max-marker-length", "Maximum marker length",
-          "Metres: a run of walked-over marker pixels whose floor points "
-          "span more than this stands up (a landmark ball) and ends the "
-          "floor at its bulge; about 1.5 x the landmark discs' diameter; 0: "
-          "off", 0.0, 1000.0, DEFAULT_MAX_MARKER_LENGTH, flags));
-  g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
-      g_param_spec_boolean ("post-messages", "Post messages",
-          "Post a landmark-obstacles element message per frame",
-          DEFAULT_POST_MESSAGES, flags));
-
-  gst_element_class_set_static_metadata (element_class,
+  landmark::metadata_element_class_init<Settings, gst_floor_boundary_settings,
+      floor_boundary_properties> (klass, gst_floor_boundary_finalize,
       "Floor boundary", "Filter/Analyzer/Video",
       "Finds where the floor ends in every image column of labsegment's "
       "labels, maps it to the floor and attaches the radial obstacle "
-      "profile (free range per bearing) as metadata",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "profile (free range per bearing) as metadata");
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  element_class->change_state =
+  GST_ELEMENT_CLASS (klass)->change_state =
       GST_DEBUG_FUNCPTR (gst_floor_boundary_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);

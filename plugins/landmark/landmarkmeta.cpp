@@ -571,3 +571,81 @@ landmark_warn_map_classes_missing (GstElement * element,
             consequence), ("%s: %s; the labels have: %s", map_path.c_str (),
             missing.c_str (), landmark_labels_class_list (labels).c_str ()));
 }
+
+GstStructure *
+landmark_frame_message_new (const gchar * name, GstBuffer * buf,
+    const GstSegment * segment)
+{
+  const GstClockTime ts = GST_BUFFER_PTS (buf);
+  return gst_structure_new (name,
+      "timestamp", G_TYPE_UINT64, ts,
+      "stream-time", G_TYPE_UINT64,
+      gst_segment_to_stream_time (segment, GST_FORMAT_TIME, ts),
+      "running-time", G_TYPE_UINT64,
+      gst_segment_to_running_time (segment, GST_FORMAT_TIME, ts), nullptr);
+}
+
+static void
+value_array_append (GValue * array, GType type, void (*set) (GValue *,
+        gconstpointer), gconstpointer x)
+{
+  GValue v = G_VALUE_INIT;
+  g_value_init (&v, type);
+  set (&v, x);
+  gst_value_array_append_and_take_value (array, &v);
+}
+
+void
+landmark_value_array_append_uint (GValue * array, guint x)
+{
+  value_array_append (array, G_TYPE_UINT,[](GValue * v, gconstpointer p) {
+        g_value_set_uint (v, *(const guint *) p);}, &x);
+}
+
+void
+landmark_value_array_append_double (GValue * array, gdouble x)
+{
+  value_array_append (array, G_TYPE_DOUBLE,[](GValue * v, gconstpointer p) {
+        g_value_set_double (v, *(const gdouble *) p);}, &x);
+}
+
+void
+landmark_value_array_append_boolean (GValue * array, gboolean x)
+{
+  value_array_append (array, G_TYPE_BOOLEAN,[](GValue * v, gconstpointer p) {
+        g_value_set_boolean (v, *(const gboolean *) p);}, &x);
+}
+
+void
+landmark_value_array_append_string (GValue * array, const gchar * x)
+{
+  value_array_append (array, G_TYPE_STRING,[](GValue * v, gconstpointer p) {
+        g_value_set_string (v, (const gchar *) p);}, x);
+}
+
+void
+landmark_detections_collect (GstBuffer * buffer,
+    std::vector < GstVideoRegionOfInterestMeta * >*out)
+{
+  out->clear ();
+  gpointer iter = nullptr;
+  GstMeta *meta;
+  while ((meta = gst_buffer_iterate_meta_filtered (buffer, &iter,
+              GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE)))
+    out->push_back ((GstVideoRegionOfInterestMeta *) meta);
+}
+
+const GstStructure *
+landmark_labels_or_warn (GstElement * element, GstBuffer * buf, bool *warned)
+{
+  const GstStructure *labels = landmark_labels_meta_get (buf);
+  if (!labels && !*warned) {
+    GST_ELEMENT_WARNING (element, STREAM, FORMAT,
+        ("No class labels on the video: %s needs labsegment upstream.",
+            GST_OBJECT_NAME (gst_element_get_factory (element))),
+        ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
+            GST_LANDMARK_LABELS_META_NAME, buf));
+    *warned = true;
+  }
+  return labels;
+}

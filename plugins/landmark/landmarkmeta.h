@@ -152,6 +152,17 @@ gboolean landmark_floor_map_array (const GstStructure * floor,
     const gchar * field, gsize elem_size, GstBuffer ** plane,
     GstMapInfo * map, gsize * count);
 
+/* An element message structure about the frame buf: name with its
+ * `timestamp`, `stream-time` and `running-time` (ns, in segment). */
+GstStructure *landmark_frame_message_new (const gchar * name,
+    GstBuffer * buf, const GstSegment * segment);
+
+/* Appends one value to a GstValueArray. */
+void landmark_value_array_append_uint (GValue * array, guint x);
+void landmark_value_array_append_double (GValue * array, gdouble x);
+void landmark_value_array_append_boolean (GValue * array, gboolean x);
+void landmark_value_array_append_string (GValue * array, const gchar * x);
+
 G_END_DECLS
 
 #ifdef __cplusplus
@@ -168,4 +179,14 @@ void landmark_warn_map_classes_missing (GstElement * element,
     const GstStructure * labels, const std::string & map_path,
     const std::vector<std::pair<std::string, std::string>> & map_classes,
     const char *consequence);
+
+/* The labels meta of buf; without one, posts one WARNING (while *warned
+ * is false) saying that element needs labsegment upstream. */
+const GstStructure *landmark_labels_or_warn (GstElement * element,
+    GstBuffer * buf, bool *warned);
+
+/* The region-of-interest metas of buffer, in its order (out is cleared
+ * first; its storage is kept, so a reused vector does not allocate). */
+void landmark_detections_collect (GstBuffer * buffer,
+    std::vector < GstVideoRegionOfInterestMeta * >*out);
 #endif

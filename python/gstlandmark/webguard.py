@@ -4,16 +4,17 @@ with a constant-time compare, from an ``Authorization: Bearer`` header,
 the address (``?token=``, the first page load) or the HttpOnly cookie
 that load set; on loopback without a token the Host header must name
 loopback (no DNS rebinding); a request from a page of another origin is
-refused."""
+refused. Also the pages' shared middleware and WebSocket loop."""
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 import ipaddress
 import secrets
 from typing import Callable, Optional, Tuple
 
-from aiohttp import web
+from aiohttp import WSMsgType, web
 
 LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 MIN_TOKEN = 16
@@ -111,3 +112,16 @@ def middleware(token: Optional[str], loopback: bool,
             remember(response, cookie, token)
         return response
     return guard
+
+
+async def serve_socket(ws: web.WebSocketResponse, send) -> None:
+    """A page's WebSocket: runs ``send()`` (the server's pushes) while
+    reading ``ws`` until the browser closes it or it fails, then stops the
+    pushes."""
+    sender = asyncio.ensure_future(send())
+    try:
+        async for msg in ws:
+            if msg.type == WSMsgType.ERROR:
+                break
+    finally:
+        sender.cancel()

@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from gstlandmark.devtools.fleetbench import start_mosquitto
+from gstlandmark.devtools.fleetbench import start_mosquitto, stop_mosquitto
 
 MOSQUITTO = shutil.which("mosquitto") or (
     "/usr/sbin/mosquitto" if os.access("/usr/sbin/mosquitto", os.X_OK)
@@ -87,13 +87,7 @@ class Broker:
         self.proc.send_signal(signal.SIGHUP)
 
     def stop(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(timeout=5)
+        stop_mosquitto(self.proc)
         self.proc = None
 
 

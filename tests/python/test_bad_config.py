@@ -360,12 +360,15 @@ def test_bad_config(gst, tmp_path, case):
 # Every element posts a WARNING once and keeps the previous settings: a
 # robot should not stop because a setting went wrong (docs/labsegment.md,
 # docs/landmarkoverlay.md, docs/blobroundness.md, docs/ipmrange.md,
-# docs/trilaterate.md).
+# docs/trilaterate.md, docs/floorboundary.md, docs/birdseye.md;
+# docs/hacking.md).
 LIVE_CHAIN = (f"videotestsrc num-buffers=10 ! video/x-raw,width=320,"
-              f"height=240 ! labsegment name=labsegment ! blobroundness "
+              f"height=240 ! labsegment name=labsegment ! floorboundary "
+              f"name=floorboundary ! blobroundness "
               f"name=blobroundness ! ipmrange name=ipmrange ! trilaterate "
               f"name=trilaterate map={{map}} ! landmarkoverlay "
-              f"name=landmarkoverlay ! fakesink")
+              f"name=landmarkoverlay ! videoconvert ! birdseye name=birdseye "
+              f"! fakesink")
 
 LIVE = [
     # id, element, property, value (MISSING: a missing file), error?, needles
@@ -381,6 +384,10 @@ LIVE = [
     ("live-tri-map-duplicate-id", "trilaterate", "map",
      landmark_map(lm(), lm(x=3.0)), False,
      ("'map'", "previous map", '("L1"): duplicate id')),
+    ("live-floor-max-range-zero", "floorboundary", "max-range", 0.0, False,
+     ("'max-range'", "previous settings", "must be positive")),
+    ("live-birdseye-camera-height-zero", "birdseye", "camera-height", 0.0,
+     False, ("'camera-height'", "previous settings", "must be positive")),
 ]
 
 

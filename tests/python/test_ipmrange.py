@@ -1,12 +1,15 @@
 """ipmrange on the synthetic range sweep: range and bearing against the
 exact truth (gstlandmark.commands.evaluate), discs and balls from 0.3 to 4 m.
 
-Targets (issue 5): median range error <= 1 %, p95 <= 2 %, bearing median
-<= 0.3 degrees, with the pinhole model and the true camera."""
+Each band's median and p95 range error and median bearing error must stay
+within three times the figures of docs/ranging.md's table, read from it
+(the sweep is rendered with a fixed seed, so they are this machine's
+figures too)."""
 
 import json
 import math
 import os
+import re
 
 import numpy as np
 import pytest
@@ -16,9 +19,6 @@ from gstlandmark.commands import cli, evaluate as E
 from gstlandmark.landmarklog import read_jsonl
 
 MAX_RANGE = 4.0
-# distance bands reported and checked one by one, metres (upper bound
-# inclusive for the last)
-BANDS = ((0.3, 0.5), (0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0))
 
 
 @pytest.fixture(scope="module")
@@ -70,6 +70,56 @@ def errors(results, truth, kind):
     return rel, bearing, dist
 
 
+SOURCE_ROOT = os.environ.get(
+    "LANDMARK_SOURCE_ROOT",
+    os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+ROW = re.compile(r"^\| (disc|ball)s \| (ground|size|fused) \| "
+                 r"(?:\*\*all 0\.3-4\*\*|([\d.]+)-([\d.]+)) \| \d+ \| "
+                 r"([\d.]+) % \| ([\d.]+) % \| ([\d.]+) deg \|$")
+
+
+def documented_figures():
+    """docs/ranging.md's "Range sweep" table: {(kind, method): {band or
+    "all": (median %, p95 %, bearing median deg)}}."""
+    out = {}
+    with open(os.path.join(SOURCE_ROOT, "docs", "ranging.md")) as f:
+        for line in f:
+            m = ROW.match(line.strip())
+            if m:
+                kind, method, lo, hi, *figures = m.groups()
+                band = (float(lo), float(hi)) if lo else "all"
+                out.setdefault((kind, method), {})[band] = tuple(
+                    float(x) for x in figures)
+    assert len(out) == 6 and all(len(v) == 6 for v in out.values()), out
+    return out
+
+
+DOCUMENTED = documented_figures()
+# how far a figure may grow before the test fails
+MARGIN = 3.0
+
+
+def check_bands(kind, method, rel, bearing, dist):
+    """Every band (and all of 0.3-4 m) within MARGIN times the documented
+    median and p95 range error and median bearing error."""
+    documented = DOCUMENTED[(kind, method)]
+    for band, (median, p95, bearing_median) in documented.items():
+        sel = (np.ones(dist.shape, bool) if band == "all"
+               else band_of(dist, *band))
+        if kind == "disc" and band == (0.3, 0.5):
+            assert sel.sum() >= 5      # 0.4 m only
+        else:
+            assert sel.sum() >= 8, band
+        got = (100 * np.median(rel[sel]), 100 * np.percentile(rel[sel], 95),
+               np.median(bearing[sel]))
+        print(f"  {band}: n={sel.sum()} median {got[0]:.3f}% p95 "
+              f"{got[1]:.3f}% bearing median {got[2]:.4f} deg (documented "
+              f"{median}% {p95}% {bearing_median} deg)")
+        assert got[0] <= MARGIN * median, (band, got)
+        assert got[1] <= MARGIN * p95, (band, got)
+        assert got[2] <= MARGIN * bearing_median, (band, got)
+
+
 def band_of(dist, lo, hi):
     return (dist >= lo - 1e-9) & ((dist < hi - 1e-9) if hi < MAX_RANGE
                                   else (dist <= hi + 1e-9))
@@ -81,32 +131,13 @@ def test_range_sweep_accuracy(gst, sweep, tmp_path, kind, method):
     results = range_run(gst, sweep, kind, method, tmp_path / "log.jsonl")
     truth = read_jsonl(str(sweep / "truth.jsonl"))
     rel, bearing, dist = errors(results, truth, kind)
-    print(f"\n{kind} {method}: n={rel.size} range median "
-          f"{100 * np.median(rel):.2f}% p95 "
-          f"{100 * np.percentile(rel, 95):.2f}% bearing median "
-          f"{np.median(bearing):.3f} deg p95 "
-          f"{np.percentile(bearing, 95):.3f} deg")
+    print(f"\n{kind} {method}: n={rel.size}")
     # every landmark not cut by the border is found, 0.3 (discs: 0.4) to
     # 4 m: 11 ranges x 5 bearings of discs, and the balls' too, less two
     # balls at 0.3 m cut by the side
     assert rel.size >= (55 if kind == "disc" else 58)
     assert dist.max() == pytest.approx(MAX_RANGE)
-    assert np.median(rel) <= 0.01
-    assert np.percentile(rel, 95) <= 0.02
-    assert np.median(bearing) <= 0.3
-    for lo, hi in BANDS:
-        sel = band_of(dist, lo, hi)
-        if kind == "disc" and hi <= 0.5:
-            assert sel.sum() >= 5      # 0.4 m only
-        else:
-            assert sel.sum() >= 8, (lo, hi)
-        print(f"  {lo}-{hi} m: n={sel.sum()} median "
-              f"{100 * np.median(rel[sel]):.2f}% p95 "
-              f"{100 * np.percentile(rel[sel], 95):.2f}% bearing median "
-              f"{np.median(bearing[sel]):.3f} deg")
-        assert np.median(rel[sel]) <= 0.01, (lo, hi)
-        assert np.percentile(rel[sel], 95) <= 0.02, (lo, hi)
-        assert np.median(bearing[sel]) <= 0.3, (lo, hi)
+    check_bands(kind, method, rel, bearing, dist)
     # every detection has a landmark-range, finite and non-negative
     for res in results:
         for det in res.get("detections", []):
@@ -125,17 +156,10 @@ def test_range_sweep_accuracy(gst, sweep, tmp_path, kind, method):
 def test_size_range_is_reported(gst, sweep, tmp_path, kind):
     results = range_run(gst, sweep, kind, "size", tmp_path / "log.jsonl")
     truth = read_jsonl(str(sweep / "truth.jsonl"))
-    rel, _, dist = errors(results, truth, kind)
-    print(f"\n{kind} size: n={rel.size} range median "
-          f"{100 * np.median(rel):.2f}% p95 "
-          f"{100 * np.percentile(rel, 95):.2f}%")
-    for lo, hi in BANDS:
-        sel = band_of(dist, lo, hi)
-        print(f"  {lo}-{hi} m: n={sel.sum()} median "
-              f"{100 * np.median(rel[sel]):.2f}% p95 "
-              f"{100 * np.percentile(rel[sel], 95):.2f}%")
-    assert rel.size >= 55
-    assert np.median(rel) <= 0.03
+    rel, bearing, dist = errors(results, truth, kind)
+    print(f"\n{kind} size: n={rel.size}")
+    assert rel.size >= (55 if kind == "disc" else 58)
+    check_bands(kind, "size", rel, bearing, dist)
     methods = {d["range"]["method"] for r in results
                for d in r.get("detections", []) if "range" in d}
     assert methods == {"size"}
@@ -390,8 +414,10 @@ def test_rendered_discs_at_random_floor_points(gst, tmp_path):
             continue
         got = by_class[lm["class"]]
         r = math.hypot(lm["x"], lm["y"])
+        # within three times the discs' documented p95 (0.10 %)
+        p95 = DOCUMENTED[("disc", "ground")]["all"][1] / 100
         assert math.hypot(got["ground-x"] - lm["x"],
-                          got["ground-y"] - lm["y"]) < 0.005 * r, lm
+                          got["ground-y"] - lm["y"]) < MARGIN * p95 * r, lm
 
 
 @pytest.mark.parametrize("seed", [3, 4])
@@ -437,7 +463,11 @@ def test_one_class_discs_and_balls_ranged_by_their_own_marker(gst, tmp_path,
         assert got["marker-height"] == lm["z"], got
         assert got["marker-diameter"] == lm["diameter"], got
         r = math.hypot(lm["x"], lm["y"])
+        # within three times the documented p95 of its kind (discs
+        # 0.10 %, balls 0.27 %)
+        p95 = DOCUMENTED[(lm["kind"], "ground")]["all"][1] / 100
         assert math.hypot(got["ground-x"] - lm["x"],
-                          got["ground-y"] - lm["y"]) < 0.01 * r, (t, got)
+                          got["ground-y"] - lm["y"]) < MARGIN * p95 * r, \
+            (t, got)
         checked += 1
     assert checked == len(whole)

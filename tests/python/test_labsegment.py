@@ -2,6 +2,7 @@
 on random and natural-looking frames in every accepted format."""
 
 import os
+import zlib
 
 import numpy as np
 import pytest
@@ -11,6 +12,12 @@ from gstlandmark import meta, palette, pipeline, reference
 import frames as F
 
 SIZES = [(64, 48), (63, 47), (1, 1), (5, 3)]
+
+
+def seed_of(*names):
+    """A seed fixed by the test's parameters: zlib.crc32 is the same in
+    every process (hash() of a string is salted per process)."""
+    return zlib.crc32(" ".join(names).encode())
 
 
 def run(element, payloads, caps):
@@ -49,7 +56,7 @@ def check_meta(lm, seg, pal, width, height, min_class_pixels):
 @pytest.mark.parametrize("fmt", list(F.PACKED_ORDER))
 @pytest.mark.parametrize("kind", ["random", "natural"])
 def test_packed_rgb_agrees_with_reference(gst, fmt, kind):
-    rng = np.random.default_rng(hash((fmt, kind)) & 0xffff)
+    rng = np.random.default_rng(seed_of(fmt, kind))
     pal = palette.default_palette()
     total = equal = 0
     for width, height in SIZES:
@@ -79,7 +86,7 @@ def test_packed_rgb_agrees_with_reference(gst, fmt, kind):
 @pytest.mark.parametrize("colorimetry", list(F.COLORIMETRY))
 @pytest.mark.parametrize("kind", ["random", "natural"])
 def test_yuv_agrees_with_reference(gst, fmt, colorimetry, kind):
-    rng = np.random.default_rng(hash((fmt, colorimetry, kind)) & 0xffff)
+    rng = np.random.default_rng(seed_of(fmt, colorimetry, kind))
     pal = palette.default_palette()
     matrix, full_range = F.COLORIMETRY[colorimetry]
     total = equal = 0

@@ -13,7 +13,7 @@ import os
 import threading
 from typing import Any, Dict, List, Optional
 
-from aiohttp import WSMsgType, web
+from aiohttp import web
 
 from .. import webguard
 from ..landmarkmap import read_map
@@ -83,13 +83,9 @@ def make_app(state, token: Optional[str] = None,
             except (ConnectionError, RuntimeError):
                 pass    # the browser went away; the reader ends too
 
-        sender = asyncio.ensure_future(send())
         try:
-            async for msg in ws:
-                if msg.type == WSMsgType.ERROR:
-                    break
+            await webguard.serve_socket(ws, send)
         finally:
-            sender.cancel()
             sockets.discard(ws)
         return ws
 

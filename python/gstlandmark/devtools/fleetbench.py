@@ -94,9 +94,19 @@ def start_mosquitto(command, port, timeout_s=5.0):
                 return proc
         except OSError:
             time.sleep(0.02)
-    proc.kill()
-    proc.wait()
+    stop_mosquitto(proc)
     raise BenchError(f"mosquitto not listening on {port}")
+
+
+def stop_mosquitto(proc):
+    """Stops a broker ``start_mosquitto`` started (None: nothing to do)."""
+    if proc and proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=5)
 
 
 class Broker:
@@ -138,13 +148,7 @@ class Broker:
         return self
 
     def stop(self) -> None:
-        if self.proc and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(timeout=5)
+        stop_mosquitto(self.proc)
         self.proc = None
 
 

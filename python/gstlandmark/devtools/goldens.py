@@ -7,6 +7,7 @@ refresh-goldens.sh); tests/python/test_regression.py checks them.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from dataclasses import dataclass
@@ -71,11 +72,34 @@ def run_pipeline_file(pipeline_file: str, variables: dict,
 
 
 def variables(g: Golden, output: str) -> dict:
-    """The pipeline variables for a golden: its clip, the palette shipped
-    beside the clip, and the output file."""
-    _, clip, _ = g.paths()
+    """The pipeline variables for a golden: its clip, the palette and map
+    shipped beside the clip, the camera file shipped beside the golden
+    (NAME-camera.yml, the clip's scene camera as `calibrate floor` writes
+    it) and the output file."""
+    _, clip, golden = g.paths()
+    clip_dir = os.path.dirname(clip)
     return {"INPUT": clip, "OUTPUT": output,
-            "PALETTE": os.path.join(os.path.dirname(clip), "palette.json")}
+            "PALETTE": os.path.join(clip_dir, "palette.json"),
+            "MAP": os.path.join(clip_dir, "map.json"),
+            "CAMERA": os.path.join(os.path.dirname(golden),
+                                   f"{g.name}-camera.yml")}
+
+
+def tolerances() -> "regress.Tolerances":
+    """How far a result may move from its golden, from the documented
+    accuracy of the chain (three times each figure): poses 12 mm and
+    0.054 degrees (docs/pipelines.md: median position error 4 mm on the
+    shipped clip; docs/positioning.md: median heading error 0.018
+    degrees), bearings 0.036 degrees (docs/ranging.md: worst band median
+    0.012 degrees), every other number 0.3 % (docs/ranging.md: p95 range
+    error 0.10 %). Integers (pixel counts, boxes, timestamps), strings and
+    booleans stay exact."""
+    from . import regress
+    return regress.Tolerances(
+        absolute={"pose.x": 0.012, "pose.y": 0.012,
+                  "pose.heading": math.radians(3 * 0.018),
+                  "bearing": math.radians(3 * 0.012)},
+        default_abs=1e-9, default_rel=3 * 0.0010)
 
 
 def produce(g: Golden, output: str) -> None:
@@ -83,9 +107,14 @@ def produce(g: Golden, output: str) -> None:
 
 
 def refresh() -> int:
+    from ..commands import calibrate
     for g in GOLDENS:
         target = g.paths()[2]
         os.makedirs(os.path.dirname(target), exist_ok=True)
+        # the camera file the pipeline reads: the clip's true camera
+        calibrate.scene_camera_file(
+            os.path.join(os.path.dirname(g.paths()[1]), "scene.json"),
+            variables(g, target)["CAMERA"])
         produce(g, target)
         with open(target) as f:
             n = sum(1 for _ in f)

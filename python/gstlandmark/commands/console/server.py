@@ -18,7 +18,7 @@ import json
 import os
 from typing import Any, Dict, List, Optional
 
-from aiohttp import WSMsgType, web
+from aiohttp import web
 
 from ... import webguard
 from ...webguard import LOOPBACK_NAMES, is_loopback  # noqa: F401
@@ -271,13 +271,9 @@ def make_app(engine: Engine, token: Optional[str] = None,
 
         engine.listeners.append(listener)
         sockets.add(ws)
-        sender = asyncio.ensure_future(send())
         try:
-            async for msg in ws:
-                if msg.type == WSMsgType.ERROR:
-                    break
+            await webguard.serve_socket(ws, send)
         finally:
-            sender.cancel()
             engine.listeners.remove(listener)
             sockets.discard(ws)
         return ws

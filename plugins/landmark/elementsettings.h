@@ -1,0 +1,410 @@
+/* The one element pattern (docs/hacking.md): every element keeps what the
+ * user sets in a Settings struct, declares its properties once in a
+ * PropertyTable (name, text, range and the Settings field; the default is
+ * the field's initial value), holds the Settings in a SharedSettings (lock
+ * and generation counter) and turns them into a checked Config with one
+ * parse function, used at start (a bad value is an error) and while
+ * playing (a bad value is a warning and the previous Config stays: a robot
+ * must not stop because a slider went wrong). */
+#pragma once
+
+#include <gst/base/gstbasetransform.h>
+#include <gst/gst.h>
+
+#include <exception>
+
+#include <functional>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace landmark {
+
+/* The properties of one Settings struct, installed with ids 1, 2, ... in
+ * the order they are added. Built once, in class_init. */
+template <typename Settings> class PropertyTable {
+public:
+  using Spec = std::function<GParamSpec *(GParamFlags)>;
+  using Set = std::function<void (Settings &, const GValue *)>;
+  using Get = std::function<void (const Settings &, GValue *)>;
+
+  /* Any property: its spec and how it moves between a GValue and Settings. */
+  PropertyTable &add (Spec spec, Set set, Get get)
+  {
+    entries_.push_back ({std::move (spec), std::move (set), std::move (get)});
+    return *this;
+  }
+
+  PropertyTable &boolean (const char *name, const char *nick,
+      const char *blurb, gboolean Settings::*field)
+  {
+    const gboolean def = Settings ().*field;
+    return add ([=](GParamFlags f) {
+          return g_param_spec_boolean (name, nick, blurb, def, f);
+        },
+        [=](Settings &s, const GValue *v) { s.*field = g_value_get_boolean (v); },
+        [=](const Settings &s, GValue *v) { g_value_set_boolean (v, s.*field); });
+  }
+
+  PropertyTable &number (const char *name, const char *nick,
+      const char *blurb, gdouble Settings::*field, gdouble min, gdouble max)
+  {
+    const gdouble def = Settings ().*field;
+    return add ([=](GParamFlags f) {
+          return g_param_spec_double (name, nick, blurb, min, max, def, f);
+        },
+        [=](Settings &s, const GValue *v) { s.*field = g_value_get_double (v); },
+        [=](const Settings &s, GValue *v) { g_value_set_double (v, s.*field); });
+  }
+
+  PropertyTable &number (const char *name, const char *nick,
+      const char *blurb, guint Settings::*field, guint min, guint max)
+  {
+    const guint def = Settings ().*field;
+    return add ([=](GParamFlags f) {
+          return g_param_spec_uint (name, nick, blurb, min, max, def, f);
+        },
+        [=](Settings &s, const GValue *v) { s.*field = g_value_get_uint (v); },
+        [=](const Settings &s, GValue *v) { g_value_set_uint (v, s.*field); });
+  }
+
+  PropertyTable &number (const char *name, const char *nick,
+      const char *blurb, gint Settings::*field, gint min, gint max)
+  {
+    const gint def = Settings ().*field;
+    return add ([=](GParamFlags f) {
+          return g_param_spec_int (name, nick, blurb, min, max, def, f);
+        },
+        [=](Settings &s, const GValue *v) { s.*field = g_value_get_int (v); },
+        [=](const Settings &s, GValue *v) { g_value_set_int (v, s.*field); });
+  }
+
+  /* A string; unset (NULL) and "" are both the empty string. */
+  PropertyTable &string (const char *name, const char *nick,
+      const char *blurb, std::string Settings::*field)
+  {
+    const std::string def = Settings ().*field;
+    return add ([=](GParamFlags f) {
+          return g_param_spec_string (name, nick, blurb,
+              def.empty () ? nullptr : def.c_str (), f);
+        },
+        [=](Settings &s, const GValue *v) {
+          const gchar *text = g_value_get_string (v);
+          s.*field = text ? text : "";
+        },
+        [=](const Settings &s, GValue *v) {
+          g_value_set_string (v, (s.*field).empty () ? nullptr :
+              (s.*field).c_str ());
+        });
+  }
+
+  template <typename Enum>
+  PropertyTable &enumeration (const char *name, const char *nick,
+      const char *blurb, Enum Settings::*field, GType type)
+  {
+    const Enum def = Settings ().*field;
+    return add ([=](GParamFlags f) {
+          return g_param_spec_enum (name, nick, blurb, type, (gint) def, f);
+        },
+        [=](Settings &s, const GValue *v) {
+          s.*field = (Enum) g_value_get_enum (v);
+        },
+        [=](const Settings &s, GValue *v) {
+          g_value_set_enum (v, (gint) (s.*field));
+        });
+  }
+
+  /* The last property added may change only in this state or a lower
+   * one (e.g. GST_PARAM_MUTABLE_READY where it sets the caps). */
+  PropertyTable &mutable_in (guint mutability)
+  {
+    Spec spec = std::move (entries_.back ().spec);
+    entries_.back ().spec = [spec, mutability](GParamFlags f) {
+      return spec ((GParamFlags) ((f & ~(GST_PARAM_MUTABLE_PLAYING |
+                      GST_PARAM_MUTABLE_PAUSED | GST_PARAM_MUTABLE_READY)) |
+              mutability));
+    };
+    return *this;
+  }
+
+  /* The properties of a part of the Settings (e.g. the camera's, shared by
+   * several elements), in the order of the part's table. */
+  template <typename Part>
+  PropertyTable &part (Part Settings::*member, const PropertyTable<Part> &t)
+  {
+    for (const auto &e : t.entries_)
+      add (e.spec,
+          [=](Settings &s, const GValue *v) { e.set (s.*member, v); },
+          [=](const Settings &s, GValue *v) { e.get (s.*member, v); });
+    return *this;
+  }
+
+  /* Installs the properties with ids first, first + 1, ... */
+  void install (GObjectClass *klass, GParamFlags flags, guint first = 1) const
+  {
+    for (size_t i = 0; i < entries_.size (); i++)
+      g_object_class_install_property (klass, first + (guint) i,
+          entries_[i].spec (flags));
+  }
+
+  bool set (Settings &s, guint id, const GValue *v) const
+  {
+    if (id == 0 || id > entries_.size ())
+      return false;
+    entries_[id - 1].set (s, v);
+    return true;
+  }
+
+  bool get (const Settings &s, guint id, GValue *v) const
+  {
+    if (id == 0 || id > entries_.size ())
+      return false;
+    entries_[id - 1].get (s, v);
+    return true;
+  }
+
+private:
+  template <typename> friend class PropertyTable;
+  struct Entry {
+    Spec spec;
+    Set set;
+    Get get;
+  };
+  std::vector<Entry> entries_;
+};
+
+/* The Settings as the application's threads set them, with a generation
+ * that counts changes so the streaming thread re-parses only after one. */
+template <typename Settings> class SharedSettings {
+public:
+  bool set (const PropertyTable<Settings> &t, guint id, const GValue *v)
+  {
+    std::lock_guard<std::mutex> lk (lock_);
+    if (!t.set (settings_, id, v))
+      return false;
+    generation_++;
+    return true;
+  }
+
+  bool get (const PropertyTable<Settings> &t, guint id, GValue *v) const
+  {
+    std::lock_guard<std::mutex> lk (lock_);
+    return t.get (settings_, id, v);
+  }
+
+  /* A change made by the element itself (e.g. a value it learned). */
+  template <typename Change> void update (Change change)
+  {
+    std::lock_guard<std::mutex> lk (lock_);
+    change (settings_);
+    generation_++;
+  }
+
+  Settings copy (guint *generation = nullptr) const
+  {
+    std::lock_guard<std::mutex> lk (lock_);
+    if (generation)
+      *generation = generation_;
+    return settings_;
+  }
+
+  /* Copies the settings into out when they changed since *generation. */
+  bool changed_since (guint *generation, Settings *out) const
+  {
+    std::lock_guard<std::mutex> lk (lock_);
+    if (generation_ == *generation)
+      return false;
+    *out = settings_;
+    *generation = generation_;
+    return true;
+  }
+
+private:
+  mutable std::mutex lock_;
+  Settings settings_;
+  guint generation_ = 0;
+};
+
+/* Defines TYPE_finalize (deleting the instance's priv) and TYPE_settings
+ * (its SharedSettings<Settings> priv->settings) for an element of this
+ * pattern; CAST is the element's instance cast macro. */
+#define LANDMARK_DEFINE_ELEMENT_PRIVATE(type_name, CAST)                     \
+  static void type_name##_finalize (GObject * object)                         \
+  {                                                                           \
+    delete CAST (object)->priv;                                               \
+    G_OBJECT_CLASS (type_name##_parent_class)->finalize (object);             \
+  }                                                                           \
+  static landmark::SharedSettings<Settings> &type_name##_settings (           \
+      GObject * object)                                                       \
+  {                                                                           \
+    return CAST (object)->priv->settings;                                     \
+  }
+
+/* Installs the table's properties and the set/get functions that read and
+ * write them through shared (the element's SharedSettings). */
+template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
+    const PropertyTable<Settings> &(*table) ()>
+void
+install_properties (GObjectClass *klass, GParamFlags flags)
+{
+  klass->set_property = [](GObject *object, guint id, const GValue *value,
+      GParamSpec *pspec) {
+    if (!shared (object).set (table (), id, value))
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, id, pspec);
+  };
+  klass->get_property = [](GObject *object, guint id, GValue *value,
+      GParamSpec *pspec) {
+    if (!shared (object).get (table (), id, value))
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, id, pspec);
+  };
+  table ().install (klass, flags);
+}
+
+/* Why settings were refused: the property and a sentence. */
+struct SettingsError {
+  const char *property = nullptr;
+  std::string why;
+
+  bool fail (const char *p, std::string w)
+  {
+    property = p;
+    why = std::move (w);
+    return false;
+  }
+};
+
+/* Splits a comma-separated list of class names (spaces around them dropped);
+ * an empty name fails, naming property. */
+inline bool
+parse_name_list (const std::string &text, const char *property,
+    std::vector<std::string> *out, SettingsError *err)
+{
+  out->clear ();
+  if (text.empty ())
+    return true;
+  gchar **parts = g_strsplit (text.c_str (), ",", -1);
+  bool ok = true;
+  for (gchar **p = parts; *p && ok; p++) {
+    const gchar *name = g_strstrip (*p);
+    if (*name)
+      out->emplace_back (name);
+    else
+      ok = err->fail (property, "empty class name in \"" + text + "\"");
+  }
+  g_strfreev (parts);
+  return ok;
+}
+
+/* The streaming thread's view of the settings: the Config parsed from a
+ * generation of them. parse is bool (const Settings &, Config *,
+ * SettingsError *). */
+template <typename Settings, typename Config> class AppliedSettings {
+public:
+  Config config;
+
+  /* At start: parses the current settings; a bad value posts an ERROR
+   * naming the property and returns false. */
+  template <typename Parse>
+  bool start (GstElement *element, const SharedSettings<Settings> &shared,
+      Parse parse)
+  {
+    const Settings s = shared.copy (&generation_);
+    Config cfg;
+    SettingsError err;
+    if (!parse (s, &cfg, &err)) {
+      GST_ELEMENT_ERROR (element, RESOURCE, SETTINGS,
+          ("Invalid '%s' value.", err.property), ("%s", err.why.c_str ()));
+      return false;
+    }
+    config = std::move (cfg);
+    return true;
+  }
+
+  /* While playing: parses settings changed since the last call. A bad
+   * value is warned about (once: it is not parsed again until the next
+   * change) and the previous Config stays in force. True when config
+   * changed. */
+  template <typename Parse>
+  bool sync (GstElement *element, const SharedSettings<Settings> &shared,
+      Parse parse)
+  {
+    Settings s;
+    if (!shared.changed_since (&generation_, &s))
+      return false;
+    Config cfg;
+    SettingsError err;
+    if (!parse (s, &cfg, &err)) {
+      GST_ELEMENT_WARNING (element, RESOURCE, SETTINGS,
+          ("Invalid '%s' value; keeping the previous settings.",
+              err.property), ("%s", err.why.c_str ()));
+      return false;
+    }
+    config = std::move (cfg);
+    return true;
+  }
+
+private:
+  guint generation_ = G_MAXUINT;
+};
+
+/* The class set-up of an element that reads and writes metadata and
+ * passes any video through unchanged: ANY video caps on both pads. */
+inline void
+set_metadata_element_class (GstElementClass *klass, const char *longname,
+    const char *classification, const char *description)
+{
+  static GstStaticPadTemplate sink = GST_STATIC_PAD_TEMPLATE ("sink",
+      GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+  static GstStaticPadTemplate src = GST_STATIC_PAD_TEMPLATE ("src",
+      GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
+  gst_element_class_set_static_metadata (klass, longname, classification,
+      description, "gst-landmark developers");
+  gst_element_class_add_static_pad_template (klass, &sink);
+  gst_element_class_add_static_pad_template (klass, &src);
+}
+
+/* The class set-up of such an element: finalize, the properties of table
+ * (changeable while PLAYING unless the table says otherwise), its pads and
+ * description. */
+template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
+    const PropertyTable<Settings> &(*table) ()>
+void
+metadata_element_class_init (gpointer klass, void (*finalize) (GObject *),
+    const char *longname, const char *classification,
+    const char *description)
+{
+  G_OBJECT_CLASS (klass)->finalize = finalize;
+  install_properties<Settings, shared, table> (G_OBJECT_CLASS (klass),
+      (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+          GST_PARAM_MUTABLE_PLAYING));
+  set_metadata_element_class (GST_ELEMENT_CLASS (klass), longname,
+      classification, description);
+}
+
+/* Such an element works in place and never drops a late frame (frames
+ * are never dropped by our elements). */
+inline void
+init_metadata_element (GstBaseTransform *trans)
+{
+  gst_base_transform_set_in_place (trans, TRUE);
+  gst_base_transform_set_qos_enabled (trans, FALSE);
+}
+
+/* Runs a frame's work; an exception (e.g. from OpenCV) becomes an element
+ * ERROR with what failed, instead of unwinding into GStreamer's C. */
+template <typename Work>
+GstFlowReturn
+run_frame (GstElement *element, const char *what, Work work)
+{
+  try {
+    return work ();
+  }
+  catch (const std::exception &e) {
+    GST_ELEMENT_ERROR (element, STREAM, FAILED, ("%s", what),
+        ("%s", e.what ()));
+    return GST_FLOW_ERROR;
+  }
+}
+
+}  // namespace landmark

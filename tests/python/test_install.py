@@ -154,3 +154,18 @@ def test_installed_soak_finds_the_built_plugin(tmp_path):
     report = json.loads(done.stdout)
     assert report["sink_frames"] == report["log_lines"] == 200
     assert report["poses"] >= 190
+
+
+def test_the_shipped_pipelines_are_package_data():
+    """Every pipelines/*.pipeline is in the package (what `run` reads
+    wherever it is started), with its one launch line."""
+    from gstlandmark import pipelinefile
+    shipped = sorted(f[:-len(".pipeline")] for f in
+                     os.listdir(os.path.join(SOURCE_ROOT, "pipelines"))
+                     if f.endswith(".pipeline"))
+    assert len(shipped) >= 10
+    assert pipelinefile.names() == shipped
+    for name in shipped:
+        line = pipelinefile.launch_line(os.path.join(
+            pipelinefile.pipelines_dir(), name + ".pipeline"))
+        assert "!" in line and not line.startswith("#"), name

@@ -16,6 +16,7 @@ test_leak_is_seen shows with a deliberate 1 KiB a frame.
 """
 
 import json
+import os
 import subprocess
 import sys
 
@@ -51,6 +52,7 @@ def test_short_soak(gst):
 
 LEAKING = f"""
 import json
+import os
 from gstlandmark.devtools import soak
 kept = []
 def leak(pipe):
@@ -80,3 +82,17 @@ def test_usage_errors(capsys):
     assert cli.main(["soak", "--size", "big"]) == 2
     assert cli.main(["soak", "--frames", "10", "--warmup", "10"]) == 2
     assert "--warmup must be below --frames" in capsys.readouterr().err
+
+
+def test_without_the_source_tree_the_clip_is_named(tmp_path):
+    """soak runs the shipped clip of the source tree: where there is none
+    (an installed package elsewhere) it says which file and why."""
+    env = dict(os.environ, LANDMARK_SOURCE_ROOT=str(tmp_path))
+    res = subprocess.run(
+        [sys.executable, "-m", "gstlandmark.commands.cli", "soak",
+         "--frames", "20", "--every", "10", "--warmup", "10"],
+        capture_output=True, text=True, timeout=60, env=env)
+    assert res.returncode == 1
+    assert f"{tmp_path}/tests/files/clips/path-small/clip.avi: not " \
+        "found" in res.stderr
+    assert "LANDMARK_SOURCE_ROOT" in res.stderr

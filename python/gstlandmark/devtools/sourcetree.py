@@ -10,12 +10,8 @@ ROOT = os.environ.get(
                                  os.pardir, os.pardir)))
 
 
-def source_path(*parts: str) -> str:
-    """A path in the source tree; FileNotFoundError naming it and saying
-    why when it is not there (an installed package has no source tree)."""
-    path = os.path.join(ROOT, *parts)
-    if not os.path.exists(path):
-        raise FileNotFoundError(
-            f"{path}: not found; this developer tool reads the gst-landmark "
+def missing(path: str) -> str:
+    """The message for a file of the source tree that is not there (an
+    installed package has no source tree)."""
+    return (f"{path}: not found; this developer tool reads the gst-landmark "
             f"source tree (set LANDMARK_SOURCE_ROOT to its checkout)")
-    return path

@@ -1,0 +1,216 @@
+"""A colour chart: every class of the scene palette in one picture.
+
+Frame 0 rarely shows every landmark colour, and a scene that changes
+floors shows one floor at a time, so a palette learned from frame 0 alone
+misses classes.  ``render_chart`` lays one disc of every marker colour on
+the floor in front of the camera, with a square swatch of every other
+floor texture among them and, when the scene has walls, a wall behind
+them; it renders that with the scene's camera, frame 0's floor, exposure,
+white balance, vignetting and noise, and returns a class mask (values as
+``mask0.png``: k = class k of the scene palette) that marks only pixels
+wholly of one class, for ``gst-landmark palette learn --mask``.
+"""
+
+import math
+
+import numpy as np
+
+from .camera import Pose
+from .floors import srgb8_to_linear
+from .render import FLOOR, Renderer, renderer
+from .scenarios import Static
+from .world import Landmark, Scene, Walls
+
+# The chart's robot stands at the origin facing +x.
+CHART_POSE = Pose(0.0, 0.0, 0.0)
+# Items fill this fraction of their grid cell (width and height).
+FILL = 0.65
+# The chart starts where the floor is this near (metres), or as near as
+# the camera sees it.
+FAR_LIMIT = 3.0
+
+
+def _floor_distance(camera, v):
+    """Forward floor distance seen at image row ``v`` on the centre
+    column from CHART_POSE, or None above the horizon."""
+    rot, centre = camera.world_to_camera(CHART_POSE)
+    d = camera.pixel_directions([camera.cx], [v])[0] @ rot
+    if d[2] >= -1e-9:
+        return None
+    t = -centre[2] / d[2]
+    return float(t * d[0]), float(t * d[1])
+
+
+def _floor_rows(camera):
+    """First image row (from the top) whose centre ray meets the floor
+    within FAR_LIMIT (or at all), and the bottom row."""
+    h = camera.height
+    first = None
+    for v in np.linspace(0.0, h - 1.0, 4 * h):
+        hit = _floor_distance(camera, v)
+        if hit is None or hit[0] <= 0:
+            continue
+        if first is None:
+            first = float(v)
+        if hit[0] <= FAR_LIMIT:
+            return float(v), h - 1.0
+    if first is None or first > 0.8 * h:
+        raise ValueError("the camera sees too little floor for a colour "
+                         "chart")
+    return first, h - 1.0
+
+
+def _back_project(camera, u, v):
+    """World floor point (x, y) seen at pixel (u, v), and the camera
+    depth and the ray's elevation below the horizon there."""
+    rot, centre = camera.world_to_camera(CHART_POSE)
+    cam_dir = camera.pixel_directions([u], [v])[0]
+    d = cam_dir @ rot
+    if d[2] >= -1e-9:
+        return None
+    t = -centre[2] / d[2]
+    depth = t * cam_dir[2]
+    sin_elev = -d[2] / np.linalg.norm(d)
+    return centre[0] + t * d[0], centre[1] + t * d[1], depth, sin_elev
+
+
+def _projected_size(camera, x, y, r):
+    """Width and height in pixels of the image of a floor disc."""
+    a = np.linspace(0.0, 2.0 * math.pi, 64, endpoint=False)
+    pts = np.stack([x + r * np.cos(a), y + r * np.sin(a),
+                    np.zeros_like(a)], axis=1)
+    uv, _ = camera.project(pts, CHART_POSE)
+    return np.ptp(uv[:, 0]), np.ptp(uv[:, 1])
+
+
+def layout(camera, count, walls):
+    """Grid cells for ``count`` items on the floor in view: a list of
+    (x, y, radius) world discs, and the forward distance of the chart's
+    back wall (None without walls)."""
+    top, bottom = _floor_rows(camera)
+    wall_x = None
+    if walls:
+        # the back wall's foot a quarter of the way down the floor
+        foot = top + 0.25 * (bottom - top)
+        wall_x = _floor_distance(camera, foot)[0]
+        top = foot + 0.04 * camera.height
+    height = bottom - top
+    width = float(camera.width)
+    cols = max(1, int(math.ceil(math.sqrt(count * width / height))))
+    rows = int(math.ceil(count / cols))
+    cols = int(math.ceil(count / rows))
+    cell_w, cell_h = width / cols, height / rows
+    items = []
+    for k in range(count):
+        row, col = divmod(k, cols)
+        u = (col + 0.5) * cell_w - 0.5
+        v = top + (row + 0.5) * cell_h
+        hit = _back_project(camera, u, v)
+        if hit is None:
+            raise ValueError("colour chart: a cell above the horizon")
+        x, y, depth, sin_elev = hit
+        # first guess: the projected disc is about 2 r f / depth wide and
+        # that times sin(elevation) high; then fit its real outline
+        r = 0.5 * FILL * min(cell_w * depth / camera.fx,
+                             cell_h * depth / (camera.fy
+                                               * max(sin_elev, 1e-3)))
+        for _ in range(3):
+            w, h = _projected_size(camera, x, y, r)
+            if not (np.isfinite(w) and np.isfinite(h) and w > 0 < h):
+                r *= 0.5          # part of it behind the camera
+                continue
+            r *= min(FILL * cell_w / w, FILL * cell_h / h)
+        items.append((float(x), float(y), float(r)))
+    return items, wall_x
+
+
+def render_chart(scene, frames_total=None):
+    """(rgb uint8 (H, W, 3), mask uint8 (H, W), info dict) of the scene's
+    colour chart under frame 0's conditions.  ``info["pixels"]`` counts
+    the masked pixels of every class."""
+    names = scene.scene_palette().names
+    markers = scene.palette.names
+    floor0, stops0, wb0 = scene.segment_state(0, frames_total)
+    # frame 0's exposure and white balance, auto ones included
+    base = renderer(scene)
+    trajectory = scene.trajectory or Static()
+    lin0, _ = base.linear(trajectory.pose(0.0), 0.0, 0,
+                          scene.floor_texture(floor0))
+    gains = base.gains(lin0, 0.0, stops0, wb0)
+
+    swatches = [f for f in scene.floor_names() if f != floor0]
+    # a square of each obstacle colour too, flat on the floor
+    boxes = scene.obstacle_colours()
+    cells, wall_x = layout(scene.camera,
+                           len(markers) + len(swatches) + len(boxes),
+                           scene.walls is not None)
+    discs = [Landmark(f"chart-{name}", name, x, y, 2.0 * r)
+             for name, (x, y, r) in zip(markers, cells)]
+    walls = None
+    if scene.walls is not None:
+        walls = Walls(-100.0, -100.0, wall_x, 100.0, scene.walls.height,
+                      scene.walls.colour)
+    chart = Scene(camera=scene.camera, landmarks=discs, floor=floor0,
+                  walls=walls, effects=scene.effects, palette=scene.palette,
+                  fps=scene.fps, seed=scene.seed,
+                  supersample=scene.supersample, sky_colour=scene.sky_colour,
+                  scenario=f"{scene.scenario} chart")
+    # the scene's own floor textures (same seed, already built)
+    chart._cache[("floor", floor0)] = scene.floor_texture(floor0)
+    tracer = Renderer(chart)
+    lin, geo = tracer.trace(CHART_POSE, scene.floor_texture(floor0))
+
+    # chart classes -> scene palette values; mixed pixels -> 0
+    chart_names = chart.scene_palette().names
+    remap = np.zeros(len(chart_names) + 1, np.uint8)
+    for k, name in enumerate(chart_names, start=1):
+        if name == "floor":
+            name = scene.floor_class_name(floor0)
+        remap[k] = names.index(name) + 1
+    mask = remap[geo["mask"]]
+    mask[~geo["pure"]] = 0
+
+    if swatches or boxes:
+        cam = scene.camera
+        rot, centre = cam.world_to_camera(CHART_POSE)
+        dirs = tracer.pix_dirs @ rot.astype(np.float32)
+        t_floor, ids, _ = tracer._static_hits(dirs, centre)
+        x = np.float32(centre[0]) + t_floor * dirs[:, 0]
+        y = np.float32(centre[1]) + t_floor * dirs[:, 1]
+        flat = mask.reshape(-1)
+        floor_value = names.index(scene.floor_class_name(floor0)) + 1
+        for name, (cx, cy, r) in zip(swatches, cells[len(markers):]):
+            # a square of that floor, its pixels whole (hard edges)
+            inside = ((ids == FLOOR) & (flat == floor_value)
+                      & (np.abs(x - cx) <= r) & (np.abs(y - cy) <= r))
+            sel = np.flatnonzero(inside)
+            lin[sel] = tracer._floor_colour(
+                scene.floor_texture(name), dirs[sel], t_floor[sel], centre,
+                1.0)
+            flat[sel] = names.index(scene.floor_class_name(name)) + 1
+        for colour, (cx, cy, r) in zip(
+                boxes, cells[len(markers) + len(swatches):]):
+            inside = ((ids == FLOOR) & (flat == floor_value)
+                      & (np.abs(x - cx) <= r) & (np.abs(y - cy) <= r))
+            sel = np.flatnonzero(inside)
+            lin[sel] = srgb8_to_linear(colour)
+            flat[sel] = names.index(scene.obstacle_class_name(colour)) + 1
+    rgb = base.finish(lin, gains, 0)
+    counts = np.bincount(mask.ravel(), minlength=len(names) + 1)
+    info = {"pose": CHART_POSE.to_json(), "floor": floor0,
+            "wall_x": None if wall_x is None else round(wall_x, 4),
+            "items": [{"class": name, "x": round(x, 4), "y": round(y, 4),
+                       "size": round(2 * r, 4),
+                       "shape": "disc" if name in markers else "square"}
+                      for name, (x, y, r) in zip(
+                          markers + [scene.floor_class_name(f)
+                                     for f in swatches]
+                          + [scene.obstacle_class_name(c) for c in boxes],
+                          cells)],
+            "pixels": {name: int(counts[k])
+                       for k, name in enumerate(names, start=1)}}
+    missing = [name for name, n in info["pixels"].items() if n == 0]
+    if missing:
+        raise ValueError(f"colour chart: no pixels of {', '.join(missing)} "
+                         f"(camera sees too little floor)")
+    return rgb, mask, info

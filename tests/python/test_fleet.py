@@ -21,7 +21,7 @@ from gstlandmark.commands.fleet import FleetState
 
 from mqttbroker import MOSQUITTO, Broker, needs_mosquitto, wait_for
 from shippedclip import CLIP_DIR
-from webpages import check_self_contained
+from webpages import check_self_contained, check_token_required
 
 
 @pytest.fixture(scope="module")
@@ -428,19 +428,8 @@ def test_map_token_required_off_loopback():
     import aiohttp
 
     async def check(client):
-        for headers, query, status in (
-                ({}, "", 401),
-                ({"Authorization": "Bearer wrong"}, "", 401),
-                ({}, "?token=" + MAP_TOKEN[:-1], 401),
-                ({"Authorization": "Bearer " + MAP_TOKEN}, "", 200),
-                ({}, "?token=" + MAP_TOKEN, 200)):
-            for route in ("/", "/static/fleet.js", "/api/fleet"):
-                client.session.cookie_jar.clear()
-                r = await client.get(route + query, headers=headers)
-                assert r.status == status, (route, headers, query)
-                if status == 401:
-                    assert "token" in (await r.json())["error"]
-        client.session.cookie_jar.clear()
+        await check_token_required(
+            client, MAP_TOKEN, ("/", "/static/fleet.js", "/api/fleet"))
         for query in ("", "?token=nope"):
             with pytest.raises(aiohttp.WSServerHandshakeError) as err:
                 await client.ws_connect("/ws" + query)

@@ -29,3 +29,24 @@ async def check_self_contained(client, files, outside):
     r = await client.get(outside)
     assert r.status in (403, 404)
     return html
+
+
+async def check_token_required(client, token, routes):
+    """Every route refuses a request without the token or with a wrong or
+    cut one (401, the error naming the token) and serves one that brings
+    it in the Authorization header or in the address."""
+    for headers, query, status in (
+            ({}, "", 401),
+            ({"Authorization": "Bearer wrong"}, "", 401),
+            ({"Authorization": "Bearer " + token[:-1]}, "", 401),
+            ({}, "?token=" + token[:-1], 401),
+            ({}, "?token=" + token + "x", 401),
+            ({"Authorization": "Bearer " + token}, "", 200),
+            ({}, "?token=" + token, 200)):
+        for route in routes:
+            client.session.cookie_jar.clear()
+            r = await client.get(route + query, headers=headers)
+            assert r.status == status, (route, headers, query)
+            if status == 401:
+                assert "token" in (await r.json())["error"]
+    client.session.cookie_jar.clear()

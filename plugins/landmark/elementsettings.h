@@ -99,6 +99,21 @@ public:
         });
   }
 
+  /* A file name (palette, map): a string whose every set, even to the same
+   * name, counts in generation, so that setting it re-reads the file. */
+  PropertyTable &file (const char *name, const char *nick,
+      const char *blurb, std::string Settings::*field,
+      guint Settings::*generation)
+  {
+    string (name, nick, blurb, field);
+    const Set set = entries_.back ().set;
+    entries_.back ().set = [=](Settings &s, const GValue *v) {
+      set (s, v);
+      (s.*generation)++;
+    };
+    return *this;
+  }
+
   template <typename Enum>
   PropertyTable &enumeration (const char *name, const char *nick,
       const char *blurb, Enum Settings::*field, GType type)
@@ -294,6 +309,70 @@ parse_name_list (const std::string &text, const char *property,
   }
   g_strfreev (parts);
   return ok;
+}
+
+/* The contents of a file a property names (a palette, a map), read at
+ * start and again after each set of the property (its generation): the one
+ * policy, with messages that name the file. At start a file that cannot be
+ * used is an ERROR; while playing it is a WARNING and the previous contents
+ * stay. load is bool (const std::string &path, Contents *, std::string
+ * *why) and is called for the empty path too (no file: its own default). */
+template <typename Contents> class SettingsFile {
+public:
+  Contents contents;
+  std::string path;             /* the file of contents ("": none) */
+
+  template <typename Load>
+  bool start (GstElement *element, const char *what,
+      const std::string &file, guint generation, Load load)
+  {
+    generation_ = generation;
+    Contents c;
+    std::string why;
+    if (!load (file, &c, &why)) {
+      GST_ELEMENT_ERROR (element, RESOURCE, SETTINGS,
+          ("Could not use %s file \"%s\".", what, file.c_str ()),
+          ("%s", why.c_str ()));
+      return false;
+    }
+    contents = std::move (c);
+    path = file;
+    return true;
+  }
+
+  /* While playing: true when the contents were replaced. */
+  template <typename Load>
+  bool sync (GstElement *element, const char *what,
+      const std::string &file, guint generation, Load load)
+  {
+    if (generation == generation_)
+      return false;
+    generation_ = generation;
+    Contents c;
+    std::string why;
+    if (!load (file, &c, &why)) {
+      GST_ELEMENT_WARNING (element, RESOURCE, SETTINGS,
+          ("Could not use %s file \"%s\"; the previous %s stays.", what,
+              file.c_str (), what), ("%s", why.c_str ()));
+      return false;
+    }
+    contents = std::move (c);
+    path = file;
+    return true;
+  }
+
+private:
+  guint generation_ = G_MAXUINT;
+};
+
+/* The parse of an element every value of whose properties is valid: its
+ * Config is the Settings as set (member s). */
+template <typename Settings, typename Config>
+bool
+accept_settings (const Settings &s, Config *cfg, SettingsError *)
+{
+  cfg->s = s;
+  return true;
 }
 
 /* The streaming thread's view of the settings: the Config parsed from a

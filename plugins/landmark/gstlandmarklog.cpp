@@ -72,41 +72,31 @@
 #include <string>
 #include <vector>
 
+#include "elementsettings.h"
 #include "landmarkjson.h"
 #include "landmarkmeta.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_landmark_log_debug);
 #define GST_CAT_DEFAULT gst_landmark_log_debug
 
-#define DEFAULT_LOCATION nullptr
-#define DEFAULT_APPEND FALSE
-#define DEFAULT_FLUSH_EVERY 0
-
 /* Pending lines are handed to the file once they reach this size. */
 #define CHUNK_SIZE (64 * 1024)
-
-enum
-{
-  PROP_0,
-  PROP_LOCATION,
-  PROP_APPEND,
-  PROP_FLUSH_EVERY,
-};
-
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
 
 /* *INDENT-OFF* */
 namespace {
 
-/* What the user sets; location and append are read in start(). */
+/* What the user sets (the initial values are the defaults); location and
+ * append are read in start(). */
 struct Settings {
   std::string location;
-  gboolean append = DEFAULT_APPEND;
-  guint flush_every = DEFAULT_FLUSH_EVERY;
+  gboolean append = FALSE;
+  guint flush_every = 0;
+};
+
+/* Every value the properties accept is valid (an unset location is an
+ * error of its own at start). */
+struct Config {
+  Settings s;
 };
 
 /* The open file and the lines not yet written. Filled by the streaming
@@ -120,13 +110,16 @@ struct State {
   gint width = -1, height = -1;
   bool failed = false;        /* a write failed: error already posted */
   std::vector<GstVideoRegionOfInterestMeta *> rois;   /* reused */
+
+  ~State ();
 };
 
 }  // namespace
 
 struct GstLandmarkLogPrivate {
-  std::mutex settings_lock;
-  Settings settings;
+  landmark::SharedSettings<Settings> settings;
+  /* start() and the streaming thread only */
+  landmark::AppliedSettings<Settings, Config> applied;
   std::mutex io_lock;
   State state;
 };
@@ -143,6 +136,7 @@ G_DEFINE_TYPE_WITH_CODE (GstLandmarkLog, gst_landmark_log,
         "Landmark metadata to JSON Lines"));
 GST_ELEMENT_REGISTER_DEFINE (landmarklog, "landmarklog", GST_RANK_NONE,
     GST_TYPE_LANDMARK_LOG);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_landmark_log, GST_LANDMARK_LOG);
 
 /* ---- JSON text ------------------------------------------------------ */
 
@@ -180,6 +174,18 @@ trim_partial_line (State & st, size_t done)
   const off_t cut = end - (off_t) (done - keep);
   if (ftruncate (st.fd, cut) == 0)
     lseek (st.fd, cut, SEEK_SET);
+}
+
+/* Hands every pending line to the file. Returns 0 or an errno value. */
+int write_pending (State & st);
+
+State::~State ()
+{
+  if (fd >= 0) {
+    /* stop() closes the file; this is only a safety net */
+    write_pending (*this);
+    close (fd);
+  }
 }
 
 /* Hands every pending line to the file. Returns 0 or an errno value. */
@@ -223,83 +229,39 @@ gst_landmark_log_init (GstLandmarkLog * self)
   gst_base_transform_set_qos_enabled (trans, FALSE);
 }
 
-static void
-gst_landmark_log_finalize (GObject * object)
-{
-  auto self = GST_LANDMARK_LOG (object);
-  State & st = self->priv->state;
-  if (st.fd >= 0) {
-    /* stop() closes the file; this is only a safety net */
-    write_pending (st);
-    close (st.fd);
-  }
-  delete self->priv;
-  G_OBJECT_CLASS (gst_landmark_log_parent_class)->finalize (object);
-}
-
-static void
-gst_landmark_log_set_property (GObject * object, guint prop_id,
-    const GValue * value, GParamSpec * pspec)
-{
-  auto self = GST_LANDMARK_LOG (object);
-  std::lock_guard<std::mutex> lk (self->priv->settings_lock);
-  Settings & s = self->priv->settings;
-  switch (prop_id) {
-    case PROP_LOCATION:{
-      const gchar *path = g_value_get_string (value);
-      s.location = path ? path : "";
-      break;
-    }
-    case PROP_APPEND:
-      s.append = g_value_get_boolean (value);
-      break;
-    case PROP_FLUSH_EVERY:
-      s.flush_every = g_value_get_uint (value);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
-
-static void
-gst_landmark_log_get_property (GObject * object, guint prop_id,
-    GValue * value, GParamSpec * pspec)
-{
-  auto self = GST_LANDMARK_LOG (object);
-  std::lock_guard<std::mutex> lk (self->priv->settings_lock);
-  const Settings & s = self->priv->settings;
-  switch (prop_id) {
-    case PROP_LOCATION:
-      g_value_set_string (value, s.location.empty ()? nullptr :
-          s.location.c_str ());
-      break;
-    case PROP_APPEND:
-      g_value_set_boolean (value, s.append);
-      break;
-    case PROP_FLUSH_EVERY:
-      g_value_set_uint (value, s.flush_every);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
-
 /* ---- configuration and file life ------------------------------------ */
+
+static const landmark::PropertyTable<Settings> &
+landmark_log_properties ()
+{
+  static const auto table = landmark::PropertyTable<Settings> ()
+      .string ("location", "File location",
+          "JSON Lines file to write, one line per buffer (required; created "
+          "or truncated when the element starts)", &Settings::location)
+      .mutable_in (GST_PARAM_MUTABLE_READY)
+      .boolean ("append", "Append",
+          "Add lines to the end of an existing file instead of truncating it",
+          &Settings::append)
+      .mutable_in (GST_PARAM_MUTABLE_READY)
+      .number ("flush-every", "Flush every N frames",
+          "Hand the pending lines to the file after every N frames (1: after "
+          "each frame, for readers following the file live; 0: only when "
+          "64 KiB are pending, at EOS, on flush, pause and stop)",
+          &Settings::flush_every, 0u, G_MAXUINT);
+  return table;
+}
+
 
 static gboolean
 gst_landmark_log_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
-  std::string path;
-  gboolean append;
-  {
-    std::lock_guard<std::mutex> lk (priv->settings_lock);
-    path = priv->settings.location;
-    append = priv->settings.append;
-  }
+  if (!priv->applied.start (GST_ELEMENT (self), priv->settings,
+          landmark::accept_settings<Settings, Config>))
+    return FALSE;
+  const std::string & path = priv->applied.config.s.location;
+  const gboolean append = priv->applied.config.s.append;
 
   if (path.empty ()) {
     GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
@@ -438,11 +400,9 @@ gst_landmark_log_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
-  guint flush_every;
-  {
-    std::lock_guard<std::mutex> lk (priv->settings_lock);
-    flush_every = priv->settings.flush_every;
-  }
+  priv->applied.sync (GST_ELEMENT (self), priv->settings,
+      landmark::accept_settings<Settings, Config>);
+  const guint flush_every = priv->applied.config.s.flush_every;
 
   int err = 0;
   std::string path;
@@ -517,44 +477,16 @@ gst_landmark_log_change_state (GstElement * element,
 static void
 gst_landmark_log_class_init (GstLandmarkLogClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
   GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   landmark_json::init ();
 
-  gobject_class->set_property = gst_landmark_log_set_property;
-  gobject_class->get_property = gst_landmark_log_get_property;
-  gobject_class->finalize = gst_landmark_log_finalize;
-
-  g_object_class_install_property (gobject_class, PROP_LOCATION,
-      g_param_spec_string ("location", "File location",
-          "JSON Lines file to write, one line per buffer (required; created "
-          "or truncated when the element starts)", DEFAULT_LOCATION,
-          (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-              GST_PARAM_MUTABLE_READY)));
-  g_object_class_install_property (gobject_class, PROP_APPEND,
-      g_param_spec_boolean ("append", "Append",
-          "Add lines to the end of an existing file instead of truncating it",
-          DEFAULT_APPEND,
-          (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-              GST_PARAM_MUTABLE_READY)));
-  g_object_class_install_property (gobject_class, PROP_FLUSH_EVERY,
-      g_param_spec_uint ("flush-every", "Flush every N frames",
-          "Hand the pending lines to the file after every N frames (1: after "
-          "each frame, for readers following the file live; 0: only when "
-          "64 KiB are pending, at EOS, on flush, pause and stop)",
-          0, G_MAXUINT, DEFAULT_FLUSH_EVERY,
-          (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-              GST_PARAM_MUTABLE_PLAYING)));
-
-  gst_element_class_set_static_metadata (element_class,
+  landmark::metadata_element_class_init<Settings, gst_landmark_log_settings,
+      landmark_log_properties> (klass, gst_landmark_log_finalize,
       "Landmark metadata logger", "Filter/Analyzer/Video",
       "Writes the labels, detections and pose metadata of every buffer as "
-      "one JSON line per frame, passing the video through unchanged",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "one JSON line per frame, passing the video through unchanged");
 
   element_class->change_state =
       GST_DEBUG_FUNCPTR (gst_landmark_log_change_state);

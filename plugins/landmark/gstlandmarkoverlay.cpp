@@ -66,12 +66,12 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
-#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "landmarkcv.h"
+#include "elementsettings.h"
+#include "frameformat.h"
 #include "landmarkmeta.h"
 #include "overlaydraw.h"
 #include "palette.h"
@@ -79,60 +79,39 @@
 GST_DEBUG_CATEGORY_STATIC (gst_landmark_overlay_debug);
 #define GST_CAT_DEFAULT gst_landmark_overlay_debug
 
-#define DEFAULT_SHOW TRUE
-#define DEFAULT_TEXT_SCALE 1.0
-
-enum
-{
-  PROP_0,
-  PROP_MAP,
-  PROP_SHOW_DETECTIONS,
-  PROP_SHOW_REJECTED,
-  PROP_SHOW_POSE,
-  PROP_SHOW_HISTOGRAM,
-  PROP_SHOW_INDICATORS,
-  PROP_SHOW_MINIMAP,
-  PROP_SHOW_BOUNDARY,
-  PROP_SHOW_FREE_SPACE,
-  PROP_TEXT_SCALE,
-};
-
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS)));
-
 /* *INDENT-OFF* */
 namespace {
 
 namespace ov = landmark::overlay;
 
-constexpr guint kMaxClasses = 64;
+using landmark::kMaxClasses;
 
-/* What the user sets; read by the streaming thread under the lock. */
+/* What the user sets (the initial values are the defaults). */
 struct Settings {
   std::string map;              /* empty: no map */
-  guint map_generation = 0;
-  gboolean show_detections = DEFAULT_SHOW;
-  gboolean show_rejected = DEFAULT_SHOW;
-  gboolean show_pose = DEFAULT_SHOW;
-  gboolean show_histogram = DEFAULT_SHOW;
-  gboolean show_indicators = DEFAULT_SHOW;
-  gboolean show_minimap = DEFAULT_SHOW;
-  gboolean show_boundary = DEFAULT_SHOW;
-  gboolean show_free_space = DEFAULT_SHOW;
-  gdouble text_scale = DEFAULT_TEXT_SCALE;
+  guint map_generation = 0;     /* sets of `map` */
+  gboolean show_detections = TRUE;
+  gboolean show_rejected = TRUE;
+  gboolean show_pose = TRUE;
+  gboolean show_histogram = TRUE;
+  gboolean show_indicators = TRUE;
+  gboolean show_minimap = TRUE;
+  gboolean show_boundary = TRUE;
+  gboolean show_free_space = TRUE;
+  gdouble text_scale = 1.0;
+};
+
+/* Every value the properties accept is valid; the map file is read apart
+ * (State::map). */
+struct Config {
+  Settings s;
 };
 
 /* Built in start() and set_info(), used by the streaming thread only. */
 struct State {
-  ov::LandmarkMap map;
+  landmark::AppliedSettings<Settings, Config> applied;
+  landmark::SettingsFile<ov::LandmarkMap> map;   /* path "": no map */
   ov::LandmarkMap no_map;       /* drawn without a pose: robot-centred */
-  bool has_map = false;
-  guint map_generation = 0;
 
   ov::Renderer renderer;
   ov::Target target;
@@ -149,11 +128,14 @@ struct State {
 
 }  // namespace
 
+struct GstLandmarkOverlayPrivate {
+  landmark::SharedSettings<Settings> settings;
+  State state;
+};
+
 struct _GstLandmarkOverlay {
   GstVideoFilter parent;
-  std::mutex *lock;    /* guards settings */
-  Settings *settings;
-  State *state;
+  GstLandmarkOverlayPrivate *priv;
 };
 /* *INDENT-ON* */
 
@@ -163,174 +145,94 @@ G_DEFINE_TYPE_WITH_CODE (GstLandmarkOverlay, gst_landmark_overlay,
         "Draws landmark detections, pose, class histogram and map"));
 GST_ELEMENT_REGISTER_DEFINE (landmarkoverlay, "landmarkoverlay",
     GST_RANK_NONE, GST_TYPE_LANDMARK_OVERLAY);
+LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_landmark_overlay, GST_LANDMARK_OVERLAY);
+
+/* ---- configuration -------------------------------------------------- */
+
+/* The map file; the empty path is no map. */
+static bool
+landmark_overlay_load_map (const std::string & path, ov::LandmarkMap * map,
+    std::string * why)
+{
+  return path.empty () || landmark::map_load_file (path, map, why);
+}
+
+static const landmark::PropertyTable<Settings> &
+landmark_overlay_properties ()
+{
+  static const auto table = landmark::PropertyTable<Settings> ()
+      .file ("map", "Map file",
+          "JSON landmark map (docs/conventions.md) for the mini-map; unset: "
+          "no mini-map", &Settings::map, &Settings::map_generation)
+      .boolean ("show-detections", "Show detections",
+          "Draw each detection: ellipse or box, class, roundness, range, "
+          "bearing and matched landmark", &Settings::show_detections)
+      .boolean ("show-rejected", "Show rejected blobs",
+          "Also draw blobs the filters rejected (landmark-blob kept=false), "
+          "dashed and grey", &Settings::show_rejected)
+      .boolean ("show-pose", "Show pose",
+          "Write the robot pose (x, y in metres, heading in degrees) at the "
+          "bottom left", &Settings::show_pose)
+      .boolean ("show-histogram", "Show histogram",
+          "Inset at the top left: pixels per class (log scale) with the "
+          "min-class-pixels threshold", &Settings::show_histogram)
+      .boolean ("show-indicators", "Show class indicators",
+          "One indicator per marker class, lit when the class is active",
+          &Settings::show_indicators)
+      .boolean ("show-minimap", "Show mini-map",
+          "Inset at the top right: the map, the robot pose and the range "
+          "circles (needs a pose meta and the map property), or the free "
+          "space alone", &Settings::show_minimap)
+      .boolean ("show-boundary", "Show floor boundary",
+          "The floor boundary of a floor meta across the image: red on "
+          "obstacles, cyan where the floor reaches max-range or the top "
+          "row", &Settings::show_boundary)
+      .boolean ("show-free-space", "Show free space",
+          "The floor meta's radial obstacle profile as a green polygon "
+          "around the robot in the mini-map (in the map frame with a pose, "
+          "robot-centred and forward up without one)",
+          &Settings::show_free_space)
+      .number ("text-scale", "Text scale",
+          "Factor on the automatic text size (which follows the frame "
+          "height)", &Settings::text_scale, 0.25, 8.0);
+  return table;
+}
+
+static void
+gst_landmark_overlay_map_changed (GstLandmarkOverlay * self)
+{
+  const auto & map = self->priv->state.map;
+  if (!map.path.empty ())
+    GST_INFO_OBJECT (self, "map %s: %zu landmarks", map.path.c_str (),
+        map.contents.landmarks.size ());
+}
 
 /* ---- GObject -------------------------------------------------------- */
 
 static void
 gst_landmark_overlay_init (GstLandmarkOverlay * self)
 {
-  self->lock = new std::mutex ();
-  self->settings = new Settings ();
-  self->state = new State ();
-  self->state->detections.reserve (64);
-  self->state->map_colours.reserve (64);
-  gst_base_transform_set_in_place (GST_BASE_TRANSFORM (self), TRUE);
-  /* an overlay of measurements never drops late frames */
-  gst_base_transform_set_qos_enabled (GST_BASE_TRANSFORM (self), FALSE);
+  self->priv = new GstLandmarkOverlayPrivate ();
+  self->priv->state.detections.reserve (64);
+  self->priv->state.map_colours.reserve (64);
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
-static void
-gst_landmark_overlay_finalize (GObject * object)
-{
-  auto self = GST_LANDMARK_OVERLAY (object);
-  delete self->state;
-  delete self->settings;
-  delete self->lock;
-  G_OBJECT_CLASS (gst_landmark_overlay_parent_class)->finalize (object);
-}
-
-static void
-gst_landmark_overlay_set_property (GObject * object, guint prop_id,
-    const GValue * value, GParamSpec * pspec)
-{
-  auto self = GST_LANDMARK_OVERLAY (object);
-  std::lock_guard<std::mutex> lk (*self->lock);
-  Settings & s = *self->settings;
-  switch (prop_id) {
-    case PROP_MAP:{
-      const gchar *path = g_value_get_string (value);
-      s.map = path ? path : "";
-      s.map_generation++;
-      break;
-    }
-    case PROP_SHOW_DETECTIONS:
-      s.show_detections = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_REJECTED:
-      s.show_rejected = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_POSE:
-      s.show_pose = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_HISTOGRAM:
-      s.show_histogram = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_INDICATORS:
-      s.show_indicators = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_MINIMAP:
-      s.show_minimap = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_BOUNDARY:
-      s.show_boundary = g_value_get_boolean (value);
-      break;
-    case PROP_SHOW_FREE_SPACE:
-      s.show_free_space = g_value_get_boolean (value);
-      break;
-    case PROP_TEXT_SCALE:
-      s.text_scale = g_value_get_double (value);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
-
-static void
-gst_landmark_overlay_get_property (GObject * object, guint prop_id,
-    GValue * value, GParamSpec * pspec)
-{
-  auto self = GST_LANDMARK_OVERLAY (object);
-  std::lock_guard<std::mutex> lk (*self->lock);
-  const Settings & s = *self->settings;
-  switch (prop_id) {
-    case PROP_MAP:
-      g_value_set_string (value, s.map.empty ()? nullptr : s.map.c_str ());
-      break;
-    case PROP_SHOW_DETECTIONS:
-      g_value_set_boolean (value, s.show_detections);
-      break;
-    case PROP_SHOW_REJECTED:
-      g_value_set_boolean (value, s.show_rejected);
-      break;
-    case PROP_SHOW_POSE:
-      g_value_set_boolean (value, s.show_pose);
-      break;
-    case PROP_SHOW_HISTOGRAM:
-      g_value_set_boolean (value, s.show_histogram);
-      break;
-    case PROP_SHOW_INDICATORS:
-      g_value_set_boolean (value, s.show_indicators);
-      break;
-    case PROP_SHOW_MINIMAP:
-      g_value_set_boolean (value, s.show_minimap);
-      break;
-    case PROP_SHOW_BOUNDARY:
-      g_value_set_boolean (value, s.show_boundary);
-      break;
-    case PROP_SHOW_FREE_SPACE:
-      g_value_set_boolean (value, s.show_free_space);
-      break;
-    case PROP_TEXT_SCALE:
-      g_value_set_double (value, s.text_scale);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
-}
-
-/* ---- configuration -------------------------------------------------- */
-
-/* Loads the map named by the settings into the state. A bad file when
- * starting (fatal) posts an error and returns FALSE; one set while playing
- * posts a warning and the previous map stays, as in every element. */
-static gboolean
-gst_landmark_overlay_load_map (GstLandmarkOverlay * self,
-    const std::string & path, guint generation, gboolean fatal)
-{
-  State & st = *self->state;
-  if (path.empty ()) {
-    st.map.landmarks.clear ();
-    st.has_map = false;
-    st.map_generation = generation;
-    return TRUE;
-  }
-  ov::LandmarkMap map;
-  std::string why;
-  if (!landmark::map_load_file (path, &map, &why)) {
-    if (fatal) {
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Could not use map file \"%s\".", path.c_str ()),
-          ("%s", why.c_str ()));
-      return FALSE;
-    }
-    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-        ("Could not use map file \"%s\"; the previous map stays.",
-            path.c_str ()), ("%s", why.c_str ()));
-    st.map_generation = generation;
-    return TRUE;
-  }
-  st.map = std::move (map);
-  st.has_map = true;
-  st.map_generation = generation;
-  GST_INFO_OBJECT (self, "map %s: %zu landmarks", path.c_str (),
-      st.map.landmarks.size ());
-  return TRUE;
-}
+/* ---- states and caps ------------------------------------------------ */
 
 static gboolean
 gst_landmark_overlay_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
-  State & st = *self->state;
-  std::string path;
-  guint generation;
-  {
-    std::lock_guard<std::mutex> lk (*self->lock);
-    path = self->settings->map;
-    generation = self->settings->map_generation;
-  }
+  State & st = self->priv->state;
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
+          landmark::accept_settings<Settings, Config>))
+    return FALSE;
+  const Settings & s = st.applied.config.s;
+  if (!st.map.start (GST_ELEMENT (self), "map", s.map, s.map_generation,
+          landmark_overlay_load_map))
+    return FALSE;
+  gst_landmark_overlay_map_changed (self);
   if (st.default_colours.empty ()) {
     for (const auto & c : landmark::palette_default ().classes) {
       double rgb[3];
@@ -342,32 +244,23 @@ gst_landmark_overlay_start (GstBaseTransform * trans)
       st.default_colours.emplace_back (c.name, col);
     }
   }
-  return gst_landmark_overlay_load_map (self, path, generation, TRUE);
+  return TRUE;
 }
 
 static gboolean
 gst_landmark_overlay_stop (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
-  self->state->renderer.configure (0, 0);
+  self->priv->state.renderer.configure (0, 0);
   return TRUE;
 }
 
 static gboolean
-gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
-    GstVideoInfo * in_info, GstCaps * outcaps, GstVideoInfo * out_info)
+gst_landmark_overlay_configure (GstVideoFilter * filter,
+    const LandmarkFrameFormat & format, const GstVideoInfo * in_info)
 {
   auto self = GST_LANDMARK_OVERLAY (filter);
-  State & st = *self->state;
-  (void) outcaps;
-  (void) out_info;
-
-  LandmarkFrameFormat format;
-  if (!landmark_frame_format (in_info, &format)) {
-    GST_ERROR_OBJECT (self, "unsupported format %s",
-        GST_VIDEO_INFO_NAME (in_info));
-    return FALSE;
-  }
+  State & st = self->priv->state;
   ov::Target t;
   t.kind = format.kind == LandmarkFrameFormat::Kind::I420 ?
       ov::Target::Kind::I420 : format.kind == LandmarkFrameFormat::Kind::NV12 ?
@@ -389,23 +282,12 @@ gst_landmark_overlay_set_info (GstVideoFilter * filter, GstCaps * incaps,
         e.what ());
     return FALSE;
   }
-  GST_DEBUG_OBJECT (self, "configured for %" GST_PTR_FORMAT, incaps);
   return TRUE;
 }
 
 /* ---- reading the metadata ------------------------------------------- */
 
 namespace {
-
-const GValue *
-array_element (const GstStructure * s, const char *field, guint index)
-{
-  const GValue *array = gst_structure_get_value (s, field);
-  if (!array || !GST_VALUE_HOLDS_ARRAY (array) ||
-      index >= gst_value_array_get_size (array))
-    return nullptr;
-  return gst_value_array_get_value (array, index);
-}
 
 bool
 get_number (const GstStructure * s, const char *field, double *out)
@@ -453,18 +335,21 @@ static int
 gst_landmark_overlay_read_classes (State & st, const GstStructure * labels,
     ov::Histogram * hist)
 {
-  const guint n = MIN (landmark_labels_n_classes (labels), kMaxClasses);
+  const guint n = MIN (landmark_labels_n_classes (labels), (guint) kMaxClasses);
   for (guint k = 0; k < n; k++) {
     ov::ClassInfo & ci = st.classes[k];
     ci = ov::ClassInfo ();
     ci.name = landmark_labels_class_name (labels, k);
-    const GValue *v = array_element (labels, LANDMARK_LABELS_CLASS_RGB, k);
+    const GValue *v = landmark_labels_class_value (labels,
+        LANDMARK_LABELS_CLASS_RGB, k);
     if (v && G_VALUE_HOLDS_UINT (v))
       ci.colour = rgb_from_uint (g_value_get_uint (v));
     ci.count = landmark_labels_class_count (labels, k);
-    v = array_element (labels, LANDMARK_LABELS_CLASS_ACTIVE, k);
+    v = landmark_labels_class_value (labels, LANDMARK_LABELS_CLASS_ACTIVE,
+        k);
     ci.active = v && G_VALUE_HOLDS_BOOLEAN (v) && g_value_get_boolean (v);
-    v = array_element (labels, LANDMARK_LABELS_CLASS_MARKERS, k);
+    v = landmark_labels_class_value (labels, LANDMARK_LABELS_CLASS_MARKERS,
+        k);
     ci.marker = !(v && G_VALUE_HOLDS_BOOLEAN (v)) || g_value_get_boolean (v);
   }
   hist->classes = st.classes.data ();
@@ -501,7 +386,7 @@ static void
 gst_landmark_overlay_read_detections (GstLandmarkOverlay * self,
     GstBuffer * buf, int n_classes, int width, int height)
 {
-  State & st = *self->state;
+  State & st = self->priv->state;
   st.detections.clear ();
   gpointer iter = nullptr;
   GstMeta *meta;
@@ -642,201 +527,134 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
   GstVideoFilter *filter = GST_VIDEO_FILTER_CAST (self);
-  State & st = *self->state;
+  State & st = self->priv->state;
 
-  /* Snapshot the settings; copy the map path only when it changed, so the
-   * steady state allocates nothing here. */
-  Settings s;
-  std::string map_path;
-  bool reload = false;
-  {
-    std::lock_guard<std::mutex> lk (*self->lock);
-    const Settings & cur = *self->settings;
-    s.show_detections = cur.show_detections;
-    s.show_rejected = cur.show_rejected;
-    s.show_pose = cur.show_pose;
-    s.show_histogram = cur.show_histogram;
-    s.show_indicators = cur.show_indicators;
-    s.show_minimap = cur.show_minimap;
-    s.show_boundary = cur.show_boundary;
-    s.show_free_space = cur.show_free_space;
-    s.text_scale = cur.text_scale;
-    s.map_generation = cur.map_generation;
-    if (cur.map_generation != st.map_generation) {
-      map_path = cur.map;
-      reload = true;
-    }
-  }
+  const GstFlowReturn ret = landmark::run_frame (GST_ELEMENT (self),
+      "Drawing the overlay failed.", [&] {
+        /* the settings are copied only after a change, so the steady state
+         * allocates nothing here */
+        if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
+                landmark::accept_settings<Settings, Config>)) {
+          const Settings & s = st.applied.config.s;
+          if (st.map.sync (GST_ELEMENT (self), "map", s.map, s.map_generation,
+                  landmark_overlay_load_map))
+            gst_landmark_overlay_map_changed (self);
+        }
+        const Settings & s = st.applied.config.s;
+        const bool has_map = !st.map.path.empty ();
 
-  try {
-    if (reload && !gst_landmark_overlay_load_map (self, map_path,
-            s.map_generation, FALSE))
-      return GST_FLOW_ERROR;
+        /* what this frame has to show */
+        const GstStructure *labels = landmark_labels_meta_get (buf);
+        const GstStructure *pose_s = landmark_pose_meta_get (buf);
+        ov::Pose pose;
+        const bool has_pose = pose_s && get_number (pose_s, "x", &pose.x) &&
+            get_number (pose_s, "y", &pose.y) &&
+            get_number (pose_s, "heading", &pose.heading);
+        const bool has_rois = gst_buffer_get_meta (buf,
+            GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE) != nullptr;
+        const GstStructure *floor_s = (s.show_boundary ||
+            (s.show_minimap && s.show_free_space)) ?
+            landmark_floor_meta_get (buf) : nullptr;
+        FloorArrays fa;
+        if (floor_s)
+          read_floor (floor_s, &fa);
+        const bool boundary = s.show_boundary && fa.floor.boundary_row;
+        const bool free_space = s.show_minimap && s.show_free_space &&
+            fa.floor.rop_range;
+        const bool panel = labels && (s.show_histogram || s.show_indicators);
+        /* the map needs a pose to be placed; the free space is drawn
+         * robot-centred (forward up) without one */
+        const bool map_frame = has_pose && has_map;
+        const bool minimap = s.show_minimap && (map_frame || free_space);
+        const bool detections = s.show_detections && has_rois;
+        const bool pose_text = s.show_pose && has_pose;
+        if (!panel && !minimap && !detections && !pose_text && !boundary)
+          return GST_FLOW_OK;
 
-    /* what this frame has to show */
-    const GstStructure *labels = landmark_labels_meta_get (buf);
-    const GstStructure *pose_s = landmark_pose_meta_get (buf);
-    ov::Pose pose;
-    const bool has_pose = pose_s && get_number (pose_s, "x", &pose.x) &&
-        get_number (pose_s, "y", &pose.y) &&
-        get_number (pose_s, "heading", &pose.heading);
-    const bool has_rois = gst_buffer_get_meta (buf,
-        GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE) != nullptr;
-    const GstStructure *floor_s = (s.show_boundary ||
-        (s.show_minimap && s.show_free_space)) ?
-        landmark_floor_meta_get (buf) : nullptr;
-    FloorArrays fa;
-    if (floor_s)
-      read_floor (floor_s, &fa);
-    const bool boundary = s.show_boundary && fa.floor.boundary_row;
-    const bool free_space = s.show_minimap && s.show_free_space &&
-        fa.floor.rop_range;
-    const bool panel = labels && (s.show_histogram || s.show_indicators);
-    /* the map needs a pose to be placed; the free space is drawn
-     * robot-centred (forward up) without one */
-    const bool map_frame = has_pose && st.has_map;
-    const bool minimap = s.show_minimap && (map_frame || free_space);
-    const bool detections = s.show_detections && has_rois;
-    const bool pose_text = s.show_pose && has_pose;
-    if (!panel && !minimap && !detections && !pose_text && !boundary)
-      return GST_FLOW_OK;
+        const int w = st.target.width, h = st.target.height;
+        ov::Histogram hist;
+        const int n_classes = labels ?
+            gst_landmark_overlay_read_classes (st, labels, &hist) : 0;
+        if (has_rois && (detections || minimap))
+          gst_landmark_overlay_read_detections (self, buf, n_classes, w, h);
+        else
+          st.detections.clear ();
 
-    const int w = st.target.width, h = st.target.height;
-    ov::Histogram hist;
-    const int n_classes = labels ?
-        gst_landmark_overlay_read_classes (st, labels, &hist) : 0;
-    if (has_rois && (detections || minimap))
-      gst_landmark_overlay_read_detections (self, buf, n_classes, w, h);
-    else
-      st.detections.clear ();
+        GstVideoFrame frame;
+        if (!gst_video_frame_map (&frame, &filter->in_info, buf,
+                GST_MAP_READWRITE)) {
+          GST_ELEMENT_ERROR (self, STREAM, FAILED,
+              ("Could not map video frame."), (nullptr));
+          return GST_FLOW_ERROR;
+        }
+        ov::Target t = st.target;
+        for (guint p = 0; p < GST_VIDEO_FRAME_N_PLANES (&frame) && p < 3; p++) {
+          t.data[p] = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (&frame, p);
+          t.stride[p] = GST_VIDEO_FRAME_PLANE_STRIDE (&frame, p);
+        }
 
-    GstVideoFrame frame;
-    if (!gst_video_frame_map (&frame, &filter->in_info, buf,
-            GST_MAP_READWRITE)) {
-      GST_ELEMENT_ERROR (self, STREAM, FAILED,
-          ("Could not map video frame."), (nullptr));
-      return GST_FLOW_ERROR;
-    }
-    ov::Target t = st.target;
-    for (guint p = 0; p < GST_VIDEO_FRAME_N_PLANES (&frame) && p < 3; p++) {
-      t.data[p] = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (&frame, p);
-      t.stride[p] = GST_VIDEO_FRAME_PLANE_STRIDE (&frame, p);
-    }
-
-    ov::Renderer & r = st.renderer;
-    r.begin_frame (s.text_scale);
-    if (detections) {
-      /* rejected blobs first, so kept ones are drawn over them */
-      if (s.show_rejected)
-        for (const auto & d : st.detections)
-          if (!d.kept)
-            r.draw_detection (d);
-      for (const auto & d : st.detections)
-        if (d.kept)
-          r.draw_detection (d);
-    }
-    if (boundary)
-      r.draw_boundary (fa.floor);
-    if (panel)
-      r.draw_class_panel (hist, s.show_histogram, s.show_indicators);
-    if (minimap) {
-      st.map_colours.clear ();
-      const bool with_map = st.has_map && has_pose;
-      if (with_map)
-        for (const auto & lm : st.map.landmarks)
-          st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
-                  n_classes, lm.class_name.c_str ()));
-      ov::Pose where = pose;
-      if (!has_pose) {
-        where = ov::Pose ();
-        where.heading = M_PI / 2;
-      }
-      r.draw_minimap (with_map ? st.map : st.no_map, st.map_colours.data (),
-          where, st.detections.data (), (int) st.detections.size (),
-          free_space ? &fa.floor : nullptr);
-    }
-    if (pose_text)
-      r.draw_pose_text (pose);
-    r.draw_labels ();
-    r.composite (t);
-    gst_video_frame_unmap (&frame);
-    return GST_FLOW_OK;
-  }
-  catch (const std::exception & e) {
+        ov::Renderer & r = st.renderer;
+        r.begin_frame (s.text_scale);
+        if (detections) {
+          /* rejected blobs first, so kept ones are drawn over them */
+          if (s.show_rejected)
+            for (const auto & d : st.detections)
+              if (!d.kept)
+                r.draw_detection (d);
+          for (const auto & d : st.detections)
+            if (d.kept)
+              r.draw_detection (d);
+        }
+        if (boundary)
+          r.draw_boundary (fa.floor);
+        if (panel)
+          r.draw_class_panel (hist, s.show_histogram, s.show_indicators);
+        if (minimap) {
+          st.map_colours.clear ();
+          const bool with_map = has_map && has_pose;
+          if (with_map)
+            for (const auto & lm : st.map.contents.landmarks)
+              st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
+                      n_classes, lm.class_name.c_str ()));
+          ov::Pose where = pose;
+          if (!has_pose) {
+            where = ov::Pose ();
+            where.heading = M_PI / 2;
+          }
+          r.draw_minimap (with_map ? st.map.contents : st.no_map,
+              st.map_colours.data (), where, st.detections.data (),
+              (int) st.detections.size (), free_space ? &fa.floor : nullptr);
+        }
+        if (pose_text)
+          r.draw_pose_text (pose);
+        r.draw_labels ();
+        r.composite (t);
+        gst_video_frame_unmap (&frame);
+        return GST_FLOW_OK;
+      });
+  /* a frame that failed half drawn leaves nothing on the canvas */
+  if (ret != GST_FLOW_OK)
     st.renderer.discard ();
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Drawing the overlay failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
+  return ret;
 }
 
 static void
 gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
 {
   GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
   const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
       G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
 
-  gobject_class->set_property = gst_landmark_overlay_set_property;
-  gobject_class->get_property = gst_landmark_overlay_get_property;
   gobject_class->finalize = gst_landmark_overlay_finalize;
+  landmark::install_properties<Settings, gst_landmark_overlay_settings,
+      landmark_overlay_properties> (gobject_class, flags);
 
-  g_object_class_install_property (gobject_class, PROP_MAP,
-      g_param_spec_string ("map", "Map file",
-          "JSON landmark map (docs/conventions.md) for the mini-map; unset: "
-          "no mini-map", nullptr, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_DETECTIONS,
-      g_param_spec_boolean ("show-detections", "Show detections",
-          "Draw each detection: ellipse or box, class, roundness, range, "
-          "bearing and matched landmark", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_REJECTED,
-      g_param_spec_boolean ("show-rejected", "Show rejected blobs",
-          "Also draw blobs the filters rejected (landmark-blob kept=false), "
-          "dashed and grey", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_POSE,
-      g_param_spec_boolean ("show-pose", "Show pose",
-          "Write the robot pose (x, y in metres, heading in degrees) at the "
-          "bottom left", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_HISTOGRAM,
-      g_param_spec_boolean ("show-histogram", "Show histogram",
-          "Inset at the top left: pixels per class (log scale) with the "
-          "min-class-pixels threshold", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_INDICATORS,
-      g_param_spec_boolean ("show-indicators", "Show class indicators",
-          "One indicator per marker class, lit when the class is active",
-          DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_MINIMAP,
-      g_param_spec_boolean ("show-minimap", "Show mini-map",
-          "Inset at the top right: the map, the robot pose and the range "
-          "circles (needs a pose meta and the map property), or the free "
-          "space alone", DEFAULT_SHOW,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_BOUNDARY,
-      g_param_spec_boolean ("show-boundary", "Show floor boundary",
-          "The floor boundary of a floor meta across the image: red on "
-          "obstacles, cyan where the floor reaches max-range or the top "
-          "row", DEFAULT_SHOW, flags));
-  g_object_class_install_property (gobject_class, PROP_SHOW_FREE_SPACE,
-      g_param_spec_boolean ("show-free-space", "Show free space",
-          "The floor meta's radial obstacle profile as a green polygon "
-          "around the robot in the mini-map (in the map frame with a pose, "
-          "robot-centred and forward up without one)", DEFAULT_SHOW,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_TEXT_SCALE,
-      g_param_spec_double ("text-scale", "Text scale",
-          "Factor on the automatic text size (which follows the frame "
-          "height)", 0.25, 8.0, DEFAULT_TEXT_SCALE, flags));
-
-  gst_element_class_set_static_metadata (element_class,
+  landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass),
       "Landmark overlay", "Filter/Effect/Video",
       "Draws landmark detections, robot pose, class histogram, class "
-      "indicators and a mini-map of the landmark map onto the video",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "indicators and a mini-map of the landmark map onto the video");
 
   trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_overlay_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_overlay_stop);
@@ -844,5 +662,6 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
    * mapped for writing only when there is something to draw. */
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_overlay_transform_ip);
-  filter_class->set_info = GST_DEBUG_FUNCPTR (gst_landmark_overlay_set_info);
+  filter_class->set_info =
+      landmark_pixel_set_info<gst_landmark_overlay_configure>;
 }

@@ -307,24 +307,19 @@ put_floor (std::string & o, const GstStructure * s)
 {
   o += ", \"floor\": {";
   guint bins = 0;
-  gdouble v;
   gst_structure_get_uint (s, LANDMARK_FLOOR_BEARING_BINS, &bins);
   o += "\"bearing-bins\": ";
   put_uint (o, bins);
-  if (gst_structure_get_double (s, LANDMARK_FLOOR_BIN_WIDTH, &v)) {
-    o += ", \"bin-width\": ";
-    put_floating (o, v);
-  }
-  if (gst_structure_get_double (s, LANDMARK_FLOOR_MAX_RANGE, &v)) {
-    o += ", \"max-range\": ";
-    put_floating (o, v);
-  }
-  if (gst_structure_get_double (s, LANDMARK_FLOOR_NEAREST_RANGE, &v)) {
-    o += ", \"nearest-range\": ";
-    put_floating (o, v);
-  }
-  if (gst_structure_get_double (s, LANDMARK_FLOOR_NEAREST_BEARING, &v)) {
-    o += ", \"nearest-bearing\": ";
+  /* the scalar fields the meta has, under their own names */
+  for (const char *field : { LANDMARK_FLOOR_BIN_WIDTH,
+          LANDMARK_FLOOR_MAX_RANGE, LANDMARK_FLOOR_NEAREST_RANGE,
+          LANDMARK_FLOOR_NEAREST_BEARING }) {
+    gdouble v;
+    if (!gst_structure_get_double (s, field, &v))
+      continue;
+    o += ", \"";
+    o += field;
+    o += "\": ";
     put_floating (o, v);
   }
   static const struct

@@ -344,6 +344,13 @@ landmark_labels_class_count (const GstStructure * labels, guint index)
   return v && G_VALUE_HOLDS_UINT (v) ? g_value_get_uint (v) : 0;
 }
 
+const GValue *
+landmark_labels_class_value (const GstStructure * labels, const gchar * field,
+    guint index)
+{
+  return array_element (labels, field, index);
+}
+
 GstVideoRegionOfInterestMeta *
 landmark_detection_add (GstBuffer * buffer, const gchar * class_name,
     guint x, guint y, guint w, guint h)

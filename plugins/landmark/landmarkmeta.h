@@ -69,6 +69,10 @@ const gchar *landmark_labels_class_name (const GstStructure * labels,
 gboolean landmark_labels_class_is_marker (const GstStructure * labels,
     guint index);
 guint landmark_labels_class_count (const GstStructure * labels, guint index);
+/* Element index of a per-class array field (class-rgb, class-active, ...),
+ * or NULL when the field is missing or shorter. */
+const GValue *landmark_labels_class_value (const GstStructure * labels,
+    const gchar * field, guint index);
 
 /* Detections: one region-of-interest meta per blob. roi_type is the class
  * name; id is the detection's index in the buffer (0, 1, 2, ...). */

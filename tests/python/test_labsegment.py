@@ -251,3 +251,45 @@ def test_rare_classes_agree_with_reference(gst, rare, kind):
         assert not seg.active.all(), "the frame must have rare classes"
         assert agreement(lm.plane, seg.labels, rare) >= 0.999
         check_meta(lm, seg, pal, 128, 96, 1200)
+
+
+def test_palette_set_again_is_read_again(gst, tmp_path):
+    """Setting `palette` while playing reads the file again even when the
+    name is the same, so an edited palette takes effect without a restart;
+    the frames in between keep the palette read before."""
+    from gi.repository import GstVideo
+    root = os.environ.get("LANDMARK_SOURCE_ROOT",
+                          os.path.join(os.path.dirname(__file__), "..", ".."))
+    files = os.path.join(root, "tests", "files", "palettes")
+    first = palette.load_palette(os.path.join(files, "good-custom.json"))
+    second = palette.load_palette(os.path.join(files, "good-alt.json"))
+    assert first.names != second.names
+    path = tmp_path / "palette.json"
+    path.write_text(open(os.path.join(files, "good-custom.json")).read())
+
+    caps = F.caps_string("RGB", 40, 30)
+    info = GstVideo.VideoInfo.new_from_caps(gst.Caps.from_string(caps))
+    img = F.natural_rgb(np.random.default_rng(9), 30, 40)
+    pipe = gst.parse_launch(
+        f"appsrc name=src format=time caps={caps} ! labsegment name=seg "
+        f"palette={path} min-class-pixels=0 ! appsink name=sink sync=false")
+    src, sink = pipe.get_by_name("src"), pipe.get_by_name("sink")
+    seg = pipe.get_by_name("seg")
+
+    def names_of_next_frame():
+        src.emit("push-buffer", gst.Buffer.new_wrapped(
+            pipeline.frame_bytes(img, info)))
+        sample = sink.emit("try-pull-sample", 10 * gst.SECOND)
+        assert sample is not None
+        return meta.labels(sample.get_buffer()).class_names
+
+    pipe.set_state(gst.State.PLAYING)
+    try:
+        assert names_of_next_frame() == first.names
+        # the file changes, but nobody said so: the palette read stays
+        path.write_text(open(os.path.join(files, "good-alt.json")).read())
+        assert names_of_next_frame() == first.names
+        seg.set_property("palette", str(path))
+        assert names_of_next_frame() == second.names
+    finally:
+        pipe.set_state(gst.State.NULL)

@@ -10,11 +10,12 @@
 #include <vector>
 
 #include "labcolour.h"
+#include "palette.h"
 
 namespace landmark {
 
-/* Labels are 1..kMaxClasses; 0 means "no class within max-distance". */
-constexpr int kMaxClasses = 64;
+/* Labels are 1..kMaxClasses (palette.h); 0 means "no class within
+ * max-distance". */
 
 struct ClassifierConfig {
   /* Reference colours; a pixel takes the class of the nearest one. A class

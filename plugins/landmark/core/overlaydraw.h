@@ -16,7 +16,9 @@
  * again, so the canvas is all zero between frames and the cost follows the
  * drawn area, not the frame size.
  *
- * Also here: the landmark map file (docs/conventions.md) and its parser. */
+ * The Renderer's code is split by concern: primitives and text in
+ * overlaydraw.cpp, the parts of the overlay in overlayparts.cpp, blending
+ * into the frame in overlaycomposite.cpp. */
 #pragma once
 
 #include <cstdint>

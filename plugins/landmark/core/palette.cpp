@@ -13,7 +13,6 @@ namespace landmark {
 
 namespace {
 
-constexpr guint kMaxClassesInPalette = 64;
 constexpr gsize kMaxNameLength = 32;
 
 bool
@@ -170,9 +169,9 @@ palette_parse (const std::string & json, const std::string & source,
     *error = source + ": \"classes\" is empty";
     return false;
   }
-  if (n > kMaxClassesInPalette) {
+  if (n > (size_t) kMaxClasses) {
     *error = source + ": " + std::to_string (n) + " classes; at most " +
-        std::to_string (kMaxClassesInPalette) + " are supported";
+        std::to_string ((size_t) kMaxClasses) + " are supported";
     return false;
   }
 

@@ -11,6 +11,10 @@
 
 namespace landmark {
 
+/* At most this many classes per palette: labels are 8 bits, and the
+ * per-frame class arrays (histogram, active flags) have this size. */
+constexpr int kMaxClasses = 64;
+
 /* At most this many reference colours per class. */
 constexpr size_t kMaxReferencesPerClass = 8;
 

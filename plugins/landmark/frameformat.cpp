@@ -1,4 +1,4 @@
-#include "landmarkcv.h"
+#include "frameformat.h"
 
 gboolean
 landmark_frame_format (const GstVideoInfo * info, LandmarkFrameFormat * out)
@@ -38,8 +38,24 @@ landmark_frame_format (const GstVideoInfo * info, LandmarkFrameFormat * out)
       break;
     }
     default:
+      GST_ERROR ("unsupported format %s", GST_VIDEO_INFO_NAME (info));
       return FALSE;
   }
   *out = f;
   return TRUE;
+}
+
+void
+landmark_set_pixel_element_class (GstElementClass * klass,
+    const char *longname, const char *classification, const char *description)
+{
+  GstCaps *caps =
+      gst_caps_from_string (GST_VIDEO_CAPS_MAKE (LANDMARK_VIDEO_FORMATS));
+  gst_element_class_set_static_metadata (klass, longname, classification,
+      description, "gst-landmark developers");
+  gst_element_class_add_pad_template (klass,
+      gst_pad_template_new ("sink", GST_PAD_SINK, GST_PAD_ALWAYS, caps));
+  gst_element_class_add_pad_template (klass,
+      gst_pad_template_new ("src", GST_PAD_SRC, GST_PAD_ALWAYS, caps));
+  gst_caps_unref (caps);
 }

@@ -1,0 +1,385 @@
+#include "labsegmentpixels.h"
+
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
+#include <cstring>
+
+namespace landmark {
+
+namespace {
+
+/* counts[v] = pixels of the plane with label v, for v in 1..n and
+ * kPending (other entries are left 0). One pass per value: compares of 16
+ * labels at a time beat a scalar histogram on any palette up to 16 classes;
+ * larger palettes use four interleaved scalar histograms. */
+void
+count_labels (const guint8 * plane, gsize size, guint n, guint32 counts[256])
+{
+  memset (counts, 0, sizeof (guint32) * 256);
+#ifdef __SSE2__
+  if (n <= 16) {
+    guint8 values[kMaxClasses + 2];
+    for (guint k = 0; k < n; k++)
+      values[k] = k + 1;
+    values[n] = ClassTable::kPending;
+    const gsize vec_end = size & ~(gsize) 15;
+    for (guint i = 0; i <= n; i++) {
+      const __m128i v = _mm_set1_epi8 ((char) values[i]);
+      guint64 total = 0;
+      gsize pos = 0;
+      while (pos < vec_end) {
+        /* 8-bit per-lane counters, summed before they can overflow */
+        const gsize stop = MIN (vec_end, pos + 255 * 16);
+        __m128i acc = _mm_setzero_si128 ();
+        for (; pos < stop; pos += 16) {
+          const __m128i x = _mm_loadu_si128 ((const __m128i *) (plane + pos));
+          acc = _mm_sub_epi8 (acc, _mm_cmpeq_epi8 (x, v));
+        }
+        const __m128i sums = _mm_sad_epu8 (acc, _mm_setzero_si128 ());
+        total += (guint64) _mm_cvtsi128_si32 (sums) +
+            (guint64) _mm_extract_epi16 (sums, 4);
+      }
+      for (gsize j = vec_end; j < size; j++)
+        total += plane[j] == values[i];
+      counts[values[i]] = (guint32) total;
+    }
+    return;
+  }
+#endif
+  (void) n;
+  guint32 bank[4][256] = { {0} };
+  gsize j = 0;
+  for (; j + 4 <= size; j += 4) {
+    bank[0][plane[j]]++;
+    bank[1][plane[j + 1]]++;
+    bank[2][plane[j + 2]]++;
+    bank[3][plane[j + 3]]++;
+  }
+  for (; j < size; j++)
+    bank[0][plane[j]]++;
+  for (int k = 0; k < 256; k++)
+    counts[k] = bank[0][k] + bank[1][k] + bank[2][k] + bank[3][k];
+}
+
+/* Reads the components of pixel x of the current row, whatever the
+ * layout; the classify and remap passes share it. */
+struct PixelReader {
+  const GstVideoFrame *frame;
+  FrameLayout layout;
+  const guint8 *row0 = nullptr, *row1 = nullptr, *row2 = nullptr;
+  int upstride = 1;
+
+  void set_row (guint y) {
+    const GstVideoFrame *f = frame;
+    row0 = (const guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f, 0) +
+        (gsize) y * GST_VIDEO_FRAME_PLANE_STRIDE (f, 0);
+    if (layout.layout == PixelLayout::YUV420) {
+      const GstVideoFormat fmt = GST_VIDEO_FRAME_FORMAT (f);
+      const guint cy = y / 2;
+      if (fmt == GST_VIDEO_FORMAT_NV12) {
+        row1 = (const guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f, 1) +
+            (gsize) cy * GST_VIDEO_FRAME_PLANE_STRIDE (f, 1);
+        row2 = row1 + 1;
+        upstride = 2;
+      } else {
+        row1 = (const guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f, 1) +
+            (gsize) cy * GST_VIDEO_FRAME_PLANE_STRIDE (f, 1);
+        row2 = (const guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f, 2) +
+            (gsize) cy * GST_VIDEO_FRAME_PLANE_STRIDE (f, 2);
+        upstride = 1;
+      }
+    }
+  }
+
+  inline void get (guint x, guint8 c[3]) const {
+    switch (layout.layout) {
+      case PixelLayout::PACKED3:
+        c[0] = row0[x * 3 + layout.offset[0]];
+        c[1] = row0[x * 3 + layout.offset[1]];
+        c[2] = row0[x * 3 + layout.offset[2]];
+        break;
+      case PixelLayout::PACKED4:
+        c[0] = row0[x * 4 + layout.offset[0]];
+        c[1] = row0[x * 4 + layout.offset[1]];
+        c[2] = row0[x * 4 + layout.offset[2]];
+        break;
+      case PixelLayout::YUV420:
+        c[0] = row0[x];
+        c[1] = row1[(x >> 1) * upstride];
+        c[2] = row2[(x >> 1) * upstride];
+        break;
+      case PixelLayout::YUY2:
+        c[0] = row0[x * 2];
+        c[1] = row0[(x >> 1) * 4 + 1];
+        c[2] = row0[(x >> 1) * 4 + 3];
+        break;
+    }
+  }
+};
+
+/* The key of a packed RGB pixel is its three colour bytes as one
+ * little-endian number: a 4-byte pixel needs one load, one shift and one
+ * mask (the table is built in the format's own byte order). */
+inline guint32
+load32 (const guint8 * p)
+{
+  guint32 w;
+  memcpy (&w, p, 4);
+  return GUINT32_FROM_LE (w);
+}
+
+void
+classify_packed4 (const guint8 * table, const guint8 * row, int shift,
+    guint width, guint8 * labels)
+{
+  for (guint x = 0; x < width; x++)
+    labels[x] = table[(load32 (row + x * 4) >> shift) & 0xffffff];
+}
+
+void
+classify_packed3 (const guint8 * table, const guint8 * row, guint width,
+    guint8 * labels)
+{
+  for (guint x = 0; x < width; x++) {
+    const guint8 *p = row + x * 3;
+    labels[x] = table[p[0] | (p[1] << 8) | ((guint32) p[2] << 16)];
+  }
+}
+
+/* YUV keys are Y | U << 8 | V << 16; two pixels share one chroma pair. */
+void
+classify_frame (const ClassTable & table, PixelReader & reader,
+    guint width, guint height, guint8 * labels)
+{
+  const guint8 *t = table.labels ();
+  const FrameLayout & layout = reader.layout;
+  for (guint y = 0; y < height; y++) {
+    reader.set_row (y);
+    guint8 *out = labels + (gsize) y * width;
+    switch (layout.layout) {
+      case PixelLayout::PACKED3:
+        classify_packed3 (t, reader.row0, width, out);
+        break;
+      case PixelLayout::PACKED4:
+        classify_packed4 (t, reader.row0, layout.key_shift, width, out);
+        break;
+      case PixelLayout::YUV420:{
+        const guint8 *yr = reader.row0, *ur = reader.row1, *vr = reader.row2;
+        const int ps = reader.upstride;
+        for (guint x = 0; x < width; x++) {
+          const guint32 uv = (ur[(x >> 1) * ps] << 8) |
+              ((guint32) vr[(x >> 1) * ps] << 16);
+          out[x] = t[yr[x] | uv];
+        }
+        break;
+      }
+      case PixelLayout::YUY2:{
+        const guint8 *r = reader.row0;
+        guint x = 0;
+        for (; x + 2 <= width; x += 2) {
+          const guint32 w = load32 (r + x * 2);   /* Y0 U Y1 V */
+          const guint32 uv = (w & 0xff00) | ((w >> 8) & 0xff0000);
+          out[x] = t[(w & 0xff) | uv];
+          out[x + 1] = t[((w >> 16) & 0xff) | uv];
+        }
+        if (x < width) {
+          const guint8 *p = r + x * 2;
+          out[x] = t[p[0] | (p[1] << 8) | ((guint32) p[3] << 16)];
+        }
+        break;
+      }
+    }
+  }
+}
+
+/* Writes each pixel's class colour into the frame (output=labels). */
+}  // namespace
+
+void
+draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
+    const guint8 * labels, const std::vector<std::array<uint8_t, 3>> & display,
+    const std::array<uint8_t, 3> & black)
+{
+  const guint width = GST_VIDEO_FRAME_WIDTH (f);
+  const guint height = GST_VIDEO_FRAME_HEIGHT (f);
+  /* label 0 is black */
+  const uint8_t *none = black.data ();
+  auto colour = [&](guint8 l) -> const uint8_t * {
+    return l == 0 ? none : display[l - 1].data ();
+  };
+  for (guint y = 0; y < height; y++) {
+    const guint8 *lab = labels + (gsize) y * width;
+    guint8 *r0 = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f, 0) +
+        (gsize) y * GST_VIDEO_FRAME_PLANE_STRIDE (f, 0);
+    switch (layout.layout) {
+      case PixelLayout::PACKED3:
+      case PixelLayout::PACKED4:{
+        const int ps = layout.layout == PixelLayout::PACKED3 ? 3 : 4;
+        for (guint x = 0; x < width; x++) {
+          const uint8_t *c = colour (lab[x]);
+          guint8 *p = r0 + x * ps;
+          p[layout.offset[0]] = c[0];
+          p[layout.offset[1]] = c[1];
+          p[layout.offset[2]] = c[2];
+        }
+        break;
+      }
+      case PixelLayout::YUV420:{
+        for (guint x = 0; x < width; x++) {
+          r0[x] = colour (lab[x])[0];
+        }
+        if (y % 2)
+          break;
+        const bool nv12 = GST_VIDEO_FRAME_FORMAT (f) == GST_VIDEO_FORMAT_NV12;
+        guint8 *u = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f, 1) +
+            (gsize) (y / 2) * GST_VIDEO_FRAME_PLANE_STRIDE (f, 1);
+        guint8 *v = nv12 ? u + 1 : (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f,
+            2) + (gsize) (y / 2) * GST_VIDEO_FRAME_PLANE_STRIDE (f, 2);
+        const int ps = nv12 ? 2 : 1;
+        for (guint x = 0; x < width; x += 2) {
+          const uint8_t *c = colour (lab[x]);
+          u[(x / 2) * ps] = c[1];
+          v[(x / 2) * ps] = c[2];
+        }
+        break;
+      }
+      case PixelLayout::YUY2:{
+        for (guint x = 0; x < width; x++) {
+          const uint8_t *c = colour (lab[x]);
+          guint8 *p = r0 + (x >> 1) * 4;
+          p[(x & 1) * 2] = c[0];
+          if ((x & 1) == 0) {
+            p[1] = c[1];
+            p[3] = c[2];
+          }
+        }
+        break;
+      }
+    }
+  }
+}
+
+
+FrameLayout
+frame_layout (const LandmarkFrameFormat & format)
+{
+  FrameLayout layout;
+  switch (format.kind) {
+    case LandmarkFrameFormat::Kind::PACKED:
+      layout.layout = format.pixel_stride == 3 ? PixelLayout::PACKED3 :
+          PixelLayout::PACKED4;
+      for (int c = 0; c < 3; c++)
+        layout.offset[c] = format.offset[c];
+      /* G is always between R and B: the key is the three bytes from the
+       * first of R and B, R low in RGB order and high in BGR order */
+      layout.key_shift = 8 * MIN (layout.offset[0], layout.offset[2]);
+      layout.order = layout.offset[0] < layout.offset[2] ?
+          KeyOrder::C0_LOW : KeyOrder::C0_HIGH;
+      break;
+    case LandmarkFrameFormat::Kind::YUY2:
+      layout.layout = PixelLayout::YUY2;
+      break;
+    default:
+      layout.layout = PixelLayout::YUV420;
+      break;
+  }
+  return layout;
+}
+
+void
+label_frame (ClassTable & table, const GstVideoFrame * frame,
+    const FrameLayout & layout, guint n, guint8 * labels, guint32 counts[256])
+{
+  const guint w = GST_VIDEO_FRAME_WIDTH (frame);
+  const guint h = GST_VIDEO_FRAME_HEIGHT (frame);
+  PixelReader reader { frame, layout };
+  classify_frame (table, reader, w, h, labels);
+  count_labels (labels, (gsize) w * h, n, counts);
+
+  /* pixels in boundary cells not met before: fill those cells now */
+  for (guint y = 0; y < h && counts[ClassTable::kPending] > 0; y++) {
+    guint8 *row = labels + (gsize) y * w;
+    if (!memchr (row, ClassTable::kPending, w))
+      continue;
+    reader.set_row (y);
+    for (guint x = 0; x < w; x++) {
+      if (row[x] != ClassTable::kPending)
+        continue;
+      guint8 c[3] = { 0, 0, 0 };
+      reader.get (x, c);
+      row[x] = table.resolve (c[0], c[1], c[2]);
+      counts[row[x]]++;
+      counts[ClassTable::kPending]--;
+    }
+  }
+}
+
+void
+dominant_colour_rule (ClassTable & table, const GstVideoFrame * frame,
+    const FrameLayout & layout, guint n, guint min_class_pixels,
+    bool to_nearest, const guint32 counts[256], guint8 * labels,
+    ClassRule * rule)
+{
+  const guint w = GST_VIDEO_FRAME_WIDTH (frame);
+  const guint h = GST_VIDEO_FRAME_HEIGHT (frame);
+  guint8 demoted[kMaxClasses + 1] = { 0 };
+  bool any_demoted = false;
+  *rule = ClassRule ();
+  for (guint k = 0; k < n; k++) {
+    rule->active[k] = min_class_pixels == 0 ||
+        counts[k + 1] >= min_class_pixels;
+    rule->any_active |= rule->active[k] != 0;
+    demoted[k + 1] = !rule->active[k] && counts[k + 1] > 0;
+    any_demoted |= demoted[k + 1] != 0;
+    rule->final_counts[k + 1] = rule->active[k] ? counts[k + 1] : 0;
+  }
+  if (!any_demoted)
+    return;
+
+  /* pixels of classes too rare to count go to the nearest active class,
+   * converted in batches like the table's boundary cells, or lose their
+   * label */
+  if (!to_nearest || !rule->any_active) {
+    const gsize size = (gsize) w * h;
+    for (gsize i = 0; i < size; i++)
+      if (demoted[labels[i]])
+        labels[i] = 0;
+    return;
+  }
+  PixelReader reader { frame, layout };
+  guint8 comps[3 * ClassTable::kBatch];
+  guint8 *where[ClassTable::kBatch];
+  guint8 relabel[ClassTable::kBatch];
+  int pending = 0;
+  auto flush = [&]() {
+    if (pending == 0)
+      return;
+    table.classify_exact (comps, pending, rule->active, relabel);
+    for (int i = 0; i < pending; i++) {
+      *where[i] = relabel[i];
+      rule->final_counts[relabel[i]]++;
+    }
+    pending = 0;
+  };
+  for (guint y = 0; y < h; y++) {
+    guint8 *row = labels + (gsize) y * w;
+    bool row_set = false;
+    for (guint x = 0; x < w; x++) {
+      if (!demoted[row[x]])
+        continue;
+      if (!row_set) {
+        reader.set_row (y);
+        row_set = true;
+      }
+      reader.get (x, comps + 3 * pending);
+      where[pending++] = row + x;
+      if (pending == ClassTable::kBatch)
+        flush ();
+    }
+  }
+  flush ();
+}
+
+}  // namespace landmark

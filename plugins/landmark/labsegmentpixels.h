@@ -1,0 +1,63 @@
+/* labsegment's passes over the pixels of a mapped frame: labelling through
+ * the class table, the class histogram, the dominant-colour rule and the
+ * false-colour view. Kept apart from the element so that gstlabsegment.cpp
+ * holds only the element (properties, states, caps, metadata). */
+#pragma once
+
+#include <gst/video/video.h>
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "classtable.h"
+#include "frameformat.h"
+
+namespace landmark {
+
+/* How the three components of a pixel are laid out in a frame. */
+enum class PixelLayout { PACKED3, PACKED4, YUV420, YUY2 };
+
+struct FrameLayout {
+  PixelLayout layout = PixelLayout::PACKED4;
+  int offset[3] = { 0, 1, 2 };  /* R,G,B byte offsets for packed RGB */
+  int key_shift = 0;            /* bits to drop from a 4-byte pixel */
+  KeyOrder order = KeyOrder::C0_LOW;
+};
+
+/* The layout of a negotiated format, and the byte order of its table keys. */
+FrameLayout frame_layout (const LandmarkFrameFormat & format);
+
+/* Pass 1: labels[] (width x height, tightly packed) = the nearest class of
+ * each pixel over the whole palette of n classes, and counts[v] = pixels
+ * with label v (v in 0..n). */
+void label_frame (ClassTable & table, const GstVideoFrame * frame,
+    const FrameLayout & layout, guint n, guint8 * labels,
+    guint32 counts[256]);
+
+/* What the dominant-colour rule decided for a frame. */
+struct ClassRule {
+  /* active[k]: class k (label k + 1) takes part in the final labelling */
+  guint8 active[kMaxClasses] = { 0 };
+  /* final_counts[v]: pixels with label v after the rule (v in 1..n) */
+  guint32 final_counts[kMaxClasses + 1] = { 0 };
+  bool any_active = false;
+};
+
+/* Pass 2, the dominant-colour rule: only classes with at least
+ * min_class_pixels pixels in counts (0: every class) keep their pixels;
+ * the others' pixels go to the nearest active class when to_nearest (and
+ * some class is active), else to label 0. */
+void dominant_colour_rule (ClassTable & table,
+    const GstVideoFrame * frame, const FrameLayout & layout, guint n,
+    guint min_class_pixels, bool to_nearest, const guint32 counts[256],
+    guint8 * labels, ClassRule * rule);
+
+/* Writes each pixel's class colour into the frame (output=labels): display
+ * holds a colour per class in the frame's own components, black is label
+ * 0's. */
+void draw_false_colour (GstVideoFrame * frame, const FrameLayout & layout,
+    const guint8 * labels, const std::vector<std::array<uint8_t, 3>> & display,
+    const std::array<uint8_t, 3> & black);
+
+}  // namespace landmark

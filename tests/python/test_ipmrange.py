@@ -180,10 +180,11 @@ K_TEST = np.array([[530.0, 0.0, 318.2], [0.0, 527.5, 243.9],
 DIST_TEST = np.array([-0.21, 0.06, 0.0008, -0.0012, -0.008])
 
 
-def range_points(Gst, props, uv, size=(W, H)):
+def range_points(Gst, props, uv, size=(W, H), at_ready=None):
     """landmark-range of detections at pixel centroids uv (no ellipse),
-    through appsrc ! ipmrange props ! appsink; one dict per point."""
-    return ranging_bench.element_ranges(props, uv, size)
+    through appsrc ! ipmrange props ! appsink; one dict per point.
+    at_ready() runs once the pipeline is READY."""
+    return ranging_bench.element_ranges(props, uv, size, at_ready)
 
 
 def ready_error(Gst, props):
@@ -233,7 +234,7 @@ UV_GRID = [(u, v) for v in (300.0, 380.0, 470.0)
            for u in (12.0, 200.5, 319.5, 500.0, 630.0)]
 
 
-@pytest.mark.parametrize("suffix", ["yml", "xml"])
+@pytest.mark.parametrize("suffix", ["yml", "xml", "json"])
 def test_camera_file_mounting_wins_over_properties(gst, tmp_path, suffix):
     path = tmp_path / f"cam.{suffix}"
     C.write_camera_file(str(path), pinhole_fields(0.42, 31.0, 2.5))
@@ -243,6 +244,20 @@ def test_camera_file_mounting_wins_over_properties(gst, tmp_path, suffix):
     want = floor_truth(UV_GRID, K_TEST, DIST_TEST, 0.42, 31.0, 2.5)
     for r, (gx, gy) in zip(got, want):
         assert not r["no-floor"]
+        assert r["ground-x"] == pytest.approx(gx, abs=1e-7)
+        assert r["ground-y"] == pytest.approx(gy, abs=1e-7)
+
+
+def test_camera_file_is_read_once_at_ready(gst, tmp_path):
+    # read at the change to READY and not again when the stream starts: a
+    # file changed after READY is not seen by this run
+    path = tmp_path / "cam.yml"
+    C.write_camera_file(str(path), pinhole_fields(0.42, 31.0, 2.5))
+    got = range_points(gst, f"calibration={path}", UV_GRID, at_ready=lambda:
+                       C.write_camera_file(str(path),
+                                           pinhole_fields(0.9, 20.0, 0.0)))
+    want = floor_truth(UV_GRID, K_TEST, DIST_TEST, 0.42, 31.0, 2.5)
+    for r, (gx, gy) in zip(got, want):
         assert r["ground-x"] == pytest.approx(gx, abs=1e-7)
         assert r["ground-y"] == pytest.approx(gy, abs=1e-7)
 

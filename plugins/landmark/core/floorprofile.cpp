@@ -8,6 +8,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "camerafile.h"
 #include "fileutil.h"
 
 namespace landmark {
@@ -137,7 +138,14 @@ camera_setup_resolve (const CameraSettings & s, CameraSetup * out,
     const bool from_file = !s.calibration.empty () &&
         (out->calib_has_tilt || e.seed);
     *property = from_file ? "calibration" : e.seed ? "model" : "tilt";
-    *why = from_file ? s.calibration + ": " + err : err;
+    *why = err;
+    if (from_file)
+      *why = s.calibration + ": " + err + (out->calib_has_tilt ?
+          " (tilt_deg " + number_text (e.tilt_deg) + ", camera_height " +
+          number_text (e.camera_height) + " m)" : std::string ());
+    else if (!s.calibration.empty ())
+      *why = err + " (tilt property with the intrinsics of " +
+          s.calibration + ")";
     return false;
   }
   return true;

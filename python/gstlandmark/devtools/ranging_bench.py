@@ -35,9 +35,10 @@ def _gst():
     return Gst, GstVideo
 
 
-def element_ranges(props, uv, size=(640, 480)):
+def element_ranges(props, uv, size=(640, 480), at_ready=None):
     """landmark-range dicts of detections at pixel centroids ``uv``
-    (no ellipse), through ``appsrc ! ipmrange props ! appsink``."""
+    (no ellipse), through ``appsrc ! ipmrange props ! appsink``;
+    ``at_ready()`` runs once the pipeline is READY."""
     Gst, GstVideo = _gst()
     from .. import meta
     w, h = size
@@ -57,6 +58,10 @@ def element_ranges(props, uv, size=(640, 480)):
             f"landmark-blob, class=(string)red, centroid-x=(double){u!r}, "
             f"centroid-y=(double){v!r}, frame-width=(uint){w}, "
             f"frame-height=(uint){h}"))
+    if at_ready:
+        if pipe.set_state(Gst.State.READY) != Gst.StateChangeReturn.SUCCESS:
+            raise RuntimeError(f"ipmrange {props}: did not reach READY")
+        at_ready()
     pipe.set_state(Gst.State.PLAYING)
     try:
         src.emit("push-buffer", buf)

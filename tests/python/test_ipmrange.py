@@ -1,5 +1,5 @@
 """ipmrange on the synthetic range sweep: range and bearing against the
-exact truth (gstlandmark.evaluate), discs and balls from 0.3 to 4 m.
+exact truth (gstlandmark.commands.evaluate), discs and balls from 0.3 to 4 m.
 
 Each band's median and p95 range error and median bearing error must stay
 within three times the figures of docs/ranging.md's table, read from it
@@ -14,8 +14,9 @@ import re
 import numpy as np
 import pytest
 
-from gstlandmark import cli, evaluate as E, pipeline
-from gstlandmark.regress import read_jsonl
+from gstlandmark import pipeline
+from gstlandmark.commands import cli, evaluate as E
+from gstlandmark.landmarklog import read_jsonl
 
 MAX_RANGE = 4.0
 
@@ -169,12 +170,9 @@ def test_size_range_is_reported(gst, sweep, tmp_path, kind):
 # against OpenCV, on detections attached by hand
 
 import cv2  # noqa: E402
-import gi  # noqa: E402
 
-gi.require_version("GstVideo", "1.0")
-from gi.repository import GstVideo  # noqa: E402
-
-from gstlandmark import calibrate as C, meta  # noqa: E402
+from gstlandmark.commands import calibrate as C  # noqa: E402
+from gstlandmark.devtools import ranging_bench  # noqa: E402
 
 W, H = 640, 480
 K_TEST = np.array([[530.0, 0.0, 318.2], [0.0, 527.5, 243.9],
@@ -186,40 +184,7 @@ def range_points(Gst, props, uv, size=(W, H), at_ready=None):
     """landmark-range of detections at pixel centroids uv (no ellipse),
     through appsrc ! ipmrange props ! appsink; one dict per point.
     at_ready() runs once the pipeline is READY."""
-    w, h = size
-    caps = f"video/x-raw,format=GRAY8,width={w},height={h},framerate=30/1"
-    pipe = Gst.parse_launch(f"appsrc name=src format=time caps={caps} ! "
-                            f"ipmrange {props} ! appsink name=sink "
-                            f"sync=false")
-    src, sink = pipe.get_by_name("src"), pipe.get_by_name("sink")
-    stride = (w + 3) // 4 * 4
-    buf = Gst.Buffer.new_wrapped(bytes(stride * h))
-    buf.pts = 0
-    for i, (u, v) in enumerate(uv):
-        u, v = float(u), float(v)
-        roi = GstVideo.buffer_add_video_region_of_interest_meta(
-            buf, "red", max(0, int(u) - 2), max(0, int(v) - 2), 5, 5)
-        roi.id = i
-        roi.add_param(Gst.Structure.new_from_string(
-            f"landmark-blob, class=(string)red, centroid-x=(double){u!r}, "
-            f"centroid-y=(double){v!r}, frame-width=(uint){w}, "
-            f"frame-height=(uint){h}"))
-    if at_ready:
-        assert pipe.set_state(Gst.State.READY) == \
-            Gst.StateChangeReturn.SUCCESS
-        at_ready()
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        src.emit("push-buffer", buf)
-        src.emit("end-of-stream")
-        sample = sink.emit("try-pull-sample", 10 * Gst.SECOND)
-        if sample is None:
-            msg = pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
-            detail = msg.parse_error()[0].message if msg else "timeout"
-            raise AssertionError(f"ipmrange {props}: {detail}")
-        return [d.range for d in meta.detections(sample.get_buffer())]
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    return ranging_bench.element_ranges(props, uv, size, at_ready)
 
 
 def ready_error(Gst, props):

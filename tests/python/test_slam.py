@@ -15,8 +15,9 @@ import os
 import numpy as np
 import pytest
 
-from gstlandmark import cli, meta
-from gstlandmark.regress import read_jsonl
+from gstlandmark import meta, pipeline
+from gstlandmark.commands import cli
+from gstlandmark.landmarklog import read_jsonl
 
 FRAMES = 150
 # landmarks seen in at least this many frames must be mapped (the seed
@@ -38,25 +39,9 @@ def run_chain(Gst, clip, element, log):
             f"blobroundness ! ipmrange calibration={clip}/camera.yml "
             f"map={clip}/map.json ! {element} ! "
             f"landmarklog location={log} ! fakesink name=sink")
-    pipe = Gst.parse_launch(desc)
     last = {}
-
-    def probe(pad, info):
-        last["map"] = meta.landmark_map(info.get_buffer())
-        return Gst.PadProbeReturn.OK
-
-    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
-        Gst.PadProbeType.BUFFER, probe)
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        msg = pipe.get_bus().timed_pop_filtered(
-            120 * Gst.SECOND, Gst.MessageType.ERROR | Gst.MessageType.EOS)
-        assert msg is not None, f"timeout: {desc}"
-        if msg.type == Gst.MessageType.ERROR:
-            err, dbg = msg.parse_error()
-            raise AssertionError(f"{err.message}: {dbg}")
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    pipeline.run_to_eos(desc, 120, lambda pad, buf: last.update(
+        map=meta.landmark_map(buf)))
     frames = [f for f in read_jsonl(log) if "frame" in f]
     return frames, last.get("map")
 

@@ -11,19 +11,11 @@ import os
 import numpy as np
 import pytest
 
-from gstlandmark import cli
-from gstlandmark.regress import read_jsonl
+from gstlandmark.commands import cli
+from gstlandmark.landmarklog import read_jsonl
 
-CLIP = os.path.join(os.path.dirname(__file__), "..", "files", "clips",
-                    "path-small")
-N_FRAMES = 45
-
-
-def camera_props():
-    with open(os.path.join(CLIP, "scene.json")) as f:
-        cam = json.load(f)["camera"]
-    return (f"camera-height={cam['height_m']} tilt={cam['tilt_deg']} "
-            f"hfov={cam['hfov_deg']}")
+from shippedclip import CLIP_DIR as CLIP, CLIP_FRAMES as N_FRAMES, \
+    camera_props
 
 
 def run(Gst, props, log, timeout_s=60):

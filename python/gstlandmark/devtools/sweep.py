@@ -49,7 +49,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import evaluate as E
+from ..commands import evaluate as E
 
 DEFAULT_SCENARIOS = ("range-sweep", "path", "distractors")
 DEFAULT_VARIANTS = 20
@@ -227,7 +227,7 @@ def summarise(t: Dict[str, Any]) -> Dict[str, Any]:
 def renderer_version() -> str:
     """A digest of the renderer's source (a cached clip is reused only
     when the renderer that made it is the one installed)."""
-    from .demo import renderer_version as version
+    from ..commands.demo import renderer_version as version
     return version()
 
 
@@ -243,7 +243,7 @@ def render_variant(folder: str, scenario: str, number: int,
     returns the seconds spent."""
     if os.path.exists(os.path.join(folder, "scene.json")):
         return 0.0
-    from .synth import render_scenario
+    from ..synth import render_scenario
     t0 = time.perf_counter()
     partial = folder + ".partial"
     render_scenario(scenario, partial, frames=frames, variant=number,
@@ -274,7 +274,7 @@ def render_in_parallel(out_dir: str, pairs: Sequence[Tuple[str, int]],
         partial = folder + ".partial"
         t0 = time.perf_counter()
         done = subprocess.run(
-            [sys.executable, "-m", "gstlandmark.cli", "synth", sc,
+            [sys.executable, "-m", "gstlandmark.commands.cli", "synth", sc,
              "--variant", str(n), "--frames", str(frames), "--out",
              partial, "--no-progress"], capture_output=True, text=True)
         if done.returncode == 0:
@@ -294,7 +294,7 @@ def render_in_parallel(out_dir: str, pairs: Sequence[Tuple[str, int]],
 def learn_palette(folder: str, out: str) -> str:
     """``gst-landmark palette learn`` on the clip's chart, as docs/palette.md
     shows a user."""
-    from .cli import main
+    from ..commands.cli import main
     with open(os.path.join(folder, "scene.json"), encoding="utf-8") as f:
         classes = json.load(f)["palette"]["classes"]
     names = [c["name"] for c in classes]
@@ -314,7 +314,7 @@ def learn_palette(folder: str, out: str) -> str:
 
 def chain(folder: str, palette: str, log: str) -> str:
     """The default chain on the variant's clip, camera file and map."""
-    from .runner import quote
+    from ..commands.runner import quote
     clip = os.path.join(folder, "clip.avi")
     camera = os.path.join(folder, "camera.yml")
     map_file = os.path.join(folder, "map.json")
@@ -329,8 +329,8 @@ def run_variant(out_dir: str, scenario: str, number: int, frames: int,
                 min_pixels: float = MIN_PIXELS,
                 max_occluded: float = MAX_OCCLUDED) -> Dict[str, Any]:
     """Render (or reuse), learn the palette, run the chain, score."""
-    from .regress import read_jsonl
-    from .runner import run_launch
+    from ..commands.runner import run_launch
+    from ..landmarklog import read_jsonl
     row: Dict[str, Any] = {"scenario": scenario, "variant": number,
                            "half": half_of(number)}
     folder = clip_folder(out_dir, scenario, number, frames)
@@ -532,7 +532,7 @@ def _positive_int(text):
 
 def add_sweep_parser(subparsers):
     import argparse
-    from .synth.scenarios import SCENARIOS
+    from ..synth.scenarios import SCENARIOS
     p = subparsers.add_parser(
         "sweep", help="the default chain over random synthetic variants",
         description=__doc__.split("\n\n")[0].replace("``", ""),

@@ -18,10 +18,10 @@ import json
 import os
 from typing import Any, Dict, List, Optional
 
-from aiohttp import WSMsgType, web
+from aiohttp import web
 
-from .. import webguard
-from ..webguard import LOOPBACK_NAMES, is_loopback  # noqa: F401
+from ... import webguard
+from ...webguard import LOOPBACK_NAMES, is_loopback  # noqa: F401
 from .engine import ConsoleError, Engine
 
 MAX_BODY = 16 * 1024
@@ -32,7 +32,8 @@ ENGINE = web.AppKey("engine", Engine) if hasattr(web, "AppKey") else "engine"
 
 
 def static_dir() -> str:
-    return str(importlib.resources.files("gstlandmark.console") / "static")
+    return str(importlib.resources.files("gstlandmark.commands.console")
+               / "static")
 
 
 def _error(status: int, text: str) -> web.Response:
@@ -50,28 +51,16 @@ def make_app(engine: Engine, token: Optional[str] = None,
     ``loopback``: the server listens on loopback only (then the Host
     header must be a loopback name)."""
 
-    @web.middleware
-    async def guard(request: web.Request, handler):
-        # the checks the fleet map shares (webguard)
-        refused, from_query = webguard.check(request, token, loopback,
-                                             cookie_name(request))
-        if refused is not None:
-            return refused
+    def json_posts_only(request):
         if request.method == "POST" and request.content_type != \
                 "application/json":
             return _error(415, "POST bodies must be application/json")
-        try:
-            response = await handler(request)
-            if from_query:
-                webguard.remember(response, cookie_name(request), token)
-            return response
-        except ConsoleError as err:
-            return _error(400, str(err))
-        except web.HTTPException as err:
-            if err.status < 400:
-                raise
-            return _error(err.status, err.text or err.reason)
+        return None
 
+    # the checks the fleet map shares (webguard)
+    guard = webguard.middleware(token, loopback, cookie_name,
+                                refuse=json_posts_only,
+                                bad_input=(ConsoleError,))
     app = web.Application(middlewares=[guard], client_max_size=MAX_BODY)
     app[ENGINE] = engine
     sockets: set = set()
@@ -282,13 +271,9 @@ def make_app(engine: Engine, token: Optional[str] = None,
 
         engine.listeners.append(listener)
         sockets.add(ws)
-        sender = asyncio.ensure_future(send())
         try:
-            async for msg in ws:
-                if msg.type == WSMsgType.ERROR:
-                    break
+            await webguard.serve_socket(ws, send)
         finally:
-            sender.cancel()
             engine.listeners.remove(listener)
             sockets.discard(ws)
         return ws

@@ -30,15 +30,17 @@ def _gst():
     gi.require_version("Gst", "1.0")
     gi.require_version("GstVideo", "1.0")
     from gi.repository import Gst, GstVideo
-    Gst.init(None)
+    from .. import pipeline
+    pipeline.init()
     return Gst, GstVideo
 
 
-def element_ranges(props, uv, size=(640, 480)):
+def element_ranges(props, uv, size=(640, 480), at_ready=None):
     """landmark-range dicts of detections at pixel centroids ``uv``
-    (no ellipse), through ``appsrc ! ipmrange props ! appsink``."""
+    (no ellipse), through ``appsrc ! ipmrange props ! appsink``;
+    ``at_ready()`` runs once the pipeline is READY."""
     Gst, GstVideo = _gst()
-    from gstlandmark import meta
+    from .. import meta
     w, h = size
     caps = f"video/x-raw,format=GRAY8,width={w},height={h},framerate=30/1"
     pipe = Gst.parse_launch(f"appsrc name=src format=time caps={caps} ! "
@@ -56,13 +58,19 @@ def element_ranges(props, uv, size=(640, 480)):
             f"landmark-blob, class=(string)red, centroid-x=(double){u!r}, "
             f"centroid-y=(double){v!r}, frame-width=(uint){w}, "
             f"frame-height=(uint){h}"))
+    if at_ready:
+        if pipe.set_state(Gst.State.READY) != Gst.StateChangeReturn.SUCCESS:
+            raise RuntimeError(f"ipmrange {props}: did not reach READY")
+        at_ready()
     pipe.set_state(Gst.State.PLAYING)
     try:
         src.emit("push-buffer", buf)
         src.emit("end-of-stream")
         sample = sink.emit("try-pull-sample", 10 * Gst.SECOND)
         if sample is None:
-            raise RuntimeError(f"ipmrange {props}: no output")
+            msg = pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
+            detail = msg.parse_error()[0].message if msg else "no output"
+            raise RuntimeError(f"ipmrange {props}: {detail}")
         return [d.range for d in meta.detections(sample.get_buffer())]
     finally:
         pipe.set_state(Gst.State.NULL)
@@ -101,8 +109,8 @@ def run_sweep(out_dir):
     """Renders the range sweep into out_dir and runs ipmrange with each
     method on discs and balls; returns {(kind, method): (dist, rel)}."""
     Gst, _ = _gst()
-    from gstlandmark import cli, evaluate as E
-    from gstlandmark.regress import read_jsonl
+    from ..commands import cli, evaluate as E
+    from ..landmarklog import read_jsonl
     if not os.path.exists(os.path.join(out_dir, "clip.avi")):
         if cli.main(["synth", "range-sweep", "--out", out_dir,
                      "--robot", "comfortable", "--no-progress"]) != 0:

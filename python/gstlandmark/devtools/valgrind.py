@@ -1,5 +1,5 @@
 """The whole chain under valgrind's memcheck, and a reader of its XML
-report (scripts/valgrind.sh runs ``python -m gstlandmark.valgrind``).
+report (scripts/valgrind.sh runs ``python -m gstlandmark.devtools.valgrind``).
 
 ``run()`` writes a few hundred frames of the shipped clip as one raw RGB
 file and runs::
@@ -35,10 +35,11 @@ import time
 import xml.etree.ElementTree as ET
 from typing import Any, Dict, List, Optional
 
-from . import goldens, soak
+from . import soak
+from .sourcetree import ROOT
 
 SUPPRESSIONS = [
-    os.path.join(goldens.ROOT, "tests", "valgrind", "gstreamer.supp"),
+    os.path.join(ROOT, "tests", "valgrind", "gstreamer.supp"),
     "/usr/share/glib-2.0/valgrind/glib.supp",       # libglib2.0-dev
 ]
 OUR_OBJECT = "libgstlandmark"
@@ -68,7 +69,7 @@ def _is_ours(frame: Dict[str, str], source_root: str) -> bool:
 
 
 def summarise(xml_path: str,
-              source_root: str = goldens.ROOT) -> Dict[str, Any]:
+              source_root: str = ROOT) -> Dict[str, Any]:
     """Counts of valgrind's XML report (protocol 4) by kind, in total and
     for records whose stack passes through our code; the suppressions
     used; and the first stacks of ours, for reading."""
@@ -196,7 +197,7 @@ def run(frames: int = DEFAULT_FRAMES, size=DEFAULT_SIZE,
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(
-        prog="python -m gstlandmark.valgrind",
+        prog="python -m gstlandmark.devtools.valgrind",
         description="The whole chain under valgrind memcheck: prints a "
                     "JSON report; exit status 1 on a definite leak or an "
                     "invalid access in our code.")

@@ -21,6 +21,8 @@ import sys
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence
 
+from ..landmarklog import LogError, read_jsonl
+
 DEFAULT_ABS = 1e-9
 DEFAULT_REL = 1e-9
 
@@ -64,23 +66,6 @@ class Tolerances:
 def _short(value: Any, limit: int = 60) -> str:
     text = json.dumps(value)
     return text if len(text) <= limit else text[:limit - 3] + "..."
-
-
-def read_jsonl(path: str) -> List[Dict[str, Any]]:
-    try:
-        with open(path, encoding="utf-8") as f:
-            lines = f.read().splitlines()
-    except OSError as err:
-        raise RegressError(f"{path}: {err.strerror}") from None
-    frames = []
-    for n, line in enumerate(lines, 1):
-        if not line.strip():
-            continue
-        try:
-            frames.append(json.loads(line))
-        except json.JSONDecodeError as err:
-            raise RegressError(f"{path}:{n}: not JSON: {err.msg}") from None
-    return frames
 
 
 def compare_values(result: Any, golden: Any, path: str, tol: Tolerances,
@@ -195,7 +180,7 @@ def _handle(args) -> int:
         tol = Tolerances(absolute=parse_tolerances(args.tol),
                          ignore=tuple(args.ignore))
         diffs = compare_files(args.result, args.golden, tol)
-    except RegressError as err:
+    except (RegressError, LogError) as err:
         print(f"gst-landmark: error: {err}", file=sys.stderr)
         return 2
     if not diffs:

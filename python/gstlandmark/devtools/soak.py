@@ -31,11 +31,12 @@ import tempfile
 import time
 from typing import Any, Dict, List, Optional
 
-from . import goldens, pipeline
+from .. import pipeline
+from .sourcetree import ROOT, missing
 
 Gst = pipeline.Gst
 
-CLIP_DIR = os.path.join(goldens.ROOT, "tests", "files", "clips",
+CLIP_DIR = os.path.join(ROOT, "tests", "files", "clips",
                         "path-small")
 DEFAULT_FRAMES = 100000
 DEFAULT_SIZE = (320, 240)
@@ -64,9 +65,12 @@ def clip_frames(width: int, height: int,
                 clip_dir: str = CLIP_DIR) -> List[bytes]:
     """Every frame of ``clip_dir``/clip.avi as packed RGB bytes (default
     GStreamer stride) at ``width`` x ``height``."""
+    clip = os.path.join(clip_dir, "clip.avi")
+    if not os.path.isfile(clip):
+        raise pipeline.PipelineError(missing(clip))
     pipeline.init()
     pipe = Gst.parse_launch(
-        f'filesrc location="{os.path.join(clip_dir, "clip.avi")}" ! '
+        f'filesrc location="{clip}" ! '
         "decodebin ! videoconvert ! videoscale ! "
         f"video/x-raw,format=RGB,width={width},height={height} ! "
         "appsink name=sink sync=false")

@@ -36,7 +36,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .regress import RegressError, read_jsonl
+from ..landmarklog import LogError, read_jsonl
+from ..landmarkmap import read_map
 
 DEFAULT_BANDS = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0)
 
@@ -489,7 +490,7 @@ def plot_trajectory(ev: Evaluation, out_png: str,
         raise OSError(f"{out_png}: could not write the plot")
 
 
-def _class_colours(results: List[Dict[str, Any]]
+def class_colours(results: List[Dict[str, Any]]
                    ) -> Dict[str, Tuple[int, int, int]]:
     """Display colours of the classes, from a log line's labels."""
     for res in results:
@@ -534,7 +535,7 @@ def _handle(args) -> int:
                       args.match_px, args.min_pixels,
                       require_cut=args.require_cut,
                       visible_px=args.visible_px)
-    except (RegressError, KeyError) as err:
+    except (LogError, KeyError) as err:
         print(f"gst-landmark: error: {err}", file=sys.stderr)
         return 2
     s = summary(ev)
@@ -548,12 +549,9 @@ def _handle(args) -> int:
             beside = os.path.join(os.path.dirname(args.truth), "map.json")
             map_path = beside if os.path.exists(beside) else None
         try:
-            landmarks = []
-            if map_path:
-                with open(map_path, encoding="utf-8") as f:
-                    landmarks = json.load(f)["landmarks"]
+            landmarks = read_map(map_path) if map_path else []
             plot_trajectory(ev, args.plot, landmarks,
-                            _class_colours(results))
+                            class_colours(results))
         except (OSError, ValueError, KeyError, TypeError) as err:
             print(f"gst-landmark: error: {err}", file=sys.stderr)
             return 2

@@ -1,7 +1,7 @@
 """Regression goldens: each shipped clip run through a shipped pipeline
 file, its ``landmarklog`` output kept as the expected result.
 
-``python -m gstlandmark.goldens refresh`` rewrites them (scripts/
+``python -m gstlandmark.devtools.goldens refresh`` rewrites them (scripts/
 refresh-goldens.sh); tests/python/test_regression.py checks them.
 """
 
@@ -13,13 +13,10 @@ import sys
 from dataclasses import dataclass
 from typing import List
 
-from . import pipeline
+from .. import pipeline
+from .sourcetree import ROOT
 
 Gst = pipeline.Gst
-
-ROOT = os.environ.get(
-    "LANDMARK_SOURCE_ROOT",
-    os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..")))
 
 
 @dataclass
@@ -110,7 +107,7 @@ def produce(g: Golden, output: str) -> None:
 
 
 def refresh() -> int:
-    from . import calibrate
+    from ..commands import calibrate
     for g in GOLDENS:
         target = g.paths()[2]
         os.makedirs(os.path.dirname(target), exist_ok=True)
@@ -127,5 +124,5 @@ def refresh() -> int:
 
 if __name__ == "__main__":
     if sys.argv[1:] != ["refresh"]:
-        sys.exit("usage: python -m gstlandmark.goldens refresh")
+        sys.exit("usage: python -m gstlandmark.devtools.goldens refresh")
     sys.exit(refresh())

@@ -29,23 +29,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..camerafile import (INFO_KEYS, K_DIST, K_HEIGHT, K_MATRIX, K_WIDTH,
+                          CalibrationError, read_camera_file,
+                          write_camera_file)
+
 MIN_IMAGES = 3
-
-# Keys of a camera file.  The first four are the names of OpenCV's
-# calibration sample and of gst-plugins-bad's cameracalibrate.
-K_MATRIX = "camera_matrix"
-K_DIST = "distortion_coefficients"
-K_WIDTH = "image_width"
-K_HEIGHT = "image_height"
-
-# Calibration details kept when a file is read and written again
-# (names of OpenCV's calibration sample), in the order they are written.
-_INFO_KEYS = ("calibration_time", "nr_of_frames", "board_width",
-              "board_height", "square_size", "avg_reprojection_error")
-
-
-class CalibrationError(Exception):
-    """Bad input for a calibration; the message says what is wrong."""
 
 
 # ---------------------------------------------------------------------------
@@ -64,34 +52,27 @@ def parse_pair(text, what, sep="x", kind=int):
     return first, second
 
 
-def _pattern_type(text):
-    try:
-        cols, rows = parse_pair(text, "COLSxROWS (inner corners), e.g. 9x6")
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-    if cols < 2 or rows < 2:
-        raise argparse.ArgumentTypeError(
-            f"a pattern needs at least 2x2 inner corners, got {text!r}")
-    return cols, rows
+def _pair_type(what, sep="x", kind=int, least=None):
+    """argparse type for a pair (``parse_pair``); ``least``: (the smallest
+    value either may take, what the message says then)."""
+    def parse(text):
+        try:
+            pair = parse_pair(text, what, sep=sep, kind=kind)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        if least is not None and min(pair) < least[0]:
+            raise argparse.ArgumentTypeError(f"{least[1]}, got {text!r}")
+        return pair
+    return parse
 
 
-def _size_type(text):
-    try:
-        width, height = parse_pair(text, "WxH in pixels, e.g. 640x480")
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-    if width < 2 or height < 2:
-        raise argparse.ArgumentTypeError(
-            f"image size must be at least 2x2, got {text!r}")
-    return width, height
-
-
-def _origin_type(text):
-    try:
-        return parse_pair(text, "X,Y in metres, e.g. 0.5,0.1", sep=",",
+_pattern_type = _pair_type(
+    "COLSxROWS (inner corners), e.g. 9x6",
+    least=(2, "a pattern needs at least 2x2 inner corners"))
+_size_type = _pair_type("WxH in pixels, e.g. 640x480",
+                        least=(2, "image size must be at least 2x2"))
+_origin_type = _pair_type("X,Y in metres, e.g. 0.5,0.1", sep=",",
                           kind=float)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def _positive_type(text):
@@ -107,96 +88,13 @@ def _positive_type(text):
 
 
 # ---------------------------------------------------------------------------
-# Camera files
-
-
-def read_camera_file(path):
-    """A camera file as a dict: ``camera_matrix`` (3x3), ``dist`` (1-D),
-    ``image_width``, ``image_height`` and whichever calibration details
-    (``_INFO_KEYS``) it holds.  Raises CalibrationError when the file
-    cannot be read or lacks the intrinsics."""
-    if not os.path.isfile(path):
-        raise CalibrationError(f"{path}: no such file")
-    try:
-        fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
-    except cv2.error:
-        fs = None
-    if fs is None or not fs.isOpened():
-        raise CalibrationError(f"{path}: not an OpenCV FileStorage file "
-                               f"(YAML or XML)")
-    try:
-        matrix = fs.getNode(K_MATRIX).mat()
-        dist = fs.getNode(K_DIST).mat()
-        if matrix is None or matrix.shape != (3, 3):
-            raise CalibrationError(
-                f"{path}: no 3x3 '{K_MATRIX}' (write one with "
-                f"'gst-landmark calibrate chessboard')")
-        if dist is None or dist.size == 0:
-            dist = np.zeros(5)
-        dist = np.asarray(dist, dtype=np.float64).ravel()
-        if dist.size not in (4, 5, 8, 12, 14):
-            raise CalibrationError(
-                f"{path}: '{K_DIST}' has {dist.size} values; OpenCV "
-                f"takes 4, 5, 8, 12 or 14")
-        camera = {K_MATRIX: np.asarray(matrix, dtype=np.float64),
-                  "dist": dist}
-        for key in (K_WIDTH, K_HEIGHT):
-            node = fs.getNode(key)
-            if node.empty():
-                raise CalibrationError(f"{path}: no '{key}'")
-            camera[key] = int(node.real())
-        for key in _INFO_KEYS:
-            node = fs.getNode(key)
-            if node.empty():
-                continue
-            if node.isString():
-                camera[key] = node.string()
-            elif node.isInt():
-                camera[key] = int(node.real())
-            else:
-                camera[key] = node.real()
-    finally:
-        fs.release()
-    if camera[K_MATRIX][0, 0] <= 0 or camera[K_MATRIX][1, 1] <= 0:
-        raise CalibrationError(f"{path}: focal lengths must be positive")
-    return camera
-
-
-def write_camera_file(path, fields):
-    """Write ``fields`` (an ordered dict: numbers, strings, arrays) as an
-    OpenCV FileStorage file; the suffix (.yml/.yaml/.xml) picks the
-    format.  Raises CalibrationError when it cannot be written."""
-    directory = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(directory):
-        raise CalibrationError(f"{path}: cannot write: no directory "
-                               f"{directory}")
-    try:
-        fs = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
-        opened = fs.isOpened()
-    except cv2.error:
-        opened = False
-    if not opened:
-        raise CalibrationError(f"{path}: cannot write")
-    try:
-        for key, value in fields.items():
-            if isinstance(value, np.ndarray):
-                fs.write(key, np.asarray(value, dtype=np.float64))
-            elif isinstance(value, (bool, np.bool_)):
-                fs.write(key, int(value))
-            elif isinstance(value, (int, np.integer)):
-                fs.write(key, int(value))
-            elif isinstance(value, (float, np.floating)):
-                fs.write(key, float(value))
-            else:
-                fs.write(key, str(value))
-    finally:
-        fs.release()
+# Camera files (read and written by ..camerafile)
 
 
 def _intrinsic_fields(camera):
     """The intrinsic part of a camera file, in writing order."""
     fields = {}
-    for key in _INFO_KEYS[:5]:
+    for key in INFO_KEYS[:5]:
         if key in camera:
             fields[key] = camera[key]
     fields[K_WIDTH] = int(camera[K_WIDTH])

@@ -23,7 +23,7 @@ import time
 from collections import deque
 from typing import Any, Dict, Optional
 
-from .cli import PROG, CliError
+from .common import PROG, CliError
 
 DEFAULT_PATH_LENGTH = 1200
 DEFAULT_PATH_EVERY = 0.5
@@ -314,7 +314,8 @@ def run(host, port, output, prefix="landmark", username=None, password=None,
             raise CliError(f"{out_dir}: no such directory")
     web = None
     if http is not None:
-        from . import fleetweb, webguard
+        from .. import webguard
+        from . import fleetweb
         try:
             listen, http_port = fleetweb.parse_address(http)
             token = webguard.choose_token(listen, token)

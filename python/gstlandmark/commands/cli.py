@@ -15,23 +15,12 @@ import sys
 import cv2
 import numpy as np
 
-from gstlandmark import __version__
-from gstlandmark import reference
-from gstlandmark.palette import (MAX_REFERENCES, PaletteError,
-                                 default_palette,
-                                 default_palette_text, learn_from_mask,
-                                 learn_from_rects, load_palette,
-                                 save_palette)
-
-PROG = "gst-landmark"
-
-
-class CliError(Exception):
-    """Bad input found while running a command (exit status 1)."""
-
-    def __init__(self, message, status=1):
-        super().__init__(message)
-        self.status = status
+from .. import __version__
+from .. import reference
+from ..palette import (MAX_REFERENCES, PaletteError, default_palette,
+                       default_palette_text, learn_from_mask,
+                       learn_from_rects, load_palette, save_palette)
+from .common import PROG, CliError
 
 
 class _Parser(argparse.ArgumentParser):
@@ -53,11 +42,11 @@ def _split_list(text):
     return [item.strip() for item in text.split(",")]
 
 
-def _read_image(path):
-    """Read an 8-bit BGR image or raise CliError."""
+def _read_image(path, flags=cv2.IMREAD_COLOR):
+    """Read an image (default 8-bit BGR) or raise CliError."""
     if not os.path.isfile(path):
         raise CliError(f"{path}: no such file")
-    image = cv2.imread(path, cv2.IMREAD_COLOR)
+    image = cv2.imread(path, flags)
     if image is None:
         raise CliError(f"{path}: cannot read as an image")
     return image
@@ -65,11 +54,7 @@ def _read_image(path):
 
 def _read_mask(path):
     """Read a class-index mask as a single-channel integer image."""
-    if not os.path.isfile(path):
-        raise CliError(f"{path}: no such file")
-    mask = cv2.imread(path, cv2.IMREAD_UNCHANGED)
-    if mask is None:
-        raise CliError(f"{path}: cannot read as an image")
+    mask = _read_image(path, cv2.IMREAD_UNCHANGED)
     if mask.ndim == 3:
         colour = mask[:, :, :3]
         # A grey mask saved as RGB is fine; real colours are not indices.
@@ -246,8 +231,9 @@ def add_palette_parser(subparsers):
 # Command registry and entry point
 
 def _lazy(module, function):
-    """A command from another module, imported when the parser is built
-    (keeps ``import gstlandmark.cli`` free of GStreamer)."""
+    """A command from another module (``commands.X`` or ``devtools.X``),
+    imported by name when the parser is built (keeps ``import
+    gstlandmark.commands.cli`` free of GStreamer)."""
     def add(subparsers):
         import importlib
         getattr(importlib.import_module(f"gstlandmark.{module}"),
@@ -258,19 +244,19 @@ def _lazy(module, function):
 # To add a command, write add_<name>_parser(subparsers) and list it here.
 COMMANDS = [
     add_palette_parser,
-    _lazy("demo", "add_demo_parser"),
-    _lazy("bench", "add_bench_parser"),
-    _lazy("regress", "add_regress_parser"),
-    _lazy("evaluate", "add_evaluate_parser"),
-    _lazy("synth.cli", "add_synth_parser"),
-    _lazy("calibrate", "add_calibrate_parser"),
-    _lazy("runner", "add_run_parser"),
-    _lazy("soak", "add_soak_parser"),
-    _lazy("record", "add_record_parser"),
-    _lazy("fleet", "add_fleet_parser"),
-    _lazy("sweep", "add_sweep_parser"),
-    _lazy("console", "add_console_parser"),
-    _lazy("floormap", "add_floormap_parser"),
+    _lazy("commands.demo", "add_demo_parser"),
+    _lazy("devtools.bench", "add_bench_parser"),
+    _lazy("devtools.regress", "add_regress_parser"),
+    _lazy("commands.evaluate", "add_evaluate_parser"),
+    _lazy("commands.synth", "add_synth_parser"),
+    _lazy("commands.calibrate", "add_calibrate_parser"),
+    _lazy("commands.runner", "add_run_parser"),
+    _lazy("devtools.soak", "add_soak_parser"),
+    _lazy("commands.record", "add_record_parser"),
+    _lazy("commands.fleet", "add_fleet_parser"),
+    _lazy("devtools.sweep", "add_sweep_parser"),
+    _lazy("commands.console", "add_console_parser"),
+    _lazy("commands.floormap", "add_floormap_parser"),
 ]
 
 

@@ -24,8 +24,10 @@ import time
 from collections import Counter
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
-from . import goldens, pipeline
-from .cli import PROG, CliError
+from .. import pipeline, pipelinefile
+from ..landmarklog import LogError, read_jsonl
+from ..landmarkmap import MapError, read_map
+from .common import PROG, CliError
 
 Gst = pipeline.Gst
 
@@ -47,25 +49,23 @@ _UNSAFE = re.compile(r"[\s!\"'=,;()\[\]{}\\]")
 
 
 def pipelines_dir() -> str:
-    return os.path.join(goldens.ROOT, "pipelines")
+    return pipelinefile.pipelines_dir()
 
 
 def pipeline_names() -> List[str]:
     """The shipped pipeline files, without ``.pipeline``."""
-    try:
-        files = os.listdir(pipelines_dir())
-    except OSError:
-        return []
-    return sorted(f[:-len(".pipeline")] for f in files
-                  if f.endswith(".pipeline"))
+    return pipelinefile.names()
 
 
 def resolve_pipeline(spec: str) -> Tuple[str, str]:
     """``(label, launch line)`` for a pipeline name, a .pipeline file or a
     launch string (anything with a ``!`` or a space)."""
     if spec.endswith(".pipeline") and os.path.isfile(spec):
-        return os.path.basename(spec)[:-len(".pipeline")], \
-            goldens.launch_line(spec)
+        try:
+            return os.path.basename(spec)[:-len(".pipeline")], \
+                pipelinefile.launch_line(spec)
+        except ValueError as err:
+            raise CliError(str(err)) from None
     if _NAME.match(spec):
         path = os.path.join(pipelines_dir(), spec + ".pipeline")
         if not os.path.isfile(path):
@@ -73,7 +73,7 @@ def resolve_pipeline(spec: str) -> Tuple[str, str]:
                            f"{', '.join(pipeline_names()) or 'none found'} "
                            f"(or give a launch string)")
         try:
-            return spec, goldens.launch_line(path)
+            return spec, pipelinefile.launch_line(path)
         except ValueError as err:
             raise CliError(str(err)) from None
     return "launch string", spec
@@ -325,7 +325,7 @@ def plot_estimates(results: List[Dict[str, Any]], out_png: str,
     from . import evaluate
 
     colours = dict(evaluate.CLASS_BGR)
-    colours.update(evaluate._class_colours(results) or {})
+    colours.update(evaluate.class_colours(results) or {})
     poses = [r["pose"] for r in results if r.get("pose") is not None]
     pts = [(p["x"], p["y"]) for p in poses]
     pts += [(lm["x"], lm["y"]) for lm in landmarks]
@@ -383,17 +383,15 @@ def _read_landmarks(map_path: Optional[str]) -> List[Dict[str, Any]]:
     if not map_path:
         return []
     try:
-        with open(map_path, encoding="utf-8") as f:
-            return list(json.load(f).get("landmarks", []))
-    except (OSError, ValueError, AttributeError):
-        return []
+        return read_map(map_path)
+    except MapError:
+        return []  # the plot goes without; the elements reported the map
 
 
 def _read_log(path: str) -> List[Dict[str, Any]]:
-    from .regress import RegressError, read_jsonl
     try:
         return read_jsonl(path)
-    except RegressError as err:
+    except LogError as err:
         raise CliError(str(err)) from None
 
 
@@ -504,7 +502,7 @@ def run(spec: str, input_path: Optional[str], config: Optional[str] = None,
         from . import evaluate
         if ev is not None and ev.pose_rows:
             evaluate.plot_trajectory(ev, png, landmarks,
-                                     evaluate._class_colours(results))
+                                     evaluate.class_colours(results))
         else:
             plot_estimates(results, png, landmarks)
         outputs["plot"] = png
@@ -559,7 +557,7 @@ def add_run_parser(subparsers):
 
 def _handle(args) -> int:
     # errors are reported here rather than by cli.main, so that they read
-    # the same under `python -m gstlandmark.cli` (another CliError class)
+    # the same under `python -m gstlandmark.commands.cli`
     try:
         status, _ = run(args.pipeline, args.input, config=args.config,
                         out_dir=args.out, truth=args.truth, sets=args.sets,

@@ -38,7 +38,7 @@ from typing import Any, Dict, Iterable, Iterator, List, Optional
 import cv2
 import numpy as np
 
-from .cli import PROG, CliError
+from .common import PROG, CliError
 
 IMAGE_TOPIC = "/landmark/overlay/compressed"
 POSE_TOPIC = "/landmark/pose"

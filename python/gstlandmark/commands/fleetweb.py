@@ -13,70 +13,40 @@ import os
 import threading
 from typing import Any, Dict, List, Optional
 
-from aiohttp import WSMsgType, web
+from aiohttp import web
 
-from . import webguard
-from .fleet import FleetState
+from .. import webguard
+from ..landmarkmap import read_map
 
 DEFAULT_PUSH_EVERY = 0.25
 IDLE_PUSH_S = 2.0       # pushed even unchanged: the page's ages move on
+DEFAULT_DIAMETER = 0.2  # metres, drawn for a map entry without one
 
 
 def static_dir() -> str:
-    return str(importlib.resources.files("gstlandmark") / "fleetmap")
+    return str(importlib.resources.files("gstlandmark.commands") / "fleetmap")
 
 
 def read_landmarks(path: str) -> List[Dict[str, Any]]:
     """The map file's landmarks (id, class, x, y, diameter) for the page;
     ValueError naming the file when it is not a landmark map."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as err:
-        raise ValueError(f"{path}: {err.strerror}") from None
-    except ValueError as err:
-        raise ValueError(f"{path}: not JSON: {err}") from None
-    marks = data.get("landmarks") if isinstance(data, dict) else None
-    if not isinstance(marks, list):
-        raise ValueError(f"{path}: no \"landmarks\" list (a landmark map "
-                         f"as the elements' map property reads)")
-    out = []
-    for i, m in enumerate(marks):
-        if not (isinstance(m, dict) and all(
-                isinstance(m.get(k), (int, float)) for k in ("x", "y"))):
-            raise ValueError(f"{path}: landmark {i} has no numeric x and y")
-        out.append({"id": str(m.get("id", i)), "class": m.get("class"),
-                    "x": m["x"], "y": m["y"],
-                    "diameter": m.get("diameter", 0.2)})
-    return out
+    return [{"id": m["id"], "class": m["class"], "x": m["x"], "y": m["y"],
+             "diameter": m["diameter"] or DEFAULT_DIAMETER}
+            for m in read_map(path)]
 
 
 def cookie_name(request: web.Request) -> str:
     return f"landmark-fleet-{request.url.port}"
 
 
-def make_app(state: FleetState, token: Optional[str] = None,
+def make_app(state, token: Optional[str] = None,
              loopback: bool = True,
              landmarks: Optional[List[Dict[str, Any]]] = None,
              push_every: float = DEFAULT_PUSH_EVERY) -> web.Application:
-    """``token``: required on every request when set; ``loopback``: the
-    server listens on loopback only (then Host must name loopback)."""
-
-    @web.middleware
-    async def guard(request: web.Request, handler):
-        refused, from_query = webguard.check(request, token, loopback,
-                                             cookie_name(request))
-        if refused is not None:
-            return refused
-        try:
-            response = await handler(request)
-        except web.HTTPException as err:
-            if err.status < 400:
-                raise
-            return webguard.error(err.status, err.text or err.reason)
-        if from_query:
-            webguard.remember(response, cookie_name(request), token)
-        return response
+    """``state``: the fleet.FleetState shown; ``token``: required on every
+    request when set; ``loopback``: the server listens on loopback only
+    (then Host must name loopback)."""
+    guard = webguard.middleware(token, loopback, cookie_name)
 
     # nothing is posted: no body is read
     app = web.Application(middlewares=[guard], client_max_size=1024)
@@ -113,13 +83,9 @@ def make_app(state: FleetState, token: Optional[str] = None,
             except (ConnectionError, RuntimeError):
                 pass    # the browser went away; the reader ends too
 
-        sender = asyncio.ensure_future(send())
         try:
-            async for msg in ws:
-                if msg.type == WSMsgType.ERROR:
-                    break
+            await webguard.serve_socket(ws, send)
         finally:
-            sender.cancel()
             sockets.discard(ws)
         return ws
 
@@ -155,7 +121,7 @@ class MapServer:
     """The server on its own thread and event loop, next to the fleet's
     MQTT thread and its file writes."""
 
-    def __init__(self, state: FleetState, host: str, port: int,
+    def __init__(self, state, host: str, port: int,
                  token: Optional[str] = None,
                  landmarks: Optional[List[Dict[str, Any]]] = None,
                  push_every: float = DEFAULT_PUSH_EVERY):

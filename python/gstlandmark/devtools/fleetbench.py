@@ -43,7 +43,9 @@ import threading
 import time
 from typing import Any, Callable, Dict, List, Optional
 
-from .bench import BenchError
+from .. import plugin
+from .benchkit import BenchError
+from .sourcetree import ROOT
 
 DEFAULT_ROBOTS = 50
 DEFAULT_RATE = 30.0
@@ -73,6 +75,38 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def start_mosquitto(command, port, timeout_s=5.0):
+    """Starts mosquitto (``command``) and waits until it listens on
+    127.0.0.1:``port``; BenchError with its message when it exits first
+    or does not listen in time."""
+    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise BenchError("mosquitto exited: " +
+                             proc.stderr.read().decode())
+        try:
+            with socket.create_connection(("127.0.0.1", port),
+                                          timeout=0.2):
+                return proc
+        except OSError:
+            time.sleep(0.02)
+    stop_mosquitto(proc)
+    raise BenchError(f"mosquitto not listening on {port}")
+
+
+def stop_mosquitto(proc):
+    """Stops a broker ``start_mosquitto`` started (None: nothing to do)."""
+    if proc and proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=5)
 
 
 class Broker:
@@ -109,31 +143,12 @@ class Broker:
         lines += [f"{k} {v}" for k, v in self.settings.items()]
         with open(self.conf, "w") as f:
             f.write("\n".join(lines) + "\n")
-        self.proc = subprocess.Popen([self.exe, "-c", self.conf],
-                                     stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.PIPE)
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise BenchError("mosquitto exited: " +
-                                 self.proc.stderr.read().decode())
-            try:
-                with socket.create_connection(("127.0.0.1", self.port),
-                                              timeout=0.2):
-                    return self
-            except OSError:
-                time.sleep(0.02)
-        self.stop()
-        raise BenchError(f"mosquitto not listening on {self.port}")
+        self.proc = start_mosquitto([self.exe, "-c", self.conf], self.port,
+                                    timeout_s)
+        return self
 
     def stop(self) -> None:
-        if self.proc and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(timeout=5)
+        stop_mosquitto(self.proc)
         self.proc = None
 
 
@@ -146,12 +161,7 @@ def _plugin_env(build_dir: Optional[str]) -> Dict[str, str]:
     environment's, as under ``meson test``)."""
     env = dict(os.environ)
     if build_dir is None:
-        build_dir = os.environ.get("LANDMARK_BUILD_ROOT")
-    if build_dir is None:
-        here = os.path.dirname(os.path.abspath(__file__))
-        cand = os.path.join(here, os.pardir, os.pardir, "build")
-        if os.path.isdir(os.path.join(cand, "plugins")):
-            build_dir = cand
+        build_dir = plugin.find_build_dir("plugins")
     if build_dir is not None:
         plugins = os.path.abspath(os.path.join(build_dir, "plugins"))
         if not os.path.isdir(plugins):
@@ -170,8 +180,8 @@ def capture_messages(port: int, directory: str,
     in order."""
     import paho.mqtt.client as mqtt
 
-    from . import calibrate, goldens
-    clip = os.path.join(goldens.ROOT, "tests", "files", "clips",
+    from ..commands import calibrate
+    clip = os.path.join(ROOT, "tests", "files", "clips",
                         "path-small")
     if not os.path.isdir(clip):
         raise BenchError(f"{clip}: no such directory (the bench runs from "
@@ -424,7 +434,8 @@ def run_fleet_bench(robots: int = DEFAULT_ROBOTS, rate: float = DEFAULT_RATE,
             if os.path.exists(out):
                 os.remove(out)
             fleet = subprocess.Popen(
-                [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+                [sys.executable, "-m", "gstlandmark.commands.cli",
+                 "fleet", "--port",
                  str(broker.port), "-o", out],
                 stderr=subprocess.PIPE, text=True)
             deadline = time.monotonic() + 30

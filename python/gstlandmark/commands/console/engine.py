@@ -21,7 +21,9 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
-from .. import meta, palette as pal, pipeline, runner
+from ... import meta, palette as pal, pipeline
+from ...landmarkmap import MapError, read_map
+from .. import runner
 
 from gi.repository import GObject  # noqa: E402  (after pipeline's gi setup)
 
@@ -150,11 +152,9 @@ def read_landmarks(map_path: Optional[str]) -> List[Dict[str, Any]]:
     if not map_path:
         return []
     try:
-        with open(map_path, encoding="utf-8") as f:
-            landmarks = json.load(f).get("landmarks", [])
-    except (OSError, ValueError, AttributeError):
+        return read_map(map_path)
+    except MapError:
         return []
-    return [_plain(lm) for lm in landmarks if isinstance(lm, dict)]
 
 
 def error_text(msg: Gst.Message) -> str:

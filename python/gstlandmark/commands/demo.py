@@ -24,37 +24,11 @@ from typing import Dict
 import cv2
 import numpy as np
 
-from . import pipeline
-from .scenes import floor_scene
+from .. import pipeline
+from ..landmarklog import read_jsonl
+from ..landmarkmap import read_map
 
 Gst = pipeline.Gst
-
-
-def write_clip(path: str, width: int, height: int, frames: int,
-               fps: int = 30) -> None:
-    """Renders the generated floor scene to an MJPEG AVI file."""
-    pipeline.init()
-    caps = (f"video/x-raw,format=RGB,width={width},height={height},"
-            f"framerate={fps}/1")
-    pipe = Gst.parse_launch(
-        f"appsrc name=src format=time caps={caps} ! videoconvert ! "
-        f"jpegenc quality=92 ! avimux ! filesink location={path}")
-    src = pipe.get_by_name("src")
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        for i in range(frames):
-            # glide forwards and sideways and back, keeping discs in view
-            phase = 2 * np.pi * i / max(frames, 1)
-            shift = (0.25 * np.sin(phase), 0.45 * (1 - np.cos(phase)))
-            buf = Gst.Buffer.new_wrapped(floor_scene(
-                width, height, index=i, camera_shift=shift).tobytes())
-            buf.pts = i * Gst.SECOND // fps
-            buf.duration = Gst.SECOND // fps
-            src.emit("push-buffer", buf)
-        src.emit("end-of-stream")
-        _wait_eos(pipe)
-    finally:
-        pipe.set_state(Gst.State.NULL)
 
 
 def _buffer_rgb(buf, caps):
@@ -66,22 +40,11 @@ def _buffer_rgb(buf, caps):
         return arr[:, :w * 3].reshape(h, w, 3).copy()
 
 
-def _wait_eos(pipe, timeout_s=120):
-    bus = pipe.get_bus()
-    msg = bus.timed_pop_filtered(timeout_s * Gst.SECOND,
-                                 Gst.MessageType.EOS | Gst.MessageType.ERROR)
-    if msg is None:
-        raise pipeline.PipelineError("pipeline did not finish in time")
-    if msg.type == Gst.MessageType.ERROR:
-        err, dbg = msg.parse_error()
-        raise pipeline.PipelineError(f"{err.message} ({dbg})")
-
-
 def renderer_version() -> str:
     """A digest of the renderer's source: a cached clip is reused only if
     the renderer that made it is the one installed."""
     import hashlib
-    from . import synth
+    from .. import synth
     digest = hashlib.sha1()
     folder = os.path.dirname(synth.__file__)
     for name in sorted(os.listdir(folder)):
@@ -95,7 +58,7 @@ def synthetic_clip(folder: str, width: int, height: int,
                    frames: int = None, seed: int = 0,
                    robot: str = "seed") -> str:
     """The ``path`` scenario rendered into ``folder`` once, reused after."""
-    from . import synth
+    from .. import synth
     done = os.path.join(folder, "scene.json")
     if not os.path.exists(done):
         synth.render_scenario("path", folder, seed=seed, frames=frames,
@@ -106,7 +69,7 @@ def synthetic_clip(folder: str, width: int, height: int,
 def learn_chart_palette(folder: str, out: str) -> str:
     """Learns a palette from the clip's colour chart frame, as a user
     learns one from their own camera."""
-    from . import palette as pal
+    from .. import palette as pal
     with open(os.path.join(folder, "scene.json")) as f:
         classes = json.load(f)["palette"]["classes"]
     image = cv2.imread(os.path.join(folder, "chart.png"))
@@ -157,7 +120,7 @@ def run_chain(description: str, preview_frame: int) -> Dict:
     t0 = time.perf_counter()
     pipe.set_state(Gst.State.PLAYING)
     try:
-        _wait_eos(pipe)
+        pipeline.wait_eos(pipe, 120, "the demo's chain")
     finally:
         pipe.set_state(Gst.State.NULL)
     stats["seconds"] = time.perf_counter() - t0
@@ -168,7 +131,6 @@ def run_demo(out_dir: str, width: int = 640, height: int = 480,
              frames: int = None, palette: str = None,
              clips_dir: str = "out/clips", robot: str = "seed") -> Dict:
     from . import evaluate
-    from .regress import read_jsonl
     os.makedirs(out_dir, exist_ok=True)
     t0 = time.perf_counter()
     folder = synthetic_clip(
@@ -194,8 +156,7 @@ def run_demo(out_dir: str, width: int = 640, height: int = 480,
     accuracy = evaluate.summary(ev)
     with open(os.path.join(out_dir, "accuracy.json"), "w") as f:
         json.dump(accuracy, f, indent=2)
-    with open(os.path.join(folder, "map.json")) as f:
-        landmarks = json.load(f)["landmarks"]
+    landmarks = read_map(os.path.join(folder, "map.json"))
     evaluate.plot_trajectory(ev, os.path.join(out_dir, "trajectory.png"),
                              landmarks)
     pose = accuracy["pose"].get("all", {}).get("position_m", {})

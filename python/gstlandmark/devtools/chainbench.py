@@ -32,9 +32,10 @@ import time
 import cv2
 import numpy as np
 
-from gstlandmark import reference
-from gstlandmark.bench import (BenchError, _OneCore, _parse_size,
-                               bench_environment, pin_prefix)
+from .. import reference
+from .benchkit import (BenchError, OneCore, bench_environment, parse_size,
+                       pin_prefix, write_json)
+from .benchkit import find_build_dir as find_program_build_dir
 
 CHAIN_EXE = os.path.join("tests", "bench", "chain-bench")
 DEFAULT_SIZES = ((640, 480), (1920, 1080))
@@ -64,8 +65,8 @@ class Scenario:
     """Frames of the path scenario at one size, with what the chain needs."""
 
     def __init__(self, width, height, distinct, out_dir, seed=0):
-        from gstlandmark import synth
-        from gstlandmark.synth.world import palette_json
+        from .. import synth
+        from ..synth.world import palette_json
 
         self.width, self.height = width, height
         self.scene, n_frames = synth.build_scenario(
@@ -246,7 +247,7 @@ def time_python_chain(scen, iterations, cpu):
     chain = PythonChain(scen.palette, scen.map["landmarks"], scen.camera)
     times, results = [], []
     calls = max(iterations, len(scen.bgrx))
-    with _OneCore(cpu):
+    with OneCore(cpu):
         for i in range(calls):
             frame = scen.bgrx[i % len(scen.bgrx)]
             t0 = time.perf_counter()
@@ -262,16 +263,7 @@ def time_python_chain(scen, iterations, cpu):
 
 
 def find_build_dir(build_dir=None):
-    cands = [build_dir] if build_dir else [
-        os.environ.get("LANDMARK_BUILD_ROOT"), "build",
-        os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir,
-                     os.pardir, "build")]
-    for cand in cands:
-        if cand and os.path.isfile(os.path.join(cand, CHAIN_EXE)):
-            return os.path.abspath(cand)
-    raise BenchError(f"{os.path.join(build_dir or 'build', CHAIN_EXE)} not "
-                     f"found: build the project first (meson setup build && "
-                     f"ninja -C build; needs gstreamer-check-1.0)")
+    return find_program_build_dir(CHAIN_EXE, build_dir)
 
 
 def run_chain_bench(build_dir, scen, launch, label, frames, warmup, cpu,
@@ -450,9 +442,7 @@ def _handle_chain(args):
         print(f"gst-landmark: error: {err}", file=sys.stderr)
         return 1
     print(format_table(result))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(result, f, indent=2)
+    write_json(args.json, result)
     return 0
 
 
@@ -480,7 +470,7 @@ def add_chain_bench_parser(actions):
                    metavar="N", help="frames of the 640x480 memory run "
                                      f"(default {DEFAULT_RSS_FRAMES}; 0: "
                                      "none)")
-    p.add_argument("--size", type=_parse_size, action="append",
+    p.add_argument("--size", type=parse_size, action="append",
                    metavar="WxH", help="frame size (repeatable; default "
                                        "640x480 and 1920x1080)")
     p.add_argument("--cpu", type=int, default=0, metavar="CORE",

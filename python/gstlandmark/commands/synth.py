@@ -4,10 +4,9 @@ truth."""
 import math
 import os
 
-from gstlandmark.palette import PaletteError
-
-from .floors import FLOOR_NAMES
-from .scenarios import DEFAULT_ROBOT, ROBOTS, SCENARIOS
+from ..palette import PaletteError
+from ..synth.floors import FLOOR_NAMES
+from ..synth.scenarios import DEFAULT_ROBOT, ROBOTS, SCENARIOS
 
 DESCRIPTION = """\
 Render a robot's camera view of a synthetic floor with coloured landmarks
@@ -192,9 +191,9 @@ OVERRIDE_ARGS = ("fps", "hfov_deg", "fx", "fy", "cx", "cy", "height_m",
 
 
 def _handle(args):
-    from gstlandmark.cli import CliError
-    from .writer import format_visibility, render_scenario
-    from gstlandmark.pipeline import PipelineError
+    from ..pipeline import PipelineError
+    from ..synth.writer import format_visibility, render_scenario
+    from .common import CliError
 
     if args.hfov_deg is not None and args.fx is not None:
         args.parser.error("give --hfov or --fx, not both")

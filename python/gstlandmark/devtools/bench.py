@@ -25,7 +25,6 @@ import argparse
 import json
 import os
 import platform
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -34,9 +33,12 @@ import time
 import cv2
 import numpy as np
 
-from gstlandmark import reference
-from gstlandmark.palette import default_palette
-from gstlandmark.scenes import floor_scene
+from .. import reference
+from ..commands.common import CliError
+from ..palette import default_palette
+from .benchkit import (BenchError, OneCore, bench_environment, parse_size,
+                       pin_prefix, write_json)
+from .benchkit import find_build_dir as find_program_build_dir
 
 DEFAULT_SIZES = ((640, 480), (1920, 1080))
 DEFAULT_FORMATS = ("BGRx", "YUY2")
@@ -52,10 +54,6 @@ TARGET_SIZE = (640, 480)
 TARGET_SPEEDUP = 30.0
 
 BENCH_EXE = os.path.join("tests", "bench", "labsegment-bench")
-
-
-class BenchError(Exception):
-    """The benchmark cannot run (no build, bench program failed, ...)."""
 
 
 # ---------------------------------------------------------------------------
@@ -146,49 +144,154 @@ def reference_segment(raw, fmt, width, height, palette_lab, matrix=None):
 
 
 # ---------------------------------------------------------------------------
+# Generated floor scenes (the frames the labsegment benchmark times)
+
+
+MARKER_NAMES = ("red", "green", "yellow", "pink", "blue")
+SEED = 20240611
+
+
+def _marker_colours(palette):
+    """sRGB (R, G, B) uint8 of the palette's marker discs, by name."""
+    srgb = reference.lab_to_srgb8(palette.lab_array())
+    return {name: srgb[palette.index(name)]
+            for name in MARKER_NAMES if name in palette.names}
+
+
+def floor_scene(width, height, index=0, seed=SEED, palette=None,
+                camera_shift=None):
+    """One synthetic camera frame of a floor with coloured discs.
+
+    Returns uint8 (height, width, 3) in R, G, B order.  The camera looks
+    down at a floor of planks (a wood tone blended with grey) lit unevenly;
+    flat discs in the palette's marker colours lie on it and appear as
+    ellipses.  ``index`` moves the camera a little and changes the noise,
+    so consecutive indices give distinct but similar frames;
+    ``camera_shift`` = (sideways, forwards) in metres sets the camera's
+    offset instead.  Geometry is
+    relative to the frame size: every size shows the same scene.
+    """
+    palette = palette or default_palette()
+    rng = np.random.default_rng(seed)        # the scene: fixed per seed
+    frame_rng = np.random.default_rng((seed, index))   # per-frame noise
+
+    # Pinhole camera 1 m above the floor, horizon above the top edge.
+    focal = 0.9 * width
+    cx = width / 2.0
+    horizon = -0.35 * height
+    cam_h = 1.0
+    shift_x = 0.03 * index          # metres: the camera drifts sideways
+    shift_z = 0.05 * index          # and forwards between frames
+    if camera_shift is not None:
+        shift_x, shift_z = camera_shift
+
+    ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
+    depth = focal * cam_h / (ys - horizon)           # Z of each floor point
+    floor_x = (xs - cx) * depth / focal + shift_x     # X of each floor point
+    floor_z = depth + shift_z
+
+    # Planks 15 cm wide along Z, each with its own tone and grain phase.
+    n_planks = 64
+    plank = np.floor(floor_x / 0.15).astype(np.int64) % n_planks
+    tone = rng.uniform(0.85, 1.12, n_planks)[plank]
+    phase = rng.uniform(0, 2 * np.pi, n_planks)[plank]
+    grain = 1.0 + 0.05 * np.sin(38.0 * floor_z
+                                + 2.5 * np.sin(3.0 * floor_x + phase)
+                                + phase)
+    seams = np.abs(floor_x / 0.15 - np.round(floor_x / 0.15)) * 0.15
+    seam = np.where(seams < 0.004, 0.75, 1.0)
+
+    wood = np.array([150.0, 112.0, 78.0])
+    grey = np.array([128.0, 126.0, 122.0])
+    # More wood to the left, more grey (worn/painted) to the right.
+    mix = np.clip(0.75 - 0.5 * xs / width, 0.0, 1.0)[..., None]
+    base = mix * wood + (1.0 - mix) * grey
+
+    # Uneven light: brighter near the camera and towards a window on the
+    # right, a soft vignette.
+    light = (0.78 + 0.22 * np.exp(-(depth - 1.0) / 4.0)
+             + 0.10 * (xs / width))
+    r2 = ((xs - cx) / width) ** 2 + ((ys - height / 2.0) / height) ** 2
+    light = light * (1.0 - 0.35 * r2)
+
+    shade = (tone * grain * seam * light)[..., None]
+    image = base * shade
+
+    # Discs of radius 12 cm on the floor.  Draw far ones first.
+    colours = _marker_colours(palette)
+    discs = []
+    for name in MARKER_NAMES:
+        if name not in colours:
+            continue
+        for _ in range(2 if name in ("red", "blue") else 1):
+            disc_z = rng.uniform(1.0, 4.0)
+            half_width = 0.85 * (width / 2.0) * disc_z / focal
+            disc_x = rng.uniform(-half_width, half_width)
+            discs.append((disc_z, disc_x, name))
+    discs.sort(reverse=True)
+    radius = 0.12
+    sub = 16                        # cv2 sub-pixel shift 4 bits
+    for disc_z, disc_x, name in discs:
+        z = disc_z - shift_z
+        if z <= 0.3:
+            continue
+        u = cx + focal * (disc_x - shift_x) / z
+        v = horizon + focal * cam_h / z
+        a = focal * radius / z
+        b = a * cam_h / z
+        # The disc is lit like the floor under it.
+        vi = int(np.clip(v, 0, height - 1))
+        ui = int(np.clip(u, 0, width - 1))
+        colour = colours[name].astype(np.float64) * min(light[vi, ui] * 1.05,
+                                                        1.0)
+        cv2.ellipse(image, (int(round(u * sub)), int(round(v * sub))),
+                    (max(int(round(a * sub)), sub),
+                     max(int(round(b * sub)), sub)),
+                    0, 0, 360, colour.tolist(), -1, cv2.LINE_AA, 4)
+
+    # A little lens blur, then sensor noise.
+    sigma = 0.6 * max(width / 640.0, 1.0)
+    image = cv2.GaussianBlur(image, (0, 0), sigma)
+    image = image + frame_rng.normal(0.0, 2.0, image.shape)
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+def write_clip(path: str, width: int, height: int, frames: int,
+               fps: int = 30) -> None:
+    """Renders the generated floor scene to an MJPEG AVI file."""
+    from .. import pipeline
+    Gst = pipeline.Gst
+    pipeline.init()
+    caps = (f"video/x-raw,format=RGB,width={width},height={height},"
+            f"framerate={fps}/1")
+    pipe = Gst.parse_launch(
+        f"appsrc name=src format=time caps={caps} ! videoconvert ! "
+        f"jpegenc quality=92 ! avimux ! filesink location={path}")
+    src = pipe.get_by_name("src")
+    pipe.set_state(Gst.State.PLAYING)
+    try:
+        for i in range(frames):
+            # glide forwards and sideways and back, keeping discs in view
+            phase = 2 * np.pi * i / max(frames, 1)
+            shift = (0.25 * np.sin(phase), 0.45 * (1 - np.cos(phase)))
+            buf = Gst.Buffer.new_wrapped(floor_scene(
+                width, height, index=i, camera_shift=shift).tobytes())
+            buf.pts = i * Gst.SECOND // fps
+            buf.duration = Gst.SECOND // fps
+            src.emit("push-buffer", buf)
+        src.emit("end-of-stream")
+        pipeline.wait_eos(pipe, 120, path)
+    finally:
+        pipe.set_state(Gst.State.NULL)
+
+
+# ---------------------------------------------------------------------------
 # Running the C bench
 
 
 def find_build_dir(build_dir=None):
     """The meson build directory holding the bench program."""
-    candidates = []
-    if build_dir:
-        candidates.append(build_dir)
-    else:
-        if os.environ.get("LANDMARK_BUILD_ROOT"):
-            candidates.append(os.environ["LANDMARK_BUILD_ROOT"])
-        candidates.append("build")
-        here = os.path.dirname(os.path.abspath(__file__))
-        candidates.append(os.path.join(here, os.pardir, os.pardir, "build"))
-    for cand in candidates:
-        if os.path.isfile(os.path.join(cand, BENCH_EXE)):
-            return os.path.abspath(cand)
-    where = build_dir or "build"
-    raise BenchError(
-        f"{os.path.join(where, BENCH_EXE)} not found: build the project "
-        f"first (meson setup build && ninja -C build; the bench needs "
-        f"gstreamer-check-1.0, package libgstreamer1.0-dev)")
-
-
-def bench_environment(build_dir):
-    """Environment for the C bench: our build's plugin first, a private
-    registry so no installed copy is used."""
-    env = dict(os.environ)
-    plugins = os.path.join(build_dir, "plugins")
-    for var in ("GST_PLUGIN_PATH_1_0", "GST_PLUGIN_PATH"):
-        old = env.get(var)
-        env[var] = plugins + (os.pathsep + old if old else "")
-    env["GST_REGISTRY_1_0"] = os.path.join(build_dir, "tests", "bench",
-                                           "registry.dat")
-    return env
-
-
-def pin_prefix(cpu):
-    """Command prefix pinning to one core, if taskset exists."""
-    taskset = shutil.which("taskset")
-    if taskset is None or cpu is None:
-        return []
-    return [taskset, "-c", str(cpu)]
+    return find_program_build_dir(BENCH_EXE, build_dir)
 
 
 def run_c_bench(build_dir, raw_path, fmt, width, height, frames, warmup,
@@ -258,28 +361,6 @@ class BenchRow:
         return f"{self.width}x{self.height}"
 
 
-class _OneCore:
-    """Run the enclosed Python code on one core with one OpenCV thread."""
-
-    def __init__(self, cpu):
-        self.cpu = cpu
-
-    def __enter__(self):
-        self.threads = cv2.getNumThreads()
-        cv2.setNumThreads(1)
-        self.affinity = None
-        if self.cpu is not None and hasattr(os, "sched_setaffinity"):
-            self.affinity = os.sched_getaffinity(0)
-            os.sched_setaffinity(0, {self.cpu})
-        return self
-
-    def __exit__(self, *exc):
-        cv2.setNumThreads(self.threads)
-        if self.affinity is not None:
-            os.sched_setaffinity(0, self.affinity)
-        return False
-
-
 def _time_reference(raws, fmt, width, height, palette_lab, matrix,
                     iterations, cpu):
     """Labels of each distinct frame and the per-call times (ms) of the
@@ -287,7 +368,7 @@ def _time_reference(raws, fmt, width, height, palette_lab, matrix,
     ``iterations`` calls."""
     labels, times = [], []
     calls = max(iterations, len(raws))
-    with _OneCore(cpu):
+    with OneCore(cpu):
         for i in range(calls):
             raw = raws[i % len(raws)]
             t0 = time.perf_counter()
@@ -436,17 +517,6 @@ def _machine():
 # Command line
 
 
-def _parse_size(text):
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-        if w <= 0 or h <= 0:
-            raise ValueError
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected WIDTHxHEIGHT, got {text!r}") from None
-    return (w, h)
-
-
 def _bench_labsegment(args):
     sizes = args.size or list(DEFAULT_SIZES)
     formats = args.format or list(DEFAULT_FORMATS)
@@ -492,8 +562,6 @@ def _handle(args):
     try:
         return _bench_labsegment(args)
     except BenchError as err:
-        # Imported here: cli imports this module.
-        from gstlandmark.cli import CliError
         raise CliError(str(err)) from None
 
 
@@ -554,7 +622,7 @@ def segmentation_accuracy(out_dir, scenarios=("backgrounds", "distractors"),
     over marker classes, plus "all".
     """
     import cv2 as _cv2
-    from . import pipeline, synth
+    from .. import pipeline, synth
     rule = f"min-class-pixels={min_class_pixels}"
     settings = settings or {
         "rule, nearest": f"{rule} rare-classes=nearest",
@@ -630,9 +698,7 @@ def _handle_segmentation(args):
                 cells.append(f"  {100 * r['precision']:10.2f} /"
                              f"{100 * r['recall']:9.2f}")
         print(f"{cls:10s}" + "".join(cells))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(result, f, indent=2)
+    write_json(args.json, result)
     return 0
 
 
@@ -669,7 +735,7 @@ def add_bench_parser(subparsers):
     lab.add_argument("--warmup", type=int, default=DEFAULT_WARMUP,
                      metavar="N", help="untimed frames first (default "
                                        f"{DEFAULT_WARMUP})")
-    lab.add_argument("--size", type=_parse_size, action="append",
+    lab.add_argument("--size", type=parse_size, action="append",
                      metavar="WxH",
                      help="frame size (repeatable; default 640x480 and "
                           "1920x1080)")
@@ -719,7 +785,7 @@ def add_bench_parser(subparsers):
 
 
 def main_cli(argv=None):
-    """``python -m gstlandmark.bench labsegment ...``: the same as
+    """``python -m gstlandmark.devtools.bench labsegment ...``: the same as
     ``gst-landmark bench labsegment ...``."""
     parser = argparse.ArgumentParser(prog="gst-landmark")
     subparsers = parser.add_subparsers(dest="command", required=True)

@@ -10,7 +10,7 @@ import signal
 import sys
 from typing import Any, Dict, Optional
 
-from ..cli import PROG, CliError
+from ..common import PROG, CliError
 
 DEFAULT_PORT = 8090
 DEFAULT_OUT = "out/console"

@@ -241,19 +241,32 @@ private:
   guint generation_ = 0;
 };
 
-/* Defines TYPE_finalize (deleting the instance's priv) and TYPE_settings
- * (its SharedSettings<Settings> priv->settings) for an element of this
- * pattern; CAST is the element's instance cast macro. */
-#define LANDMARK_DEFINE_ELEMENT_PRIVATE(type_name, CAST)                     \
+/* Defines an element of this pattern (after its TypeName##Private struct,
+ * which holds `landmark::SharedSettings<Settings> settings`): the instance
+ * struct with its priv, the GType (parent ParentName, PARENT_TYPE) with a
+ * debug category named like the element (declare type_name##_debug with
+ * GST_DEBUG_CATEGORY_STATIC first), the element's registration,
+ * type_name##_finalize (deleting priv) and type_name##_settings. */
+#define LANDMARK_DEFINE_ELEMENT(TypeName, type_name, ParentName, PARENT_TYPE, \
+    element, description)                                                     \
+  struct _##TypeName                                                          \
+  {                                                                           \
+    ParentName parent;                                                        \
+    TypeName##Private *priv;                                                  \
+  };                                                                          \
+  G_DEFINE_TYPE_WITH_CODE (TypeName, type_name, PARENT_TYPE,                  \
+      GST_DEBUG_CATEGORY_INIT (type_name##_debug, #element, 0, description)); \
+  GST_ELEMENT_REGISTER_DEFINE (element, #element, GST_RANK_NONE,              \
+      type_name##_get_type ());                                               \
   static void type_name##_finalize (GObject * object)                         \
   {                                                                           \
-    delete CAST (object)->priv;                                               \
+    delete ((TypeName *) object)->priv;                                       \
     G_OBJECT_CLASS (type_name##_parent_class)->finalize (object);             \
   }                                                                           \
   static landmark::SharedSettings<Settings> &type_name##_settings (           \
       GObject * object)                                                       \
   {                                                                           \
-    return CAST (object)->priv->settings;                                     \
+    return ((TypeName *) object)->priv->settings;                             \
   }
 
 /* Installs the table's properties and the set/get functions that read and

@@ -136,19 +136,11 @@ struct GstBlobRoundnessPrivate {
   State state;
 };
 
-struct _GstBlobRoundness {
-  GstBaseTransform parent;
-  GstBlobRoundnessPrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstBlobRoundness, gst_blob_roundness,
-    GST_TYPE_BASE_TRANSFORM,
-    GST_DEBUG_CATEGORY_INIT (gst_blob_roundness_debug, "blobroundness", 0,
-        "Landmark blob measurement"));
-GST_ELEMENT_REGISTER_DEFINE (blobroundness, "blobroundness", GST_RANK_NONE,
-    GST_TYPE_BLOB_ROUNDNESS);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_blob_roundness, GST_BLOB_ROUNDNESS);
+LANDMARK_DEFINE_ELEMENT (GstBlobRoundness, gst_blob_roundness, GstBaseTransform,
+    GST_TYPE_BASE_TRANSFORM, blobroundness,
+    "Landmark blob measurement");
 
 GType
 gst_blob_roundness_shape_get_type (void)

@@ -125,19 +125,11 @@ struct GstFloorBoundaryPrivate {
   State state;
 };
 
-struct _GstFloorBoundary {
-  GstBaseTransform parent;
-  GstFloorBoundaryPrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstFloorBoundary, gst_floor_boundary,
-    GST_TYPE_BASE_TRANSFORM,
-    GST_DEBUG_CATEGORY_INIT (gst_floor_boundary_debug, "floorboundary", 0,
-        "Floor boundary and radial obstacle profile"));
-GST_ELEMENT_REGISTER_DEFINE (floorboundary, "floorboundary", GST_RANK_NONE,
-    GST_TYPE_FLOOR_BOUNDARY);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_floor_boundary, GST_FLOOR_BOUNDARY);
+LANDMARK_DEFINE_ELEMENT (GstFloorBoundary, gst_floor_boundary, GstBaseTransform,
+    GST_TYPE_BASE_TRANSFORM, floorboundary,
+    "Floor boundary and radial obstacle profile");
 
 GType
 gst_floor_boundary_markers_get_type (void)

@@ -130,19 +130,11 @@ struct GstIpmRangePrivate {
   State state;
 };
 
-struct _GstIpmRange {
-  GstBaseTransform parent;
-  GstIpmRangePrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstIpmRange, gst_ipm_range,
-    GST_TYPE_BASE_TRANSFORM,
-    GST_DEBUG_CATEGORY_INIT (gst_ipm_range_debug, "ipmrange", 0,
-        "Landmark range and bearing by inverse perspective mapping"));
-GST_ELEMENT_REGISTER_DEFINE (ipmrange, "ipmrange", GST_RANK_NONE,
-    GST_TYPE_IPM_RANGE);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_ipm_range, GST_IPM_RANGE);
+LANDMARK_DEFINE_ELEMENT (GstIpmRange, gst_ipm_range, GstBaseTransform,
+    GST_TYPE_BASE_TRANSFORM, ipmrange,
+    "Landmark range and bearing by inverse perspective mapping");
 
 GType
 gst_ipm_range_model_get_type (void)

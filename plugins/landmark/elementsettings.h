@@ -413,24 +413,6 @@ public:
     return true;
   }
 
-  /* At start, when the settings were parsed earlier (e.g. at NULL to
-   * READY, so that a bad file fails READY): parses again only when they
-   * changed since; a bad value is an ERROR as in start(). */
-  template <typename Parse>
-  bool start_again (GstElement *element,
-      const SharedSettings<Settings> &shared, Parse parse)
-  {
-    guint generation = generation_;
-    Settings s;
-    if (!shared.changed_since (&generation, &s))
-      return true;
-    return start (element, shared, parse);
-  }
-
-  /* The next start_again parses whatever the settings (e.g. at stop, so a
-   * file is read again at the next start). */
-  void forget () { generation_ = G_MAXUINT; }
-
   /* While playing: parses settings changed since the last call. A bad
    * value is warned about (once: it is not parsed again until the next
    * change) and the previous Config stays in force. True when config

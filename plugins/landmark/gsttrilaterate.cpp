@@ -64,7 +64,6 @@
 #include <gst/video/video.h>
 
 #include <cmath>
-#include <exception>
 #include <string>
 #include <vector>
 
@@ -80,12 +79,6 @@ GST_DEBUG_CATEGORY_STATIC (gst_trilaterate_debug);
 #define HEADING_UNSET -361.0
 /* frame interval assumed for buffers without timestamps */
 #define FALLBACK_FRAME_NS (GST_SECOND / 30)
-
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
 
 /* *INDENT-OFF* */
 namespace {
@@ -133,18 +126,11 @@ struct GstTrilateratePrivate {
   State state;
 };
 
-struct _GstTrilaterate {
-  GstBaseTransform parent;
-  GstTrilateratePrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstTrilaterate, gst_trilaterate,
-    GST_TYPE_BASE_TRANSFORM,
-    GST_DEBUG_CATEGORY_INIT (gst_trilaterate_debug, "trilaterate", 0,
-        "Robot pose from landmark ranges and bearings"));
-GST_ELEMENT_REGISTER_DEFINE (trilaterate, "trilaterate", GST_RANK_NONE,
-    GST_TYPE_TRILATERATE);
+LANDMARK_DEFINE_ELEMENT (GstTrilaterate, gst_trilaterate, GstBaseTransform,
+    GST_TYPE_BASE_TRANSFORM, trilaterate,
+    "Robot pose from landmark ranges and bearings");
 
 GType
 gst_trilaterate_filter_get_type (void)
@@ -216,28 +202,13 @@ trilaterate_properties ()
   return table;
 }
 
-static landmark::SharedSettings<Settings> &
-trilaterate_settings (GObject * object)
-{
-  return GST_TRILATERATE (object)->priv->settings;
-}
-
 /* ---- GObject -------------------------------------------------------- */
 
 static void
 gst_trilaterate_init (GstTrilaterate * self)
 {
   self->priv = new GstTrilateratePrivate ();
-  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
-  gst_base_transform_set_in_place (trans, TRUE);
-  gst_base_transform_set_qos_enabled (trans, FALSE);
-}
-
-static void
-gst_trilaterate_finalize (GObject * object)
-{
-  delete GST_TRILATERATE (object)->priv;
-  G_OBJECT_CLASS (gst_trilaterate_parent_class)->finalize (object);
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
 /* ---- states --------------------------------------------------------- */
@@ -246,8 +217,7 @@ static GstStateChangeReturn
 gst_trilaterate_change_state (GstElement * element, GstStateChange transition)
 {
   auto self = GST_TRILATERATE (element);
-  /* a missing or malformed map fails READY; start() keeps what is read
-   * here unless the settings change before it */
+  /* a missing or malformed map fails READY; the map is read here once */
   if (transition == GST_STATE_CHANGE_NULL_TO_READY
       && !self->priv->state.applied.start (element, self->priv->settings,
           trilaterate_parse))
@@ -273,19 +243,8 @@ gst_trilaterate_start (GstBaseTransform * trans)
   State & st = self->priv->state;
   gst_trilaterate_reset (st);
   st.map_classes_checked = false;
-  if (!st.applied.start_again (GST_ELEMENT (self), self->priv->settings,
-          trilaterate_parse))
-    return FALSE;
   GST_INFO_OBJECT (self, "map %s: %zu landmarks",
       st.applied.config.s.map.c_str (), st.applied.config.map.size ());
-  return TRUE;
-}
-
-static gboolean
-gst_trilaterate_stop (GstBaseTransform * trans)
-{
-  /* the next start reads the map file again */
-  GST_TRILATERATE (trans)->priv->state.applied.forget ();
   return TRUE;
 }
 
@@ -513,41 +472,24 @@ gst_trilaterate_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
     landmark_warn_map_classes_missing (GST_ELEMENT_CAST (self), labels,
         cfg.s.map, classes, "they can never be matched.");
   }
-  try {
-    return gst_trilaterate_process (self, buf);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Positioning failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
+  return landmark::run_frame (GST_ELEMENT (self), "Positioning failed.",
+      [&] { return gst_trilaterate_process (self, buf); });
 }
 
 static void
 gst_trilaterate_class_init (GstTrilaterateClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  gobject_class->finalize = gst_trilaterate_finalize;
-  landmark::install_properties<Settings, trilaterate_settings,
-      trilaterate_properties> (gobject_class, (GParamFlags)
-      (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-          GST_PARAM_MUTABLE_PLAYING));
-
-  gst_element_class_set_static_metadata (element_class,
+  landmark::metadata_element_class_init<Settings, gst_trilaterate_settings,
+      trilaterate_properties> (klass, gst_trilaterate_finalize,
       "Landmark trilateration", "Filter/Analyzer/Video",
       "Robot pose on a landmark map from the ranges and bearings of the "
-      "detections: one, two or many landmarks, optional EKF",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "detections: one, two or many landmarks, optional EKF");
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   element_class->change_state =
       GST_DEBUG_FUNCPTR (gst_trilaterate_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_trilaterate_start);
-  trans_class->stop = GST_DEBUG_FUNCPTR (gst_trilaterate_stop);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_trilaterate_sink_event);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_trilaterate_transform_ip);
 

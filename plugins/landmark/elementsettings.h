@@ -80,6 +80,17 @@ public:
         [=](const Settings &s, GValue *v) { g_value_set_int (v, s.*field); });
   }
 
+  PropertyTable &number (const char *name, const char *nick,
+      const char *blurb, guint64 Settings::*field, guint64 min, guint64 max)
+  {
+    const guint64 def = Settings ().*field;
+    return add ([=](GParamFlags f) {
+          return g_param_spec_uint64 (name, nick, blurb, min, max, def, f);
+        },
+        [=](Settings &s, const GValue *v) { s.*field = g_value_get_uint64 (v); },
+        [=](const Settings &s, GValue *v) { g_value_set_uint64 (v, s.*field); });
+  }
+
   /* A string; unset (NULL) and "" are both the empty string. */
   PropertyTable &string (const char *name, const char *nick,
       const char *blurb, std::string Settings::*field)
@@ -114,6 +125,18 @@ public:
     return *this;
   }
 
+  /* A string whose empty value means "off" (e.g. a topic not sent): it
+   * reads back as "", where an unset string reads back as NULL. */
+  PropertyTable &string_or_empty (const char *name, const char *nick,
+      const char *blurb, std::string Settings::*field)
+  {
+    string (name, nick, blurb, field);
+    entries_.back ().get = [=](const Settings &s, GValue *v) {
+      g_value_set_string (v, (s.*field).c_str ());
+    };
+    return *this;
+  }
+
   template <typename Enum>
   PropertyTable &enumeration (const char *name, const char *nick,
       const char *blurb, Enum Settings::*field, GType type)
@@ -139,6 +162,16 @@ public:
       return spec ((GParamFlags) ((f & ~(GST_PARAM_MUTABLE_PLAYING |
                       GST_PARAM_MUTABLE_PAUSED | GST_PARAM_MUTABLE_READY)) |
               mutability));
+    };
+    return *this;
+  }
+
+  /* The last property added can be set but not read (e.g. a password). */
+  PropertyTable &write_only ()
+  {
+    Spec spec = std::move (entries_.back ().spec);
+    entries_.back ().spec = [spec](GParamFlags f) {
+      return spec ((GParamFlags) (f & ~G_PARAM_READABLE));
     };
     return *this;
   }

@@ -16,10 +16,38 @@
 #include <functional>
 #include <mutex>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 namespace landmark {
+
+/* The GParamSpec and GValue access of the number types properties have. */
+template <typename T>
+GParamSpec *
+number_param_spec (const char *name, const char *nick, const char *blurb,
+    T min, T max, T def, GParamFlags f)
+{
+  if constexpr (std::is_same<T, gdouble>::value)
+    return g_param_spec_double (name, nick, blurb, min, max, def, f);
+  else if constexpr (std::is_same<T, gint>::value)
+    return g_param_spec_int (name, nick, blurb, min, max, def, f);
+  else if constexpr (std::is_same<T, guint>::value)
+    return g_param_spec_uint (name, nick, blurb, min, max, def, f);
+  else {
+    static_assert (std::is_same<T, guint64>::value, "not a number property");
+    return g_param_spec_uint64 (name, nick, blurb, min, max, def, f);
+  }
+}
+
+inline void value_get_number (const GValue *v, gdouble *x) { *x = g_value_get_double (v); }
+inline void value_get_number (const GValue *v, gint *x) { *x = g_value_get_int (v); }
+inline void value_get_number (const GValue *v, guint *x) { *x = g_value_get_uint (v); }
+inline void value_get_number (const GValue *v, guint64 *x) { *x = g_value_get_uint64 (v); }
+inline void value_set_number (GValue *v, gdouble x) { g_value_set_double (v, x); }
+inline void value_set_number (GValue *v, gint x) { g_value_set_int (v, x); }
+inline void value_set_number (GValue *v, guint x) { g_value_set_uint (v, x); }
+inline void value_set_number (GValue *v, guint64 x) { g_value_set_uint64 (v, x); }
 
 /* The properties of one Settings struct, installed with ids 1, 2, ... in
  * the order they are added. Built once, in class_init. */
@@ -47,48 +75,19 @@ public:
         [=](const Settings &s, GValue *v) { g_value_set_boolean (v, s.*field); });
   }
 
+  /* A number: gint, guint, guint64 or gdouble, as the field is. */
+  template <typename T>
   PropertyTable &number (const char *name, const char *nick,
-      const char *blurb, gdouble Settings::*field, gdouble min, gdouble max)
+      const char *blurb, T Settings::*field,
+      typename std::common_type<T>::type min,
+      typename std::common_type<T>::type max)
   {
-    const gdouble def = Settings ().*field;
+    const T def = Settings ().*field;
     return add ([=](GParamFlags f) {
-          return g_param_spec_double (name, nick, blurb, min, max, def, f);
+          return number_param_spec (name, nick, blurb, min, max, def, f);
         },
-        [=](Settings &s, const GValue *v) { s.*field = g_value_get_double (v); },
-        [=](const Settings &s, GValue *v) { g_value_set_double (v, s.*field); });
-  }
-
-  PropertyTable &number (const char *name, const char *nick,
-      const char *blurb, guint Settings::*field, guint min, guint max)
-  {
-    const guint def = Settings ().*field;
-    return add ([=](GParamFlags f) {
-          return g_param_spec_uint (name, nick, blurb, min, max, def, f);
-        },
-        [=](Settings &s, const GValue *v) { s.*field = g_value_get_uint (v); },
-        [=](const Settings &s, GValue *v) { g_value_set_uint (v, s.*field); });
-  }
-
-  PropertyTable &number (const char *name, const char *nick,
-      const char *blurb, gint Settings::*field, gint min, gint max)
-  {
-    const gint def = Settings ().*field;
-    return add ([=](GParamFlags f) {
-          return g_param_spec_int (name, nick, blurb, min, max, def, f);
-        },
-        [=](Settings &s, const GValue *v) { s.*field = g_value_get_int (v); },
-        [=](const Settings &s, GValue *v) { g_value_set_int (v, s.*field); });
-  }
-
-  PropertyTable &number (const char *name, const char *nick,
-      const char *blurb, guint64 Settings::*field, guint64 min, guint64 max)
-  {
-    const guint64 def = Settings ().*field;
-    return add ([=](GParamFlags f) {
-          return g_param_spec_uint64 (name, nick, blurb, min, max, def, f);
-        },
-        [=](Settings &s, const GValue *v) { s.*field = g_value_get_uint64 (v); },
-        [=](const Settings &s, GValue *v) { g_value_set_uint64 (v, s.*field); });
+        [=](Settings &s, const GValue *v) { value_get_number (v, &(s.*field)); },
+        [=](const Settings &s, GValue *v) { value_set_number (v, s.*field); });
   }
 
   /* A string; unset (NULL) and "" are both the empty string. */

@@ -366,16 +366,13 @@ gst_landmark_publish_set_caps (GstBaseTransform * trans, GstCaps * incaps,
     GstCaps *)
 {
   State & st = GST_LANDMARK_PUBLISH (trans)->priv->state;
-  gint w = -1, h = -1;
-  if (gst_caps_get_size (incaps) > 0) {
-    const GstStructure *s = gst_caps_get_structure (incaps, 0);
-    if (!gst_structure_get_int (s, "width", &w))
-      w = -1;
-    if (!gst_structure_get_int (s, "height", &h))
-      h = -1;
-  }
-  st.width = w;
-  st.height = h;
+  /* any caps: the size is only reported (-1: unknown) */
+  const GstStructure *s = gst_caps_get_size (incaps) > 0 ?
+      gst_caps_get_structure (incaps, 0) : nullptr;
+  if (!s || !gst_structure_get_int (s, "width", &st.width))
+    st.width = -1;
+  if (!s || !gst_structure_get_int (s, "height", &st.height))
+    st.height = -1;
   return TRUE;
 }
 

@@ -125,10 +125,10 @@ slam_parse (const Settings & s, Config * cfg, landmark::SettingsError * err)
       return err->fail ("map", why);
     cfg->map = std::move (map.landmarks);
   }
-  if (!s.odometry.empty ()
-      && !landmark::odometry_load_file (s.odometry, &cfg->odometry, &why))
-    return err->fail ("odometry", why);
-  return true;
+  /* no odometry file: the constant-velocity model */
+  return s.odometry.empty ()
+      || landmark::odometry_load_file (s.odometry, &cfg->odometry, &why)
+      || err->fail ("odometry", why);
 }
 
 static const landmark::PropertyTable<Settings> &
@@ -137,7 +137,8 @@ slam_properties ()
   static const auto table = landmark::PropertyTable<Settings> ()
       .string ("map", "Map file",
           "Known landmarks (docs/conventions.md), fixed anchors of the "
-          "map frame; none: the first pose is the origin", &Settings::map)
+          "map frame; none: the first pose is the origin",
+          &Settings::map)
       .string ("map-out", "Map output file",
           "Where to write the map (anchors and confirmed landmarks) at EOS, "
           "in the map format of docs/conventions.md", &Settings::map_out)

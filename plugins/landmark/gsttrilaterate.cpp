@@ -191,18 +191,19 @@ trilaterate_properties ()
           0.0, 1000.0)
       .number ("inlier-distance", "Inlier distance",
           "Consensus: metres within which a landmark agrees with a pose "
-          "(at least three range/bearing sigmas)",
-          &Settings::inlier_distance, 0.0, 1000.0)
+          "(at least three range/bearing sigmas)", &Settings::inlier_distance,
+          0.0, 1000.0)
       .number ("max-age", "Maximum age",
           "Seconds a previous pose stays a prior, and filter=ekf bridges "
-          "frames without landmarks", &Settings::max_age, 0.0, 3600.0)
+          "frames without landmarks",
+          &Settings::max_age, 0.0, 3600.0)
       .boolean ("post-messages", "Post messages",
           "Post a landmark-pose element message per frame",
           &Settings::post_messages);
   return table;
 }
 
-/* ---- GObject -------------------------------------------------------- */
+/* ---- instance and states -------------------------------------------- */
 
 static void
 gst_trilaterate_init (GstTrilaterate * self)
@@ -210,8 +211,6 @@ gst_trilaterate_init (GstTrilaterate * self)
   self->priv = new GstTrilateratePrivate ();
   landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
-
-/* ---- states --------------------------------------------------------- */
 
 static GstStateChangeReturn
 gst_trilaterate_change_state (GstElement * element, GstStateChange transition)

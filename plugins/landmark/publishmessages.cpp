@@ -83,46 +83,50 @@ mqtt_topic_expand (const std::string & tmpl, const std::string & robot,
   return true;
 }
 
-static double
-wall_seconds ()
+/* `{"robot": ROBOT` (the object every message is, unclosed) */
+static std::string
+robot_object (const std::string & robot)
 {
-  return g_get_real_time () / 1e6;
+  std::string o = "{\"robot\": ";
+  landmark_json::put_string (o, robot.c_str ());
+  return o;
+}
+
+/* o with `, "wall-time": SECONDS` (since 1970, UTC, now) and then end */
+static std::string
+with_wall_time (std::string & o, const char *end)
+{
+  o += ", \"wall-time\": ";
+  landmark_json::put_double (o, g_get_real_time () / 1e6);
+  return o + end;
 }
 
 std::string
 publish_status_payload (const std::string & robot,
     const std::string & client_id, const char *status)
 {
-  std::string o = "{\"robot\": ";
-  landmark_json::put_string (o, robot.c_str ());
+  std::string o = robot_object (robot);
   o += ", \"client-id\": ";
   landmark_json::put_string (o, client_id.c_str ());
   o += ", \"status\": ";
   landmark_json::put_string (o, status);
-  o += ", \"wall-time\": ";
-  landmark_json::put_double (o, wall_seconds ());
-  o += '}';
-  return o;
+  return with_wall_time (o, "}");
 }
 
 std::string
 publish_frame_head (const std::string & robot, GstBuffer * buf,
     const GstSegment * segment)
 {
-  std::string head = "{\"robot\": ";
-  landmark_json::put_string (head, robot.c_str ());
+  std::string o = robot_object (robot);
   if (GST_BUFFER_PTS_IS_VALID (buf) && segment->format == GST_FORMAT_TIME) {
     const guint64 rt = gst_segment_to_running_time (segment,
         GST_FORMAT_TIME, GST_BUFFER_PTS (buf));
     if (GST_CLOCK_TIME_IS_VALID (rt)) {
-      head += ", \"running-time\": ";
-      landmark_json::put_uint (head, rt);
+      o += ", \"running-time\": ";
+      landmark_json::put_uint (o, rt);
     }
   }
-  head += ", \"wall-time\": ";
-  landmark_json::put_double (head, wall_seconds ());
-  head += ", ";
-  return head;
+  return with_wall_time (o, ", ");
 }
 
 std::string

@@ -141,7 +141,8 @@ slam_properties ()
           &Settings::map)
       .string ("map-out", "Map output file",
           "Where to write the map (anchors and confirmed landmarks) at EOS, "
-          "in the map format of docs/conventions.md", &Settings::map_out)
+          "in the map format of docs/conventions.md",
+          &Settings::map_out)
       .string ("odometry", "Odometry file",
           "JSON lines of robot-frame increments {\"t\", \"dx\", \"dy\", "
           "\"dheading\"} (seconds of stream time, metres, radians); none: "

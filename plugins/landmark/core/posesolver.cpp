@@ -539,6 +539,7 @@ localise (const std::vector<MapPoint> & map,
   }
   /* without a prior, or when the gate lost landmarks (a stale or wrong
    * prior): associate by consensus over pairs, kept when it places more */
+  bool by_consensus = false;
   if ((!gated || n_match < n_cand) && n_cand >= 2) {
     bool have = false, ambiguous = false;
     int best_in = -1;
@@ -630,16 +631,11 @@ localise (const std::vector<MapPoint> & map,
         reason[k] = match[k] < 0 ? "outlier" : "";
       }
       resolve_conflicts (&match, dist, &reason);
-    } else if (!gated) {
-      /* nothing agrees: keep unambiguous detections only */
-      for (size_t k = 0; k < nd; k++) {
-        if (cand[k].size () == 1)
-          match[k] = cand[k][0];
-        else if (cand[k].size () > 1)
-          reason[k] = "ambiguous";
-      }
+      by_consensus = true;
     }
-  } else if (!gated) {
+  }
+  if (!gated && !by_consensus) {
+    /* no prior and nothing agrees: keep unambiguous detections only */
     for (size_t k = 0; k < nd; k++) {
       if (cand[k].size () == 1)
         match[k] = cand[k][0];

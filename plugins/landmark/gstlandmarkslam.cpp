@@ -425,11 +425,9 @@ gst_landmark_slam_class_init (GstLandmarkSlamClass * klass)
       "Landmark SLAM", "Filter/Analyzer/Video",
       "Robot pose and landmark map together from the ranges and bearings "
       "of the detections (EKF, joint compatibility association)");
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  element_class->change_state =
+  GST_ELEMENT_CLASS (klass)->change_state =
       GST_DEBUG_FUNCPTR (gst_landmark_slam_change_state);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_slam_start);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_landmark_slam_sink_event);
   trans_class->transform_ip =

@@ -7,7 +7,7 @@ import os
 from ..palette import PaletteError
 from ..synth.floors import FLOOR_NAMES
 from ..synth.scenarios import DEFAULT_ROBOT, ROBOTS, SCENARIOS
-from .common import size_type
+from .common import CliError, size_type
 
 DESCRIPTION = """\
 Render a robot's camera view of a synthetic floor with coloured landmarks
@@ -182,7 +182,6 @@ OVERRIDE_ARGS = ("fps", "hfov_deg", "fx", "fy", "cx", "cy", "height_m",
 def _handle(args):
     from ..pipeline import PipelineError
     from ..synth.writer import format_visibility, render_scenario
-    from .common import CliError
 
     if args.hfov_deg is not None and args.fx is not None:
         args.parser.error("give --hfov or --fx, not both")

@@ -292,6 +292,18 @@ template <typename Settings, typename State> struct ElementPrivate {
   LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (TypeName, type_name, ParentName,      \
       PARENT_TYPE, element, description)
 
+/* The same, with the instance init of an element that works in place and
+ * never drops a frame (init_metadata_element). */
+#define LANDMARK_DEFINE_IN_PLACE_ELEMENT(TypeName, type_name, ParentName,    \
+    PARENT_TYPE, element, description)                                        \
+  LANDMARK_DEFINE_ELEMENT (TypeName, type_name, ParentName, PARENT_TYPE,      \
+      element, description);                                                  \
+  static void type_name##_init (TypeName * self)                              \
+  {                                                                           \
+    self->priv = new TypeName##Private ();                                    \
+    landmark::init_metadata_element (GST_BASE_TRANSFORM (self));              \
+  }
+
 /* The same for an element that declares its own TypeName##Private struct
  * (holding `landmark::SharedSettings<Settings> settings`). */
 #define LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE(TypeName, type_name, ParentName,  \

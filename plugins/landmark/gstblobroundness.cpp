@@ -133,8 +133,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstBlobRoundness, gst_blob_roundness, GstBaseTransform,
-    GST_TYPE_BASE_TRANSFORM, blobroundness,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstBlobRoundness, gst_blob_roundness,
+    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, blobroundness,
     "Landmark blob measurement");
 
 GType
@@ -213,13 +213,6 @@ blob_roundness_properties ()
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_blob_roundness_init (GstBlobRoundness * self)
-{
-  self->priv = new GstBlobRoundnessPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 
 /* ---- states and caps ------------------------------------------------ */

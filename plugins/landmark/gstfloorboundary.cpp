@@ -122,8 +122,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstFloorBoundary, gst_floor_boundary, GstBaseTransform,
-    GST_TYPE_BASE_TRANSFORM, floorboundary,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstFloorBoundary, gst_floor_boundary,
+    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, floorboundary,
     "Floor boundary and radial obstacle profile");
 
 GType
@@ -227,13 +227,6 @@ floor_boundary_properties ()
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_floor_boundary_init (GstFloorBoundary * self)
-{
-  self->priv = new GstFloorBoundaryPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 
 /* ---- states --------------------------------------------------------- */

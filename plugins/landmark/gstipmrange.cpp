@@ -127,7 +127,7 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstIpmRange, gst_ipm_range, GstBaseTransform,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstIpmRange, gst_ipm_range, GstBaseTransform,
     GST_TYPE_BASE_TRANSFORM, ipmrange,
     "Landmark range and bearing by inverse perspective mapping");
 
@@ -274,13 +274,6 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_ipm_range_init (GstIpmRange * self)
-{
-  self->priv = new GstIpmRangePrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 /* ---- states and caps ------------------------------------------------ */
 

@@ -117,8 +117,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstLabSegment, gst_lab_segment, GstVideoFilter,
-    GST_TYPE_VIDEO_FILTER, labsegment,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstLabSegment, gst_lab_segment,
+    GstVideoFilter, GST_TYPE_VIDEO_FILTER, labsegment,
     "CIE L*a*b* colour segmentation");
 
 GType
@@ -264,13 +264,6 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_lab_segment_init (GstLabSegment * self)
-{
-  self->priv = new GstLabSegmentPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 /* ---- states and caps ------------------------------------------------ */
 

@@ -123,8 +123,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstTrilaterate, gst_trilaterate, GstBaseTransform,
-    GST_TYPE_BASE_TRANSFORM, trilaterate,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstTrilaterate, gst_trilaterate,
+    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, trilaterate,
     "Robot pose from landmark ranges and bearings");
 
 GType
@@ -199,13 +199,6 @@ trilaterate_properties ()
 }
 
 /* ---- instance and states -------------------------------------------- */
-
-static void
-gst_trilaterate_init (GstTrilaterate * self)
-{
-  self->priv = new GstTrilateratePrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 static GstStateChangeReturn
 gst_trilaterate_change_state (GstElement * element, GstStateChange transition)

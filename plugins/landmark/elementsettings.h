@@ -273,6 +273,16 @@ private:
   guint generation_ = 0;
 };
 
+/* Defines get_type () of a GEnum registered as name, from its
+ * {value, description, nick} entries. */
+#define LANDMARK_DEFINE_ENUM_TYPE(get_type, name, ...)                       \
+  GType get_type (void)                                                       \
+  {                                                                           \
+    static const GEnumValue values[] = { __VA_ARGS__, {0, nullptr, nullptr} };\
+    static const GType type = g_enum_register_static (name, values);          \
+    return type;                                                              \
+  }
+
 /* What an element of this pattern owns: the user's settings and what the
  * streaming thread keeps. */
 template <typename Settings, typename State> struct ElementPrivate {

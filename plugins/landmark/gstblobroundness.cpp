@@ -137,23 +137,15 @@ LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstBlobRoundness, gst_blob_roundness,
     GstBaseTransform, GST_TYPE_BASE_TRANSFORM, blobroundness,
     "Landmark blob measurement");
 
-GType
-gst_blob_roundness_shape_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_blob_roundness_shape_get_type,
+    "GstBlobRoundnessShape",
     {GST_BLOB_ROUNDNESS_SHAPE_CIRCLE,
         "Roundness of the image blob at least min-roundness (the seed's test)",
         "circle"},
     {GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE,
           "The blob matches its moment ellipse (ellipse-fit at least "
           "min-ellipse-fit): a disc seen at a slant",
-        "ellipse"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstBlobRoundnessShape", values);
-  return type;
-}
+        "ellipse"});
 
 /* ---- configuration -------------------------------------------------- */
 

@@ -126,23 +126,15 @@ LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstFloorBoundary, gst_floor_boundary,
     GstBaseTransform, GST_TYPE_BASE_TRANSFORM, floorboundary,
     "Floor boundary and radial obstacle profile");
 
-GType
-gst_floor_boundary_markers_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_floor_boundary_markers_get_type,
+    "GstFloorBoundaryMarkers",
     {GST_FLOOR_BOUNDARY_MARKERS_FLOOR, "Marker pixels are walked over as "
           "floor and reported in rop-marker-range", "floor"},
     {GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS, "Marker pixels are floor "
           "inside the boxes of accepted detections, obstacles elsewhere",
         "detections"},
     {GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES, "Marker pixels end the floor "
-          "like any obstacle", "obstacles"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstFloorBoundaryMarkers", values);
-  return type;
-}
+          "like any obstacle", "obstacles"});
 
 /* ---- configuration -------------------------------------------------- */
 

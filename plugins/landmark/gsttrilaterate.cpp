@@ -127,20 +127,12 @@ LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstTrilaterate, gst_trilaterate,
     GstBaseTransform, GST_TYPE_BASE_TRANSFORM, trilaterate,
     "Robot pose from landmark ranges and bearings");
 
-GType
-gst_trilaterate_filter_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_trilaterate_filter_get_type,
+    "GstTrilaterateFilter",
     {GST_TRILATERATE_FILTER_NONE, "Each frame's own solution", "none"},
     {GST_TRILATERATE_FILTER_EKF, "Constant-velocity extended Kalman filter "
           "over the ranges and bearings; bridges frames with too few "
-          "landmarks", "ekf"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstTrilaterateFilter", values);
-  return type;
-}
+          "landmarks", "ekf"});
 
 /* ---- configuration -------------------------------------------------- */
 

@@ -479,22 +479,6 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
   return GST_FLOW_OK;
 }
 
-static GstFlowReturn
-gst_blob_roundness_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
-{
-  auto self = GST_BLOB_ROUNDNESS (trans);
-  State & st = self->priv->state;
-
-  gst_blob_roundness_sync_settings (self);
-
-  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
-      buf, &st.warned_no_meta);
-  if (!labels)
-    return GST_FLOW_OK;         /* buffers pass unmeasured */
-  return landmark::run_frame (GST_ELEMENT (self), "Blob measurement failed.",
-      [&] { return gst_blob_roundness_process (self, buf, labels); });
-}
-
 static void
 gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
 {
@@ -509,8 +493,8 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
-  trans_class->transform_ip =
-      GST_DEBUG_FUNCPTR (gst_blob_roundness_transform_ip);
+  trans_class->transform_ip = landmark_measure_labels_ip<GstBlobRoundness,
+      gst_blob_roundness_sync_settings, gst_blob_roundness_process>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_BLOB_ROUNDNESS_SHAPE,
       (GstPluginAPIFlags) 0);

@@ -541,20 +541,6 @@ gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
   return GST_FLOW_OK;
 }
 
-static GstFlowReturn
-gst_floor_boundary_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
-{
-  auto self = GST_FLOOR_BOUNDARY (trans);
-  State & st = self->priv->state;
-  gst_floor_boundary_sync_settings (self);
-  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
-      buf, &st.warned_no_meta);
-  if (!labels)
-    return GST_FLOW_OK;         /* buffers pass unmeasured */
-  return landmark::run_frame (GST_ELEMENT (self), "Floor boundary failed.",
-      [&] { return gst_floor_boundary_process (self, buf, labels); });
-}
-
 static void
 gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
 {
@@ -571,8 +557,8 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
   trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
-  trans_class->transform_ip =
-      GST_DEBUG_FUNCPTR (gst_floor_boundary_transform_ip);
+  trans_class->transform_ip = landmark_measure_labels_ip<GstFloorBoundary,
+      gst_floor_boundary_sync_settings, gst_floor_boundary_process>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_FLOOR_BOUNDARY_MARKERS,
       (GstPluginAPIFlags) 0);

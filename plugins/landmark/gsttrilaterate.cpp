@@ -71,7 +71,7 @@
 #include "landmarkmap.h"
 #include "landmarkmeta.h"
 #include "posemeta.h"
-#include "posesolver.h"
+#include "posefilter.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_trilaterate_debug);
 #define GST_CAT_DEFAULT gst_trilaterate_debug

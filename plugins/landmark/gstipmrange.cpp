@@ -35,7 +35,7 @@
  *   properties. Exact ray-plane intersection.
  * - `seed`: the seed's angle-linear model from `camera-height`,
  *   `blind-distance`, `view-depth` and `half-width` (equations 3.1-3.6),
- *   or a `calibration` file with `model: seed` (`gst-landmark calibrate
+ *   or a `calibration` file with `model: angle-linear` (`gst-landmark calibrate
  *   seed`), which selects this model.
  *
  * A camera file wins for what it holds; the properties give the rest.
@@ -134,8 +134,11 @@ LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstIpmRange, gst_ipm_range, GstBaseTransform,
 LANDMARK_DEFINE_ENUM_TYPE (gst_ipm_range_model_get_type, "GstIpmRangeModel",
     {GST_IPM_RANGE_MODEL_PINHOLE, "Pinhole camera (OpenCV intrinsics, "
           "optional distortion), exact ray-floor intersection", "pinhole"},
-    {GST_IPM_RANGE_MODEL_SEED, "The seed's angle-linear model from "
-          "camera-height, blind-distance, view-depth, half-width", "seed"});
+    {GST_IPM_RANGE_MODEL_SEED, "Angle-linear floor model (the seed's) "
+          "from camera-height, blind-distance, view-depth, half-width",
+        "angle-linear"},
+    /* its former name, still accepted */
+    {GST_IPM_RANGE_MODEL_SEED, "The same as angle-linear", "seed"});
 
 LANDMARK_DEFINE_ENUM_TYPE (gst_ipm_range_method_get_type, "GstIpmRangeMethod",
     {GST_IPM_RANGE_METHOD_GROUND, "Where the ray meets the marker's plane",
@@ -229,7 +232,7 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
       GST_INFO_OBJECT (self, "geometry for %dx%d: %s, height %.4f m, "
           "tilt %.3f, roll %.3f deg, fx %.3f fy %.3f cx %.3f cy %.3f, %zu "
           "distortion coefficients, seed b %.4f d %.4f w %.4f", width, height,
-          p.model == landmark::CameraModel::Seed ? "seed" : "pinhole",
+          p.model == landmark::CameraModel::Seed ? "angle-linear" : "pinhole",
           p.camera_height, p.tilt_deg, p.roll_deg, p.fx, p.fy, p.cx, p.cy,
           p.dist.size (), p.blind_distance, p.view_depth, p.half_width);
       return TRUE;

@@ -207,7 +207,7 @@ def seed_geometry(height, blind, depth, half_width):
 
 def seed_fields(geometry, size=None):
     """The camera file of a seed camera, in writing order."""
-    fields = {"model": "seed"}
+    fields = {"model": "angle-linear"}
     if size is not None:
         fields[K_WIDTH], fields[K_HEIGHT] = int(size[0]), int(size[1])
     fields.update({

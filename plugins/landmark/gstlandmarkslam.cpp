@@ -27,8 +27,14 @@
  *
  * `odometry=PATH` reads a JSON-lines file of robot-frame increments
  * (`{"t": s, "dx": m, "dy": m, "dheading": rad}`, stream time) in place of
- * the constant-velocity model. `map-out=PATH` writes the anchors and the
- * confirmed landmarks at EOS in trilaterate's map format.
+ * the constant-velocity model. Live odometry comes from the application as
+ * `landmark-odometry` custom downstream events (serialized or
+ * out-of-band) with the increment since the previous one, `dx`, `dy`,
+ * `dheading` (landmark_odometry_event_new, docs/embedding.md): those
+ * received before a frame are its motion. `map-out=PATH` writes the
+ * anchors and the confirmed landmarks at EOS in trilaterate's map format;
+ * `post-messages` posts the map of every frame as a `landmark-map` element
+ * message.
  *
  * A missing or malformed map or odometry file fails the change to READY
  * with an error naming it. Every property may change while playing (a new
@@ -52,6 +58,7 @@
 #include <gst/video/video.h>
 
 #include <cmath>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -77,6 +84,7 @@ struct Settings {
   guint confirm_views = 3;
   gdouble confirm_baseline = 0.25;
   gdouble gate = 13.82;
+  gboolean post_messages = FALSE;
 };
 
 /* What the settings give, checked. */
@@ -94,6 +102,12 @@ struct State {
   guint64 frames = 0;
   bool map_written = false;
   landmark::RangedDetections ranged;  /* reused */
+
+  /* live odometry (landmark-odometry events), summed until the next frame;
+   * out-of-band events come from the application's threads */
+  std::mutex live_lock;
+  landmark::OdometrySum live;
+  bool live_seen = false;
 };
 
 }  // namespace
@@ -151,7 +165,10 @@ slam_properties ()
       .number ("gate", "Gate",
           "Association gate: squared Mahalanobis distance of a range and "
           "bearing to a landmark (chi-square, 2 degrees of freedom; 13.82 "
-          "is 99.9 %)", &Settings::gate, 0.1, 1000.0);
+          "is 99.9 %)", &Settings::gate, 0.1, 1000.0)
+      .boolean ("post-messages", "Post messages",
+          "Post a landmark-map element message per frame (the fields of "
+          "the map meta)", &Settings::post_messages);
   return table;
 }
 
@@ -162,6 +179,8 @@ slam_restart (State & st)
   st.slam.set_map (st.applied.config.map);
   st.odometry_next = 0;
   st.last_time = GST_CLOCK_TIME_NONE;
+  std::lock_guard<std::mutex> lk (st.live_lock);
+  st.live = landmark::OdometrySum ();
 }
 
 static void
@@ -252,6 +271,32 @@ gst_landmark_slam_write_map (GstLandmarkSlam * self)
   return TRUE;
 }
 
+/* An increment from the application; a malformed one is refused with a
+ * warning naming the field (the estimate goes on without it). */
+static void
+gst_landmark_slam_live_odometry (GstLandmarkSlam * self,
+    const GstStructure * s)
+{
+  State & st = self->priv->state;
+  double d[3] = { 0, 0, 0 };
+  const char *fields[3] = { "dx", "dy", "dheading" };
+  for (int i = 0; i < 3; i++) {
+    const bool optional = i == 1;
+    if (!(optional && !gst_structure_has_field (s, fields[i])) &&
+        !(gst_structure_get_double (s, fields[i], &d[i]) &&
+            std::isfinite (d[i]))) {
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
+          ("Ignored a %s event: '%s' must be a finite number (double).",
+              GST_LANDMARK_ODOMETRY_EVENT_NAME, fields[i]),
+          ("%" GST_PTR_FORMAT, s));
+      return;
+    }
+  }
+  std::lock_guard<std::mutex> lk (st.live_lock);
+  st.live.add (d[0], d[1], d[2]);
+  st.live_seen = true;
+}
+
 static gboolean
 gst_landmark_slam_sink_event (GstBaseTransform * trans, GstEvent * event)
 {
@@ -268,6 +313,12 @@ gst_landmark_slam_sink_event (GstBaseTransform * trans, GstEvent * event)
     case GST_EVENT_STREAM_START:
       /* a new stream or a seek: time restarts, so does the estimate */
       slam_restart (st);
+      break;
+    case GST_EVENT_CUSTOM_DOWNSTREAM:
+    case GST_EVENT_CUSTOM_DOWNSTREAM_OOB:
+      if (gst_event_has_name (event, GST_LANDMARK_ODOMETRY_EVENT_NAME))
+        gst_landmark_slam_live_odometry (self, gst_event_get_structure
+            (event));
       break;
     default:
       break;
@@ -330,7 +381,15 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
           (double) b / GST_SECOND, &st.odometry_next, &dx, &dy, &dh);
       slam.predict_odometry (dx, dy, dh, dt);
     } else {
-      slam.predict (dt);
+      std::unique_lock<std::mutex> lk (st.live_lock);
+      const landmark::OdometrySum live = st.live;
+      const bool live_seen = st.live_seen;
+      st.live = landmark::OdometrySum ();
+      lk.unlock ();
+      if (live_seen)
+        slam.predict_odometry (live.dx, live.dy, live.dheading, dt);
+      else
+        slam.predict (dt);
     }
   }
   st.last_time = now;
@@ -391,6 +450,15 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     landmark::pose_fields_set (landmark_pose_meta_add (buf), pose);
   }
   set_map_fields (landmark_map_meta_add (buf), slam.landmarks ());
+  if (st.applied.config.s.post_messages) {
+    GstStructure *m = landmark_frame_message_new ("landmark-map", buf,
+        &GST_BASE_TRANSFORM_CAST (self)->segment);
+    gst_structure_set (m, "has-pose", G_TYPE_BOOLEAN, (gboolean) f.ok,
+        nullptr);
+    set_map_fields (m, slam.landmarks ());
+    gst_element_post_message (GST_ELEMENT_CAST (self),
+        gst_message_new_element (GST_OBJECT_CAST (self), m));
+  }
   GST_LOG_OBJECT (self, "%zu detections, %d matched, %d new, %zu landmarks",
       obs.size (), f.n_matched, f.n_new, slam.landmarks ().size ());
   return GST_FLOW_OK;

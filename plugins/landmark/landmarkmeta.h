@@ -156,6 +156,15 @@ gboolean landmark_floor_map_array (const GstStructure * floor,
     const gchar * field, gsize elem_size, GstBuffer ** plane,
     GstMapInfo * map, gsize * count);
 
+/* Live odometry for landmarkslam: a custom downstream event (serialized,
+ * or out-of-band to reach the element at once) carrying the robot-frame
+ * motion since the previous one: dx forward and dy left (metres), dheading
+ * (radians, counter-clockwise). Send it to landmarkslam's sink pad
+ * (docs/embedding.md). */
+#define GST_LANDMARK_ODOMETRY_EVENT_NAME "landmark-odometry"
+GstEvent *landmark_odometry_event_new (gdouble dx, gdouble dy,
+    gdouble dheading, gboolean out_of_band);
+
 /* An element message structure about the frame buf: name with its
  * `timestamp`, `stream-time` and `running-time` (ns, in segment). */
 GstStructure *landmark_frame_message_new (const gchar * name,

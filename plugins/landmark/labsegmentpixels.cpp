@@ -148,14 +148,15 @@ classify_packed3 (const guint8 * table, const guint8 * row, guint width,
   }
 }
 
-/* YUV keys are Y | U << 8 | V << 16; two pixels share one chroma pair. */
+/* Rows y0..y1-1; labels points at the plane's row 0. YUV keys are
+ * Y | U << 8 | V << 16; two pixels share one chroma pair. */
 void
-classify_frame (const ClassTable & table, PixelReader & reader,
-    guint width, guint height, guint8 * labels)
+classify_rows (const ClassTable & table, PixelReader & reader,
+    guint width, guint y0, guint y1, guint8 * labels)
 {
   const guint8 *t = table.labels ();
   const FrameLayout & layout = reader.layout;
-  for (guint y = 0; y < height; y++) {
+  for (guint y = y0; y < y1; y++) {
     reader.set_row (y);
     guint8 *out = labels + (gsize) y * width;
     switch (layout.layout) {
@@ -194,22 +195,20 @@ classify_frame (const ClassTable & table, PixelReader & reader,
   }
 }
 
-/* Writes each pixel's class colour into the frame (output=labels). */
-}  // namespace
-
+/* Rows y0..y1-1 of draw_false_colour; y0 is even, so the rows of 2x2
+ * subsampled chroma it writes are its own. */
 void
-draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
+draw_rows (GstVideoFrame * f, const FrameLayout & layout,
     const guint8 * labels, const std::vector<std::array<uint8_t, 3>> & display,
-    const std::array<uint8_t, 3> & black)
+    const std::array<uint8_t, 3> & black, guint y0, guint y1)
 {
   const guint width = GST_VIDEO_FRAME_WIDTH (f);
-  const guint height = GST_VIDEO_FRAME_HEIGHT (f);
   /* label 0 is black */
   const uint8_t *none = black.data ();
   auto colour = [&](guint8 l) -> const uint8_t * {
     return l == 0 ? none : display[l - 1].data ();
   };
-  for (guint y = 0; y < height; y++) {
+  for (guint y = y0; y < y1; y++) {
     const guint8 *lab = labels + (gsize) y * width;
     guint8 *r0 = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f, 0) +
         (gsize) y * GST_VIDEO_FRAME_PLANE_STRIDE (f, 0);
@@ -261,6 +260,18 @@ draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
   }
 }
 
+}  // namespace
+
+void
+draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
+    const guint8 * labels, const std::vector<std::array<uint8_t, 3>> & display,
+    const std::array<uint8_t, 3> & black, WorkerPool & pool)
+{
+  auto slice = [&](unsigned, guint y0, guint y1) {
+    draw_rows (f, layout, labels, display, black, y0, y1);
+  };
+  pool.run_slices (GST_VIDEO_FRAME_HEIGHT (f), slice);
+}
 
 FrameLayout
 frame_layout (const LandmarkFrameFormat & format)
@@ -290,13 +301,27 @@ frame_layout (const LandmarkFrameFormat & format)
 
 void
 label_frame (ClassTable & table, const GstVideoFrame * frame,
-    const FrameLayout & layout, guint n, guint8 * labels, guint32 counts[256])
+    const FrameLayout & layout, guint n, guint8 * labels, guint32 counts[256],
+    PixelWorkers & workers)
 {
   const guint w = GST_VIDEO_FRAME_WIDTH (frame);
   const guint h = GST_VIDEO_FRAME_HEIGHT (frame);
   PixelReader reader { frame, layout };
-  classify_frame (table, reader, w, h, labels);
-  count_labels (labels, (gsize) w * h, n, counts);
+  /* the table is only read here: cells are filled below, on this thread */
+  auto slice = [&](unsigned i, guint y0, guint y1) {
+    PixelReader rows { frame, layout };
+    classify_rows (table, rows, w, y0, y1, labels);
+    count_labels (labels + (gsize) y0 * w, (gsize) (y1 - y0) * w, n,
+        workers.slice_counts[i].data ());
+  };
+  const unsigned slices = workers.pool.slices ();
+  for (unsigned i = 0; i < slices; i++)
+    workers.slice_counts[i].fill (0);
+  workers.pool.run_slices (h, slice);
+  memset (counts, 0, sizeof (guint32) * 256);
+  for (unsigned i = 0; i < slices; i++)
+    for (int v = 0; v < 256; v++)
+      counts[v] += workers.slice_counts[i][v];
 
   /* pixels in boundary cells not met before: fill those cells now */
   for (guint y = 0; y < h && counts[ClassTable::kPending] > 0; y++) {
@@ -320,7 +345,7 @@ void
 dominant_colour_rule (ClassTable & table, const GstVideoFrame * frame,
     const FrameLayout & layout, guint n, guint min_class_pixels,
     bool to_nearest, const guint32 counts[256], guint8 * labels,
-    ClassRule * rule)
+    ClassRule * rule, WorkerPool & pool)
 {
   const guint w = GST_VIDEO_FRAME_WIDTH (frame);
   const guint h = GST_VIDEO_FRAME_HEIGHT (frame);
@@ -342,12 +367,16 @@ dominant_colour_rule (ClassTable & table, const GstVideoFrame * frame,
    * converted in batches like the table's boundary cells, or lose their
    * label */
   if (!to_nearest || !rule->any_active) {
-    const gsize size = (gsize) w * h;
-    for (gsize i = 0; i < size; i++)
-      if (demoted[labels[i]])
-        labels[i] = 0;
+    auto slice = [&](unsigned, guint y0, guint y1) {
+      const gsize end = (gsize) y1 * w;
+      for (gsize i = (gsize) y0 * w; i < end; i++)
+        if (demoted[labels[i]])
+          labels[i] = 0;
+    };
+    pool.run_slices (h, slice);
     return;
   }
+  /* the direct computation uses the table's scratch: one thread */
   PixelReader reader { frame, layout };
   guint8 comps[3 * ClassTable::kBatch];
   guint8 *where[ClassTable::kBatch];

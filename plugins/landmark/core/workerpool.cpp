@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #ifdef __linux__
+#include <pthread.h>
 #include <sched.h>
 #endif
 
@@ -24,8 +25,13 @@ WorkerPool::resize (unsigned threads)
   workers_.clear ();
   quit_ = false;
   workers_.reserve (want);
-  for (size_t i = 0; i < want; i++)
+  for (size_t i = 0; i < want; i++) {
     workers_.emplace_back ([this] { work (); });
+#ifdef __linux__
+    /* a name for top -H, gdb and the tests */
+    pthread_setname_np (workers_.back ().native_handle (), kThreadName);
+#endif
+  }
 }
 
 void

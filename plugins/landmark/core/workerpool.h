@@ -26,6 +26,9 @@ public:
   WorkerPool & operator= (const WorkerPool &) = delete;
   ~WorkerPool () { resize (1); }
 
+  /* The name workers carry (at most 15 characters, Linux's limit). */
+  static constexpr const char *kThreadName = "landmark-worker";
+
   /* The most threads a pool is given. */
   static constexpr unsigned kMaxThreads = 64;
 

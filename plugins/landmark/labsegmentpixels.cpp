@@ -15,11 +15,12 @@ namespace {
  * labels at a time beat a scalar histogram on any palette up to 16 classes;
  * larger palettes use four interleaved scalar histograms. */
 void
-count_labels (const guint8 * plane, gsize size, guint n, guint32 counts[256])
+count_labels (const guint8 * plane, gsize size, guint n, bool simd,
+    guint32 counts[256])
 {
   memset (counts, 0, sizeof (guint32) * 256);
 #ifdef __SSE2__
-  if (n <= 16) {
+  if (simd && n <= 16) {
     guint8 values[kMaxClasses + 2];
     for (guint k = 0; k < n; k++)
       values[k] = k + 1;
@@ -49,6 +50,7 @@ count_labels (const guint8 * plane, gsize size, guint n, guint32 counts[256])
   }
 #endif
   (void) n;
+  (void) simd;
   guint32 bank[4][256] = { {0} };
   gsize j = 0;
   for (; j + 4 <= size; j += 4) {
@@ -148,6 +150,49 @@ classify_packed3 (const guint8 * table, const guint8 * row, guint width,
   }
 }
 
+#ifdef __SSE2__
+/* The 4:2:0 lookups 16 pixels at a time: the keys Y | U << 8 | V << 16
+ * are built by byte unpacking (each chroma byte twice) and stored, then
+ * looked up one by one; building them pixel by pixel took half the time
+ * of the loop. ps: 1 for planar chroma, 2 for NV12's interleaved UV (ur
+ * then points at U, vr at V). Returns the pixels done (a multiple of 16). */
+guint
+classify_yuv420_sse2 (const guint8 * t, const guint8 * yr, const guint8 * ur,
+    const guint8 * vr, int ps, guint width, guint8 * out)
+{
+  alignas (16) guint32 keys[16];
+  const __m128i zero = _mm_setzero_si128 ();
+  const __m128i low = _mm_set1_epi16 (0xff);
+  guint x = 0;
+  for (; x + 16 <= width; x += 16) {
+    __m128i u, v;
+    if (ps == 2) {
+      /* U0 V0 U1 V1 ...: U from the low bytes of 16-bit lanes, V high */
+      const __m128i uv = _mm_loadu_si128 ((const __m128i *) (ur + x));
+      u = _mm_packus_epi16 (_mm_and_si128 (uv, low), zero);
+      v = _mm_packus_epi16 (_mm_srli_epi16 (uv, 8), zero);
+    } else {
+      u = _mm_loadl_epi64 ((const __m128i *) (ur + x / 2));
+      v = _mm_loadl_epi64 ((const __m128i *) (vr + x / 2));
+    }
+    u = _mm_unpacklo_epi8 (u, u);
+    v = _mm_unpacklo_epi8 (v, v);
+    const __m128i y = _mm_loadu_si128 ((const __m128i *) (yr + x));
+    const __m128i yu0 = _mm_unpacklo_epi8 (y, u), yu1 = _mm_unpackhi_epi8 (y,
+        u);
+    const __m128i v0 = _mm_unpacklo_epi8 (v, zero), v1 =
+        _mm_unpackhi_epi8 (v, zero);
+    _mm_store_si128 ((__m128i *) keys, _mm_unpacklo_epi16 (yu0, v0));
+    _mm_store_si128 ((__m128i *) (keys + 4), _mm_unpackhi_epi16 (yu0, v0));
+    _mm_store_si128 ((__m128i *) (keys + 8), _mm_unpacklo_epi16 (yu1, v1));
+    _mm_store_si128 ((__m128i *) (keys + 12), _mm_unpackhi_epi16 (yu1, v1));
+    for (int i = 0; i < 16; i++)
+      out[x + i] = t[keys[i]];
+  }
+  return x;
+}
+#endif
+
 /* Rows y0..y1-1; labels points at the plane's row 0. YUV keys are
  * Y | U << 8 | V << 16; two pixels share one chroma pair. */
 void
@@ -169,7 +214,12 @@ classify_rows (const ClassTable & table, PixelReader & reader,
       case PixelLayout::YUV420:{
         const guint8 *yr = reader.row0, *ur = reader.row1, *vr = reader.row2;
         const int ps = reader.upstride;
-        for (guint x = 0; x < width; x++) {
+        guint x = 0;
+#ifdef __SSE2__
+        if (layout.simd)
+          x = classify_yuv420_sse2 (t, yr, ur, vr, ps, width, out);
+#endif
+        for (; x < width; x++) {
           const guint32 uv = (ur[(x >> 1) * ps] << 8) |
               ((guint32) vr[(x >> 1) * ps] << 16);
           out[x] = t[yr[x] | uv];
@@ -296,6 +346,7 @@ frame_layout (const LandmarkFrameFormat & format)
       layout.layout = PixelLayout::YUV420;
       break;
   }
+  layout.simd = g_getenv ("LANDMARK_NO_SIMD") == nullptr;
   return layout;
 }
 
@@ -312,6 +363,7 @@ label_frame (ClassTable & table, const GstVideoFrame * frame,
     PixelReader rows { frame, layout };
     classify_rows (table, rows, w, y0, y1, labels);
     count_labels (labels + (gsize) y0 * w, (gsize) (y1 - y0) * w, n,
+        layout.simd,
         workers.slice_counts[i].data ());
   };
   const unsigned slices = workers.pool.slices ();

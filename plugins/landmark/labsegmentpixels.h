@@ -24,6 +24,9 @@ struct FrameLayout {
   int offset[3] = { 0, 1, 2 };  /* R,G,B byte offsets for packed RGB */
   int key_shift = 0;            /* bits to drop from a 4-byte pixel */
   KeyOrder order = KeyOrder::C0_LOW;
+  /* the SSE2 loops where built in (false with LANDMARK_NO_SIMD set, to
+   * check the scalar ones) */
+  bool simd = true;
 };
 
 /* The layout of a negotiated format, and the byte order of its table keys. */

@@ -84,6 +84,24 @@ def test_labsegment_threads_identical(gst, fmt, rare):
     assert demoted_seen
 
 
+@pytest.mark.parametrize("fmt", F.ALL_FORMATS)
+def test_scalar_loops_identical(gst, fmt, monkeypatch):
+    """The SSE2 loops (4:2:0 keys, the class histogram) against the scalar
+    ones that LANDMARK_NO_SIMD selects (read when caps are set), on
+    widths with a 16-pixel part and a tail."""
+    rng = np.random.default_rng(seed_of(fmt, "scalar"))
+    for width, height in SIZES:
+        caps, payloads = payloads_for(fmt, width, height, rng)
+        element = f"labsegment output=labels min-class-pixels={width}"
+        simd = labsegment_results(pipeline.process_frames(element, payloads,
+                                                          caps))
+        monkeypatch.setenv("LANDMARK_NO_SIMD", "1")
+        scalar = labsegment_results(pipeline.process_frames(
+            element, payloads, caps))
+        monkeypatch.delenv("LANDMARK_NO_SIMD")
+        assert simd == scalar, f"{fmt} {width}x{height}"
+
+
 def marker_frame(rng, width, height):
     """Marker-coloured ellipses of every size on grey, many of them tall
     enough to cross several slice borders, some touching each other and

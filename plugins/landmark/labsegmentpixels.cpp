@@ -191,6 +191,31 @@ classify_yuv420_sse2 (const guint8 * t, const guint8 * yr, const guint8 * ur,
   }
   return x;
 }
+
+/* YUY2 the same way, 8 pixels (four Y0 U Y1 V words) at a time. */
+guint
+classify_yuy2_sse2 (const guint8 * t, const guint8 * row, guint width,
+    guint8 * out)
+{
+  alignas (16) guint32 keys[8];
+  const __m128i y_mask = _mm_set1_epi32 (0xff);
+  const __m128i u_mask = _mm_set1_epi32 (0xff00);
+  const __m128i v_mask = _mm_set1_epi32 (0xff0000);
+  guint x = 0;
+  for (; x + 8 <= width; x += 8) {
+    const __m128i w = _mm_loadu_si128 ((const __m128i *) (row + x * 2));
+    const __m128i uv = _mm_or_si128 (_mm_and_si128 (w, u_mask),
+        _mm_and_si128 (_mm_srli_epi32 (w, 8), v_mask));
+    const __m128i k0 = _mm_or_si128 (uv, _mm_and_si128 (w, y_mask));
+    const __m128i k1 = _mm_or_si128 (uv, _mm_and_si128 (_mm_srli_epi32 (w,
+                16), y_mask));
+    _mm_store_si128 ((__m128i *) keys, _mm_unpacklo_epi32 (k0, k1));
+    _mm_store_si128 ((__m128i *) (keys + 4), _mm_unpackhi_epi32 (k0, k1));
+    for (int i = 0; i < 8; i++)
+      out[x + i] = t[keys[i]];
+  }
+  return x;
+}
 #endif
 
 /* Rows y0..y1-1; labels points at the plane's row 0. YUV keys are
@@ -229,6 +254,10 @@ classify_rows (const ClassTable & table, PixelReader & reader,
       case PixelLayout::YUY2:{
         const guint8 *r = reader.row0;
         guint x = 0;
+#ifdef __SSE2__
+        if (layout.simd)
+          x = classify_yuy2_sse2 (t, r, width, out);
+#endif
         for (; x + 2 <= width; x += 2) {
           const guint32 w = load32 (r + x * 2);   /* Y0 U Y1 V */
           const guint32 uv = (w & 0xff00) | ((w >> 8) & 0xff0000);

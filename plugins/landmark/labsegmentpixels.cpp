@@ -3,6 +3,10 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define LANDMARK_HAVE_AVX2_PATH 1
+#endif
 
 #include <cstring>
 
@@ -10,21 +14,72 @@ namespace landmark {
 
 namespace {
 
+#ifdef LANDMARK_HAVE_AVX2_PATH
+/* counts[values[i]] = pixels equal to values[i] in plane[0..end), end a
+ * multiple of 32: up to 8 values per pass, one load per 32 labels
+ * compared with each value (8-bit per-lane counters, summed before they
+ * can overflow). Built for AVX2 whatever the compiler's target; called
+ * only when the processor has it. */
+__attribute__ ((target ("avx2"))) void
+count_values_avx2 (const guint8 * plane, gsize end, const guint8 * values,
+    guint nvalues, guint32 counts[256])
+{
+  for (guint first = 0; first < nvalues; first += 8) {
+    const guint k = MIN (8u, nvalues - first);
+    __m256i v[8];
+    guint64 total[8] = { 0 };
+    for (guint i = 0; i < k; i++)
+      v[i] = _mm256_set1_epi8 ((char) values[first + i]);
+    gsize pos = 0;
+    while (pos < end) {
+      const gsize stop = MIN (end, pos + 255 * 32);
+      __m256i acc[8];
+      for (guint i = 0; i < k; i++)
+        acc[i] = _mm256_setzero_si256 ();
+      for (; pos < stop; pos += 32) {
+        const __m256i x = _mm256_loadu_si256 ((const __m256i *) (plane + pos));
+        for (guint i = 0; i < k; i++)
+          acc[i] = _mm256_sub_epi8 (acc[i], _mm256_cmpeq_epi8 (x, v[i]));
+      }
+      for (guint i = 0; i < k; i++) {
+        const __m256i s = _mm256_sad_epu8 (acc[i], _mm256_setzero_si256 ());
+        total[i] += (guint64) _mm256_extract_epi64 (s, 0) +
+            (guint64) _mm256_extract_epi64 (s, 1) +
+            (guint64) _mm256_extract_epi64 (s, 2) +
+            (guint64) _mm256_extract_epi64 (s, 3);
+      }
+    }
+    for (guint i = 0; i < k; i++)
+      counts[values[first + i]] = (guint32) total[i];
+  }
+}
+#endif
+
 /* counts[v] = pixels of the plane with label v, for v in 1..n and
  * kPending (other entries are left 0). One pass per value: compares of 16
  * labels at a time beat a scalar histogram on any palette up to 16 classes;
  * larger palettes use four interleaved scalar histograms. */
 void
-count_labels (const guint8 * plane, gsize size, guint n, bool simd,
+count_labels (const guint8 * plane, gsize size, guint n, SimdLevel simd,
     guint32 counts[256])
 {
   memset (counts, 0, sizeof (guint32) * 256);
 #ifdef __SSE2__
-  if (simd && n <= 16) {
+  if (simd != SimdLevel::NONE && n <= 16) {
     guint8 values[kMaxClasses + 2];
     for (guint k = 0; k < n; k++)
       values[k] = k + 1;
     values[n] = ClassTable::kPending;
+#ifdef LANDMARK_HAVE_AVX2_PATH
+    if (simd == SimdLevel::AVX2) {
+      const gsize end = size & ~(gsize) 31;
+      count_values_avx2 (plane, end, values, n + 1, counts);
+      for (gsize j = end; j < size; j++)
+        for (guint i = 0; i <= n; i++)
+          counts[values[i]] += plane[j] == values[i];
+      return;
+    }
+#endif
     const gsize vec_end = size & ~(gsize) 15;
     for (guint i = 0; i <= n; i++) {
       const __m128i v = _mm_set1_epi8 ((char) values[i]);
@@ -241,7 +296,7 @@ classify_rows (const ClassTable & table, PixelReader & reader,
         const int ps = reader.upstride;
         guint x = 0;
 #ifdef __SSE2__
-        if (layout.simd)
+        if (layout.simd != SimdLevel::NONE)
           x = classify_yuv420_sse2 (t, yr, ur, vr, ps, width, out);
 #endif
         for (; x < width; x++) {
@@ -255,7 +310,7 @@ classify_rows (const ClassTable & table, PixelReader & reader,
         const guint8 *r = reader.row0;
         guint x = 0;
 #ifdef __SSE2__
-        if (layout.simd)
+        if (layout.simd != SimdLevel::NONE)
           x = classify_yuy2_sse2 (t, r, width, out);
 #endif
         for (; x + 2 <= width; x += 2) {
@@ -352,6 +407,25 @@ draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
   pool.run_slices (GST_VIDEO_FRAME_HEIGHT (f), slice);
 }
 
+SimdLevel
+simd_level ()
+{
+  SimdLevel best = SimdLevel::NONE;
+#ifdef __SSE2__
+  best = SimdLevel::SSE2;
+#endif
+#ifdef LANDMARK_HAVE_AVX2_PATH
+  if (__builtin_cpu_supports ("avx2"))
+    best = SimdLevel::AVX2;
+#endif
+  const gchar *want = g_getenv ("LANDMARK_SIMD");
+  if (want && g_str_equal (want, "none"))
+    return SimdLevel::NONE;
+  if (want && g_str_equal (want, "sse2") && best != SimdLevel::NONE)
+    return SimdLevel::SSE2;
+  return best;
+}
+
 FrameLayout
 frame_layout (const LandmarkFrameFormat & format)
 {
@@ -375,7 +449,7 @@ frame_layout (const LandmarkFrameFormat & format)
       layout.layout = PixelLayout::YUV420;
       break;
   }
-  layout.simd = g_getenv ("LANDMARK_NO_SIMD") == nullptr;
+  layout.simd = simd_level ();
   return layout;
 }
 

@@ -16,6 +16,12 @@
 
 namespace landmark {
 
+/* The vector instructions the pixel loops use: the best the processor
+ * has, or less when LANDMARK_SIMD is "sse2" or "none" (to compare the
+ * loops; every level gives identical results). */
+enum class SimdLevel { NONE, SSE2, AVX2 };
+SimdLevel simd_level ();
+
 /* How the three components of a pixel are laid out in a frame. */
 enum class PixelLayout { PACKED3, PACKED4, YUV420, YUY2 };
 
@@ -24,9 +30,7 @@ struct FrameLayout {
   int offset[3] = { 0, 1, 2 };  /* R,G,B byte offsets for packed RGB */
   int key_shift = 0;            /* bits to drop from a 4-byte pixel */
   KeyOrder order = KeyOrder::C0_LOW;
-  /* the SSE2 loops where built in (false with LANDMARK_NO_SIMD set, to
-   * check the scalar ones) */
-  bool simd = true;
+  SimdLevel simd = SimdLevel::NONE;   /* simd_level () */
 };
 
 /* The layout of a negotiated format, and the byte order of its table keys. */

@@ -85,21 +85,22 @@ def test_labsegment_threads_identical(gst, fmt, rare):
 
 
 @pytest.mark.parametrize("fmt", F.ALL_FORMATS)
-def test_scalar_loops_identical(gst, fmt, monkeypatch):
-    """The SSE2 loops (4:2:0 keys, the class histogram) against the scalar
-    ones that LANDMARK_NO_SIMD selects (read when caps are set), on
-    widths with a 16-pixel part and a tail."""
+def test_simd_levels_identical(gst, fmt, monkeypatch):
+    """The AVX2 class histogram, the SSE2 one and the SSE2 YUV keys against
+    the scalar loops (LANDMARK_SIMD, read when caps are set), on widths
+    with a vector part and a tail."""
     rng = np.random.default_rng(seed_of(fmt, "scalar"))
     for width, height in SIZES:
         caps, payloads = payloads_for(fmt, width, height, rng)
         element = f"labsegment output=labels min-class-pixels={width}"
-        simd = labsegment_results(pipeline.process_frames(element, payloads,
-                                                          caps))
-        monkeypatch.setenv("LANDMARK_NO_SIMD", "1")
-        scalar = labsegment_results(pipeline.process_frames(
-            element, payloads, caps))
-        monkeypatch.delenv("LANDMARK_NO_SIMD")
-        assert simd == scalar, f"{fmt} {width}x{height}"
+        results = {}
+        for level in ("none", "sse2", "best"):
+            monkeypatch.setenv("LANDMARK_SIMD", level)
+            results[level] = labsegment_results(pipeline.process_frames(
+                element, payloads, caps))
+        monkeypatch.delenv("LANDMARK_SIMD")
+        assert results["sse2"] == results["none"], f"{fmt} {width}x{height}"
+        assert results["best"] == results["none"], f"{fmt} {width}x{height}"
 
 
 def marker_frame(rng, width, height):

@@ -22,22 +22,24 @@ def count(path):
         check = re.search(r"Checks: (\d+), Failures: (\d+), Errors: (\d+)",
                           out)
         core = re.search(r"^(\d+) passed, (\d+) failed$", out, re.M)
+        # this test's own failures: a failing test whose output reports
+        # none still counts one, whatever the tests before it reported
+        f_here = 0
         if check:
             n, f, e = map(int, check.groups())
-            passed, failed = passed + n - f - e, failed + f + e
+            passed, f_here = passed + n - f - e, f + e
         elif core:
-            passed, failed = passed + int(core[1]), failed + int(core[2])
+            passed, f_here = passed + int(core[1]), int(core[2])
         elif py:
             counts = {k: int(n) for n, k in py}
             passed += counts.get("passed", 0)
-            failed += counts.get("failed", 0) + counts.get("error", 0)
+            f_here = counts.get("failed", 0) + counts.get("error", 0)
             skipped += counts.get("skipped", 0)
         if not ok and test["result"] == "SKIP":
             skipped += 1
-        elif not ok and not (check or core or py):
-            failed += 1   # crashed or timed out before reporting
-        elif not ok and failed == 0:
-            failed += 1
+        elif not ok and f_here == 0:
+            f_here = 1   # crashed, timed out or failed without saying so
+        failed += f_here
     return passed, failed, skipped
 
 

@@ -5,5 +5,5 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 cd "$ROOT"
-"$VENV/bin/python" -m gstlandmark.goldens refresh "$@"
+"$VENV/bin/python" -m gstlandmark.devtools.goldens refresh "$@"
 git --no-pager diff --stat -- tests/golden || true

@@ -8,7 +8,7 @@
 #include <gst/gst.h>
 
 #include "elementsettings.h"
-#include "floorprofile.h"
+#include "camerasetup.h"
 
 /* The camera properties, to add to an element's table with
  * PropertyTable::part (&Settings::camera, camera_properties ()). */

@@ -94,18 +94,11 @@ struct GstBirdsEyePrivate {
   State state;
 };
 
-struct _GstBirdsEye {
-  GstVideoFilter parent;
-  GstBirdsEyePrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstBirdsEye, gst_birds_eye, GST_TYPE_VIDEO_FILTER,
-    GST_DEBUG_CATEGORY_INIT (gst_birds_eye_debug, "birdseye", 0,
-        "Bird's-eye view of the floor"));
-GST_ELEMENT_REGISTER_DEFINE (birdseye, "birdseye", GST_RANK_NONE,
-    GST_TYPE_BIRDS_EYE);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_birds_eye, GST_BIRDS_EYE);
+LANDMARK_DEFINE_ELEMENT (GstBirdsEye, gst_birds_eye, GstVideoFilter,
+    GST_TYPE_VIDEO_FILTER, birdseye,
+    "Bird's-eye view of the floor");
 
 /* The output geometry of the settings. */
 static landmark::BirdsEyeParams
@@ -323,7 +316,8 @@ gst_birds_eye_transform_frame (GstVideoFilter * filter,
     cv::Mat dst (GST_VIDEO_FRAME_HEIGHT (out), GST_VIDEO_FRAME_WIDTH (out),
         type, GST_VIDEO_FRAME_PLANE_DATA (out, 0),
         GST_VIDEO_FRAME_PLANE_STRIDE (out, 0));
-    cv::remap (src, dst, st.applied.config.map1, st.applied.config.map2, cv::INTER_LINEAR,
+    const Config & cfg = st.applied.config;
+    cv::remap (src, dst, cfg.map1, cfg.map2, cv::INTER_LINEAR,
         cv::BORDER_CONSTANT, cv::Scalar::all (0));
   }
   catch (const std::exception & e) {

@@ -115,10 +115,9 @@ struct State {
   landmark::AppliedSettings<Settings, Config> applied;
 
   /* label -> slot, rebuilt when the palette or `classes` change */
-  std::vector<std::string> palette_names;
-  std::vector<bool> palette_markers;
+  LandmarkLabelClasses classes;
   uint8_t slot_of[256] = { 0 };
-  bool slots_valid = false;
+  std::vector<guint> wanted_labels;
 
   landmark::BlobAnalyzer analyzer;
   /* threads of the run search, started on the first frame that needs them */
@@ -140,19 +139,11 @@ struct GstBlobRoundnessPrivate {
   State state;
 };
 
-struct _GstBlobRoundness {
-  GstBaseTransform parent;
-  GstBlobRoundnessPrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstBlobRoundness, gst_blob_roundness,
-    GST_TYPE_BASE_TRANSFORM,
-    GST_DEBUG_CATEGORY_INIT (gst_blob_roundness_debug, "blobroundness", 0,
-        "Landmark blob measurement"));
-GST_ELEMENT_REGISTER_DEFINE (blobroundness, "blobroundness", GST_RANK_NONE,
-    GST_TYPE_BLOB_ROUNDNESS);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_blob_roundness, GST_BLOB_ROUNDNESS);
+LANDMARK_DEFINE_ELEMENT (GstBlobRoundness, gst_blob_roundness, GstBaseTransform,
+    GST_TYPE_BASE_TRANSFORM, blobroundness,
+    "Landmark blob measurement");
 
 GType
 gst_blob_roundness_shape_get_type (void)
@@ -254,9 +245,7 @@ gst_blob_roundness_start (GstBaseTransform * trans)
   if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
           blob_roundness_parse))
     return FALSE;
-  st.slots_valid = false;
-  st.palette_names.clear ();
-  st.palette_markers.clear ();
+  st.classes.reset ();
   st.warned_no_meta = false;
   st.warned_bad_plane = false;
   st.video_width = st.video_height = 0;
@@ -275,9 +264,7 @@ gst_blob_roundness_stop (GstBaseTransform * trans)
 {
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
-  st.slots_valid = false;
-  st.palette_names.clear ();
-  st.palette_markers.clear ();
+  st.classes.reset ();
   st.workers.resize (1);
   return TRUE;
 }
@@ -312,7 +299,7 @@ gst_blob_roundness_sync_settings (GstBlobRoundness * self)
   State & st = self->priv->state;
   if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
           blob_roundness_parse)) {
-    st.slots_valid = false;     /* `classes` may have changed */
+    st.classes.valid = false;   /* `classes` may have changed */
     GST_INFO_OBJECT (self, "settings changed");
   }
 }
@@ -324,50 +311,23 @@ gst_blob_roundness_update_slots (GstBlobRoundness * self,
     const GstStructure * labels)
 {
   State & st = self->priv->state;
-  const guint n = MIN (landmark_labels_n_classes (labels), 255u);
-  bool same = st.slots_valid && st.palette_names.size () == n;
-  for (guint k = 0; same && k < n; k++) {
-    const gchar *name = landmark_labels_class_name (labels, k);
-    same = name && st.palette_names[k] == name &&
-        st.palette_markers[k] == (bool) landmark_labels_class_is_marker
-        (labels, k);
-  }
-  if (same)
+  if (!st.classes.changed (labels))
     return TRUE;
-
-  st.palette_names.clear ();
-  st.palette_markers.clear ();
-  for (guint k = 0; k < n; k++) {
-    const gchar *name = landmark_labels_class_name (labels, k);
-    st.palette_names.emplace_back (name ? name : "");
-    st.palette_markers.push_back (landmark_labels_class_is_marker (labels,
-            k));
-  }
   memset (st.slot_of, 0, sizeof (st.slot_of));
   if (st.applied.config.classes.empty ()) {
-    for (guint k = 0; k < n; k++)
-      if (st.palette_markers[k])
+    for (size_t k = 0; k < st.classes.markers.size (); k++)
+      if (st.classes.markers[k])
         st.slot_of[k + 1] = k + 1;
   } else {
-    for (const std::string & want : st.applied.config.classes) {
-      guint k = 0;
-      while (k < n && st.palette_names[k] != want)
-        k++;
-      if (k == n) {
-        std::string known;
-        for (const auto & name : st.palette_names)
-          known += (known.empty ()? "" : ", ") + name;
-        GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-            ("Invalid 'classes' value: no class \"%s\" in the labels.",
-                want.c_str ()), ("the palette has: %s", known.c_str ()));
-        st.slots_valid = false;
-        return FALSE;
-      }
-      st.slot_of[k + 1] = k + 1;
-    }
+    if (!st.classes.labels_of (GST_ELEMENT (self), "classes",
+            st.applied.config.classes, &st.wanted_labels))
+      return FALSE;
+    for (guint label : st.wanted_labels)
+      st.slot_of[label] = label;
   }
-  st.slots_valid = true;
-  GST_DEBUG_OBJECT (self, "%u classes in the labels", n);
+  st.classes.valid = true;
+  GST_DEBUG_OBJECT (self, "%zu classes in the labels",
+      st.classes.names.size ());
   return TRUE;
 }
 
@@ -540,7 +500,7 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
       kept++;
     if (reject && !cfg.keep_rejected)
       continue;
-    const std::string & name = st.palette_names[b.slot - 1];
+    const std::string & name = st.classes.names[b.slot - 1];
     gst_blob_roundness_attach (self, buf, b, name.c_str (), reject,
         fit_threshold, w, h);
   }

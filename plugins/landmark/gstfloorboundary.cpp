@@ -107,10 +107,9 @@ struct State {
   guint built_w = 0, built_h = 0;     /* what profile was built for */
 
   /* label -> role, rebuilt when the palette or the classes change */
-  std::vector<std::string> palette_names;
-  std::vector<bool> palette_markers;
+  LandmarkLabelClasses classes;
+  std::vector<guint> floor_labels;
   landmark::LabelRole role[256];
-  bool roles_valid = false;
 
   std::vector<landmark::MarkerBox> marker_boxes;   /* markers=detections */
   gint video_width = 0, video_height = 0;   /* from the caps, 0: unknown */
@@ -126,19 +125,11 @@ struct GstFloorBoundaryPrivate {
   State state;
 };
 
-struct _GstFloorBoundary {
-  GstBaseTransform parent;
-  GstFloorBoundaryPrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstFloorBoundary, gst_floor_boundary,
-    GST_TYPE_BASE_TRANSFORM,
-    GST_DEBUG_CATEGORY_INIT (gst_floor_boundary_debug, "floorboundary", 0,
-        "Floor boundary and radial obstacle profile"));
-GST_ELEMENT_REGISTER_DEFINE (floorboundary, "floorboundary", GST_RANK_NONE,
-    GST_TYPE_FLOOR_BOUNDARY);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_floor_boundary, GST_FLOOR_BOUNDARY);
+LANDMARK_DEFINE_ELEMENT (GstFloorBoundary, gst_floor_boundary, GstBaseTransform,
+    GST_TYPE_BASE_TRANSFORM, floorboundary,
+    "Floor boundary and radial obstacle profile");
 
 GType
 gst_floor_boundary_markers_get_type (void)
@@ -273,9 +264,7 @@ gst_floor_boundary_start (GstBaseTransform * trans)
   auto self = GST_FLOOR_BOUNDARY (trans);
   State & st = self->priv->state;
   st.built_w = st.built_h = 0;
-  st.roles_valid = false;
-  st.palette_names.clear ();
-  st.palette_markers.clear ();
+  st.classes.reset ();
   st.warned_no_meta = false;
   st.warned_bad_plane = false;
   return TRUE;
@@ -286,7 +275,7 @@ gst_floor_boundary_stop (GstBaseTransform * trans)
 {
   State & st = GST_FLOOR_BOUNDARY (trans)->priv->state;
   st.built_w = st.built_h = 0;
-  st.roles_valid = false;
+  st.classes.valid = false;
   return TRUE;
 }
 
@@ -327,7 +316,7 @@ gst_floor_boundary_sync_settings (GstFloorBoundary * self)
   if (!st.applied.sync (GST_ELEMENT (self), self->priv->settings,
           parse_and_build))
     return;
-  st.roles_valid = false;       /* floor-classes or markers may have changed */
+  st.classes.valid = false;     /* floor-classes or markers may have changed */
   if (st.built_w > 0) {
     st.geometry = std::move (geometry);
     st.profile = std::move (profile);
@@ -342,27 +331,9 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
     const GstStructure * labels)
 {
   State & st = self->priv->state;
-  const guint n = MIN (landmark_labels_n_classes (labels), 255u);
-  bool same = st.roles_valid && st.palette_names.size () == n;
-  for (guint k = 0; same && k < n; k++) {
-    const gchar *name = landmark_labels_class_name (labels, k);
-    same = name && st.palette_names[k] == name &&
-        st.palette_markers[k] == (bool) landmark_labels_class_is_marker
-        (labels, k);
-  }
-  if (same)
+  if (!st.classes.changed (labels))
     return TRUE;
-  st.palette_names.clear ();
-  st.palette_markers.clear ();
-  for (guint k = 0; k < n; k++) {
-    const gchar *name = landmark_labels_class_name (labels, k);
-    st.palette_names.emplace_back (name ? name : "");
-    st.palette_markers.push_back (landmark_labels_class_is_marker (labels,
-            k));
-  }
-  std::string known;
-  for (const auto & name : st.palette_names)
-    known += (known.empty ()? "" : ", ") + name;
+  const guint n = st.classes.names.size ();
   /* label 0 (no class) and labels beyond the palette: not floor */
   for (auto & r : st.role)
     r = landmark::LabelRole::Obstacle;
@@ -372,33 +343,28 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
       landmark::LabelRole::Obstacle : landmark::LabelRole::Marker;
   guint floors = 0;
   for (guint k = 0; k < n; k++) {
-    if (st.palette_markers[k]) {
+    if (st.classes.markers[k]) {
       st.role[k + 1] = marker_role;
     } else if (cfg.floor_classes.empty ()) {
       st.role[k + 1] = landmark::LabelRole::Floor;
       floors++;
     }
   }
-  for (const std::string & want : cfg.floor_classes) {
-    guint k = 0;
-    while (k < n && st.palette_names[k] != want)
-      k++;
-    if (k == n) {
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Invalid 'floor-classes' value: no class \"%s\" in the labels.",
-              want.c_str ()), ("the palette has: %s", known.c_str ()));
-      return FALSE;
-    }
-    st.role[k + 1] = landmark::LabelRole::Floor;
+  if (!st.classes.labels_of (GST_ELEMENT (self), "floor-classes",
+          cfg.floor_classes, &st.floor_labels))
+    return FALSE;
+  for (guint label : st.floor_labels) {
+    st.role[label] = landmark::LabelRole::Floor;
     floors++;
   }
   if (floors == 0) {
     GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
         ("No floor class: every class of the labels is a marker; set "
-            "'floor-classes'."), ("the palette has: %s", known.c_str ()));
+            "'floor-classes'."), ("the palette has: %s",
+            st.classes.list ().c_str ()));
     return FALSE;
   }
-  st.roles_valid = true;
+  st.classes.valid = true;
   return TRUE;
 }
 

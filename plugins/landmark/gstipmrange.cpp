@@ -77,150 +77,68 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
-#include <map>
-#include <mutex>
 #include <string>
 #include <vector>
 
-#include "camerageometry.h"
+#include "cameraprops.h"
+#include "elementsettings.h"
 #include "fileutil.h"
-#include "landmarkmap.h"
+#include "camerasetup.h"
 #include "landmarkmeta.h"
+#include "markerclasses.h"
 #include "markerevidence.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_ipm_range_debug);
 #define GST_CAT_DEFAULT gst_ipm_range_debug
 
-#define DEFAULT_MODEL GST_IPM_RANGE_MODEL_PINHOLE
-#define DEFAULT_CAMERA_HEIGHT 0.30
-#define DEFAULT_TILT 25.0
-#define DEFAULT_ROLL 0.0
-#define DEFAULT_HFOV 60.0
-#define DEFAULT_FX 0.0
-#define DEFAULT_FY 0.0
-#define DEFAULT_CX -1.0
-#define DEFAULT_CY -1.0
-#define DEFAULT_BLIND 0.0
-#define DEFAULT_DEPTH 0.0
-#define DEFAULT_HALF_WIDTH 0.0
-#define DEFAULT_MARKER_HEIGHT 0.0
-#define DEFAULT_MARKER_DIAMETER 0.0
-#define DEFAULT_MARKER_KIND GST_IPM_RANGE_MARKER_DISC
-#define DEFAULT_METHOD GST_IPM_RANGE_METHOD_GROUND
-#define DEFAULT_PIXEL_SIGMA 0.5
-#define DEFAULT_CHECK_SIZE TRUE
-
-/* frame size assumed to check the geometry before caps are known */
-#define NOMINAL_WIDTH 640
-#define NOMINAL_HEIGHT 480
-
-enum
-{
-  PROP_0,
-  PROP_MODEL,
-  PROP_CAMERA_HEIGHT,
-  PROP_TILT,
-  PROP_ROLL,
-  PROP_HFOV,
-  PROP_FX,
-  PROP_FY,
-  PROP_CX,
-  PROP_CY,
-  PROP_CALIBRATION,
-  PROP_BLIND_DISTANCE,
-  PROP_VIEW_DEPTH,
-  PROP_HALF_WIDTH,
-  PROP_MARKER_HEIGHT,
-  PROP_MARKER_DIAMETER,
-  PROP_MARKER_KIND,
-  PROP_MAP,
-  PROP_RANGE_METHOD,
-  PROP_PIXEL_SIGMA,
-  PROP_CHECK_SIZE,
-};
-
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
-    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS ("video/x-raw(ANY)"));
-
 /* *INDENT-OFF* */
 namespace {
 
+/* What the user sets (the initial values are the defaults). */
 struct Settings {
-  GstIpmRangeModel model = DEFAULT_MODEL;
-  gdouble camera_height = DEFAULT_CAMERA_HEIGHT;
-  gdouble tilt = DEFAULT_TILT, roll = DEFAULT_ROLL, hfov = DEFAULT_HFOV;
-  gdouble fx = DEFAULT_FX, fy = DEFAULT_FY, cx = DEFAULT_CX, cy = DEFAULT_CY;
-  std::string calibration;
-  gdouble blind = DEFAULT_BLIND, depth = DEFAULT_DEPTH;
-  gdouble half_width = DEFAULT_HALF_WIDTH;
-  gdouble marker_height = DEFAULT_MARKER_HEIGHT;
-  gdouble marker_diameter = DEFAULT_MARKER_DIAMETER;
-  GstIpmRangeMarkerKind marker_kind = DEFAULT_MARKER_KIND;
+  landmark::CameraSettings camera;
+  gdouble marker_height = 0.0;
+  gdouble marker_diameter = 0.0;
+  GstIpmRangeMarkerKind marker_kind = GST_IPM_RANGE_MARKER_DISC;
   std::string map;
-  GstIpmRangeMethod method = DEFAULT_METHOD;
-  gdouble pixel_sigma = DEFAULT_PIXEL_SIGMA;
-  gboolean check_size = DEFAULT_CHECK_SIZE;
-  guint generation = 0;
+  GstIpmRangeMethod method = GST_IPM_RANGE_METHOD_GROUND;
+  gdouble pixel_sigma = 0.5;
+  gboolean check_size = TRUE;
 };
 
 /* Settings checked, with the files read. */
 struct Config {
   Settings s;
-  /* intrinsics from the calibration file, for calib_w x calib_h (0: the
-   * frame's size) */
-  bool have_calibration = false;
-  double cal_fx = 0, cal_fy = 0, cal_cx = 0, cal_cy = 0;
-  std::vector<double> cal_dist;
-  int calib_w = 0, calib_h = 0;
-  bool calib_has_tilt = false;    /* tilt_deg came from the file */
-  landmark::MarkerSpec default_marker;
-  std::map<std::string, landmark::MarkerSpec> markers;   /* from the map */
-  std::vector<std::string> ambiguous;    /* map classes that disagree */
-  /* their distinct marker specs, one ranging hypothesis each */
-  std::map<std::string, std::vector<landmark::MarkerSpec>> hypotheses;
-  /* (class, id) of every map landmark, checked against the labels */
-  std::vector<std::pair<std::string, std::string>> map_classes;
+  landmark::CameraSetup camera;       /* the camera file merged */
+  landmark::MarkerClasses markers;    /* the map read */
 };
 
 struct State {
-  Config config;
-  guint generation = G_MAXUINT;
+  landmark::AppliedSettings<Settings, Config> applied;
   landmark::CameraGeometry geometry;
   gint geometry_w = 0, geometry_h = 0;    /* what geometry was built for */
   gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
   std::vector<double> outline;            /* size test scratch */
+  std::vector<GstVideoRegionOfInterestMeta *> rois;
   bool map_classes_checked = false;       /* against the first labels */
 };
 
 }  // namespace
 
 struct GstIpmRangePrivate {
-  std::mutex lock;              /* guards settings */
-  Settings settings;
+  landmark::SharedSettings<Settings> settings;
   State state;
 };
 
-struct _GstIpmRange {
-  GstBaseTransform parent;
-  GstIpmRangePrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstIpmRange, gst_ipm_range,
-    GST_TYPE_BASE_TRANSFORM,
-    GST_DEBUG_CATEGORY_INIT (gst_ipm_range_debug, "ipmrange", 0,
-        "Landmark range and bearing by inverse perspective mapping"));
-GST_ELEMENT_REGISTER_DEFINE (ipmrange, "ipmrange", GST_RANK_NONE,
-    GST_TYPE_IPM_RANGE);
+LANDMARK_DEFINE_ELEMENT (GstIpmRange, gst_ipm_range, GstBaseTransform,
+    GST_TYPE_BASE_TRANSFORM, ipmrange,
+    "Landmark range and bearing by inverse perspective mapping");
 
 GType
 gst_ipm_range_model_get_type (void)
 {
-  static GType type = 0;
   static const GEnumValue values[] = {
     {GST_IPM_RANGE_MODEL_PINHOLE, "Pinhole camera (OpenCV intrinsics, "
           "optional distortion), exact ray-floor intersection", "pinhole"},
@@ -228,17 +146,14 @@ gst_ipm_range_model_get_type (void)
           "camera-height, blind-distance, view-depth, half-width", "seed"},
     {0, nullptr, nullptr},
   };
-  if (g_once_init_enter (&type)) {
-    GType t = g_enum_register_static ("GstIpmRangeModel", values);
-    g_once_init_leave (&type, t);
-  }
+  static const GType type =
+      g_enum_register_static ("GstIpmRangeModel", values);
   return type;
 }
 
 GType
 gst_ipm_range_method_get_type (void)
 {
-  static GType type = 0;
   static const GEnumValue values[] = {
     {GST_IPM_RANGE_METHOD_GROUND, "Where the ray meets the marker's plane",
         "ground"},
@@ -248,17 +163,14 @@ gst_ipm_range_method_get_type (void)
           "and size", "fused"},
     {0, nullptr, nullptr},
   };
-  if (g_once_init_enter (&type)) {
-    GType t = g_enum_register_static ("GstIpmRangeMethod", values);
-    g_once_init_leave (&type, t);
-  }
+  static const GType type =
+      g_enum_register_static ("GstIpmRangeMethod", values);
   return type;
 }
 
 GType
 gst_ipm_range_marker_kind_get_type (void)
 {
-  static GType type = 0;
   static const GEnumValue values[] = {
     {GST_IPM_RANGE_MARKER_DISC, "A flat disc, centre at marker-height",
         "disc"},
@@ -266,220 +178,68 @@ gst_ipm_range_marker_kind_get_type (void)
           "radius when it rests on the floor)", "ball"},
     {0, nullptr, nullptr},
   };
-  if (g_once_init_enter (&type)) {
-    GType t = g_enum_register_static ("GstIpmRangeMarkerKind", values);
-    g_once_init_leave (&type, t);
-  }
+  static const GType type =
+      g_enum_register_static ("GstIpmRangeMarkerKind", values);
   return type;
 }
 
 /* ---- configuration -------------------------------------------------- */
 
-/* Camera parameters for a frame of width x height. */
+/* Checks the settings and reads the files. */
 static bool
-ipm_range_camera_params (const Config & cfg, int width, int height,
-    landmark::CameraParams * p, const char **property, std::string * why)
-{
-  const Settings & s = cfg.s;
-  *p = landmark::CameraParams ();
-  p->width = width;
-  p->height = height;
-  p->camera_height = s.camera_height;
-  if (s.model == GST_IPM_RANGE_MODEL_SEED) {
-    p->model = landmark::CameraModel::Seed;
-    p->blind_distance = s.blind;
-    p->view_depth = s.depth;
-    p->half_width = s.half_width;
-    return true;
-  }
-  p->model = landmark::CameraModel::Pinhole;
-  p->tilt_deg = s.tilt;
-  p->roll_deg = s.roll;
-  if (cfg.have_calibration) {
-    const double kx = cfg.calib_w > 0 ? (double) width / cfg.calib_w : 1.0;
-    const double ky = cfg.calib_h > 0 ? (double) height / cfg.calib_h : 1.0;
-    p->fx = cfg.cal_fx * kx;
-    p->fy = cfg.cal_fy * ky;
-    p->cx = (cfg.cal_cx + 0.5) * kx - 0.5;
-    p->cy = (cfg.cal_cy + 0.5) * ky - 0.5;
-    p->dist = cfg.cal_dist;
-  } else if (s.fx > 0) {
-    p->fx = s.fx;
-    p->fy = s.fy > 0 ? s.fy : s.fx;
-    p->cx = s.cx >= 0 ? s.cx : (width - 1) / 2.0;
-    p->cy = s.cy >= 0 ? s.cy : (height - 1) / 2.0;
-  } else if (!landmark::intrinsics_from_hfov (s.hfov, width, height,
-          &p->fx, &p->fy, &p->cx, &p->cy)) {
-    *property = "hfov";
-    *why = "the horizontal field of view must be within (0, 180) degrees, "
-        "got " + std::to_string (s.hfov);
-    return false;
-  }
-  return true;
-}
-
-/* Checks the settings and reads the files; on failure returns FALSE with
- * the property's name and a message. */
-static gboolean
-ipm_range_parse (const Settings & s, Config * cfg, const char **property,
-    std::string * why)
+ipm_range_parse (const Settings & s, Config * cfg,
+    landmark::SettingsError * err)
 {
   *cfg = Config ();
   cfg->s = s;
-  /* A camera file wins for what it holds: its model (a seed file selects
-   * model=seed, a camera_matrix file model=pinhole), its intrinsics or seed
-   * lengths, and camera_height, tilt_deg, roll_deg when present; the
-   * properties give the rest. */
-  if (!s.calibration.empty ()) {
-    landmark::CameraFile f;
-    std::string err;
-    if (!landmark::load_camera_file (s.calibration, &f, &err)) {
-      *property = "calibration";
-      *why = err;
-      return FALSE;
-    }
-    Settings & m = cfg->s;
-    cfg->calib_w = f.image_width;
-    cfg->calib_h = f.image_height;
-    if (f.seed) {
-      m.model = GST_IPM_RANGE_MODEL_SEED;
-      m.camera_height = f.camera_height;
-      m.blind = f.blind_distance;
-      m.depth = f.view_depth;
-      m.half_width = f.half_width;
-    } else {
-      m.model = GST_IPM_RANGE_MODEL_PINHOLE;
-      cfg->have_calibration = true;
-      cfg->cal_fx = f.fx;
-      cfg->cal_fy = f.fy;
-      cfg->cal_cx = f.cx;
-      cfg->cal_cy = f.cy;
-      cfg->cal_dist = f.dist;
-      if (f.has_camera_height)
-        m.camera_height = f.camera_height;
-      if (f.has_tilt)
-        m.tilt = f.tilt_deg;
-      cfg->calib_has_tilt = f.has_tilt;
-      if (f.has_roll)
-        m.roll = f.roll_deg;
-    }
-  }
-  const Settings & e = cfg->s;    /* the effective settings */
-  if (!(e.camera_height > 0)) {
-    *property = "camera-height";
-    *why = "the camera height must be positive, got " +
-        std::to_string (e.camera_height);
-    return FALSE;
-  }
-  if (e.model == GST_IPM_RANGE_MODEL_PINHOLE) {
-    if (!(e.hfov > 0 && e.hfov < 180) && e.fx <= 0 && !cfg->have_calibration) {
-      *property = "hfov";
-      *why = "the horizontal field of view must be within (0, 180) degrees, "
-          "got " + std::to_string (e.hfov);
-      return FALSE;
-    }
-    if (!(e.tilt >= -90 && e.tilt <= 90)) {
-      *property = "tilt";
-      *why = "the tilt must be within [-90, 90] degrees, got " +
-          std::to_string (e.tilt);
-      return FALSE;
-    }
-  } else {
-    if (!(e.depth > 0)) {
-      *property = "view-depth";
-      *why = "model=seed needs view-depth > 0 (and blind-distance, "
-          "half-width), got " + std::to_string (e.depth);
-      return FALSE;
-    }
-    if (!(e.half_width > 0)) {
-      *property = "half-width";
-      *why = "model=seed needs half-width > 0, got " +
-          std::to_string (e.half_width);
-      return FALSE;
-    }
-  }
-  if (e.marker_height >= e.camera_height) {
-    *property = "marker-height";
-    *why = "the marker centre must be below the camera (marker-height " +
-        std::to_string (s.marker_height) + " >= camera-height " +
-        std::to_string (e.camera_height) + ")";
-    return FALSE;
-  }
-  cfg->default_marker.z = s.marker_height;
-  cfg->default_marker.diameter = s.marker_diameter;
-  cfg->default_marker.ball = s.marker_kind == GST_IPM_RANGE_MARKER_BALL;
+  /* the camera file wins for what it holds (floorprofile.h) */
+  if (!landmark::camera_setup_resolve (s.camera, &cfg->camera,
+          &err->property, &err->why))
+    return false;
+  const double camera_height = cfg->camera.e.camera_height;
+  if (s.marker_height >= camera_height)
+    return err->fail ("marker-height", "the marker centre must be below the "
+        "camera (marker-height " + landmark::number_text (s.marker_height) +
+        " >= camera-height " + landmark::number_text (camera_height) + ")");
+  landmark::MarkerSpec marker;
+  marker.z = s.marker_height;
+  marker.diameter = s.marker_diameter;
+  marker.ball = s.marker_kind == GST_IPM_RANGE_MARKER_BALL;
+  err->property = "map";
+  return landmark::marker_classes_load (s.map, marker, camera_height,
+      &cfg->markers, &err->why);
+}
 
-  if (!s.map.empty ()) {
-    landmark::LandmarkMap map;
-    std::string err;
-    if (!landmark::map_load_file (s.map, &map, &err)) {
-      *property = "map";
-      *why = err;
-      return FALSE;
-    }
-    for (const auto & lm : map.landmarks) {
-      /* the same rule as marker-height: a marker plane at or above the
-       * camera is never seen from above */
-      if (lm.z >= e.camera_height) {
-        *property = "map";
-        *why = s.map + ": landmark \"" + lm.id + "\" (class " +
-            lm.class_name + ") has z " + landmark::number_text (lm.z) +
-            " m: a marker centre must be below the camera (camera-height " +
-            landmark::number_text (e.camera_height) + " m)";
-        return FALSE;
-      }
-      cfg->map_classes.push_back ({ lm.class_name, lm.id });
-      landmark::MarkerSpec m;
-      m.z = lm.z;
-      m.diameter = lm.diameter;
-      m.ball = lm.ball;
-      auto & specs = cfg->hypotheses[lm.class_name];
-      const bool known = std::any_of (specs.begin (), specs.end (),
-          [&](const landmark::MarkerSpec & o) {
-            return std::fabs (o.z - m.z) <= 1e-9
-                && std::fabs (o.diameter - m.diameter) <= 1e-9
-                && o.ball == m.ball;
-          });
-      if (!known)
-        specs.push_back (m);
-    }
-    for (auto it = cfg->hypotheses.begin (); it != cfg->hypotheses.end ();) {
-      if (it->second.size () == 1) {
-        cfg->markers[it->first] = it->second[0];
-        it = cfg->hypotheses.erase (it);
-      } else {
-        cfg->ambiguous.push_back (it->first);
-        ++it;
-      }
-    }
-  }
-
-  /* the geometry, at the calibration's or a nominal frame size */
-  landmark::CameraParams p;
-  const int w = cfg->calib_w > 0 ? cfg->calib_w : NOMINAL_WIDTH;
-  const int h = cfg->calib_h > 0 ? cfg->calib_h : NOMINAL_HEIGHT;
-  if (!ipm_range_camera_params (*cfg, w, h, &p, property, why))
-    return FALSE;
-  landmark::CameraGeometry g;
-  std::string err;
-  if (!g.configure (p, &err)) {
-    /* blame what set the geometry: the camera file when it holds the
-     * model or the tilt, otherwise the property */
-    const bool from_file = !s.calibration.empty () &&
-        (cfg->calib_has_tilt || e.model == GST_IPM_RANGE_MODEL_SEED);
-    *property = from_file ? "calibration" :
-        e.model == GST_IPM_RANGE_MODEL_SEED ? "model" : "tilt";
-    *why = err;
-    if (from_file)
-      *why = s.calibration + ": " + err + (cfg->calib_has_tilt ?
-          " (tilt_deg " + landmark::number_text (e.tilt) + ", camera_height " +
-          landmark::number_text (e.camera_height) + " m)" : std::string ());
-    else if (!s.calibration.empty ())
-      *why = err + " (tilt property with the intrinsics of " +
-          s.calibration + ")";
-    return FALSE;
-  }
-  return TRUE;
+static const landmark::PropertyTable<Settings> &
+ipm_range_properties ()
+{
+  static const auto table = landmark::PropertyTable<Settings> ()
+      .part (&Settings::camera, camera_properties ())
+      .number ("marker-height", "Marker height",
+          "Height of the markers' centre above the floor, metres (a ball: "
+          "its radius); the map's z overrides it per class",
+          &Settings::marker_height, 0.0, 1000.0)
+      .number ("marker-diameter", "Marker diameter",
+          "Diameter of the markers, metres, for the size range (0: "
+          "unknown); the map's diameter overrides it per class",
+          &Settings::marker_diameter, 0.0, 1000.0)
+      .enumeration ("marker-kind", "Marker kind",
+          "Shape of the markers; the map's kind overrides it per class",
+          &Settings::marker_kind, GST_TYPE_IPM_RANGE_MARKER_KIND)
+      .string ("map", "Map file",
+          "Landmark map JSON: z, diameter and kind of each class's "
+          "landmarks", &Settings::map)
+      .enumeration ("range-method", "Range method", "What range reports",
+          &Settings::method, GST_TYPE_IPM_RANGE_METHOD)
+      .number ("pixel-sigma", "Pixel sigma",
+          "One-sigma error of a measured image point, pixels, for "
+          "range-sigma, bearing-sigma and the fused weights",
+          &Settings::pixel_sigma, 0.0, 100.0)
+      .boolean ("check-size", "Check size",
+          "Reject a detection (kept=false, reject-reason=size) whose image "
+          "disagrees in size or aspect with a marker of known diameter at "
+          "its floor position", &Settings::check_size);
+  return table;
 }
 
 /* Builds the geometry for a frame size; posts an error on failure. */
@@ -491,8 +251,8 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
   landmark::CameraParams p;
   const char *property = nullptr;
   std::string why;
-  if (ipm_range_camera_params (st.config, width, height, &p, &property,
-          &why)) {
+  if (landmark::camera_setup_params (st.applied.config.camera, width, height,
+          &p, &property, &why)) {
     property = "tilt";
     if (st.geometry.configure (p, &why)) {
       st.geometry_w = width;
@@ -524,240 +284,63 @@ static void
 gst_ipm_range_init (GstIpmRange * self)
 {
   self->priv = new GstIpmRangePrivate ();
-  GstBaseTransform *trans = GST_BASE_TRANSFORM (self);
-  gst_base_transform_set_in_place (trans, TRUE);
-  gst_base_transform_set_qos_enabled (trans, FALSE);
-}
-
-static void
-gst_ipm_range_finalize (GObject * object)
-{
-  delete GST_IPM_RANGE (object)->priv;
-  G_OBJECT_CLASS (gst_ipm_range_parent_class)->finalize (object);
-}
-
-static void
-gst_ipm_range_set_property (GObject * object, guint prop_id,
-    const GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_IPM_RANGE (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  Settings & s = priv->settings;
-  switch (prop_id) {
-    case PROP_MODEL:
-      s.model = (GstIpmRangeModel) g_value_get_enum (value);
-      break;
-    case PROP_CAMERA_HEIGHT:
-      s.camera_height = g_value_get_double (value);
-      break;
-    case PROP_TILT:
-      s.tilt = g_value_get_double (value);
-      break;
-    case PROP_ROLL:
-      s.roll = g_value_get_double (value);
-      break;
-    case PROP_HFOV:
-      s.hfov = g_value_get_double (value);
-      break;
-    case PROP_FX:
-      s.fx = g_value_get_double (value);
-      break;
-    case PROP_FY:
-      s.fy = g_value_get_double (value);
-      break;
-    case PROP_CX:
-      s.cx = g_value_get_double (value);
-      break;
-    case PROP_CY:
-      s.cy = g_value_get_double (value);
-      break;
-    case PROP_CALIBRATION:{
-      const gchar *v = g_value_get_string (value);
-      s.calibration = v ? v : "";
-      break;
-    }
-    case PROP_BLIND_DISTANCE:
-      s.blind = g_value_get_double (value);
-      break;
-    case PROP_VIEW_DEPTH:
-      s.depth = g_value_get_double (value);
-      break;
-    case PROP_HALF_WIDTH:
-      s.half_width = g_value_get_double (value);
-      break;
-    case PROP_MARKER_HEIGHT:
-      s.marker_height = g_value_get_double (value);
-      break;
-    case PROP_MARKER_DIAMETER:
-      s.marker_diameter = g_value_get_double (value);
-      break;
-    case PROP_MARKER_KIND:
-      s.marker_kind = (GstIpmRangeMarkerKind) g_value_get_enum (value);
-      break;
-    case PROP_MAP:{
-      const gchar *v = g_value_get_string (value);
-      s.map = v ? v : "";
-      break;
-    }
-    case PROP_RANGE_METHOD:
-      s.method = (GstIpmRangeMethod) g_value_get_enum (value);
-      break;
-    case PROP_PIXEL_SIGMA:
-      s.pixel_sigma = g_value_get_double (value);
-      break;
-    case PROP_CHECK_SIZE:
-      s.check_size = g_value_get_boolean (value);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      return;
-  }
-  s.generation++;
-}
-
-static void
-gst_ipm_range_get_property (GObject * object, guint prop_id,
-    GValue * value, GParamSpec * pspec)
-{
-  auto priv = GST_IPM_RANGE (object)->priv;
-  std::lock_guard<std::mutex> lk (priv->lock);
-  const Settings & s = priv->settings;
-  switch (prop_id) {
-    case PROP_MODEL:
-      g_value_set_enum (value, s.model);
-      break;
-    case PROP_CAMERA_HEIGHT:
-      g_value_set_double (value, s.camera_height);
-      break;
-    case PROP_TILT:
-      g_value_set_double (value, s.tilt);
-      break;
-    case PROP_ROLL:
-      g_value_set_double (value, s.roll);
-      break;
-    case PROP_HFOV:
-      g_value_set_double (value, s.hfov);
-      break;
-    case PROP_FX:
-      g_value_set_double (value, s.fx);
-      break;
-    case PROP_FY:
-      g_value_set_double (value, s.fy);
-      break;
-    case PROP_CX:
-      g_value_set_double (value, s.cx);
-      break;
-    case PROP_CY:
-      g_value_set_double (value, s.cy);
-      break;
-    case PROP_CALIBRATION:
-      g_value_set_string (value, s.calibration.empty ()? nullptr :
-          s.calibration.c_str ());
-      break;
-    case PROP_BLIND_DISTANCE:
-      g_value_set_double (value, s.blind);
-      break;
-    case PROP_VIEW_DEPTH:
-      g_value_set_double (value, s.depth);
-      break;
-    case PROP_HALF_WIDTH:
-      g_value_set_double (value, s.half_width);
-      break;
-    case PROP_MARKER_HEIGHT:
-      g_value_set_double (value, s.marker_height);
-      break;
-    case PROP_MARKER_DIAMETER:
-      g_value_set_double (value, s.marker_diameter);
-      break;
-    case PROP_MARKER_KIND:
-      g_value_set_enum (value, s.marker_kind);
-      break;
-    case PROP_MAP:
-      g_value_set_string (value, s.map.empty ()? nullptr : s.map.c_str ());
-      break;
-    case PROP_RANGE_METHOD:
-      g_value_set_enum (value, s.method);
-      break;
-    case PROP_PIXEL_SIGMA:
-      g_value_set_double (value, s.pixel_sigma);
-      break;
-    case PROP_CHECK_SIZE:
-      g_value_set_boolean (value, s.check_size);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
-      break;
-  }
+  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
 }
 
 /* ---- states and caps ------------------------------------------------ */
 
-/* Parses the current settings into the state; posts an error (fatal) or a
- * warning and keeps the previous configuration. */
-static gboolean
-gst_ipm_range_configure (GstIpmRange * self, gboolean fatal)
+/* Settings changed while playing: parsed, and the geometry rebuilt at the
+ * current size; a bad value (or a geometry that sees no floor) is a
+ * warning and the previous settings and geometry stay. */
+static void
+gst_ipm_range_sync_settings (GstIpmRange * self)
 {
   State & st = self->priv->state;
-  Settings s;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    s = self->priv->settings;
-  }
-  const char *property = nullptr;
-  std::string why;
-  Config cfg;
-  st.generation = s.generation;
-  if (!ipm_range_parse (s, &cfg, &property, &why)) {
-    if (fatal)
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
-    else
-      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value; the previous settings stay.", property),
-          ("%s", why.c_str ()));
-    return FALSE;
-  }
-  for (const auto & name : cfg.ambiguous)
-    GST_INFO_OBJECT (self, "map %s: the '%s' landmarks differ in height, "
-        "diameter or kind: each detection is ranged under every spec and the "
-        "one whose ground and size ranges agree is kept", s.map.c_str (),
-        name.c_str ());
-  const Config old = st.config;
-  if (cfg.map_classes != old.map_classes)
+  landmark::CameraGeometry geometry;
+  bool classes_changed = false;
+  const gint w = st.geometry_w ? st.geometry_w : st.caps_w;
+  const gint h = st.geometry_w ? st.geometry_h : st.caps_h;
+  auto parse_and_build = [&](const Settings & s, Config * cfg,
+      landmark::SettingsError * err) {
+    landmark::CameraParams p;
+    if (!ipm_range_parse (s, cfg, err))
+      return false;
+    classes_changed = cfg->markers.map_classes !=
+        st.applied.config.markers.map_classes;
+    if (w < 2 || h < 2)
+      return true;
+    if (!landmark::camera_setup_params (cfg->camera, w, h, &p,
+            &err->property, &err->why))
+      return false;
+    err->property = cfg->camera.e.seed ? "model" : "tilt";
+    return geometry.configure (p, &err->why);
+  };
+  if (!st.applied.sync (GST_ELEMENT (self), self->priv->settings,
+          parse_and_build))
+    return;
+  if (classes_changed)
     st.map_classes_checked = false;
-  st.config = std::move (cfg);
-  if (st.geometry_w > 0 && !gst_ipm_range_build (self, st.geometry_w,
-          st.geometry_h, fatal)) {
-    /* keep the previous, working configuration */
-    if (!fatal) {
-      st.config = old;
-      gst_ipm_range_build (self, st.geometry_w ? st.geometry_w :
-          st.caps_w, st.geometry_h ? st.geometry_h : st.caps_h, FALSE);
-    }
-    return FALSE;
+  if (w >= 2 && h >= 2) {
+    st.geometry = std::move (geometry);
+    st.geometry_w = w;
+    st.geometry_h = h;
   }
-  return TRUE;
 }
 
 static GstStateChangeReturn
 gst_ipm_range_change_state (GstElement * element, GstStateChange transition)
 {
   auto self = GST_IPM_RANGE (element);
+  /* bad settings and files fail READY; the files are read here once */
   if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
-    /* check the settings and files early: bad geometry fails READY */
-    Settings s;
-    {
-      std::lock_guard<std::mutex> lk (self->priv->lock);
-      s = self->priv->settings;
-    }
-    Config cfg;
-    const char *property = nullptr;
-    std::string why;
-    if (!ipm_range_parse (s, &cfg, &property, &why)) {
-      GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-          ("Invalid '%s' value.", property), ("%s", why.c_str ()));
+    State & st = self->priv->state;
+    if (!st.applied.start (element, self->priv->settings, ipm_range_parse))
       return GST_STATE_CHANGE_FAILURE;
-    }
+    for (const auto & h : st.applied.config.markers.hypotheses)
+      GST_INFO_OBJECT (self, "map %s: the '%s' landmarks differ in height, "
+          "diameter or kind: each detection is ranged under every spec and "
+          "the one whose ground and size ranges agree is kept",
+          st.applied.config.s.map.c_str (), h.first.c_str ());
   }
   return GST_ELEMENT_CLASS (gst_ipm_range_parent_class)->change_state
       (element, transition);
@@ -771,7 +354,7 @@ gst_ipm_range_start (GstBaseTransform * trans)
   st.geometry_w = st.geometry_h = 0;
   st.caps_w = st.caps_h = 0;
   st.map_classes_checked = false;
-  return gst_ipm_range_configure (self, TRUE);
+  return TRUE;
 }
 
 static gboolean
@@ -863,7 +446,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     GstVideoRegionOfInterestMeta * roi)
 {
   State & st = self->priv->state;
-  const Config & cfg = st.config;
+  const Config & cfg = st.applied.config;
   const GstStructure *blob = landmark_detection_get_param (buf, roi,
       LANDMARK_BLOB_PARAMS);
 
@@ -915,18 +498,10 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   obs.sx = (double) st.geometry_w / fw;
   obs.sy = (double) st.geometry_h / fh;
 
-  landmark::MarkerSpec marker = cfg.default_marker;
-  const gchar *cls = g_quark_to_string (roi->roi_type);
   const std::vector<landmark::MarkerSpec> *hypotheses = nullptr;
-  if (cls) {
-    auto it = cfg.markers.find (cls);
-    if (it != cfg.markers.end ())
-      marker = it->second;
-    auto h = cfg.hypotheses.find (cls);
-    if (h != cfg.hypotheses.end ())
-      hypotheses = &h->second;
-  }
-  if (marker.z >= cfg.s.camera_height)
+  landmark::MarkerSpec marker = cfg.markers.spec (g_quark_to_string
+      (roi->roi_type), &hypotheses);
+  if (marker.z >= cfg.camera.e.camera_height)
     marker.z = 0;   /* cannot range it; treat as on the floor */
 
   landmark::RangeEstimate e;
@@ -1034,157 +609,40 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_IPM_RANGE (trans);
   State & st = self->priv->state;
-  guint generation;
-  {
-    std::lock_guard<std::mutex> lk (self->priv->lock);
-    generation = self->priv->settings.generation;
-  }
-  if (generation != st.generation) {
-    gst_ipm_range_configure (self, FALSE);
-    if (st.geometry_w == 0 && st.caps_w >= 2 && st.caps_h >= 2)
-      gst_ipm_range_build (self, st.caps_w, st.caps_h, FALSE);
-  }
+  gst_ipm_range_sync_settings (self);
+  if (st.geometry_w == 0 && st.caps_w >= 2 && st.caps_h >= 2)
+    gst_ipm_range_build (self, st.caps_w, st.caps_h, FALSE);
   /* A map class that the palette lacks is legal (a map may serve several
    * robots) but never matches: say so once, with the first labels. */
+  const Config & cfg = st.applied.config;
   const GstStructure *labels;
-  if (!st.map_classes_checked && !st.config.map_classes.empty ()
+  if (!st.map_classes_checked && !cfg.markers.map_classes.empty ()
       && (labels = landmark_labels_meta_get (buf))) {
     st.map_classes_checked = true;
     landmark_warn_map_classes_missing (GST_ELEMENT_CAST (self), labels,
-        st.config.s.map, st.config.map_classes,
+        cfg.s.map, cfg.markers.map_classes,
         "their heights and sizes are never used.");
   }
-  try {
-    /* collect first: adding parameters adds metas to the buffer */
-    std::vector<GstVideoRegionOfInterestMeta *> rois;
-    gpointer iter = nullptr;
-    GstMeta *meta;
-    while ((meta = gst_buffer_iterate_meta_filtered (buf, &iter,
-                GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE)))
-      rois.push_back ((GstVideoRegionOfInterestMeta *) meta);
-    for (GstVideoRegionOfInterestMeta * roi : rois)
-      gst_ipm_range_measure (self, buf, roi);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Ranging failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
-  return GST_FLOW_OK;
+  return landmark::run_frame (GST_ELEMENT (self), "Ranging failed.", [&] {
+        /* collect first: adding parameters adds metas to the buffer */
+        landmark_detections_collect (buf, &st.rois);
+        for (GstVideoRegionOfInterestMeta * roi : st.rois)
+          gst_ipm_range_measure (self, buf, roi);
+        return GST_FLOW_OK;
+      });
 }
 
 static void
 gst_ipm_range_class_init (GstIpmRangeClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  gobject_class->set_property = gst_ipm_range_set_property;
-  gobject_class->get_property = gst_ipm_range_get_property;
-  gobject_class->finalize = gst_ipm_range_finalize;
-
-  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
-      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-  g_object_class_install_property (gobject_class, PROP_MODEL,
-      g_param_spec_enum ("model", "Camera model",
-          "How pixels map to the floor", GST_TYPE_IPM_RANGE_MODEL,
-          DEFAULT_MODEL, flags));
-  g_object_class_install_property (gobject_class, PROP_CAMERA_HEIGHT,
-      g_param_spec_double ("camera-height", "Camera height",
-          "Height of the camera's optical centre above the floor, metres "
-          "(must be > 0)", 0.0, 1000.0, DEFAULT_CAMERA_HEIGHT, flags));
-  g_object_class_install_property (gobject_class, PROP_TILT,
-      g_param_spec_double ("tilt", "Tilt",
-          "model=pinhole: degrees below the horizontal",
-          -90.0, 90.0, DEFAULT_TILT, flags));
-  g_object_class_install_property (gobject_class, PROP_ROLL,
-      g_param_spec_double ("roll", "Roll",
-          "model=pinhole: degrees about the optical axis, clockwise as seen "
-          "from behind the camera", -360.0, 360.0, DEFAULT_ROLL, flags));
-  g_object_class_install_property (gobject_class, PROP_HFOV,
-      g_param_spec_double ("hfov", "Horizontal field of view",
-          "model=pinhole: degrees, (0, 180), principal point at the image "
-          "centre; unused when fx or calibration is set", 0.0, 180.0,
-          DEFAULT_HFOV, flags));
-  g_object_class_install_property (gobject_class, PROP_FX,
-      g_param_spec_double ("fx", "Focal length x",
-          "model=pinhole: pixels; 0: from hfov", 0.0, G_MAXDOUBLE,
-          DEFAULT_FX, flags));
-  g_object_class_install_property (gobject_class, PROP_FY,
-      g_param_spec_double ("fy", "Focal length y",
-          "model=pinhole: pixels; 0: as fx", 0.0, G_MAXDOUBLE, DEFAULT_FY,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_CX,
-      g_param_spec_double ("cx", "Principal point x",
-          "model=pinhole with fx: pixels; < 0: (width - 1) / 2", -1.0,
-          G_MAXDOUBLE, DEFAULT_CX, flags));
-  g_object_class_install_property (gobject_class, PROP_CY,
-      g_param_spec_double ("cy", "Principal point y",
-          "model=pinhole with fx: pixels; < 0: (height - 1) / 2", -1.0,
-          G_MAXDOUBLE, DEFAULT_CY, flags));
-  g_object_class_install_property (gobject_class, PROP_CALIBRATION,
-      g_param_spec_string ("calibration", "Calibration file",
-          "Camera file (OpenCV FileStorage YAML or XML, as gst-landmark "
-          "calibrate writes it): camera_matrix and distortion_coefficients "
-          "(model pinhole), or model: seed with its four lengths (model "
-          "seed); what the file holds (also camera_height, tilt_deg, "
-          "roll_deg) overrides the properties", nullptr, flags));
-  g_object_class_install_property (gobject_class, PROP_BLIND_DISTANCE,
-      g_param_spec_double ("blind-distance", "Blind distance",
-          "model=seed: metres along the floor from the camera's floor point "
-          "to the first visible floor point (b)", 0.0, 1000.0,
-          DEFAULT_BLIND, flags));
-  g_object_class_install_property (gobject_class, PROP_VIEW_DEPTH,
-      g_param_spec_double ("view-depth", "View depth",
-          "model=seed: metres of floor from the first visible point to the "
-          "point seen at the image centre line (d)", 0.0, 1000.0,
-          DEFAULT_DEPTH, flags));
-  g_object_class_install_property (gobject_class, PROP_HALF_WIDTH,
-      g_param_spec_double ("half-width", "Half width",
-          "model=seed: half-width of the visible floor at distance b + d, "
-          "metres (w)", 0.0, 1000.0, DEFAULT_HALF_WIDTH, flags));
-  g_object_class_install_property (gobject_class, PROP_MARKER_HEIGHT,
-      g_param_spec_double ("marker-height", "Marker height",
-          "Height of the markers' centre above the floor, metres (a ball: "
-          "its radius); the map's z overrides it per class", 0.0, 1000.0,
-          DEFAULT_MARKER_HEIGHT, flags));
-  g_object_class_install_property (gobject_class, PROP_MARKER_DIAMETER,
-      g_param_spec_double ("marker-diameter", "Marker diameter",
-          "Diameter of the markers, metres, for the size range (0: "
-          "unknown); the map's diameter overrides it per class", 0.0,
-          1000.0, DEFAULT_MARKER_DIAMETER, flags));
-  g_object_class_install_property (gobject_class, PROP_MARKER_KIND,
-      g_param_spec_enum ("marker-kind", "Marker kind",
-          "Shape of the markers; the map's kind overrides it per class",
-          GST_TYPE_IPM_RANGE_MARKER_KIND, DEFAULT_MARKER_KIND, flags));
-  g_object_class_install_property (gobject_class, PROP_MAP,
-      g_param_spec_string ("map", "Map file",
-          "Landmark map JSON: z, diameter and kind of each class's "
-          "landmarks", nullptr, flags));
-  g_object_class_install_property (gobject_class, PROP_RANGE_METHOD,
-      g_param_spec_enum ("range-method", "Range method",
-          "What range reports", GST_TYPE_IPM_RANGE_METHOD, DEFAULT_METHOD,
-          flags));
-  g_object_class_install_property (gobject_class, PROP_PIXEL_SIGMA,
-      g_param_spec_double ("pixel-sigma", "Pixel sigma",
-          "One-sigma error of a measured image point, pixels, for "
-          "range-sigma, bearing-sigma and the fused weights", 0.0, 100.0,
-          DEFAULT_PIXEL_SIGMA, flags));
-  g_object_class_install_property (gobject_class, PROP_CHECK_SIZE,
-      g_param_spec_boolean ("check-size", "Check size",
-          "Reject a detection (kept=false, reject-reason=size) whose image "
-          "disagrees in size or aspect with a marker of known diameter at "
-          "its floor position", DEFAULT_CHECK_SIZE, flags));
-
-  gst_element_class_set_static_metadata (element_class,
+  landmark::metadata_element_class_init<Settings, gst_ipm_range_settings,
+      ipm_range_properties> (klass, gst_ipm_range_finalize,
       "Landmark range by inverse perspective mapping",
       "Filter/Analyzer/Video",
       "Adds range and bearing (robot frame) to every landmark detection, "
-      "from a pinhole or the seed's camera model and the markers' size",
-      "gst-landmark developers");
-  gst_element_class_add_static_pad_template (element_class, &sink_template);
-  gst_element_class_add_static_pad_template (element_class, &src_template);
+      "from a pinhole or the seed's camera model and the markers' size");
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   element_class->change_state = GST_DEBUG_FUNCPTR (gst_ipm_range_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_ipm_range_start);

@@ -124,19 +124,11 @@ struct GstLabSegmentPrivate {
   State state;
 };
 
-struct _GstLabSegment {
-  GstVideoFilter parent;
-  GstLabSegmentPrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstLabSegment, gst_lab_segment,
-    GST_TYPE_VIDEO_FILTER,
-    GST_DEBUG_CATEGORY_INIT (gst_lab_segment_debug, "labsegment", 0,
-        "CIE L*a*b* colour segmentation"));
-GST_ELEMENT_REGISTER_DEFINE (labsegment, "labsegment", GST_RANK_NONE,
-    GST_TYPE_LAB_SEGMENT);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_lab_segment, GST_LAB_SEGMENT);
+LANDMARK_DEFINE_ELEMENT (GstLabSegment, gst_lab_segment, GstVideoFilter,
+    GST_TYPE_VIDEO_FILTER, labsegment,
+    "CIE L*a*b* colour segmentation");
 
 GType
 gst_lab_segment_output_get_type (void)

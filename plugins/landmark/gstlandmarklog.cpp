@@ -124,19 +124,11 @@ struct GstLandmarkLogPrivate {
   State state;
 };
 
-struct _GstLandmarkLog {
-  GstBaseTransform parent;
-  GstLandmarkLogPrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstLandmarkLog, gst_landmark_log,
-    GST_TYPE_BASE_TRANSFORM,
-    GST_DEBUG_CATEGORY_INIT (gst_landmark_log_debug, "landmarklog", 0,
-        "Landmark metadata to JSON Lines"));
-GST_ELEMENT_REGISTER_DEFINE (landmarklog, "landmarklog", GST_RANK_NONE,
-    GST_TYPE_LANDMARK_LOG);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_landmark_log, GST_LANDMARK_LOG);
+LANDMARK_DEFINE_ELEMENT (GstLandmarkLog, gst_landmark_log, GstBaseTransform,
+    GST_TYPE_BASE_TRANSFORM, landmarklog,
+    "Landmark metadata to JSON Lines");
 
 /* ---- JSON text ------------------------------------------------------ */
 

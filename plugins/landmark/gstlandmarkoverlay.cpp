@@ -133,19 +133,11 @@ struct GstLandmarkOverlayPrivate {
   State state;
 };
 
-struct _GstLandmarkOverlay {
-  GstVideoFilter parent;
-  GstLandmarkOverlayPrivate *priv;
-};
 /* *INDENT-ON* */
 
-G_DEFINE_TYPE_WITH_CODE (GstLandmarkOverlay, gst_landmark_overlay,
-    GST_TYPE_VIDEO_FILTER,
-    GST_DEBUG_CATEGORY_INIT (gst_landmark_overlay_debug, "landmarkoverlay", 0,
-        "Draws landmark detections, pose, class histogram and map"));
-GST_ELEMENT_REGISTER_DEFINE (landmarkoverlay, "landmarkoverlay",
-    GST_RANK_NONE, GST_TYPE_LANDMARK_OVERLAY);
-LANDMARK_DEFINE_ELEMENT_PRIVATE (gst_landmark_overlay, GST_LANDMARK_OVERLAY);
+LANDMARK_DEFINE_ELEMENT (GstLandmarkOverlay, gst_landmark_overlay,
+    GstVideoFilter, GST_TYPE_VIDEO_FILTER, landmarkoverlay,
+    "Draws landmark detections, pose, class histogram and map");
 
 /* ---- configuration -------------------------------------------------- */
 

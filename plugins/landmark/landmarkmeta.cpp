@@ -468,44 +468,22 @@ landmark_detection_count (GstBuffer * buffer)
   return n;
 }
 
-GstStructure *
-landmark_pose_meta_add (GstBuffer * buffer)
-{
-  gst_landmark_pose_meta_get_info ();
-  return replace_custom_meta (buffer, GST_LANDMARK_POSE_META_NAME);
-}
+/* landmark_NAME_meta_add (replacing the buffer's meta of that name, so an
+ * element run twice leaves one) and landmark_NAME_meta_get. */
+#define DEFINE_CUSTOM_META_ACCESSORS(name, meta_name)                        \
+  GstStructure *landmark_##name##_meta_add (GstBuffer * buffer)               \
+  {                                                                           \
+    gst_landmark_##name##_meta_get_info ();                                   \
+    return replace_custom_meta (buffer, meta_name);                           \
+  }                                                                           \
+  const GstStructure *landmark_##name##_meta_get (GstBuffer * buffer)         \
+  {                                                                           \
+    return custom_structure (buffer, meta_name);                              \
+  }
 
-const GstStructure *
-landmark_pose_meta_get (GstBuffer * buffer)
-{
-  return custom_structure (buffer, GST_LANDMARK_POSE_META_NAME);
-}
-
-GstStructure *
-landmark_map_meta_add (GstBuffer * buffer)
-{
-  gst_landmark_map_meta_get_info ();
-  return replace_custom_meta (buffer, GST_LANDMARK_MAP_META_NAME);
-}
-
-const GstStructure *
-landmark_map_meta_get (GstBuffer * buffer)
-{
-  return custom_structure (buffer, GST_LANDMARK_MAP_META_NAME);
-}
-
-GstStructure *
-landmark_floor_meta_add (GstBuffer * buffer)
-{
-  gst_landmark_floor_meta_get_info ();
-  return replace_custom_meta (buffer, GST_LANDMARK_FLOOR_META_NAME);
-}
-
-const GstStructure *
-landmark_floor_meta_get (GstBuffer * buffer)
-{
-  return custom_structure (buffer, GST_LANDMARK_FLOOR_META_NAME);
-}
+DEFINE_CUSTOM_META_ACCESSORS (pose, GST_LANDMARK_POSE_META_NAME);
+DEFINE_CUSTOM_META_ACCESSORS (map, GST_LANDMARK_MAP_META_NAME);
+DEFINE_CUSTOM_META_ACCESSORS (floor, GST_LANDMARK_FLOOR_META_NAME);
 
 gboolean
 landmark_floor_map_array (const GstStructure * floor, const gchar * field,
@@ -655,4 +633,63 @@ landmark_labels_or_warn (GstElement * element, GstBuffer * buf, bool *warned)
     *warned = true;
   }
   return labels;
+}
+
+bool
+LandmarkLabelClasses::changed (const GstStructure * labels)
+{
+  const guint n = MIN (landmark_labels_n_classes (labels), 255u);
+  bool same = valid && names.size () == n;
+  for (guint k = 0; same && k < n; k++) {
+    const gchar *name = landmark_labels_class_name (labels, k);
+    same = name && names[k] == name &&
+        markers[k] == (bool) landmark_labels_class_is_marker (labels, k);
+  }
+  if (same)
+    return false;
+  names.clear ();
+  markers.clear ();
+  for (guint k = 0; k < n; k++) {
+    const gchar *name = landmark_labels_class_name (labels, k);
+    names.emplace_back (name ? name : "");
+    markers.push_back (landmark_labels_class_is_marker (labels, k));
+  }
+  valid = false;
+  return true;
+}
+
+void
+LandmarkLabelClasses::reset ()
+{
+  names.clear ();
+  markers.clear ();
+  valid = false;
+}
+
+bool
+LandmarkLabelClasses::labels_of (GstElement * element, const char *property,
+    const std::vector < std::string > &wanted,
+    std::vector < guint > *labels) const
+{
+  labels->clear ();
+  for (const std::string & want : wanted) {
+    const auto it = std::find (names.begin (), names.end (), want);
+    if (it == names.end ()) {
+      GST_ELEMENT_ERROR (element, RESOURCE, SETTINGS,
+          ("Invalid '%s' value: no class \"%s\" in the labels.", property,
+              want.c_str ()), ("the palette has: %s", list ().c_str ()));
+      return false;
+    }
+    labels->push_back ((guint) (it - names.begin ()) + 1);
+  }
+  return true;
+}
+
+std::string
+LandmarkLabelClasses::list () const
+{
+  std::string known;
+  for (const auto & name : names)
+    known += (known.empty ()? "" : ", ") + name;
+  return known;
 }

@@ -189,6 +189,28 @@ void landmark_warn_map_classes_missing (GstElement * element,
 const GstStructure *landmark_labels_or_warn (GstElement * element,
     GstBuffer * buf, bool *warned);
 
+/* The classes of the labels meta (names and marker flags, at most 255),
+ * kept from frame to frame so that an element rebuilds what it derives
+ * from them (label roles, slots) only when they change. */
+struct LandmarkLabelClasses
+{
+  std::vector < std::string > names;
+  std::vector < bool > markers;
+  bool valid = false;           /* what the element derived is current */
+
+  /* Reads the labels' classes: true when they differ from the kept ones
+   * or valid is false (then valid is cleared until the element sets it). */
+  bool changed (const GstStructure * labels);
+  void reset ();
+  /* The label (index + 1) of every wanted class; an unknown one posts an
+   * ERROR naming property and the classes the labels have. */
+  bool labels_of (GstElement * element, const char *property,
+      const std::vector < std::string > &wanted,
+      std::vector < guint > *labels) const;
+  /* "red, green, ..." */
+  std::string list () const;
+};
+
 /* The region-of-interest metas of buffer, in its order (out is cleared
  * first; its storage is kept, so a reused vector does not allocate). */
 void landmark_detections_collect (GstBuffer * buffer,

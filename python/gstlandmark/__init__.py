@@ -1,10 +1,29 @@
 """gst-landmark: colour landmark localisation with GStreamer.
 
-Submodules:
-  meta       read the metadata our elements attach to buffers
-  palette    load, validate and learn colour palettes
-  reference  plain numpy/OpenCV implementation of the algorithms (test oracle)
-  cli        the ``gst-landmark`` command
+The package has three layers; each imports only from the ones above it
+(tests/python/test_layers.py checks this and that there is no import
+cycle):
+
+The library (this folder), what applications import:
+  meta         read the metadata our elements attach to buffers
+  messages     typed views of the elements' ``landmark-*`` messages
+  pipeline     run our elements from Python (frames in, results out)
+  plugin       find the plugin the set-up built (used by pipeline.init)
+  pipelinefile the shipped pipeline files (package data)
+  palette      load, validate and learn colour palettes
+  landmarkmap  read landmark map files (the one reader)
+  landmarklog  read landmarklog (JSON Lines) files
+  camerafile   read and write camera files
+  reference    plain numpy/OpenCV implementation of the algorithms
+  webguard     the access rules of the project's web pages
+  synth        the synthetic world with exact ground truth
+
+commands/: the ``gst-landmark`` command (``commands.cli``) and its
+  sub-commands (run, demo, calibrate, evaluate, synth, record, fleet,
+  console, floormap, palette).
+
+devtools/: developer tools: benchmarks, regression goldens and
+  ``regress``, soak and valgrind runs, the accuracy sweep.
 """
 
 __version__ = "0.1.0"

@@ -15,13 +15,15 @@ gi.require_version("Gst", "1.0")
 gi.require_version("GstVideo", "1.0")
 from gi.repository import Gst, GstVideo  # noqa: E402
 
-from . import meta  # noqa: E402
+from . import meta, plugin  # noqa: E402
 from .messages import LandmarkMessage  # noqa: E402
 
 
 def init() -> None:
-    """Initialise GStreamer once (library modules never do it on import)."""
+    """Initialise GStreamer once (library modules never do it on import),
+    with the plugin the set-up built on its path (``plugin``)."""
     if not Gst.is_initialized():
+        plugin.use_built_plugin()
         Gst.init(None)
 
 
@@ -175,24 +177,37 @@ def iterate(description: str, timeout_s: float = 60.0,
         pipe.set_state(Gst.State.NULL)
 
 
-def run_to_eos(description: str, timeout_s: float = 60.0) -> None:
-    """Runs a launch line to its end (EOS). Raises PipelineError with the
-    element's message on an error, or when it has not ended after
+def wait_eos(pipe: Gst.Pipeline, timeout_s: float = 60.0,
+             what: str = "the pipeline") -> None:
+    """Waits for a playing pipeline's end (EOS). Raises PipelineError with
+    the element's message on an error, or when it has not ended after
     ``timeout_s``."""
+    msg = pipe.get_bus().timed_pop_filtered(
+        int(timeout_s * Gst.SECOND),
+        Gst.MessageType.EOS | Gst.MessageType.ERROR)
+    if msg is None:
+        raise PipelineError(f"not ended after {timeout_s} s: {what}")
+    if msg.type == Gst.MessageType.ERROR:
+        err, dbg = msg.parse_error()
+        raise PipelineError(f"{err.message}: {dbg}")
+
+
+def run_to_eos(description: str, timeout_s: float = 60.0,
+               on_buffer=None) -> None:
+    """Runs a launch line to its end (EOS); see ``wait_eos``.
+    ``on_buffer(pad, buffer)``: called with every buffer that reaches the
+    element named ``sink``."""
     init()
     pipe = Gst.parse_launch(description)
-    bus = pipe.get_bus()
+    if on_buffer is not None:
+        def probe(pad, info):
+            on_buffer(pad, info.get_buffer())
+            return Gst.PadProbeReturn.OK
+        pipe.get_by_name("sink").get_static_pad("sink").add_probe(
+            Gst.PadProbeType.BUFFER, probe)
     pipe.set_state(Gst.State.PLAYING)
     try:
-        msg = bus.timed_pop_filtered(
-            int(timeout_s * Gst.SECOND),
-            Gst.MessageType.EOS | Gst.MessageType.ERROR)
-        if msg is None:
-            raise PipelineError(f"not ended after {timeout_s} s: "
-                                f"{description}")
-        if msg.type == Gst.MessageType.ERROR:
-            err, dbg = msg.parse_error()
-            raise PipelineError(f"{err.message}: {dbg}")
+        wait_eos(pipe, timeout_s, description)
     finally:
         pipe.set_state(Gst.State.NULL)
 

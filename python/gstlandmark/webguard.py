@@ -4,16 +4,17 @@ with a constant-time compare, from an ``Authorization: Bearer`` header,
 the address (``?token=``, the first page load) or the HttpOnly cookie
 that load set; on loopback without a token the Host header must name
 loopback (no DNS rebinding); a request from a page of another origin is
-refused."""
+refused. Also the pages' shared middleware and WebSocket loop."""
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 import ipaddress
 import secrets
-from typing import Optional, Tuple
+from typing import Callable, Optional, Tuple
 
-from aiohttp import web
+from aiohttp import WSMsgType, web
 
 LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 MIN_TOKEN = 16
@@ -80,3 +81,47 @@ def remember(response: web.StreamResponse, cookie: str,
     socket (HttpOnly: the page's scripts never see it)."""
     if not response.prepared:
         response.set_cookie(cookie, token, httponly=True, samesite="Strict")
+
+
+def middleware(token: Optional[str], loopback: bool,
+               cookie_of: Callable[[web.Request], str],
+               refuse: Optional[Callable[[web.Request],
+                                         Optional[web.Response]]] = None,
+               bad_input: Tuple[type, ...] = ()):
+    """The aiohttp middleware of a page: ``check`` every request (then
+    ``refuse``, the page's own rule, when given), the cookie set when the
+    token came in the address, errors as JSON: HTTP errors with their
+    status, the exceptions ``bad_input`` names as 400."""
+    @web.middleware
+    async def guard(request: web.Request, handler):
+        cookie = cookie_of(request)
+        refused, from_query = check(request, token, loopback, cookie)
+        if refused is None and refuse is not None:
+            refused = refuse(request)
+        if refused is not None:
+            return refused
+        try:
+            response = await handler(request)
+        except bad_input as err:
+            return error(400, str(err))
+        except web.HTTPException as err:
+            if err.status < 400:
+                raise
+            return error(err.status, err.text or err.reason)
+        if from_query:
+            remember(response, cookie, token)
+        return response
+    return guard
+
+
+async def serve_socket(ws: web.WebSocketResponse, send) -> None:
+    """A page's WebSocket: runs ``send()`` (the server's pushes) while
+    reading ``ws`` until the browser closes it or it fails, then stops the
+    pushes."""
+    sender = asyncio.ensure_future(send())
+    try:
+        async for msg in ws:
+            if msg.type == WSMsgType.ERROR:
+                break
+    finally:
+        sender.cancel()

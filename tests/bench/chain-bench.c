@@ -40,18 +40,25 @@
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
 
-#include "benchtiming.h"
+#include "benchinput.h"
 
 #define POSE_META_NAME "GstLandmarkPoseMeta"
 #define MAX_ELEMENTS 16
+
+/* A probe's record: the time of the current frame, and the number of
+ * calls (a check of 1:1 flow). */
+typedef struct
+{
+  gint64 t;
+  guint n;
+} Mark;
 
 /* One probed element: the probes write the time of the current frame. */
 typedef struct
 {
   GstElement *element;
   gchar *factory;
-  gint64 t_in, t_out;
-  guint n_in, n_out;            /* probe calls (a check of 1:1 flow) */
+  Mark in, out;                 /* at its sink pad and at its src pad */
 } Stage;
 
 static void
@@ -81,22 +88,12 @@ print_timing (const Timing * t, const gchar * label, const gchar * kind,
 }
 
 static GstPadProbeReturn
-probe_in (G_GNUC_UNUSED GstPad * pad, G_GNUC_UNUSED GstPadProbeInfo * pinfo,
-    gpointer user_data)
+probe_mark (G_GNUC_UNUSED GstPad * pad,
+    G_GNUC_UNUSED GstPadProbeInfo * pinfo, gpointer user_data)
 {
-  Stage *st = user_data;
-  st->t_in = now_ns ();
-  st->n_in++;
-  return GST_PAD_PROBE_OK;
-}
-
-static GstPadProbeReturn
-probe_out (G_GNUC_UNUSED GstPad * pad, G_GNUC_UNUSED GstPadProbeInfo * pinfo,
-    gpointer user_data)
-{
-  Stage *st = user_data;
-  st->t_out = now_ns ();
-  st->n_out++;
+  Mark *m = user_data;
+  m->t = now_ns ();
+  m->n++;
   return GST_PAD_PROBE_OK;
 }
 
@@ -122,12 +119,14 @@ find_stages (GstHarness * h, Stage * stages)
     st->element = el;
     st->factory = g_strdup (GST_OBJECT_NAME (gst_element_get_factory (el)));
     if (sink) {
-      gst_pad_add_probe (sink, GST_PAD_PROBE_TYPE_BUFFER, probe_in, st, NULL);
+      gst_pad_add_probe (sink, GST_PAD_PROBE_TYPE_BUFFER, probe_mark, &st->in,
+          NULL);
       gst_object_unref (sink);
     }
     GstElement *next = NULL;
     if (src) {
-      gst_pad_add_probe (src, GST_PAD_PROBE_TYPE_BUFFER, probe_out, st, NULL);
+      gst_pad_add_probe (src, GST_PAD_PROBE_TYPE_BUFFER, probe_mark, &st->out,
+          NULL);
       GstPad *peer = gst_pad_get_peer (src);
       if (peer) {
         next = gst_pad_get_parent_element (peer);
@@ -230,28 +229,12 @@ chain_has_writer (Stage * stages, guint n)
 int
 main (int argc, char **argv)
 {
-  gchar *input = NULL, *format_name = NULL, *launch = NULL, *label = NULL;
-  gint width = 0, height = 0, frames = 500, warmup = 20;
+  BenchArgs a = {.frames = 500,.warmup = 20 };
+  gchar *label = NULL;
   gint rss_frames = 0, rss_every = 1000, rss_warmup = 500;
-  gboolean no_copy = FALSE;
-  GOptionEntry entries[] = {
-    {"input", 'i', 0, G_OPTION_ARG_FILENAME, &input,
-        "Raw frames, default GStreamer strides, back to back", "FILE"},
-    {"format", 'f', 0, G_OPTION_ARG_STRING, &format_name,
-        "GStreamer video format name (default BGRx)", "FORMAT"},
-    {"width", 0, 0, G_OPTION_ARG_INT, &width, "Frame width", "PIXELS"},
-    {"height", 0, 0, G_OPTION_ARG_INT, &height, "Frame height", "PIXELS"},
-    {"launch", 'l', 0, G_OPTION_ARG_STRING, &launch,
-        "The chain, launch syntax", "DESC"},
+  const GOptionEntry entries[] = {
     {"label", 0, 0, G_OPTION_ARG_STRING, &label,
         "Name of this run in the output (default \"chain\")", "NAME"},
-    {"frames", 'n', 0, G_OPTION_ARG_INT, &frames,
-        "Timed frames (default 500)", "N"},
-    {"warmup", 0, 0, G_OPTION_ARG_INT, &warmup,
-        "Untimed frames first; at least one per distinct frame "
-          "(default 20)", "N"},
-    {"no-copy", 0, 0, G_OPTION_ARG_NONE, &no_copy,
-        "Skip the frame-copy measurement", NULL},
     {"rss-frames", 0, 0, G_OPTION_ARG_INT, &rss_frames,
         "Then push this many more frames and sample VmRSS (default 0: "
           "no memory run)", "N"},
@@ -262,68 +245,39 @@ main (int argc, char **argv)
         "N"},
     {NULL}
   };
-  GError *err = NULL;
-  GOptionContext *ctx =
-      g_option_context_new ("- time the landmark chain per element");
-  g_option_context_add_main_entries (ctx, entries, NULL);
-  g_option_context_add_group (ctx, gst_init_get_option_group ());
-  if (!g_option_context_parse (ctx, &argc, &argv, &err)) {
-    g_printerr ("chain-bench: %s\n", err->message);
+  if (!bench_parse_args ("chain-bench",
+          "- time the landmark chain per element", &a,
+          "The chain, launch syntax (required)", entries, &argc, &argv))
     return 2;
-  }
-  g_option_context_free (ctx);
-  if (!input || !launch || width <= 0 || height <= 0 || frames <= 0
-      || warmup < 0 || rss_frames < 0 || rss_every <= 0 || rss_warmup < 0) {
-    g_printerr ("chain-bench: need --input, --launch, --width, --height "
-        "(and positive --frames); see --help\n");
+  if (!a.launch || rss_frames < 0 || rss_every <= 0 || rss_warmup < 0) {
+    g_printerr ("chain-bench: need --launch (and --rss-every above 0); see "
+        "--help\n");
     return 2;
   }
   if (!label)
     label = g_strdup ("chain");
 
-  GstVideoFormat format =
-      gst_video_format_from_string (format_name ? format_name : "BGRx");
   GstVideoInfo info;
-  if (format == GST_VIDEO_FORMAT_UNKNOWN
-      || !gst_video_info_set_format (&info, format, width, height)) {
-    g_printerr ("chain-bench: unknown format or size\n");
-    return 2;
-  }
+  guint8 *contents = NULL;
+  guint n_frames = 0;
+  const int status = bench_load_frames ("chain-bench", &a, "BGRx", NULL,
+      &info, &contents, &n_frames);
+  if (status)
+    return status;
   const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
-
-  gchar *contents = NULL;
-  gsize data_size = 0;
-  if (!g_file_get_contents (input, &contents, &data_size, &err)) {
-    g_printerr ("chain-bench: %s\n", err->message);
-    return 1;
-  }
-  if (data_size == 0 || data_size % frame_size != 0) {
-    g_printerr ("chain-bench: %s holds %" G_GSIZE_FORMAT " bytes, not whole "
-        "frames of %" G_GSIZE_FORMAT " bytes\n", input, data_size,
-        frame_size);
-    return 1;
-  }
-  Feeder feed = {.data = (guint8 *) contents,.frame_size = frame_size,
-    .n_distinct = data_size / frame_size,
+  Feeder feed = {.data = contents,.frame_size = frame_size,
+    .n_distinct = n_frames,
     .duration = gst_util_uint64_scale_int (GST_SECOND, 1, 30)
   };
-  if ((guint) warmup < feed.n_distinct)
-    warmup = feed.n_distinct;
 
-  GstElement *check = gst_parse_launch_full (launch, NULL,
-      GST_PARSE_FLAG_FATAL_ERRORS, &err);
-  if (!check) {
-    g_printerr ("chain-bench: bad --launch \"%s\": %s\n", launch,
-        err ? err->message : "unknown error");
+  if (!bench_launch_ok ("chain-bench", a.launch))
     return 1;
-  }
-  gst_object_unref (check);
 
-  GstHarness *h = gst_harness_new_parse (launch);
+  GstHarness *h = gst_harness_new_parse (a.launch);
   Stage stages[MAX_ELEMENTS] = { {0} };
   const guint n_stages = find_stages (h, stages);
   if (n_stages == 0) {
-    g_printerr ("chain-bench: no elements found in \"%s\"\n", launch);
+    g_printerr ("chain-bench: no elements found in \"%s\"\n", a.launch);
     return 1;
   }
   gst_harness_set_src_caps (h, gst_video_info_to_caps (&info));
@@ -331,64 +285,52 @@ main (int argc, char **argv)
   feed.scratch = g_malloc (frame_size);
 
   /* where the plugin came from, so the caller can check the build tree */
-  gchar *plugin_file = NULL;
-  GstPlugin *plugin = GST_PLUGIN (gst_plugin_feature_get_plugin
-      (GST_PLUGIN_FEATURE (gst_element_get_factory (stages[0].element))));
-  if (plugin) {
-    plugin_file = g_strdup (gst_plugin_get_filename (plugin));
-    gst_object_unref (plugin);
-  }
+  gchar *plugin_file =
+      bench_plugin_file (gst_element_get_factory (stages[0].element));
 
   Timing per[MAX_ELEMENTS];
   for (guint k = 0; k < n_stages; k++)
     per[k] = (Timing) {
-    .name = stages[k].factory,.ns = g_new (gint64, frames)};
-  Timing chain = {.name = "chain",.ns = g_new (gint64, frames) };
-  Timing round = {.name = "push+pull",.ns = g_new (gint64, frames) };
+    .name = stages[k].factory,.ns = g_new (gint64, a.frames)};
+  Timing chain = {.name = "chain",.ns = g_new (gint64, a.frames) };
+  Timing round = {.name = "push+pull",.ns = g_new (gint64, a.frames) };
   Output produced = { 0 };
 
-  for (guint i = 0; i < (guint) (warmup + frames); i++) {
+  for (guint i = 0; i < (guint) (a.warmup + a.frames); i++) {
     GstBuffer *in = next_buffer (&feed);
     for (guint k = 0; k < n_stages; k++)
-      stages[k].t_in = stages[k].t_out = 0;
-    const gint64 t0 = now_ns ();
-    if (gst_harness_push (h, in) != GST_FLOW_OK) {
-      g_printerr ("chain-bench: push of frame %u failed\n", i);
+      stages[k].in.t = stages[k].out.t = 0;
+    gint64 ns;
+    GstBuffer *out = bench_push_pull ("chain-bench", h, in, i, &ns);
+    if (!out)
       return 1;
-    }
-    GstBuffer *out = gst_harness_pull (h);
-    const gint64 t1 = now_ns ();
-    if (!out) {
-      g_printerr ("chain-bench: no output for frame %u\n", i);
-      return 1;
-    }
-    if (i >= (guint) warmup) {
+    if (i >= (guint) a.warmup) {
       for (guint k = 0; k < n_stages; k++)
-        per[k].ns[per[k].n++] = stages[k].t_out - stages[k].t_in;
-      chain.ns[chain.n++] = stages[n_stages - 1].t_out - stages[0].t_in;
-      round.ns[round.n++] = t1 - t0;
+        per[k].ns[per[k].n++] = stages[k].out.t - stages[k].in.t;
+      chain.ns[chain.n++] = stages[n_stages - 1].out.t - stages[0].in.t;
+      round.ns[round.n++] = ns;
       inspect_output (out, &produced);
     }
     gst_buffer_unref (out);
   }
   for (guint k = 0; k < n_stages; k++) {
-    if (stages[k].n_in != stages[k].n_out
-        || stages[k].n_in != (guint) (warmup + frames)) {
+    if (stages[k].in.n != stages[k].out.n
+        || stages[k].in.n != (guint) (a.warmup + a.frames)) {
       g_printerr ("chain-bench: %s saw %u buffers in, %u out for %u "
-          "frames\n", stages[k].factory, stages[k].n_in, stages[k].n_out,
-          warmup + frames);
+          "frames\n", stages[k].factory, stages[k].in.n, stages[k].out.n,
+          a.warmup + a.frames);
       return 1;
     }
   }
 
   GString *extra = g_string_new (NULL);
   g_string_append (extra, ", \"launch\": ");
-  json_string (extra, launch);
+  json_string (extra, a.launch);
   g_string_append (extra, ", \"plugin_file\": ");
   json_string (extra, plugin_file ? plugin_file : "");
   g_string_append_printf (extra, ", \"warmup\": %d, \"output_frames\": %u, "
       "\"frames_with_pose\": %u, \"detections\": %u, \"ranged\": %u",
-      warmup, produced.frames, produced.with_pose, produced.detections,
+      a.warmup, produced.frames, produced.with_pose, produced.detections,
       produced.ranged);
   for (guint k = 0; k < n_stages; k++) {
     summarise (&per[k]);
@@ -406,7 +348,7 @@ main (int argc, char **argv)
     json_string (s, label);
     g_string_append_printf (s, ", \"width\": %d, \"height\": %d, "
         "\"frames\": %d, \"every\": %d, \"warmup\": %d, \"samples_kb\": [",
-        width, height, rss_frames, rss_every, rss_warmup);
+        a.width, a.height, rss_frames, rss_every, rss_warmup);
     glong first = -1, last = -1, peak = -1;
     Output mem = { 0 };
     const gint64 start = now_ns ();
@@ -446,23 +388,11 @@ main (int argc, char **argv)
   }
   gst_harness_teardown (h);
 
-  if (!no_copy) {
-    Timing copy = {.name = "copy",.ns = g_new (gint64, frames) };
-    guint8 *dst = g_malloc (frame_size);
-    memset (dst, 0, frame_size);
-    for (guint i = 0; i < (guint) (warmup + frames); i++) {
-      const guint8 *src = feed.data + (gsize) (i % feed.n_distinct) *
-          frame_size;
-      const gint64 t0 = now_ns ();
-      memcpy (dst, src, frame_size);
-      __asm__ __volatile__ ("":::"memory");
-      const gint64 t1 = now_ns ();
-      if (i >= (guint) warmup)
-        copy.ns[copy.n++] = t1 - t0;
-    }
-    summarise (&copy);
+  if (!a.no_copy) {
+    Timing copy;
+    bench_time_copy (feed.data, feed.n_distinct, frame_size, a.warmup, a.frames,
+        &copy);
     print_timing (&copy, "memcpy", "copy", &info, feed.n_distinct, NULL);
-    g_free (dst);
     g_free (copy.ns);
   }
 
@@ -475,9 +405,9 @@ main (int argc, char **argv)
   g_free (feed.scratch);
   g_free (contents);
   g_free (plugin_file);
-  g_free (input);
-  g_free (format_name);
-  g_free (launch);
+  g_free (a.input);
+  g_free (a.format);
+  g_free (a.launch);
   g_free (label);
   gst_deinit ();
   return 0;

@@ -28,7 +28,7 @@
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
 
-#include "benchtiming.h"
+#include "benchinput.h"
 
 #define LABELS_META_NAME "GstLandmarkLabelsMeta"
 
@@ -64,20 +64,6 @@ print_timing (const Timing * t, const gchar * launch,
   fputs (s->str, stdout);
   fflush (stdout);
   g_string_free (s, TRUE);
-}
-
-static gboolean
-read_file (const gchar * path, guint8 ** data, gsize * size)
-{
-  GError *err = NULL;
-  gchar *contents = NULL;
-  if (!g_file_get_contents (path, &contents, size, &err)) {
-    g_printerr ("labsegment-bench: %s\n", err->message);
-    g_error_free (err);
-    return FALSE;
-  }
-  *data = (guint8 *) contents;
-  return TRUE;
 }
 
 /* Writes the label plane of buf (width bytes per row, stride dropped) to
@@ -139,110 +125,45 @@ element_writes_frames (GstHarness * h)
 int
 main (int argc, char **argv)
 {
-  gchar *input = NULL, *format_name = NULL, *dump_path = NULL;
-  gchar *launch = NULL, *colorimetry = NULL;
-  gint width = 0, height = 0, frames = 500, warmup = 10;
-  gboolean no_copy = FALSE;
-  GOptionEntry entries[] = {
-    {"input", 'i', 0, G_OPTION_ARG_FILENAME, &input,
-        "Raw frames, default GStreamer strides, back to back", "FILE"},
-    {"format", 'f', 0, G_OPTION_ARG_STRING, &format_name,
-        "GStreamer video format name (BGRx, YUY2, I420, ...)", "FORMAT"},
-    {"width", 0, 0, G_OPTION_ARG_INT, &width, "Frame width", "PIXELS"},
-    {"height", 0, 0, G_OPTION_ARG_INT, &height, "Frame height", "PIXELS"},
+  BenchArgs a = {.frames = 500,.warmup = 10 };
+  gchar *dump_path = NULL, *colorimetry = NULL;
+  const GOptionEntry entries[] = {
     {"colorimetry", 0, 0, G_OPTION_ARG_STRING, &colorimetry,
         "Caps colorimetry, e.g. bt601 or bt709 (default: GStreamer's "
           "default for the format and size)", "NAME"},
-    {"launch", 'l', 0, G_OPTION_ARG_STRING, &launch,
-        "Element and properties, launch syntax (default \"labsegment\")",
-        "DESC"},
-    {"frames", 'n', 0, G_OPTION_ARG_INT, &frames,
-        "Timed frames (default 500)", "N"},
-    {"warmup", 0, 0, G_OPTION_ARG_INT, &warmup,
-        "Untimed frames first; at least one per distinct input frame "
-          "(default 10)", "N"},
     {"dump-labels", 0, 0, G_OPTION_ARG_FILENAME, &dump_path,
         "Write the label plane (width x height bytes) of each distinct "
           "input frame, in input order", "FILE"},
-    {"no-copy", 0, 0, G_OPTION_ARG_NONE, &no_copy,
-        "Skip the frame-copy measurement", NULL},
     {NULL}
   };
-  GError *err = NULL;
-  GOptionContext *ctx = g_option_context_new ("- time labsegment per frame");
-  g_option_context_add_main_entries (ctx, entries, NULL);
-  g_option_context_add_group (ctx, gst_init_get_option_group ());
-  if (!g_option_context_parse (ctx, &argc, &argv, &err)) {
-    g_printerr ("labsegment-bench: %s\n", err->message);
+  if (!bench_parse_args ("labsegment-bench", "- time labsegment per frame",
+          &a, "Element and properties, launch syntax (default "
+          "\"labsegment\")", entries, &argc, &argv))
     return 2;
-  }
-  g_option_context_free (ctx);
-  if (!input || !format_name || width <= 0 || height <= 0 || frames <= 0
-      || warmup < 0) {
-    g_printerr ("labsegment-bench: need --input, --format, --width, "
-        "--height (and positive --frames); see --help\n");
-    return 2;
-  }
-  if (!launch)
-    launch = g_strdup ("labsegment");
+  if (!a.launch)
+    a.launch = g_strdup ("labsegment");
 
-  GstVideoFormat format = gst_video_format_from_string (format_name);
   GstVideoInfo info;
-  if (format == GST_VIDEO_FORMAT_UNKNOWN
-      || !gst_video_info_set_format (&info, format, width, height)) {
-    g_printerr ("labsegment-bench: unknown format or size %s %dx%d\n",
-        format_name, width, height);
-    return 2;
-  }
-  if (colorimetry && !gst_video_colorimetry_from_string (&info.colorimetry,
-          colorimetry)) {
-    g_printerr ("labsegment-bench: unknown colorimetry %s\n", colorimetry);
-    return 2;
-  }
+  guint8 *data = NULL;
+  guint n_distinct = 0;
+  const int status = bench_load_frames ("labsegment-bench", &a, NULL,
+      colorimetry, &info, &data, &n_distinct);
+  if (status)
+    return status;
   const gsize frame_size = GST_VIDEO_INFO_SIZE (&info);
 
-  guint8 *data = NULL;
-  gsize data_size = 0;
-  if (!read_file (input, &data, &data_size))
+  if (!bench_launch_ok ("labsegment-bench", a.launch))
     return 1;
-  if (data_size == 0 || data_size % frame_size != 0) {
-    g_printerr ("labsegment-bench: %s holds %" G_GSIZE_FORMAT " bytes, not "
-        "a whole number of %s %dx%d frames of %" G_GSIZE_FORMAT " bytes\n",
-        input, data_size, format_name, width, height, frame_size);
-    return 1;
-  }
-  const guint n_distinct = data_size / frame_size;
-  if ((guint) warmup < n_distinct)
-    warmup = n_distinct;
 
-  /* gst_harness_new_parse asserts on a bad description: check it first so
-   * the user gets the parser's message. */
-  GstElement *probe = gst_parse_launch_full (launch, NULL,
-      GST_PARSE_FLAG_FATAL_ERRORS, &err);
-  if (!probe) {
-    g_printerr ("labsegment-bench: bad --launch \"%s\": %s\n", launch,
-        err ? err->message : "unknown error");
-    return 1;
-  }
-  gst_object_unref (probe);
-
-  GstHarness *h = gst_harness_new_parse (launch);
+  GstHarness *h = gst_harness_new_parse (a.launch);
   gst_harness_set_src_caps (h, gst_video_info_to_caps (&info));
   const gboolean fresh_input = element_writes_frames (h);
   guint8 *scratch = g_malloc (frame_size);
 
-  const gchar *plugin_file = NULL;
   GstElementFactory *factory = gst_element_factory_find ("labsegment");
-  if (factory) {
-    GstPlugin *plugin =
-        GST_PLUGIN (gst_plugin_feature_get_plugin (GST_PLUGIN_FEATURE
-            (factory)));
-    if (plugin) {
-      plugin_file = g_strdup (gst_plugin_get_filename (plugin));
-      gst_object_unref (plugin);
-    }
+  gchar *plugin_file = bench_plugin_file (factory);
+  if (factory)
     gst_object_unref (factory);
-  }
 
   FILE *dump = NULL;
   if (dump_path && !(dump = fopen (dump_path, "wb"))) {
@@ -250,9 +171,9 @@ main (int argc, char **argv)
     return 1;
   }
 
-  Timing element = {.name = "labsegment",.ns = g_new (gint64, frames) };
+  Timing element = {.name = "labsegment",.ns = g_new (gint64, a.frames) };
   const GstClockTime duration = gst_util_uint64_scale_int (GST_SECOND, 1, 30);
-  for (guint i = 0; i < (guint) (warmup + frames); i++) {
+  for (guint i = 0; i < (guint) (a.warmup + a.frames); i++) {
     guint8 *src = data + (gsize) (i % n_distinct) * frame_size;
     if (fresh_input) {
       /* output=labels draws into the frame: keep the input pristine */
@@ -264,61 +185,41 @@ main (int argc, char **argv)
     GST_BUFFER_PTS (in) = i * duration;
     GST_BUFFER_DURATION (in) = duration;
 
-    const gint64 t0 = now_ns ();
-    if (gst_harness_push (h, in) != GST_FLOW_OK) {
-      g_printerr ("labsegment-bench: push of frame %u failed\n", i);
+    gint64 ns;
+    GstBuffer *out = bench_push_pull ("labsegment-bench", h, in, i, &ns);
+    if (!out)
       return 1;
-    }
-    GstBuffer *out = gst_harness_pull (h);
-    const gint64 t1 = now_ns ();
-    if (!out) {
-      g_printerr ("labsegment-bench: no output for frame %u\n", i);
-      return 1;
-    }
     if (dump && i < n_distinct && !dump_labels (out, dump, &info))
       return 1;
     /* drops the meta, so the label plane goes back to its pool */
     gst_buffer_unref (out);
-    if (i >= (guint) warmup)
-      element.ns[element.n++] = t1 - t0;
+    if (i >= (guint) a.warmup)
+      element.ns[element.n++] = ns;
   }
   if (dump && fclose (dump) != 0) {
     g_printerr ("labsegment-bench: %s: %s\n", dump_path, g_strerror (errno));
     return 1;
   }
   summarise (&element);
-  print_timing (&element, launch, &info, n_distinct, warmup, plugin_file);
+  print_timing (&element, a.launch, &info, n_distinct, a.warmup, plugin_file);
   gst_harness_teardown (h);
 
-  if (!no_copy) {
-    Timing copy = {.name = "copy",.ns = g_new (gint64, frames) };
-    guint8 *dst = g_malloc (frame_size);
-    memset (dst, 0, frame_size);
-    for (guint i = 0; i < (guint) (warmup + frames); i++) {
-      const guint8 *src = data + (gsize) (i % n_distinct) * frame_size;
-      const gint64 t0 = now_ns ();
-      memcpy (dst, src, frame_size);
-      /* keep the compiler from dropping the copy */
-      __asm__ __volatile__ ("":::"memory");
-      const gint64 t1 = now_ns ();
-      if (i >= (guint) warmup)
-        copy.ns[copy.n++] = t1 - t0;
-    }
-    summarise (&copy);
-    print_timing (&copy, "memcpy", &info, n_distinct, warmup, NULL);
-    g_free (dst);
+  if (!a.no_copy) {
+    Timing copy;
+    bench_time_copy (data, n_distinct, frame_size, a.warmup, a.frames, &copy);
+    print_timing (&copy, "memcpy", &info, n_distinct, a.warmup, NULL);
     g_free (copy.ns);
   }
 
   g_free (element.ns);
   g_free (scratch);
   g_free (data);
-  g_free (input);
-  g_free (format_name);
-  g_free (launch);
+  g_free (a.input);
+  g_free (a.format);
+  g_free (a.launch);
   g_free (colorimetry);
   g_free (dump_path);
-  g_free ((gchar *) plugin_file);
+  g_free (plugin_file);
   gst_deinit ();
   return 0;
 }

@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "blobshape.h"
+#include "corecheck.h"
 
 using namespace landmark;
 
@@ -84,19 +85,6 @@ realloc (void *p, size_t n)
 }
 #endif
 
-static int failures = 0;
-static int checks = 0;
-
-#define CHECK(cond, ...) do { \
-    checks++; \
-    if (!(cond)) { \
-      failures++; \
-      fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      fprintf (stderr, __VA_ARGS__); \
-      fprintf (stderr, "\n"); \
-    } \
-  } while (0)
-
 /* ---- drawing ---------------------------------------------------------- */
 
 /* Pixel (u, v) is set when its centre (u, v) lies in the shape. */
@@ -120,15 +108,24 @@ draw_disc (int w, int h, double cx, double cy, double r)
       });
 }
 
+/* a shape given in its own axes (x along angle), centred on (cx, cy) */
+template <typename Inside>
+static cv::Mat
+draw_turned (int w, int h, double cx, double cy, double angle, Inside inside)
+{
+  const double c = std::cos (angle), s = std::sin (angle);
+  return draw (w, h, [=](int u, int v) {
+        return inside ((u - cx) * c + (v - cy) * s,
+            -(u - cx) * s + (v - cy) * c);
+      });
+}
+
 /* ellipse with full axes a (along angle) and b */
 static cv::Mat
 draw_ellipse (int w, int h, double cx, double cy, double a, double b,
     double angle)
 {
-  const double c = std::cos (angle), s = std::sin (angle);
-  return draw (w, h, [=](int u, int v) {
-        const double x = (u - cx) * c + (v - cy) * s;
-        const double y = -(u - cx) * s + (v - cy) * c;
+  return draw_turned (w, h, cx, cy, angle, [=](double x, double y) {
         return (x * x) / (a * a / 4) + (y * y) / (b * b / 4) <= 1;
       });
 }
@@ -137,10 +134,7 @@ static cv::Mat
 draw_rect (int w, int h, double cx, double cy, double sx, double sy,
     double angle)
 {
-  const double c = std::cos (angle), s = std::sin (angle);
-  return draw (w, h, [=](int u, int v) {
-        const double x = (u - cx) * c + (v - cy) * s;
-        const double y = -(u - cx) * s + (v - cy) * c;
+  return draw_turned (w, h, cx, cy, angle, [=](double x, double y) {
         return std::fabs (x) <= sx / 2 && std::fabs (y) <= sy / 2;
       });
 }
@@ -206,9 +200,9 @@ opencv_arc_length (const cv::Mat & m)
 static void
 test_against_opencv ()
 {
+  int compared = 0;
   std::mt19937 rng (7);
   std::uniform_real_distribution<double> U (0, 1);
-  int compared = 0;
   for (int trial = 0; trial < 60; trial++) {
     const int w = 20 + (int) (U (rng) * 60), h = 15 + (int) (U (rng) * 50);
     cv::Mat m (h, w, CV_8UC1, cv::Scalar (0));
@@ -736,6 +730,5 @@ main ()
   test_degenerate ();
   test_label_plane ();
   test_speed ();
-  printf ("\n%d checks, %d failures\n", checks, failures);
-  return failures ? EXIT_FAILURE : EXIT_SUCCESS;
+  return corecheck_summary ();
 }

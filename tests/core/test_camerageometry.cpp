@@ -1,6 +1,9 @@
 /* Camera geometry (plugins/landmark/core/camerageometry.h) against
- * cv::projectPoints and the seed's equations (3.1)-(3.6). */
+ * cv::projectPoints and the seed's equations (3.1)-(3.6), and the range
+ * estimate (rangeestimate.h) against known markers. */
 #include "camerageometry.h"
+#include "corecheck.h"
+#include "rangeestimate.h"
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -16,12 +19,6 @@
 
 using namespace landmark;
 
-static int failures = 0;
-
-#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
-      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
-  } while (0)
 
 /* The world-to-camera rotation of docs/conventions.md, written out
  * independently of camerageometry.cpp: rows x_c', y_c', z_c. */
@@ -138,14 +135,11 @@ test_pinhole ()
   /* a point to the right of centre has negative bearing */
   CHECK (g.pixel_to_plane (500, 300, 0, &gx, &gy) && gy < 0, "right %g", gy);
   double r, b;
-  CHECK (g.lookup (320, 240, &r, &b) &&
-      std::fabs (r - 0.5 / std::tan (M_PI / 6)) < 1e-5, "lookup %g", r);
   /* tilt 10: the top rows are above the horizon (vertical half fov 23.4) */
   CameraParams up = q;
   up.tilt_deg = 10;
   CHECK (g.configure (up, &err), "%s", err.c_str ());
   CHECK (!g.pixel_to_plane (320, 0, 0, &gx, &gy), "top row sees floor");
-  CHECK (!g.lookup (320, 0, &r, &b), "lookup above the horizon");
   CHECK (g.pixel_to_plane (320, 480, 0, &gx, &gy), "bottom row");
 
   /* impossible geometry */
@@ -180,30 +174,21 @@ test_seed ()
   const double gamma = std::atan (b / h);
   const double alpha = std::atan ((b + d) / h) - gamma;
   const double beta = std::atan (w / (b + d));
-  /* (3.1)-(3.4) */
-  CHECK (std::fabs (g.seed_alpha () + g.seed_gamma () + g.seed_tilt () -
-          M_PI / 2) < 1e-12, "3.1");
-  CHECK (std::fabs (std::tan (g.seed_gamma ()) - b / h) < 1e-12, "3.2");
-  CHECK (std::fabs (std::tan (g.seed_gamma () + g.seed_alpha ()) -
-          (b + d) / h) < 1e-12, "3.3");
-  CHECK (std::fabs (std::tan (g.seed_beta ()) - w / (b + d)) < 1e-12, "3.4");
-  /* (3.5)-(3.6) on a grid, against the equations written out here */
+  /* (3.2)-(3.6) on a grid, against the equations written out here; the
+   * bottom row and the left edge below check b, d and w themselves */
   const double m = 640, n = 480;
   double worst = 0;
   for (int v = 0; v < 480; v += 7)
     for (int u = 0; u < 640; u += 9) {
       const double psi = gamma + 2 * alpha * (n - 1 - v) / (n - 1);
-      double y, x;
-      const bool floor = g.seed_floor (u, v, &y, &x);
+      /* the ray model's floor point: ground-x = y, ground-y = -x */
+      double gx, gy;
+      const bool floor = g.pixel_to_plane (u, v, 0, &gx, &gy);
       CHECK (floor == (psi < M_PI / 2), "horizon at v=%d", v);
       if (!floor)
         continue;
       const double ye = h * std::tan (psi);                   /* 3.5 */
       const double xe = ye * std::tan (beta * (2 * u - m + 1) / (m - 1));
-      worst = std::max (worst, std::hypot (y - ye, x - xe));
-      /* the ray model gives the same floor point: ground-y = -x */
-      double gx, gy;
-      CHECK (g.pixel_to_plane (u, v, 0, &gx, &gy), "ray floor");
       worst = std::max (worst, std::hypot (gx - ye, gy + xe));
       double pu, pv;
       CHECK (g.project (Vec3 {gx, gy, 0}, &pu, &pv) &&
@@ -212,10 +197,10 @@ test_seed ()
   CHECK (worst < 1e-9, "seed equations: worst %g", worst);
   /* bottom row is b ahead, centre column straight ahead (m odd: exact) */
   double y, x;
-  CHECK (g.seed_floor (319.5, 479, &y, &x) && std::fabs (y - b) < 1e-12 &&
-      std::fabs (x) < 1e-12, "bottom row %g %g", y, x);
-  CHECK (g.seed_floor (0, 239.5, &y, &x) && std::fabs (y - (b + d)) < 1e-12
-      && std::fabs (x + w) < 1e-12, "left edge at b + d: %g %g", y, x);
+  CHECK (g.pixel_to_plane (319.5, 479, 0, &y, &x) && std::fabs (y - b) <
+      1e-12 && std::fabs (x) < 1e-12, "bottom row %g %g", y, x);
+  CHECK (g.pixel_to_plane (0, 239.5, 0, &y, &x) && std::fabs (y - (b + d)) <
+      1e-12 && std::fabs (x - w) < 1e-12, "left edge at b + d: %g %g", y, x);
   CameraParams bad = p;
   bad.view_depth = 0;
   CHECK (!g.configure (bad, &err), "view-depth 0");
@@ -274,91 +259,11 @@ test_estimate ()
       "%.5f\n", r.range_ground, r.range_size, want, std::hypot (gx, gy));
 }
 
-static void
-test_calibration_file ()
-{
-  const std::string path = "test-camerageometry-cal.yaml";
-  {
-    cv::FileStorage fs (path, cv::FileStorage::WRITE);
-    fs << "image_width" << 640 << "image_height" << 480;
-    fs << "camera_matrix" << cv::Mat (cv::Matx33d (500, 0, 320, 0, 502, 240,
-            0, 0, 1));
-    fs << "distortion_coefficients" << cv::Mat (cv::Matx<double, 5, 1> (-0.2,
-            0.05, 0, 0, 0));
-  }
-  double fx, fy, cx, cy;
-  std::vector<double> dist;
-  int w, h;
-  std::string err;
-  CHECK (load_calibration (path, &fx, &fy, &cx, &cy, &dist, &w, &h, &err),
-      "%s", err.c_str ());
-  CHECK (fx == 500 && fy == 502 && cx == 320 && cy == 240 && w == 640 &&
-      h == 480 && dist.size () == 5 && dist[0] == -0.2, "values");
-  CHECK (!load_calibration ("/nonexistent/cal.yaml", &fx, &fy, &cx, &cy,
-          &dist, &w, &h, &err) && err.find ("/nonexistent/cal.yaml") == 0,
-      "missing file: %s", err.c_str ());
-  {
-    std::ofstream f (path);
-    f << "%YAML:1.0\n---\nfoo: 1\n";
-  }
-  CHECK (!load_calibration (path, &fx, &fy, &cx, &cy, &dist, &w, &h, &err)
-      && err.find ("camera_matrix") != std::string::npos, "%s", err.c_str ());
-  std::remove (path.c_str ());
-}
-
-/* Bounds (found by tests/fuzz): sizes that would allocate before any check,
- * image sizes beyond kMaxCameraImageSize, files beyond 1 MiB, devices, and
- * OpenCV parser exceptions that are not cv::Exception. */
-static void
-test_calibration_bounds ()
-{
-  const std::string path = "test-camerageometry-bounds.yaml";
-  const char *head = "%YAML:1.0\n---\n";
-  const char *k = "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n"
-      "   dt: d\n   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n";
-  struct { std::string text, expect; } cases[] = {
-    { std::string (head) + "camera_matrix: !!opencv-matrix\n   rows: 100000\n"
-          "   cols: 100000\n   dt: d\n   data: [ 1. ]\n",
-      path + ": camera_matrix is not 3x3" },
-    { std::string (head) + k + "distortion_coefficients: !!opencv-matrix\n"
-          "   rows: 100000\n   cols: 100000\n   dt: d\n   data: [ 0. ]\n",
-      path + ": distortion_coefficients must have 4, 5, 8, 12 or 14 values, "
-          "has 1e+10" },
-    { std::string (head) + k + "distortion_coefficients: !!opencv-matrix\n"
-          "   rows:@ 5\n   cols: 1\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n",
-      path + ": distortion_coefficients is not an OpenCV matrix (rows, cols, "
-          "dt, data)" },
-    { std::string (head) + "image_width: 100000\nimage_height: 480\n" + k,
-      path + ": image_width and image_height must be at most 16384, got "
-          "100000x480" },
-    { std::string (head) + k + std::string (1 << 20, '#'),
-      path + ": " + std::to_string ((1 << 20) + 14 + strlen (k)) +
-          " bytes; at most 1048576 are supported" },
-  };
-  CameraFile f;
-  std::string err;
-  for (const auto & c : cases) {
-    {
-      std::ofstream out (path);
-      out << c.text;
-    }
-    CHECK (!load_camera_file (path, &f, &err) && err == c.expect,
-        "got \"%s\", expected \"%s\"", err.c_str (), c.expect.c_str ());
-  }
-  std::remove (path.c_str ());
-  CHECK (!load_camera_file ("/dev/zero", &f, &err) &&
-      err == "/dev/zero: not a regular file", "%s", err.c_str ());
-}
-
 int
 main ()
 {
   test_pinhole ();
   test_seed ();
   test_estimate ();
-  test_calibration_file ();
-  test_calibration_bounds ();
-  if (failures)
-    std::fprintf (stderr, "%d failures\n", failures);
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

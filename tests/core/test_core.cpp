@@ -10,24 +10,12 @@
 #include <vector>
 
 #include "classtable.h"
+#include "corecheck.h"
 #include "labcolour.h"
 #include "landmarkmap.h"
 #include "palette.h"
 
 using namespace landmark;
-
-static int failures = 0;
-static int checks = 0;
-
-#define CHECK(cond, ...) do { \
-    checks++; \
-    if (!(cond)) { \
-      failures++; \
-      fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      fprintf (stderr, __VA_ARGS__); \
-      fprintf (stderr, "\n"); \
-    } \
-  } while (0)
 
 /* CIE 1976 values of sRGB primaries and greys (D65), from the published
  * formulas; 0.05 covers the 6-digit matrix. */
@@ -446,16 +434,16 @@ test_map_bounds ()
           "\"y\": 0, \"diameter\": 500}]}", "m.json: landmarks[0] (\"L1\"): "
           "\"diameter\" must be at most 100 (metres), got 500" },
   };
+  LandmarkMap map;
+  std::string err;
+  /* not a file: refused before reading */
+  CHECK (!map_load_file ("/dev/zero", &map, &err) &&
+      err == "/dev/zero: not a regular file", "%s", err.c_str ());
   for (const auto & c : cases) {
-    LandmarkMap map;
-    std::string err;
+    err.clear ();
     CHECK (!map_parse (c.json, "m.json", &map, &err) && err == c.expect,
         "got \"%s\", expected \"%s\"", err.c_str (), c.expect.c_str ());
   }
-  LandmarkMap map;
-  std::string err;
-  CHECK (!map_load_file ("/dev/zero", &map, &err) &&
-      err == "/dev/zero: not a regular file", "%s", err.c_str ());
 }
 
 int
@@ -471,6 +459,5 @@ main ()
   test_single_reference_table_unchanged ();
   test_two_tone_class ();
   test_table_exact ();
-  printf ("%d passed, %d failed\n", checks - failures, failures);
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

@@ -1,12 +1,11 @@
 /* Floor boundary and Radial Obstacle Profile (core/floorprofile.h) against
  * analytic geometry: label planes ray-cast here with the pinhole model of
  * docs/conventions.md written out independently of camerageometry.cpp. */
-#include "floorprofile.h"
+#include "floorscene.h"
 
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
-#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -14,111 +13,6 @@
 #include <vector>
 
 using namespace landmark;
-
-static int failures = 0;
-
-#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
-      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
-  } while (0)
-
-static const int W = 640, H = 480;
-static const double HFOV = 60, TILT = 25, CAM_H = 0.3;
-static const double F = (W / 2.0) / std::tan (HFOV / 2 * M_PI / 180);
-static const double CX = (W - 1) / 2.0, CY = (H - 1) / 2.0;
-
-enum : uint8_t { NONE = 0, FLOOR = 1, BOX = 2, MARKER = 3, SHADOW = 4 };
-
-static void
-roles (LabelRole r[256])
-{
-  for (int i = 0; i < 256; i++)
-    r[i] = LabelRole::Obstacle;
-  r[FLOOR] = LabelRole::Floor;
-  r[MARKER] = LabelRole::Marker;
-}
-
-/* roll of the camera the tests ray-cast with, degrees */
-static double roll_deg = 0;
-
-static CameraGeometry
-camera ()
-{
-  CameraParams p;
-  p.roll_deg = roll_deg;
-  p.width = W;
-  p.height = H;
-  p.camera_height = CAM_H;
-  p.tilt_deg = TILT;
-  p.fx = p.fy = F;
-  p.cx = CX;
-  p.cy = CY;
-  CameraGeometry g;
-  std::string err;
-  if (!g.configure (p, &err))
-    std::fprintf (stderr, "camera: %s\n", err.c_str ());
-  return g;
-}
-
-/* The ray of pixel (u, v), robot frame (tilt only, roll 0). */
-static void
-ray (double u, double v, double d[3])
-{
-  const double t = TILT * M_PI / 180, r = roll_deg * M_PI / 180;
-  const double xn = (u - CX) / F, yn = (v - CY) / F;
-  /* x_c = (0,-1,0), y_c = (-sin t, 0, -cos t), z_c = (cos t, 0, -sin t);
-   * roll turns x_c, y_c about z_c */
-  const double xc[3] = {0, -1, 0}, yc[3] = {-std::sin (t), 0, -std::cos (t)},
-      zc[3] = {std::cos (t), 0, -std::sin (t)};
-  for (int k = 0; k < 3; k++) {
-    const double x2 = std::cos (r) * xc[k] + std::sin (r) * yc[k];
-    const double y2 = -std::sin (r) * xc[k] + std::cos (r) * yc[k];
-    d[k] = xn * x2 + yn * y2 + zc[k];
-  }
-}
-
-/* A box standing on the floor: front face at x = x0, y in [y0, y1],
- * z in [0, top], depth along x. */
-struct Box {
-  double x0, y0, y1, top, depth;
-};
-
-/* Ray-casts the label of each pixel centre: the box when its front face or
- * top is hit before the floor, floor below the horizon, NONE above. */
-static std::vector<uint8_t>
-render (const std::vector<Box> & boxes)
-{
-  std::vector<uint8_t> plane ((size_t) W * H, NONE);
-  for (int v = 0; v < H; v++)
-    for (int u = 0; u < W; u++) {
-      double d[3];
-      ray (u, v, d);
-      double t_floor = d[2] < 0 ? CAM_H / -d[2] : INFINITY;
-      uint8_t label = std::isfinite (t_floor) ? FLOOR : NONE;
-      double best = t_floor;
-      for (const Box & b : boxes) {
-        if (d[0] > 0) {
-          const double t = b.x0 / d[0];
-          const double y = t * d[1], z = CAM_H + t * d[2];
-          if (t < best && y >= b.y0 && y <= b.y1 && z >= 0 && z <= b.top) {
-            best = t;
-            label = BOX;
-          }
-        }
-        if (d[2] < 0 && b.top < CAM_H) {
-          const double t = (b.top - CAM_H) / d[2];
-          const double x = t * d[0], y = t * d[1];
-          if (t < best && x >= b.x0 && x <= b.x0 + b.depth && y >= b.y0 &&
-              y <= b.y1) {
-            best = t;
-            label = BOX;
-          }
-        }
-      }
-      plane[(size_t) v * W + u] = label;
-    }
-  return plane;
-}
 
 /* Row (pixel-centre coordinates) where the floor point at distance x
  * ahead appears in the centre column. */
@@ -134,25 +28,20 @@ row_of_distance (double x)
 static void
 test_wall_on_a_pixel_edge ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.max_range = 5.0;
   fp.bearing_bins = 360;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   for (int edge : {60, 150, 240, 330}) {
     std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
     std::fill (plane.begin (), plane.begin () + (size_t) edge * W, BOX);
-    prof.scan (plane.data (), W, r);
+    sc.prof.scan (plane.data (), W, sc.r);
     /* the floor point of the edge at v = edge - 1/2, by hand: h / tan */
     const double below = TILT * M_PI / 180 + std::atan ((edge - 0.5 - CY) / F);
     const double X = CAM_H / std::tan (below);
     double worst = 0;
     for (int u = 0; u < W; u++) {
-      const ColumnBoundary & c = prof.columns ()[u];
+      const ColumnBoundary & c = sc.prof.columns ()[u];
       CHECK (c.state == FreeState::Obstacle, "edge %d col %d: %s", edge, u,
           free_state_name (c.state));
       worst = std::max (worst, std::fabs (c.x - X) / X);
@@ -165,8 +54,8 @@ test_wall_on_a_pixel_edge ()
     const double d = 2 * M_PI / fp.bearing_bins;
     int obstacle_bins = 0;
     for (int k = 0; k < fp.bearing_bins; k++) {
-      const RopBin & b = prof.bins ()[k];
-      const double bk = std::fabs (prof.bin_bearing (k));
+      const RopBin & b = sc.prof.bins ()[k];
+      const double bk = std::fabs (sc.prof.bin_bearing (k));
       if (bk > 45 * M_PI / 180) {
         CHECK (b.state == FreeState::NotSeen, "bin %d outside the view: %s",
             k, free_state_name (b.state));
@@ -194,20 +83,15 @@ test_wall_on_a_pixel_edge ()
 static void
 test_box_specks_shadows_markers ()
 {
-  CameraGeometry g = camera ();
+  const Box box {1.37, -0.3, 0.2, 0.4, 0.5};
   FloorProfileParams fp;
   fp.max_range = 4.0;
   fp.min_obstacle_rows = 6;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
-  const Box box {1.37, -0.3, 0.2, 0.4, 0.5};
+  Scanner sc (camera (), fp);
   std::vector<uint8_t> plane = render ({box});
-  prof.scan (plane.data (), W, r);
-  const std::vector<ColumnBoundary> clean = prof.columns ();
-  const std::vector<RopBin> clean_bins = prof.bins ();
+  sc.prof.scan (plane.data (), W, sc.r);
+  const std::vector<ColumnBoundary> clean = sc.prof.columns ();
+  const std::vector<RopBin> clean_bins = sc.prof.bins ();
 
   double worst_box = 0, worst_free = 0;
   int box_cols = 0;
@@ -269,10 +153,10 @@ test_box_specks_shadows_markers ()
   const double mv = row_of_distance (0.9);
   cv::ellipse (m, cv::Point (120, (int) mv), cv::Size (40, 12), 0, 0, 360,
       cv::Scalar (MARKER), -1);
-  prof.scan (plane.data (), W, r);
+  sc.prof.scan (plane.data (), W, sc.r);
   int changed = 0, marked = 0;
   for (int u = 0; u < W; u++) {
-    const ColumnBoundary & a = clean[u], &b = prof.columns ()[u];
+    const ColumnBoundary & a = clean[u], &b = sc.prof.columns ()[u];
     const bool differs = a.state != b.state ||
         std::fabs (a.range - b.range) > 1e-6;
     if (differs)
@@ -294,11 +178,11 @@ test_box_specks_shadows_markers ()
   for (int u = 0; u < W; u++)
     for (int v = 300; v < 306; v++)
       plane[(size_t) v * W + u] = SHADOW;
-  prof.scan (plane.data (), W, r);
-  CHECK (prof.columns ()[W / 2].state == FreeState::Obstacle &&
-      std::fabs (prof.columns ()[W / 2].row - 305.5f) < 1e-4,
-      "6-row band: %s at row %g", free_state_name (prof.columns ()[W /
-              2].state), prof.columns ()[W / 2].row);
+  sc.prof.scan (plane.data (), W, sc.r);
+  CHECK (sc.prof.columns ()[W / 2].state == FreeState::Obstacle &&
+      std::fabs (sc.prof.columns ()[W / 2].row - 305.5f) < 1e-4,
+      "6-row band: %s at row %g", free_state_name (sc.prof.columns ()[W /
+              2].state), sc.prof.columns ()[W / 2].row);
 }
 
 /* The border cuts the view: floor to the top row within max-range is a
@@ -307,24 +191,19 @@ test_box_specks_shadows_markers ()
 static void
 test_border_cut ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.max_range = 50.0;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
   /* the left quarter: something right in front of the lens */
   for (int v = 0; v < H; v++)
     for (int u = 0; u < W / 4; u++)
       plane[(size_t) v * W + u] = BOX;
-  prof.scan (plane.data (), W, r);
+  sc.prof.scan (plane.data (), W, sc.r);
   const double top_x = CAM_H / std::tan (TILT * M_PI / 180 +
       std::atan ((-0.5 - CY) / F));
   for (int u = 0; u < W; u++) {
-    const ColumnBoundary & c = prof.columns ()[u];
+    const ColumnBoundary & c = sc.prof.columns ()[u];
     if (u < W / 4) {
       CHECK (c.state == FreeState::NotSeen, "col %d: %s", u,
           free_state_name (c.state));
@@ -337,21 +216,23 @@ test_border_cut ()
   }
   int behind = 0;
   for (int k = 0; k < fp.bearing_bins; k++)
-    if (std::fabs (prof.bin_bearing (k)) > M_PI / 2) {
+    if (std::fabs (sc.prof.bin_bearing (k)) > M_PI / 2) {
       behind++;
-      CHECK (prof.bins ()[k].state == FreeState::NotSeen, "bin %d", k);
+      CHECK (sc.prof.bins ()[k].state == FreeState::NotSeen, "bin %d", k);
     }
   CHECK (behind > 0, "no bins behind");
   /* left of the view (positive bearings) is where the image's left
    * quarter looks: not seen there */
-  CHECK (prof.bins ()[prof.bin_of (25 * M_PI / 180)].state ==
+  CHECK (sc.prof.bins ()[sc.prof.bin_of (25 * M_PI / 180)].state ==
       FreeState::NotSeen, "bin at +25 deg: %s",
-      free_state_name (prof.bins ()[prof.bin_of (25 * M_PI / 180)].state));
-  CHECK (prof.bins ()[prof.bin_of (-20 * M_PI / 180)].state ==
+      free_state_name (sc.prof.bins ()[sc.prof.bin_of (25 * M_PI /
+                  180)].state));
+  CHECK (sc.prof.bins ()[sc.prof.bin_of (-20 * M_PI / 180)].state ==
       FreeState::ViewEdge, "bin at -20 deg");
 
   /* a camera looking above the horizon sees no floor at all */
-  CameraParams p = g.params ();
+  CameraParams p = sc.g.params ();
+  std::string err;
   p.tilt_deg = -40;
   CameraGeometry up;
   if (up.configure (p, &err)) {
@@ -364,58 +245,17 @@ test_border_cut ()
 static void
 test_bins ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.bearing_bins = 8;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  CHECK (prof.bin_of (0) == 0, "0");
-  CHECK (prof.bin_of (M_PI / 4) == 1, "45 deg left");
-  CHECK (prof.bin_of (-M_PI / 4) == 7, "45 deg right");
-  CHECK (prof.bin_of (M_PI / 8 - 1e-9) == 0 && prof.bin_of (M_PI / 8) == 1,
+  Scanner sc (camera (), fp);
+  CHECK (sc.prof.bin_of (0) == 0, "0");
+  CHECK (sc.prof.bin_of (M_PI / 4) == 1, "45 deg left");
+  CHECK (sc.prof.bin_of (-M_PI / 4) == 7, "45 deg right");
+  CHECK (sc.prof.bin_of (M_PI / 8 - 1e-9) == 0 &&
+      sc.prof.bin_of (M_PI / 8) == 1,
       "edges");
-  CHECK (prof.bin_of (M_PI) == 4 && prof.bin_of (-M_PI) == 4, "behind");
-  CHECK (std::fabs (prof.bin_bearing (7) + M_PI / 4) < 1e-12, "bearing 7");
-}
-
-/* CPU time of this thread, ms: the machine is shared, and wall-clock
- * time would count the time other processes hold the core. */
-static double
-thread_ms ()
-{
-  timespec ts;
-  clock_gettime (CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
-
-/* Per-frame cost of a scan at 640x480 (two boxes), printed. */
-static void
-bench_scan ()
-{
-  CameraGeometry g = camera ();
-  FloorProfileParams fp;
-  FloorProfile prof;
-  std::string err;
-  const double t0 = thread_ms ();
-  prof.configure (g, fp, &err);
-  const double t1 = thread_ms ();
-  LabelRole r[256];
-  roles (r);
-  std::vector<uint8_t> plane = render ({{1.5, -0.3, 0.2, 0.4, 0.5},
-      {2.5, 0.4, 0.9, 0.3, 0.3}});
-  const int n = 500;
-  for (int i = 0; i < 10; i++)
-    prof.scan (plane.data (), W, r);
-  std::vector<double> t (n);
-  for (int i = 0; i < n; i++) {
-    const double a = thread_ms ();
-    prof.scan (plane.data (), W, r);
-    t[i] = thread_ms () - a;
-  }
-  std::sort (t.begin (), t.end ());
-  std::printf ("configure %.1f ms; scan of a 640x480 plane: median %.3f ms, "
-      "p90 %.3f ms (thread CPU time)\n", t1 - t0, t[n / 2], t[n * 9 / 10]);
+  CHECK (sc.prof.bin_of (M_PI) == 4 && sc.prof.bin_of (-M_PI) == 4, "behind");
+  CHECK (std::fabs (sc.prof.bin_bearing (7) + M_PI / 4) < 1e-12, "bearing 7");
 }
 
 /* The bird's-eye remap of a floor with grid lines every 0.5 m (3 cm wide),
@@ -426,18 +266,13 @@ test_birdseye_grid ()
 {
   CameraGeometry g = camera ();
   std::vector<uint8_t> img ((size_t) W * H, 0);
-  for (int v = 0; v < H; v++)
-    for (int u = 0; u < W; u++) {
-      double d[3];
-      ray (u, v, d);
-      if (d[2] >= 0)
-        continue;
-      const double t = CAM_H / -d[2], x = t * d[0], y = t * d[1];
-      auto near_line = [](double a) {
-        return std::fabs (a - 0.5 * std::round (a / 0.5)) < 0.015;
-      };
-      img[(size_t) v * W + u] = near_line (x) || near_line (y) ? 255 : 20;
-    }
+  each_downward_ray ([&](int u, int v, const double d[3]) {
+        const double t = CAM_H / -d[2], x = t * d[0], y = t * d[1];
+        auto near_line = [](double a) {
+          return std::fabs (a - 0.5 * std::round (a / 0.5)) < 0.015;
+        };
+        img[(size_t) v * W + u] = near_line (x) || near_line (y) ? 255 : 20;
+      });
   BirdsEyeParams b;             /* 400x400, 100 px/m, origin bottom centre */
   std::vector<float> mx, my;
   std::string err;
@@ -502,19 +337,14 @@ static void
 test_rolled_camera ()
 {
   roll_deg = 8;
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   const double X = 1.2;
   std::vector<uint8_t> plane = render ({{X, -5, 5, 1.0, 1.0}});
-  prof.scan (plane.data (), W, r);
+  sc.prof.scan (plane.data (), W, sc.r);
   double worst = 0;
   int n = 0;
-  for (const ColumnBoundary & c : prof.columns ()) {
+  for (const ColumnBoundary & c : sc.prof.columns ()) {
     if (c.state != FreeState::Obstacle)
       continue;
     worst = std::max (worst, std::fabs (c.x - X) / X);
@@ -544,15 +374,9 @@ test_seed_model ()
   p.blind_distance = 0.3;
   p.view_depth = 0.9;
   p.half_width = 0.6;
-  CameraGeometry g;
-  std::string err;
-  CHECK (g.configure (p, &err), "%s", err.c_str ());
   FloorProfileParams fp;
   fp.max_range = 10;
-  FloorProfile prof;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (corecheck_camera (p), fp);
   /* the seed's angles from b, d and h, by hand: the bottom row looks
    * gamma from the vertical (to b), the centre row gamma + alpha (to
    * b + d) */
@@ -562,11 +386,11 @@ test_seed_model ()
   for (int e : {240, 300, 400}) {
     std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
     std::fill (plane.begin (), plane.begin () + (size_t) e * W, BOX);
-    prof.scan (plane.data (), W, r);
+    sc.prof.scan (plane.data (), W, sc.r);
     const double v = e - 0.5;
     const double want = h * std::tan (gamma + 2 * alpha * (H - 1 - v) /
         (H - 1));
-    const ColumnBoundary & c = prof.columns ()[W / 2];
+    const ColumnBoundary & c = sc.prof.columns ()[W / 2];
     CHECK (c.state == FreeState::Obstacle && std::fabs (c.x - want) <
         1e-4 * want, "seed, edge %d: %s x %g, want %g", e,
         free_state_name (c.state), c.x, want);
@@ -579,40 +403,30 @@ test_seed_model ()
 static void
 test_marker_length ()
 {
-  CameraGeometry g = camera ();
   FloorProfileParams fp;
   fp.max_marker_length = 0.15;
-  FloorProfile prof;
-  std::string err;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  LabelRole r[256];
-  roles (r);
+  Scanner sc (camera (), fp);
   const double bx = 1.0, by = -0.3, br = 0.08;   /* the ball, right */
   const double dx = 1.0, dy = 0.3, dr = 0.05;    /* the disc, left */
   std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
-  for (int v = 0; v < H; v++)
-    for (int u = 0; u < W; u++) {
-      double d[3];
-      ray (u, v, d);
-      if (d[2] >= 0)
-        continue;
-      const double t_floor = CAM_H / -d[2];
-      const double fx = t_floor * d[0], fy = t_floor * d[1];
-      /* the sphere: |C + t d - P|^2 = r^2, C = (0, 0, h) */
-      const double o[3] = {-bx, -by, CAM_H - br};
-      const double qa = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-      const double qb = 2 * (o[0] * d[0] + o[1] * d[1] + o[2] * d[2]);
-      const double qc = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - br * br;
-      const double disc = qb * qb - 4 * qa * qc;
-      const bool ball = disc >= 0 && (-qb - std::sqrt (disc)) / (2 * qa) <
-          t_floor;
-      if (ball || std::hypot (fx - dx, fy - dy) <= dr)
-        plane[(size_t) v * W + u] = MARKER;
-    }
-  prof.scan (plane.data (), W, r);
+  each_downward_ray ([&](int u, int v, const double d[3]) {
+        const double t_floor = CAM_H / -d[2];
+        const double fx = t_floor * d[0], fy = t_floor * d[1];
+        /* the sphere: |C + t d - P|^2 = r^2, C = (0, 0, h) */
+        const double o[3] = {-bx, -by, CAM_H - br};
+        const double qa = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        const double qb = 2 * (o[0] * d[0] + o[1] * d[1] + o[2] * d[2]);
+        const double qc = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - br * br;
+        const double disc = qb * qb - 4 * qa * qc;
+        const bool ball = disc >= 0 && (-qb - std::sqrt (disc)) / (2 * qa) <
+            t_floor;
+        if (ball || std::hypot (fx - dx, fy - dy) <= dr)
+          plane[(size_t) v * W + u] = MARKER;
+      });
+  sc.prof.scan (plane.data (), W, sc.r);
   int disc_cols = 0, ball_cols = 0;
   double best = 1e9;
-  for (const ColumnBoundary & c : prof.columns ()) {
+  for (const ColumnBoundary & c : sc.prof.columns ()) {
     const double bearing = std::atan2 (c.y, c.x);
     if (std::fabs (bearing - std::atan2 (dy, dx)) < 0.02) {
       disc_cols++;
@@ -646,18 +460,18 @@ test_marker_length ()
       }
     }
   }
-  prof.scan (shaded.data (), W, r);
+  sc.prof.scan (shaded.data (), W, sc.r);
   double best_shaded = 1e9;
-  for (const ColumnBoundary & c : prof.columns ())
+  for (const ColumnBoundary & c : sc.prof.columns ())
     if (c.state == FreeState::Obstacle)
       best_shaded = std::min (best_shaded, (double) c.range);
   CHECK (std::fabs (best_shaded - bulge) < 0.01 * bulge, "shaded ball: "
       "nearest %g, bulge %g", best_shaded, bulge);
   fp.max_marker_length = 0;
-  CHECK (prof.configure (g, fp, &err), "%s", err.c_str ());
-  prof.scan (plane.data (), W, r);
+  sc.configure (fp);
+  sc.prof.scan (plane.data (), W, sc.r);
   int obstacles = 0;
-  for (const ColumnBoundary & c : prof.columns ())
+  for (const ColumnBoundary & c : sc.prof.columns ())
     obstacles += c.state == FreeState::Obstacle;
   CHECK (obstacles == 0, "off: %d obstacle columns", obstacles);
 }
@@ -673,8 +487,5 @@ main ()
   test_rolled_camera ();
   test_seed_model ();
   test_marker_length ();
-  bench_scan ();
-  if (failures)
-    std::fprintf (stderr, "%d failures\n", failures);
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

@@ -10,15 +10,9 @@
 #include <vector>
 
 #include "markerevidence.h"
+#include "corecheck.h"
 
 using namespace landmark;
-
-static int passed = 0, failures = 0;
-
-#define CHECK(cond, ...) do { if (cond) { passed++; } else { failures++; \
-      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
-  } while (0)
 
 static std::vector<double>
 sampled_ellipse (double cx, double cy, double a, double b, double phi, int n)
@@ -42,11 +36,7 @@ pinhole (double hfov, double height, double tilt, int w = 640, int h = 480)
   p.camera_height = height;
   p.tilt_deg = tilt;
   intrinsics_from_hfov (hfov, w, h, &p.fx, &p.fy, &p.cx, &p.cy);
-  CameraGeometry g;
-  std::string err;
-  if (!g.configure (p, &err))
-    std::fprintf (stderr, "configure: %s\n", err.c_str ());
-  return g;
+  return corecheck_camera (p);
 }
 
 static void
@@ -255,6 +245,5 @@ main ()
   test_disc_from_above ();
   test_ball_on_axis ();
   test_disc_ahead ();
-  std::printf ("%d passed, %d failed\n", passed, failures);
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

@@ -4,6 +4,7 @@
  * repeated colours, the EKF bridging a gap. Observations are made here
  * from docs/conventions.md directly, not with the solver's helpers. */
 #include "posesolver.h"
+#include "corecheck.h"
 
 #include <cmath>
 #include <cstdio>
@@ -12,13 +13,6 @@
 #include <vector>
 
 using namespace landmark;
-
-static int failures = 0;
-
-#define CHECK(cond, ...) do { if (!(cond)) { failures++; \
-      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
-  } while (0)
 
 static double
 angdiff (double a, double b)
@@ -508,9 +502,5 @@ main ()
   test_association ();
   test_consensus_budget ();
   test_ekf_bridges_gap ();
-  if (failures)
-    std::fprintf (stderr, "%d failures\n", failures);
-  else
-    std::printf ("posesolver: all passed\n");
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

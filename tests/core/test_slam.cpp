@@ -6,6 +6,7 @@
  * (NEES), a partial map anchoring the frame, odometry, a stationary robot
  * and a spurious detection. */
 #include "slam.h"
+#include "corecheck.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,13 +16,6 @@
 #include <vector>
 
 using namespace landmark;
-
-static int passed = 0, failures = 0;
-
-#define CHECK(cond, ...) do { if (cond) { passed++; } else { failures++; \
-      std::fprintf (stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-      std::fprintf (stderr, __VA_ARGS__); std::fprintf (stderr, "\n"); } \
-  } while (0)
 
 struct TruthLandmark {
   std::string cls;
@@ -328,6 +322,20 @@ test_chi2 ()
       chi2_quantile (0.999, 10));
 }
 
+/* map_error within 0.15 m, with "every landmark found once, none extra or
+ * merged" as a check; returns the RMS error. */
+static double
+check_map (const SimResult & r, const std::vector<TruthLandmark> & truth,
+    const char *what)
+{
+  int missing, extra, merged;
+  const double rms = map_error (r.slam, truth, r.seen, 0.15, &missing,
+      &extra, &merged);
+  CHECK (missing == 0 && extra == 0 && merged == 0, "%s: missing %d extra "
+      "%d merged %d", what, missing, extra, merged);
+  return rms;
+}
+
 /* no map, constant-velocity model: the first pose (truth's origin)
  * defines the frame, so truth and estimate compare directly */
 static void
@@ -386,9 +394,7 @@ test_bearing_wrap ()
   std::vector<TruthLandmark> shifted = truth;
   for (auto & t : shifted)
     t.y -= 1.2;
-  int missing, extra, merged;
-  const double rms = map_error (r.slam, shifted, r.seen, 0.15, &missing,
-      &extra, &merged);
+  const double rms = check_map (r, shifted, "bearing wrap");
   std::printf ("bearing wrap: %zu landmarks (truth %zu), rms %.4f m\n",
       r.slam.landmarks ().size (), truth.size (), rms);
   /* and they are used, not gated out */
@@ -398,8 +404,6 @@ test_bearing_wrap ()
       r.behind_paired, r.behind);
   CHECK (r.slam.landmarks ().size () == truth.size (), "%zu landmarks",
       r.slam.landmarks ().size ());
-  CHECK (missing == 0 && extra == 0 && merged == 0, "%d %d %d", missing,
-      extra, merged);
   CHECK (percentile (r.pose_err, 1.0) < 0.05, "pose error %f",
       percentile (r.pose_err, 1.0));
 }
@@ -437,14 +441,10 @@ test_partial_map ()
       CHECK (l.id[0] == 'S', "added id %s", l.id.c_str ());
     }
   }
-  int missing, extra, merged;
-  const double rms = map_error (r.slam, truth, r.seen, 0.15, &missing,
-      &extra, &merged);
+  const double rms = check_map (r, truth, "partial map");
   std::printf ("partial map: %d anchors, %d added, rms %.4f m, path median "
       "%.4f m\n", anchors, added, rms, percentile (r.pose_err, 0.5));
   CHECK (anchors == (int) map.size (), "%d anchors", anchors);
-  CHECK (missing == 0 && extra == 0 && merged == 0, "%d %d %d", missing,
-      extra, merged);
   CHECK (percentile (r.pose_err, 0.5) < 0.03, "path median %f",
       percentile (r.pose_err, 0.5));
 }
@@ -458,13 +458,9 @@ test_odometry ()
   o.odometry = true;
   SimResult r;
   run (o, truth, &r);
-  int missing, extra, merged;
-  const double rms = map_error (r.slam, truth, r.seen, 0.15, &missing,
-      &extra, &merged);
+  const double rms = check_map (r, truth, "odometry");
   const double med = percentile (r.pose_err, 0.5);
   std::printf ("odometry: map rms %.4f m, path median %.4f m\n", rms, med);
-  CHECK (missing == 0 && extra == 0 && merged == 0, "%d %d %d", missing,
-      extra, merged);
   CHECK (rms < 0.05 && med < 0.03, "rms %f median %f", rms, med);
 }
 
@@ -474,10 +470,10 @@ static void
 test_stationary ()
 {
   const auto truth = field ();
+  SimResult r;
   SimOptions o;
   o.speed = 0;
   o.frames = 300;
-  SimResult r;
   run (o, truth, &r);
   size_t visible = 0;
   for (int s : r.seen)
@@ -525,7 +521,5 @@ main ()
   test_odometry ();
   test_stationary ();
   test_spurious_dropped ();
-  /* the form scripts/count-tests.py counts */
-  std::printf ("%d passed, %d failed\n", passed, failures);
-  return failures ? 1 : 0;
+  return corecheck_summary ();
 }

@@ -1,12 +1,12 @@
-/* Fuzz target: the camera (calibration) file loader that ipmrange uses,
- * core/camerageometry.cpp load_camera_file (OpenCV FileStorage, YAML, XML
- * or JSON). The loader takes a path, so each input is written to one
- * temporary file. The loader parses in a child process (OpenCV's parser
- * can hang or crash); where the child finished, the target parses the
- * same file again in this process, for coverage, and requires the same
- * answer. What it accepts must be usable: finite, bounded values,
- * and CameraGeometry::configure plus a few projections must run on it
- * (at a small frame size, to keep executions fast). */
+/* Fuzz target: the camera (calibration) file loader of ipmrange,
+ * floorboundary and birdseye, core/camerafile.cpp load_camera_file
+ * (OpenCV FileStorage YAML, XML or JSON, its shape checked before OpenCV
+ * parses it in this process). The loader takes a path, so each input is
+ * written to one temporary file. An input on which OpenCV's parser hangs
+ * or crashes must be refused by the shape check: the run then times out
+ * or crashes. What it accepts must be usable: finite, bounded values, and
+ * CameraGeometry::configure plus a few projections must run on it (at a
+ * small frame size, to keep executions fast). */
 #include <glib.h>
 #include <glib/gstdio.h>
 #include <unistd.h>
@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <string>
 
+#include "camerafile.h"
 #include "camerageometry.h"
 #include "fuzzcheck.h"
 
@@ -51,28 +52,6 @@ LLVMFuzzerTestOneInput (const uint8_t * data, size_t size)
   landmark::CameraFile f;
   std::string error;
   const bool ok = landmark::load_camera_file (tmp_path, &f, &error);
-  /* Where the child finished, the same parse here is safe: it gives the
-   * fuzzer its coverage and shows the child's answer arrives whole. */
-  if (error.find (": OpenCV's parser ") == std::string::npos) {
-    landmark::CameraFile here;
-    std::string here_error;
-    const bool here_ok = landmark::parse_camera_file (tmp_path, &here,
-        &here_error);
-    FUZZ_CHECK (here_ok == ok && here_error == error, "child: %d \"%s\", "
-        "here: %d \"%s\"", ok, error.c_str (), here_ok, here_error.c_str ());
-    FUZZ_CHECK (!ok || (here.seed == f.seed && here.fx == f.fx
-            && here.fy == f.fy && here.cx == f.cx && here.cy == f.cy
-            && here.dist == f.dist && here.image_width == f.image_width
-            && here.image_height == f.image_height
-            && here.has_camera_height == f.has_camera_height
-            && here.has_tilt == f.has_tilt && here.has_roll == f.has_roll
-            && here.camera_height == f.camera_height
-            && here.tilt_deg == f.tilt_deg && here.roll_deg == f.roll_deg
-            && here.blind_distance == f.blind_distance
-            && here.view_depth == f.view_depth
-            && here.half_width == f.half_width),
-        "the child's camera file differs from the one parsed here");
-  }
   if (!ok) {
     FUZZ_CHECK (error.rfind (tmp_path + ": ", 0) == 0, "error \"%s\"",
         error.c_str ());
@@ -137,8 +116,6 @@ LLVMFuzzerTestOneInput (const uint8_t * data, size_t size)
     if (g.pixel_to_plane (q[0], q[1], 0.0, &gx, &gy))
       FUZZ_CHECK (std::isfinite (gx) && std::isfinite (gy),
           "floor point %g %g of pixel %g %g", gx, gy, q[0], q[1]);
-    double range, bearing;
-    g.lookup ((int) q[0], (int) q[1], &range, &bearing);
   }
   return 0;
 }

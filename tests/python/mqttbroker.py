@@ -13,6 +13,8 @@ import time
 
 import pytest
 
+from gstlandmark.devtools.fleetbench import start_mosquitto, stop_mosquitto
+
 MOSQUITTO = shutil.which("mosquitto") or (
     "/usr/sbin/mosquitto" if os.access("/usr/sbin/mosquitto", os.X_OK)
     else None)
@@ -77,33 +79,15 @@ class Broker:
 
     def start(self, timeout_s=5.0):
         self._write_config()
-        self.proc = subprocess.Popen([MOSQUITTO, "-c", self.conf],
-                                     stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.PIPE)
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError("mosquitto exited: " +
-                                   self.proc.stderr.read().decode())
-            try:
-                with socket.create_connection(("127.0.0.1", self.port),
-                                              timeout=0.2):
-                    return self
-            except OSError:
-                time.sleep(0.02)
-        raise RuntimeError(f"mosquitto not listening on {self.port}")
+        self.proc = start_mosquitto([MOSQUITTO, "-c", self.conf], self.port,
+                                    timeout_s)
+        return self
 
     def reload(self):
         self.proc.send_signal(signal.SIGHUP)
 
     def stop(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(timeout=5)
+        stop_mosquitto(self.proc)
         self.proc = None
 
 

@@ -1,6 +1,6 @@
 """blobroundness after labsegment: drawn colour frames (shapes known
 exactly), and a short rendered distractor clip scored against its ground
-truth with gstlandmark.evaluate."""
+truth with gstlandmark.commands.evaluate."""
 
 import json
 import math
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from gstlandmark import meta, pipeline
-from gstlandmark.evaluate import evaluate, summary
-from gstlandmark.regress import read_jsonl
+from gstlandmark.commands.evaluate import evaluate, summary
+from gstlandmark.landmarklog import read_jsonl
 
 # exact sRGB colours of the built-in palette (docs: default-palette.json)
 GREY = (128, 128, 128)

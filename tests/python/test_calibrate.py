@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import calibrate
-from gstlandmark.cli import main
+from gstlandmark.commands import calibrate
+from gstlandmark.commands.cli import main
 from gstlandmark.synth.camera import Camera, Pose
 
 WIDTH, HEIGHT = 640, 480

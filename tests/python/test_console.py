@@ -22,8 +22,11 @@ aiohttp = pytest.importorskip("aiohttp")
 from aiohttp.test_utils import TestClient, TestServer  # noqa: E402
 
 from gstlandmark import palette as pal  # noqa: E402
-from gstlandmark.console import server  # noqa: E402
-from gstlandmark.console.engine import Engine  # noqa: E402
+from gstlandmark.commands.console import server  # noqa: E402
+from gstlandmark.commands.console.engine import Engine  # noqa: E402
+
+from webpages import (check_self_contained,  # noqa: E402
+                      check_token_required)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))))
@@ -90,25 +93,9 @@ async def post(client, route, body, **kwargs):
 
 def test_page_and_static_files_have_no_external_urls(gst, tmp_path):
     async def check(client):
-        r = await client.get("/")
-        assert r.status == 200
-        html = await r.text()
-        refs = re.findall(r'(?:src|href)="([^"]+)"', html)
-        assert {"static/console.js", "static/console.css"} <= set(refs)
-        texts = {"index.html": html}
-        for ref in refs:
-            if ref.startswith("static/"):
-                r = await client.get("/" + ref)
-                assert r.status == 200, ref
-                texts[ref] = await r.text()
-        for name, text in texts.items():
-            # nothing fetched from elsewhere: no scheme, no
-            # protocol-relative URL, no CSS import
-            assert not re.search(r"(?:https?|wss?|ftp)://|[\"'(]//\w|"
-                                 r"@import", text, re.I), name
-            assert not re.search(r"\burl\(", text), name
-        r = await client.get("/static/../engine.py")
-        assert r.status in (403, 404)
+        await check_self_contained(
+            client, ("static/console.js", "static/console.css"),
+            "/static/../engine.py")
 
     serve(clip_engine(tmp_path), check, start=False)
 
@@ -269,8 +256,8 @@ def test_save_config_round_trip(gst, tmp_path):
     config = json.loads(path.read_text())
     assert config["properties"]["ipmrange"]["tilt"] == 20.5
     assert config["properties"]["labsegment"]["min-class-pixels"] == 50
-    from gstlandmark import runner
-    from gstlandmark.console import read_project
+    from gstlandmark.commands import runner
+    from gstlandmark.commands.console import read_project
     variables = runner.read_config(str(path))
     assert pal.load_palette(variables["PALETTE"]).names == \
         pal.load_palette(os.path.join(CLIP, "palette.json")).names
@@ -286,21 +273,9 @@ TOKEN = "s3cret-token-for-the-test"
 
 def test_token_required_off_loopback(gst, tmp_path):
     async def check(client):
-        for headers, query, status in (
-                ({}, "", 401),
-                ({"Authorization": "Bearer wrong"}, "", 401),
-                ({"Authorization": "Bearer " + TOKEN[:-1]}, "", 401),
-                ({}, "?token=" + TOKEN + "x", 401),
-                ({"Authorization": "Bearer " + TOKEN}, "", 200),
-                ({}, "?token=" + TOKEN, 200)):
-            for route in ("/", "/api/state", "/static/console.js",
-                          "/download/palette.json"):
-                client.session.cookie_jar.clear()
-                r = await client.get(route + query, headers=headers)
-                assert r.status == status, (route, headers, query)
-                if status == 401:
-                    assert "token" in (await r.json())["error"]
-        client.session.cookie_jar.clear()
+        await check_token_required(
+            client, TOKEN, ("/", "/api/state", "/static/console.js",
+                            "/download/palette.json"))
         r = await client.post("/api/control", json={"action": "stop"})
         assert r.status == 401
         assert engine.state == "playing"
@@ -504,7 +479,7 @@ def test_teach_sets_the_class_colour_live_and_undo_restores(gst, tmp_path):
 
 
 def test_console_command_refuses_a_short_token(gst, capsys):
-    from gstlandmark.cli import main
+    from gstlandmark.commands.cli import main
     assert main(["console", "--testsrc", "--listen", "0.0.0.0",
                  "--token", "short"]) == 1
     assert "--token must be at least 16 characters" in \
@@ -651,7 +626,7 @@ def run_command(args, tmp_path):
     import subprocess
     import sys
     proc = subprocess.Popen(
-        [sys.executable, "-m", "gstlandmark.cli", "console", *args,
+        [sys.executable, "-m", "gstlandmark.commands.cli", "console", *args,
          "--port", "0", "--out", str(tmp_path / "out")],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
@@ -815,7 +790,7 @@ def test_a_loop_that_falls_behind_gets_the_newest_item_only():
     """1,000 frames handed over while the loop is busy: one callback, the
     newest frame; nothing piles up."""
     import threading
-    from gstlandmark.console.engine import Handoff
+    from gstlandmark.commands.console.engine import Handoff
 
     async def main():
         got = []

@@ -73,7 +73,7 @@ class ServerThread:
 
     def _run(self):
         from aiohttp import web
-        from gstlandmark.console.server import is_loopback, make_app
+        from gstlandmark.commands.console.server import is_loopback, make_app
 
         async def main():
             app = make_app(self.engine, token=self.token,

@@ -4,7 +4,8 @@ import json
 
 import cv2
 
-from gstlandmark import demo, regress
+from gstlandmark.commands import demo
+from gstlandmark.landmarklog import read_jsonl
 
 
 def test_demo_writes_outputs(gst, tmp_path):
@@ -18,7 +19,7 @@ def test_demo_writes_outputs(gst, tmp_path):
     assert json.loads((out / "summary.json").read_text()) == summary
     assert cv2.imread(str(out / "preview.png")).shape == (240, 320, 3)
     assert cv2.imread(str(out / "trajectory.png")) is not None
-    log = regress.read_jsonl(str(out / "log.jsonl"))
+    log = read_jsonl(str(out / "log.jsonl"))
     assert [f["frame"] for f in log] == list(range(45))
     # the chain finds landmarks and solves poses on the synthetic path
     assert sum(len(f["detections"]) for f in log) > 0

@@ -3,14 +3,15 @@ their metadata and landmark-* messages."""
 
 import pytest
 
-from gstlandmark import demo, pipeline
+from gstlandmark import pipeline
+from gstlandmark.devtools import bench
 from gstlandmark.messages import HistogramMessage
 
 
 @pytest.fixture(scope="module")
 def clip(tmp_path_factory):
     path = tmp_path_factory.mktemp("clip") / "clip.avi"
-    demo.write_clip(str(path), 160, 120, 15)
+    bench.write_clip(str(path), 160, 120, 15)
     return str(path)
 
 

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from gstlandmark import cli, evaluate as E
+from gstlandmark.commands import cli, evaluate as E
 
 
 def mark(cls, u, v, rng, bearing=0.0, pixels=100, id_="L"):

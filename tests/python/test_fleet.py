@@ -16,16 +16,12 @@ import pytest
 
 from gi.repository import Gst
 
-from gstlandmark import calibrate
-from gstlandmark.fleet import FleetState
+from gstlandmark.commands import calibrate
+from gstlandmark.commands.fleet import FleetState
 
 from mqttbroker import MOSQUITTO, Broker, needs_mosquitto, wait_for
-
-SOURCE_ROOT = os.environ.get(
-    "LANDMARK_SOURCE_ROOT",
-    os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(
-        __file__)))))
-CLIP_DIR = os.path.join(SOURCE_ROOT, "tests", "files", "clips", "path-small")
+from shippedclip import CLIP_DIR
+from webpages import check_self_contained, check_token_required
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +49,7 @@ def test_two_robots(gst, tmp_path, camera_file):
     broker = Broker(tmp_path).start()
     out = tmp_path / "fleet.json"
     fleet = subprocess.Popen(
-        [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+        [sys.executable, "-m", "gstlandmark.commands.cli", "fleet", "--port",
          str(broker.port), "-o", str(out), "--write-every", "0.2",
          "--path-every", "0"],
         stderr=subprocess.PIPE, text=True)
@@ -154,7 +150,7 @@ def test_unreachable_broker_is_a_clear_error(tmp_path):
     from mqttbroker import free_port
     port = free_port()
     done = subprocess.run(
-        [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+        [sys.executable, "-m", "gstlandmark.commands.cli", "fleet", "--port",
          str(port), "-o", str(tmp_path / "f.json"), "--duration", "1"],
         capture_output=True, text=True, timeout=30)
     assert done.returncode == 1
@@ -167,7 +163,7 @@ def test_load_ten_robots(gst):
     short run): the fleet receives every frame message the broker
     acknowledged, once and in order, within half a second, and its memory
     does not grow over the last 6 s."""
-    from gstlandmark import fleetbench
+    from gstlandmark.devtools import fleetbench
     r = fleetbench.run_fleet_bench(robots=10, rate=30, seconds=10,
                                    window_s=6)
     assert r["sent"] == 10 * 30 * 10
@@ -190,7 +186,7 @@ def test_load_ten_robots(gst):
 
 def test_load_failures_are_reported():
     """The bench's verdict names each way a fleet can fall short."""
-    from gstlandmark import fleetbench
+    from gstlandmark.devtools import fleetbench
     good = {"sent": 6, "acked": 6, "received": 6, "missed": 0,
             "out-of-sequence": 0, "offline": 2, "robots": 2,
             "per-robot": [{"robot": "a", "sent": 3, "received": 3},
@@ -219,7 +215,7 @@ def test_retained_pose_of_a_quiet_robot_then_frames_only(tmp_path):
     repeats its frame message, it takes poses from the frame messages
     alone (the pose topic is left), losing none."""
     import paho.mqtt.client as mqtt
-    from gstlandmark.fleet import Fleet
+    from gstlandmark.commands.fleet import Fleet
     broker = Broker(tmp_path).start()
     pub = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id="pub",
                       protocol=mqtt.MQTTv311)
@@ -274,7 +270,7 @@ def test_delay_percentiles_against_numpy():
     (numpy's on the same values as the reference) and the exact maximum;
     clocks apart (negative delays) and delays beyond 100 s are counted."""
     import numpy as np
-    from gstlandmark.fleet import DelayHistogram
+    from gstlandmark.commands.fleet import DelayHistogram
     rng = np.random.default_rng(3)
     values = np.exp(rng.normal(np.log(0.004), 1.5, 20000))
     h = DelayHistogram()
@@ -296,14 +292,12 @@ def test_delay_percentiles_against_numpy():
 # the live map (gst-landmark fleet --http)
 
 MAP_TOKEN = "fleet-map-token-for-the-test"
-NO_EXTERNAL = re.compile(r"(?:https?|wss?|ftp)://|[\"'(]//\w|@import|"
-                         r"\burl\(", re.I)
 
 
 def serve_map(state, check, **kwargs):
     """Runs ``check(client)`` against the map's app on a real port."""
     from aiohttp.test_utils import TestClient, TestServer
-    from gstlandmark import fleetweb
+    from gstlandmark.commands import fleetweb
 
     async def main():
         app = fleetweb.make_app(state, **kwargs)
@@ -314,21 +308,10 @@ def serve_map(state, check, **kwargs):
 
 def test_map_page_and_static_files_have_no_external_urls():
     async def check(client):
-        r = await client.get("/")
-        assert r.status == 200
-        html = await r.text()
-        refs = re.findall(r'(?:src|href)="([^"]+)"', html)
-        assert {"static/fleet.js", "static/fleet.css"} <= set(refs)
-        texts = {"index.html": html}
-        for ref in refs:
-            r = await client.get("/" + ref)
-            assert r.status == 200, ref
-            texts[ref] = await r.text()
-        for name, text in texts.items():
-            assert not NO_EXTERNAL.search(text), name
+        html = await check_self_contained(
+            client, ("static/fleet.js", "static/fleet.css"),
+            "/static/../fleet.py")
         assert "<canvas" in html
-        r = await client.get("/static/../fleet.py")
-        assert r.status in (403, 404)
     serve_map(FleetState(), check)
 
 
@@ -349,8 +332,8 @@ def test_map_shows_two_simulated_robots_live(tmp_path):
     frames missed and the status, at most every push_every seconds."""
     if MOSQUITTO is None:
         pytest.skip("the mosquitto broker is not installed")
-    from gstlandmark import fleetweb
-    from gstlandmark.fleet import Fleet
+    from gstlandmark.commands import fleetweb
+    from gstlandmark.commands.fleet import Fleet
     broker = Broker(tmp_path).start()
     fleet = Fleet(port=broker.port, path_every=0).start()
     map_path = os.path.join(CLIP_DIR, "map.json")
@@ -445,19 +428,8 @@ def test_map_token_required_off_loopback():
     import aiohttp
 
     async def check(client):
-        for headers, query, status in (
-                ({}, "", 401),
-                ({"Authorization": "Bearer wrong"}, "", 401),
-                ({}, "?token=" + MAP_TOKEN[:-1], 401),
-                ({"Authorization": "Bearer " + MAP_TOKEN}, "", 200),
-                ({}, "?token=" + MAP_TOKEN, 200)):
-            for route in ("/", "/static/fleet.js", "/api/fleet"):
-                client.session.cookie_jar.clear()
-                r = await client.get(route + query, headers=headers)
-                assert r.status == status, (route, headers, query)
-                if status == 401:
-                    assert "token" in (await r.json())["error"]
-        client.session.cookie_jar.clear()
+        await check_token_required(
+            client, MAP_TOKEN, ("/", "/static/fleet.js", "/api/fleet"))
         for query in ("", "?token=nope"):
             with pytest.raises(aiohttp.WSServerHandshakeError) as err:
                 await client.ws_connect("/ws" + query)
@@ -502,7 +474,7 @@ def test_map_on_loopback_refuses_other_hosts_and_origins():
     ([], "give -o FLEET.json, --http"),
 ])
 def test_map_options_are_checked(args, message, capsys):
-    from gstlandmark import cli
+    from gstlandmark.commands import cli
     assert cli.main(["fleet", "--port", "1"] + args) != 0
     assert message in capsys.readouterr().err
 
@@ -517,7 +489,8 @@ def test_map_command_serves_the_map(tmp_path):
     broker = Broker(tmp_path).start()
     for listen in ("0", "0.0.0.0:0"):
         proc = subprocess.Popen(
-            [sys.executable, "-m", "gstlandmark.cli", "fleet", "--port",
+            [sys.executable, "-m", "gstlandmark.commands.cli",
+             "fleet", "--port",
              str(broker.port), "--http", listen],
             stderr=subprocess.PIPE, text=True)
         try:

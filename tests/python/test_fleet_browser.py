@@ -14,8 +14,8 @@ from selenium.webdriver.common.by import By  # noqa: E402
 from test_console_browser import (  # noqa: E402,F401
     browser, pytestmark, wait_for)
 
-from gstlandmark import fleetweb  # noqa: E402
-from gstlandmark.fleet import FleetState  # noqa: E402
+from gstlandmark.commands import fleetweb  # noqa: E402
+from gstlandmark.commands.fleet import FleetState  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))))

@@ -11,6 +11,8 @@ import numpy as np
 
 from gstlandmark import meta, pipeline
 
+import shippedclip
+
 W, H = 640, 480
 CAM_H, TILT, HFOV = 0.3, 25.0, 60.0
 F = (W / 2) / math.tan(math.radians(HFOV / 2))
@@ -136,8 +138,7 @@ def test_ball_with_markers_obstacles(gst):
     assert abs(fm.rop_range[k] - near_edge) < 0.02
 
 
-CLIP_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(
-    __file__))), "files", "clips", "path-small")
+CLIP_DIR = shippedclip.CLIP_DIR
 
 
 def field_distance(walls, x, y, heading):
@@ -159,11 +160,9 @@ def test_rendered_walls_of_the_path_clip(gst, tmp_path):
     """The shipped synthetic clip (45 frames, 320x240, a walled 6 m field,
     discs on the floor) with its scene camera: every seen bin against the
     nearest wall over the bin's bearings from the true pose."""
-    with open(os.path.join(CLIP_DIR, "scene.json")) as f:
-        scene = json.load(f)
+    scene = shippedclip.scene()
     cam, walls = scene["camera"], scene["walls"]
-    with open(os.path.join(CLIP_DIR, "truth.jsonl")) as f:
-        truth = {t["frame"]: t["robot"] for t in map(json.loads, f)}
+    truth = shippedclip.true_poses()
     log = tmp_path / "log.jsonl"
     max_range = 4.0
     desc = (
@@ -269,7 +268,7 @@ def test_synthetic_boxes_against_the_truth(gst, tmp_path):
     """The seed robot's walled field with 10 random boxes (gst-landmark
     synth path --obstacles 10): every bin floorboundary sees against the
     truth's free range; no landmark disc reported as an obstacle."""
-    from gstlandmark import evaluate
+    from gstlandmark.commands import evaluate
     from gstlandmark.synth import render_scenario
     out = tmp_path / "clip"
     render_scenario("path", str(out), seed=1, frames=12, size=(320, 240),

@@ -12,7 +12,9 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import cli, floormap
+from gstlandmark.commands import cli, floormap
+
+import shippedclip
 
 WALL_X = 2.02            # the wall: the line x = 2.02 m of the map frame
 HALF_FOV = math.radians(30)
@@ -159,13 +161,10 @@ def test_path_clip_with_true_poses(gst, tmp_path):
     the free cells inside the field."""
     import os
     from gstlandmark import pipeline
-    clip = os.path.join(os.path.dirname(__file__), "..", "files", "clips",
-                        "path-small")
-    with open(os.path.join(clip, "scene.json")) as f:
-        scene = json.load(f)
+    clip = shippedclip.CLIP_DIR
+    scene = shippedclip.scene()
     cam, walls = scene["camera"], scene["walls"]
-    with open(os.path.join(clip, "truth.jsonl")) as f:
-        truth = {t["frame"]: t["robot"] for t in map(json.loads, f)}
+    truth = shippedclip.true_poses()
     log = tmp_path / "log.jsonl"
     pipeline.run_to_eos(
         f"filesrc location={os.path.join(clip, 'clip.avi')} ! decodebin ! "

@@ -1,5 +1,5 @@
 """ipmrange on the synthetic range sweep: range and bearing against the
-exact truth (gstlandmark.evaluate), discs and balls from 0.3 to 4 m.
+exact truth (gstlandmark.commands.evaluate), discs and balls from 0.3 to 4 m.
 
 Each band's median and p95 range error and median bearing error must stay
 within three times the figures of docs/ranging.md's table, read from it
@@ -14,8 +14,9 @@ import re
 import numpy as np
 import pytest
 
-from gstlandmark import cli, evaluate as E, pipeline
-from gstlandmark.regress import read_jsonl
+from gstlandmark import pipeline
+from gstlandmark.commands import cli, evaluate as E
+from gstlandmark.landmarklog import read_jsonl
 
 MAX_RANGE = 4.0
 
@@ -169,12 +170,9 @@ def test_size_range_is_reported(gst, sweep, tmp_path, kind):
 # against OpenCV, on detections attached by hand
 
 import cv2  # noqa: E402
-import gi  # noqa: E402
 
-gi.require_version("GstVideo", "1.0")
-from gi.repository import GstVideo  # noqa: E402
-
-from gstlandmark import calibrate as C, meta  # noqa: E402
+from gstlandmark.commands import calibrate as C  # noqa: E402
+from gstlandmark.devtools import ranging_bench  # noqa: E402
 
 W, H = 640, 480
 K_TEST = np.array([[530.0, 0.0, 318.2], [0.0, 527.5, 243.9],
@@ -182,39 +180,11 @@ K_TEST = np.array([[530.0, 0.0, 318.2], [0.0, 527.5, 243.9],
 DIST_TEST = np.array([-0.21, 0.06, 0.0008, -0.0012, -0.008])
 
 
-def range_points(Gst, props, uv, size=(W, H)):
+def range_points(Gst, props, uv, size=(W, H), at_ready=None):
     """landmark-range of detections at pixel centroids uv (no ellipse),
-    through appsrc ! ipmrange props ! appsink; one dict per point."""
-    w, h = size
-    caps = f"video/x-raw,format=GRAY8,width={w},height={h},framerate=30/1"
-    pipe = Gst.parse_launch(f"appsrc name=src format=time caps={caps} ! "
-                            f"ipmrange {props} ! appsink name=sink "
-                            f"sync=false")
-    src, sink = pipe.get_by_name("src"), pipe.get_by_name("sink")
-    stride = (w + 3) // 4 * 4
-    buf = Gst.Buffer.new_wrapped(bytes(stride * h))
-    buf.pts = 0
-    for i, (u, v) in enumerate(uv):
-        u, v = float(u), float(v)
-        roi = GstVideo.buffer_add_video_region_of_interest_meta(
-            buf, "red", max(0, int(u) - 2), max(0, int(v) - 2), 5, 5)
-        roi.id = i
-        roi.add_param(Gst.Structure.new_from_string(
-            f"landmark-blob, class=(string)red, centroid-x=(double){u!r}, "
-            f"centroid-y=(double){v!r}, frame-width=(uint){w}, "
-            f"frame-height=(uint){h}"))
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        src.emit("push-buffer", buf)
-        src.emit("end-of-stream")
-        sample = sink.emit("try-pull-sample", 10 * Gst.SECOND)
-        if sample is None:
-            msg = pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
-            detail = msg.parse_error()[0].message if msg else "timeout"
-            raise AssertionError(f"ipmrange {props}: {detail}")
-        return [d.range for d in meta.detections(sample.get_buffer())]
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    through appsrc ! ipmrange props ! appsink; one dict per point.
+    at_ready() runs once the pipeline is READY."""
+    return ranging_bench.element_ranges(props, uv, size, at_ready)
 
 
 def ready_error(Gst, props):
@@ -264,7 +234,7 @@ UV_GRID = [(u, v) for v in (300.0, 380.0, 470.0)
            for u in (12.0, 200.5, 319.5, 500.0, 630.0)]
 
 
-@pytest.mark.parametrize("suffix", ["yml", "xml"])
+@pytest.mark.parametrize("suffix", ["yml", "xml", "json"])
 def test_camera_file_mounting_wins_over_properties(gst, tmp_path, suffix):
     path = tmp_path / f"cam.{suffix}"
     C.write_camera_file(str(path), pinhole_fields(0.42, 31.0, 2.5))
@@ -274,6 +244,20 @@ def test_camera_file_mounting_wins_over_properties(gst, tmp_path, suffix):
     want = floor_truth(UV_GRID, K_TEST, DIST_TEST, 0.42, 31.0, 2.5)
     for r, (gx, gy) in zip(got, want):
         assert not r["no-floor"]
+        assert r["ground-x"] == pytest.approx(gx, abs=1e-7)
+        assert r["ground-y"] == pytest.approx(gy, abs=1e-7)
+
+
+def test_camera_file_is_read_once_at_ready(gst, tmp_path):
+    # read at the change to READY and not again when the stream starts: a
+    # file changed after READY is not seen by this run
+    path = tmp_path / "cam.yml"
+    C.write_camera_file(str(path), pinhole_fields(0.42, 31.0, 2.5))
+    got = range_points(gst, f"calibration={path}", UV_GRID, at_ready=lambda:
+                       C.write_camera_file(str(path),
+                                           pinhole_fields(0.9, 20.0, 0.0)))
+    want = floor_truth(UV_GRID, K_TEST, DIST_TEST, 0.42, 31.0, 2.5)
+    for r, (gx, gy) in zip(got, want):
         assert r["ground-x"] == pytest.approx(gx, abs=1e-7)
         assert r["ground-y"] == pytest.approx(gy, abs=1e-7)
 

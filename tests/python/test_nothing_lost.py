@@ -25,7 +25,8 @@ import threading
 
 import pytest
 
-from gstlandmark import pipeline, soak
+from gstlandmark import pipeline
+from gstlandmark.devtools import soak
 
 Gst = pipeline.Gst
 SIZE = (320, 240)

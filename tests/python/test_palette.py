@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import cli, reference
+from gstlandmark import reference
+from gstlandmark.commands import cli
 from gstlandmark.palette import (Palette, PaletteClass, PaletteError,
                                  default_palette, learn_from_mask,
                                  learn_from_rects, load_palette,

@@ -22,7 +22,9 @@ import time
 
 import pytest
 
-from gstlandmark import calibrate, demo, goldens, pipeline
+from gstlandmark import pipeline
+from gstlandmark.commands import calibrate
+from gstlandmark.devtools import bench, goldens
 
 from mqttbroker import (Broker, Subscriber, make_certificates,
                         needs_mosquitto, wait_for)
@@ -42,27 +44,17 @@ LIVE_FRAMES = 10
 
 def video_info(path):
     """(frames, width, height) of a video file, decoded."""
-    pipe = Gst.parse_launch(f"filesrc location={path} ! decodebin ! "
-                            "fakesink name=sink")
     n = [0]
     size = [0, 0]
 
-    def probe(pad, info):
+    def count(pad, buf):
         if n[0] == 0:
             s = pad.get_current_caps().get_structure(0)
             size[:] = [s.get_value("width"), s.get_value("height")]
         n[0] += 1
-        return Gst.PadProbeReturn.OK
 
-    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
-        Gst.PadProbeType.BUFFER, probe)
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        msg = pipe.get_bus().timed_pop_filtered(
-            30 * Gst.SECOND, Gst.MessageType.EOS | Gst.MessageType.ERROR)
-        assert msg is not None and msg.type == Gst.MessageType.EOS, path
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    pipeline.run_to_eos(f"filesrc location={path} ! decodebin ! "
+                        "fakesink name=sink", 30, count)
     return n[0], size[0], size[1]
 
 
@@ -106,7 +98,7 @@ def chain_vars(tmp_path_factory):
 def run_old(name, desc, tmp_path):
     """Pipelines of labsegment alone, as they were always tested."""
     clip = tmp_path / "input.avi"
-    demo.write_clip(str(clip), 160, 120, CLIP_FRAMES)
+    bench.write_clip(str(clip), 160, 120, CLIP_FRAMES)
     out_ext = ".jsonl" if "landmarklog location=${OUTPUT}" in desc else ".avi"
     output = tmp_path / f"output{out_ext}"
     desc = without_devices(desc, 10)

@@ -22,19 +22,14 @@ import pytest
 
 from gi.repository import Gst
 
-from gstlandmark import calibrate
+from gstlandmark.commands import calibrate
 
 from mqttbroker import (Broker, Subscriber, make_certificates,
                         needs_mosquitto, wait_for)
+from shippedclip import CLIP_DIR, CLIP_FRAMES
 
 pytestmark = needs_mosquitto
 
-SOURCE_ROOT = os.environ.get(
-    "LANDMARK_SOURCE_ROOT",
-    os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(
-        __file__)))))
-CLIP_DIR = os.path.join(SOURCE_ROOT, "tests", "files", "clips", "path-small")
-CLIP_FRAMES = 45
 
 
 def frames_of(messages, robot="r1"):
@@ -299,15 +294,12 @@ def test_small_bound_drops_the_oldest_and_counts(gst, tmp_path):
     assert "max-queue-messages" in drop_warnings[0]
 
 
-@pytest.mark.parametrize("topic, needle", [
-    ("landmark/{robt}/frame", "{robt}"),
-    ("landmark/+/frame", "'+'"),
-    ("landmark/{robot}/#", "'#'"),
-    ("landmark/{robot/frame", "not closed"),
-])
-def test_bad_topic_is_an_error_naming_topic(gst, topic, needle):
+def settings_error(settings):
+    """The message of the SETTINGS error landmarkpublish with ``settings``
+    posts when it fails to reach PAUSED (it must fail)."""
     e = Gst.ElementFactory.make("landmarkpublish", None)
-    e.set_property("topic", topic)
+    for key, value in settings.items():
+        e.set_property(key, value)
     bus = Gst.Bus.new()
     e.set_bus(bus)
     try:
@@ -318,10 +310,20 @@ def test_bad_topic_is_an_error_naming_topic(gst, topic, needle):
         err, _ = msg.parse_error()
         assert err.matches(Gst.ResourceError.quark(),
                            Gst.ResourceError.SETTINGS)
-        assert "'topic'" in err.message and needle in err.message, \
-            err.message
+        return err.message
     finally:
         e.set_state(Gst.State.NULL)
+
+
+@pytest.mark.parametrize("topic, needle", [
+    ("landmark/{robt}/frame", "{robt}"),
+    ("landmark/+/frame", "'+'"),
+    ("landmark/{robot}/#", "'#'"),
+    ("landmark/{robot/frame", "not closed"),
+])
+def test_bad_topic_is_an_error_naming_topic(gst, topic, needle):
+    message = settings_error({"topic": topic})
+    assert "'topic'" in message and needle in message, message
 
 
 @pytest.mark.parametrize("settings, name, needle", [
@@ -341,23 +343,8 @@ def test_bad_topic_is_an_error_naming_topic(gst, topic, needle):
 ])
 def test_bad_settings_are_errors_naming_the_property(gst, settings, name,
                                                      needle):
-    e = Gst.ElementFactory.make("landmarkpublish", None)
-    for key, value in settings.items():
-        e.set_property(key, value)
-    bus = Gst.Bus.new()
-    e.set_bus(bus)
-    try:
-        assert e.set_state(Gst.State.PAUSED) == \
-            Gst.StateChangeReturn.FAILURE
-        msg = bus.timed_pop_filtered(Gst.SECOND, Gst.MessageType.ERROR)
-        assert msg is not None
-        err, _ = msg.parse_error()
-        assert err.matches(Gst.ResourceError.quark(),
-                           Gst.ResourceError.SETTINGS)
-        assert f"Invalid '{name}'" in err.message and needle in err.message, \
-            err.message
-    finally:
-        e.set_state(Gst.State.NULL)
+    message = settings_error(settings)
+    assert f"Invalid '{name}'" in message and needle in message, message
 
 
 def test_unknown_host_is_a_warning_and_video_flows(gst):

@@ -13,30 +13,15 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import calibrate, record
-from gstlandmark.cli import CliError
+from gstlandmark.commands import record
+from gstlandmark.commands.common import CliError
 
-SOURCE_ROOT = os.environ.get(
-    "LANDMARK_SOURCE_ROOT",
-    os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(
-        __file__)))))
-CLIP_DIR = os.path.join(SOURCE_ROOT, "tests", "files", "clips", "path-small")
-CLIP_FRAMES = 45
+from shippedclip import CLIP_DIR, CLIP_FRAMES, write_project
 
 
 @pytest.fixture(scope="module")
 def project(tmp_path_factory):
-    """A project config for the shipped clip: its palette and map, and
-    its camera as `gst-landmark calibrate floor` writes it."""
-    folder = tmp_path_factory.mktemp("project")
-    calibrate.scene_camera_file(os.path.join(CLIP_DIR, "scene.json"),
-                                folder / "camera.yml")
-    config = folder / "project.json"
-    config.write_text(json.dumps({
-        "palette": os.path.join(CLIP_DIR, "palette.json"),
-        "map": os.path.join(CLIP_DIR, "map.json"),
-        "camera": "camera.yml"}))
-    return str(config)
+    return write_project(tmp_path_factory.mktemp("project"))
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +30,7 @@ def chain_run(project, tmp_path_factory):
     overlay video), and `gst-landmark record --input` of the same clip."""
     out = tmp_path_factory.mktemp("run")
     env = dict(os.environ)
-    cmd = [sys.executable, "-m", "gstlandmark.cli"]
+    cmd = [sys.executable, "-m", "gstlandmark.commands.cli"]
     subprocess.run(cmd + ["run", "--input", f"{CLIP_DIR}/clip.avi",
                           "--config", project, "--out", str(out),
                           "--no-progress"],

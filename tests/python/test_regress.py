@@ -4,7 +4,8 @@ import json
 
 import pytest
 
-from gstlandmark import cli, regress
+from gstlandmark.commands import cli
+from gstlandmark.devtools import regress
 
 
 def write(path, frames):

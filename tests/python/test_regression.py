@@ -8,7 +8,8 @@ import os
 import numpy as np
 import pytest
 
-from gstlandmark import calibrate, evaluate as E, goldens, regress
+from gstlandmark.commands import calibrate, evaluate as E
+from gstlandmark.devtools import goldens, regress
 
 GOLDEN = goldens.GOLDENS[0]
 

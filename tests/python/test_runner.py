@@ -1,4 +1,4 @@
-"""``gst-landmark run`` (gstlandmark.runner): the shipped ``file``
+"""``gst-landmark run`` (gstlandmark.commands.runner): the shipped ``file``
 pipeline on the shipped clip with a project config, --truth, a launch
 string, the error messages, and Ctrl-C finishing the outputs cleanly."""
 
@@ -11,10 +11,10 @@ import time
 
 import pytest
 
-from gstlandmark import calibrate, cli, goldens, runner
+from gstlandmark.commands import cli, runner
 
-CLIP_DIR = os.path.join(goldens.ROOT, "tests", "files", "clips",
-                        "path-small")
+from shippedclip import CLIP_DIR, write_project
+
 CLIP = os.path.join(CLIP_DIR, "clip.avi")
 TRUTH = os.path.join(CLIP_DIR, "truth.jsonl")
 FRAMES = 45
@@ -22,18 +22,7 @@ FRAMES = 45
 
 @pytest.fixture(scope="module")
 def project(tmp_path_factory):
-    """A project folder: a camera file for the clip's synthetic camera
-    (as `gst-landmark calibrate floor` writes it) and a project.json
-    naming the palette, the map (absolute) and the camera (relative)."""
-    folder = tmp_path_factory.mktemp("project")
-    calibrate.scene_camera_file(os.path.join(CLIP_DIR, "scene.json"),
-                                folder / "camera.yml")
-    config = folder / "project.json"
-    config.write_text(json.dumps({
-        "palette": os.path.join(CLIP_DIR, "palette.json"),
-        "map": os.path.join(CLIP_DIR, "map.json"),
-        "camera": "camera.yml"}))
-    return str(config)
+    return write_project(tmp_path_factory.mktemp("project"))
 
 
 def decoded_frames(gst, path):
@@ -168,7 +157,7 @@ def test_ctrl_c_finishes_outputs(gst, tmp_path):
               "labsegment ! landmarklog location=${LOG} ! videoconvert ! "
               "jpegenc ! avimux ! filesink location=${OUTPUT}")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "gstlandmark.cli", "run", launch,
+        [sys.executable, "-m", "gstlandmark.commands.cli", "run", launch,
          "--out", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     log = out / "log.jsonl"

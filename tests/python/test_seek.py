@@ -12,23 +12,25 @@ to the end arrives; the landmarklog file holds whole JSON lines only, and
 its last run of timestamps is exactly what reached the sink."""
 
 import json
-import os
 import threading
 import time
 
 import pytest
 
-CLIP = os.path.join(os.path.dirname(__file__), "..", "files", "clips",
-                    "path-small")
-N_FRAMES = 45
+from shippedclip import CLIP_DIR as CLIP, CLIP_FRAMES as N_FRAMES, \
+    camera_props
+
 FPS = 30
 
 
-def camera_props():
-    with open(os.path.join(CLIP, "scene.json")) as f:
-        cam = json.load(f)["camera"]
-    return (f"camera-height={cam['height_m']} tilt={cam['tilt_deg']} "
-            f"hfov={cam['hfov_deg']}")
+def chain(log, sync):
+    """The whole chain on the clip into landmarklog ``log`` and a sink."""
+    return (f"filesrc location={CLIP}/clip.avi ! avidemux ! jpegdec ! "
+            f"videoconvert ! labsegment palette={CLIP}/palette.json "
+            f"min-class-pixels=0 ! blobroundness ! ipmrange {camera_props()} "
+            f"! trilaterate map={CLIP}/map.json ! landmarkoverlay ! "
+            f"landmarklog location={log} ! fakesink name=sink "
+            f"sync={'true' if sync else 'false'}")
 
 
 class SinkRecorder:
@@ -101,11 +103,7 @@ def check_consecutive(run, what):
 def test_flushing_seeks_then_eos(gst, tmp_path):
     Gst = gst
     log = tmp_path / "log.jsonl"
-    desc = (f"filesrc location={CLIP}/clip.avi ! avidemux ! jpegdec ! "
-            f"videoconvert ! labsegment palette={CLIP}/palette.json "
-            f"min-class-pixels=0 ! blobroundness ! ipmrange {camera_props()} "
-            f"! trilaterate map={CLIP}/map.json ! landmarkoverlay ! "
-            f"landmarklog location={log} ! fakesink name=sink sync=true")
+    desc = chain(log, sync=True)
     pipe = Gst.parse_launch(desc)
     sink = pipe.get_by_name("sink")
     rec = SinkRecorder(Gst, sink.get_static_pad("sink"))
@@ -169,11 +167,7 @@ def test_seek_while_paused_then_play_to_eos(gst, tmp_path, position_frames):
     frames from the seek position to the end, in order."""
     Gst = gst
     log = tmp_path / "log.jsonl"
-    desc = (f"filesrc location={CLIP}/clip.avi ! avidemux ! jpegdec ! "
-            f"videoconvert ! labsegment palette={CLIP}/palette.json "
-            f"min-class-pixels=0 ! blobroundness ! ipmrange {camera_props()} "
-            f"! trilaterate map={CLIP}/map.json ! landmarkoverlay ! "
-            f"landmarklog location={log} ! fakesink name=sink sync=false")
+    desc = chain(log, sync=False)
     pipe = Gst.parse_launch(desc)
     rec = SinkRecorder(Gst, pipe.get_by_name("sink").get_static_pad("sink"))
     position = position_frames * Gst.SECOND // FPS

@@ -15,8 +15,9 @@ import os
 import numpy as np
 import pytest
 
-from gstlandmark import cli, meta
-from gstlandmark.regress import read_jsonl
+from gstlandmark import meta, pipeline
+from gstlandmark.commands import cli
+from gstlandmark.landmarklog import read_jsonl
 
 FRAMES = 150
 # landmarks seen in at least this many frames must be mapped (the seed
@@ -38,25 +39,9 @@ def run_chain(Gst, clip, element, log):
             f"blobroundness ! ipmrange calibration={clip}/camera.yml "
             f"map={clip}/map.json ! {element} ! "
             f"landmarklog location={log} ! fakesink name=sink")
-    pipe = Gst.parse_launch(desc)
     last = {}
-
-    def probe(pad, info):
-        last["map"] = meta.landmark_map(info.get_buffer())
-        return Gst.PadProbeReturn.OK
-
-    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
-        Gst.PadProbeType.BUFFER, probe)
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        msg = pipe.get_bus().timed_pop_filtered(
-            120 * Gst.SECOND, Gst.MessageType.ERROR | Gst.MessageType.EOS)
-        assert msg is not None, f"timeout: {desc}"
-        if msg.type == Gst.MessageType.ERROR:
-            err, dbg = msg.parse_error()
-            raise AssertionError(f"{err.message}: {dbg}")
-    finally:
-        pipe.set_state(Gst.State.NULL)
+    pipeline.run_to_eos(desc, 120, lambda pad, buf: last.update(
+        map=meta.landmark_map(buf)))
     frames = [f for f in read_jsonl(log) if "frame" in f]
     return frames, last.get("map")
 
@@ -184,3 +169,60 @@ def test_odometry_file(gst, clip, slam_run, tmp_path):
     # measured: median 0.48 cm, p95 0.62 cm (without odometry 1.0, 1.9 cm)
     assert np.median(errs) < 0.01, np.median(errs)
     assert np.percentile(errs, 95) < 0.015, np.percentile(errs, 95)
+
+
+def test_bad_value_while_playing_keeps_previous_settings(gst, tmp_path):
+    """A bad odometry file set while playing, together with a new anchor
+    map, is one warning naming 'odometry' and the previous settings stay
+    (the map meta keeps the old anchors); clearing odometry applies the new
+    map (docs/landmarkslam.md)."""
+    def anchors(*ids):
+        return json.dumps({"landmarks": [
+            {"id": i, "class": "red", "x": float(n), "y": 1.0}
+            for n, i in enumerate(ids)]})
+    old = tmp_path / "old.json"
+    old.write_text(anchors("A1", "A2"))
+    new = tmp_path / "new.json"
+    new.write_text(anchors("B1", "B2", "B3"))
+    bad = tmp_path / "bad-odometry.jsonl"
+    bad.write_text('{"t": 0.0, "dx": 0.1}\nnot json\n')
+    caps = "video/x-raw,width=64,height=48,framerate=30/1"
+    pipe = gst.parse_launch(f"videotestsrc num-buffers=60 ! {caps} ! "
+                            f"landmarkslam name=s map={old} ! "
+                            f"fakesink name=sink sync=true")
+    s = pipe.get_by_name("s")
+    seen = []
+    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
+        gst.PadProbeType.BUFFER, lambda pad, info: seen.append(
+            [lm.id for lm in meta.landmark_map(info.get_buffer())])
+        or gst.PadProbeReturn.OK)
+    bus = pipe.get_bus()
+    kinds = (gst.MessageType.WARNING | gst.MessageType.ERROR |
+             gst.MessageType.EOS)
+    try:
+        pipe.set_state(gst.State.PAUSED)    # prerolled with the old map
+        assert pipe.get_state(30 * gst.SECOND)[0] == \
+            gst.StateChangeReturn.SUCCESS
+        s.set_property("map", str(new))
+        s.set_property("odometry", str(bad))
+        pipe.set_state(gst.State.PLAYING)
+        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+        assert msg is not None and msg.type == gst.MessageType.WARNING, \
+            msg and msg.type
+        err, debug = msg.parse_warning()
+        text = f"{err.message}\n{debug}"
+        assert msg.src is s and "'odometry'" in err.message, text
+        assert "bad-odometry.jsonl" in text, text
+        assert bus.timed_pop_filtered(200 * gst.MSECOND, kinds) is None
+        after_warning = len(seen)
+        s.set_property("odometry", None)
+        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+        assert msg is not None and msg.type == gst.MessageType.EOS, \
+            msg and msg.type
+    finally:
+        pipe.set_state(gst.State.NULL)
+    assert after_warning >= 2
+    assert all(ids == ["A1", "A2"] for ids in seen[:after_warning]), seen
+    # a frame or two may pass between the set and the next one
+    assert seen[-1] == ["B1", "B2", "B3"], seen
+    assert len(seen) == 60

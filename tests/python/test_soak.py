@@ -1,4 +1,4 @@
-"""A short soak (gstlandmark.soak, `gst-landmark soak`): the checks of
+"""A short soak (gstlandmark.devtools.soak, `gst-landmark soak`): the checks of
 the 100,000-frame run of scripts/soak.sh on 3,000 frames.
 
 Each soak runs in a fresh Python process, as the full run does: in this
@@ -16,10 +16,11 @@ test_leak_is_seen shows with a deliberate 1 KiB a frame.
 """
 
 import json
+import os
 import subprocess
 import sys
 
-from gstlandmark import cli
+from gstlandmark.commands import cli
 
 FRAMES = 3000
 WARMUP = 1000
@@ -34,7 +35,7 @@ def soak_process(args, timeout_s=120):
 
 def test_short_soak(gst):
     status, report, err = soak_process(
-        ["-m", "gstlandmark.cli", "soak", "--frames", str(FRAMES),
+        ["-m", "gstlandmark.commands.cli", "soak", "--frames", str(FRAMES),
          "--every", "250", "--warmup", str(WARMUP),
          "--max-growth-kb", str(MAX_GROWTH_KB)])
     assert status == 0, (report["failures"], err)
@@ -51,7 +52,8 @@ def test_short_soak(gst):
 
 LEAKING = f"""
 import json
-from gstlandmark import soak
+import os
+from gstlandmark.devtools import soak
 kept = []
 def leak(pipe):
     def probe(pad, info):
@@ -80,3 +82,17 @@ def test_usage_errors(capsys):
     assert cli.main(["soak", "--size", "big"]) == 2
     assert cli.main(["soak", "--frames", "10", "--warmup", "10"]) == 2
     assert "--warmup must be below --frames" in capsys.readouterr().err
+
+
+def test_without_the_source_tree_the_clip_is_named(tmp_path):
+    """soak runs the shipped clip of the source tree: where there is none
+    (an installed package elsewhere) it says which file and why."""
+    env = dict(os.environ, LANDMARK_SOURCE_ROOT=str(tmp_path))
+    res = subprocess.run(
+        [sys.executable, "-m", "gstlandmark.commands.cli", "soak",
+         "--frames", "20", "--every", "10", "--warmup", "10"],
+        capture_output=True, text=True, timeout=60, env=env)
+    assert res.returncode == 1
+    assert f"{tmp_path}/tests/files/clips/path-small/clip.avi: not " \
+        "found" in res.stderr
+    assert "LANDMARK_SOURCE_ROOT" in res.stderr

@@ -6,7 +6,8 @@ import math
 
 import pytest
 
-from gstlandmark import cli, sweep as S
+from gstlandmark.commands import cli
+from gstlandmark.devtools import sweep as S
 
 
 def mark(id_, cls, u, v, pixels=400.0, cut=False, occluded=0.0,

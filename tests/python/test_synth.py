@@ -8,7 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import cli, reference
+from gstlandmark import reference
+from gstlandmark.commands import cli
 from gstlandmark.palette import (learn_from_mask, load_palette,
                                  palette_to_json)
 from gstlandmark.synth import (Camera, Distractor, Effects, Landmark, Pose,
@@ -850,7 +851,7 @@ def test_variant_changes_the_scene_and_is_recorded(tmp_path):
         draw_variant("path", 6)))
     assert scene["camera"]["height_m"] == \
         scene["notes"]["variant"]["camera"]["height_m"]
-    from gstlandmark.calibrate import read_camera_file
+    from gstlandmark.commands.calibrate import read_camera_file
     cam = read_camera_file(str(out / "camera.yml"))
     assert cam["camera_matrix"][0, 0] == pytest.approx(scene["camera"]["fx"])
     names = [c["name"] for c in scene["palette"]["classes"]]

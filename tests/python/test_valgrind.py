@@ -1,5 +1,5 @@
-"""gstlandmark.valgrind: the reader of memcheck's XML report, and a short
-run of the whole chain under memcheck (scripts/valgrind.sh runs 150
+"""gstlandmark.devtools.valgrind: the reader of memcheck's XML report, and a
+short run of the whole chain under memcheck (scripts/valgrind.sh runs 150
 frames).
 
 The short run takes 10 to 15 s of CPU, nearly all of it GStreamer's and
@@ -11,7 +11,7 @@ import shutil
 
 import pytest
 
-from gstlandmark import valgrind
+from gstlandmark.devtools import valgrind
 
 
 def _record(kind, objs, leaked=64):

@@ -9,7 +9,7 @@
 
 #include <vector>
 
-#include "camerageometry.h"
+#include "rangeestimate.h"
 
 namespace landmark {
 

@@ -539,6 +539,7 @@ localise (const std::vector<MapPoint> & map,
   }
   /* without a prior, or when the gate lost landmarks (a stale or wrong
    * prior): associate by consensus over pairs, kept when it places more */
+  bool by_consensus = false;
   if ((!gated || n_match < n_cand) && n_cand >= 2) {
     bool have = false, ambiguous = false;
     int best_in = -1;
@@ -630,16 +631,11 @@ localise (const std::vector<MapPoint> & map,
         reason[k] = match[k] < 0 ? "outlier" : "";
       }
       resolve_conflicts (&match, dist, &reason);
-    } else if (!gated) {
-      /* nothing agrees: keep unambiguous detections only */
-      for (size_t k = 0; k < nd; k++) {
-        if (cand[k].size () == 1)
-          match[k] = cand[k][0];
-        else if (cand[k].size () > 1)
-          reason[k] = "ambiguous";
-      }
+      by_consensus = true;
     }
-  } else if (!gated) {
+  }
+  if (!gated && !by_consensus) {
+    /* no prior and nothing agrees: keep unambiguous detections only */
     for (size_t k = 0; k < nd; k++) {
       if (cand[k].size () == 1)
         match[k] = cand[k][0];
@@ -743,6 +739,27 @@ PoseFilter::predict (double dt)
     p_[i] = P.val[i];
 }
 
+/* The Kalman correction of state s and covariance p (P, as a matrix) by
+ * a measurement of M values: innovation innov, Jacobian H, noise R and the
+ * inverse innovation covariance Si. Joseph form keeps P symmetric and
+ * positive. */
+template <int M>
+static void
+kalman_correct (double s[6], double p[36], const cv::Matx<double, 6, 6> & P,
+    const cv::Matx<double, M, 6> & H, const cv::Matx<double, M, M> & R,
+    const cv::Matx<double, M, M> & Si, const cv::Vec<double, M> & innov)
+{
+  const cv::Matx<double, 6, M> K = P * H.t () * Si;
+  const cv::Vec<double, 6> ds = K * innov;
+  for (int i = 0; i < 6; i++)
+    s[i] += ds[i];
+  s[2] = wrap_angle (s[2]);
+  const cv::Matx<double, 6, 6> IKH = cv::Matx<double, 6, 6>::eye () - K * H;
+  const cv::Matx<double, 6, 6> corrected = IKH * P * IKH.t () + K * R * K.t ();
+  for (int i = 0; i < 36; i++)
+    p[i] = corrected.val[i];
+}
+
 int
 PoseFilter::update (const std::vector<Correspondence> & cs, double gate_chi2)
 {
@@ -774,16 +791,7 @@ PoseFilter::update (const std::vector<Correspondence> & cs, double gate_chi2)
     const double m2 = innov.dot (Si * innov);
     if (!(m2 <= gate_chi2))
       continue;
-    const cv::Matx<double, 6, 2> K = P * H.t () * Si;
-    const cv::Vec<double, 6> ds = K * innov;
-    for (int i = 0; i < 6; i++)
-      s_[i] += ds[i];
-    s_[2] = wrap_angle (s_[2]);
-    /* Joseph form keeps P symmetric and positive */
-    const cv::Matx<double, 6, 6> IKH = cv::Matx<double, 6, 6>::eye () - K * H;
-    P = IKH * P * IKH.t () + K * R * K.t ();
-    for (int i = 0; i < 36; i++)
-      p_[i] = P.val[i];
+    kalman_correct (s_, p_, P, H, R, Si, innov);
     used++;
   }
   return used;
@@ -806,15 +814,7 @@ PoseFilter::update_pose (const Pose2 & p, const double cov[9])
     return;
   const cv::Vec3d innov (p.x - s_[0], p.y - s_[1],
       wrap_angle (p.heading - s_[2]));
-  const cv::Matx<double, 6, 3> K = P * H.t () * Si;
-  const cv::Vec<double, 6> ds = K * innov;
-  for (int i = 0; i < 6; i++)
-    s_[i] += ds[i];
-  s_[2] = wrap_angle (s_[2]);
-  const cv::Matx<double, 6, 6> IKH = cv::Matx<double, 6, 6>::eye () - K * H;
-  P = IKH * P * IKH.t () + K * R * K.t ();
-  for (int i = 0; i < 36; i++)
-    p_[i] = P.val[i];
+  kalman_correct (s_, p_, P, H, R, Si, innov);
 }
 
 Pose2

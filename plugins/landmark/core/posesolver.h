@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "landmarkmap.h"
+
 namespace landmark {
 
 struct Pose2 {
@@ -109,13 +111,8 @@ bool landmarks_collinear (const std::vector<Correspondence> & cs,
 
 /* ---- association and the whole frame ------------------------------- */
 
-struct MapPoint {
-  std::string id, class_name;
-  double x = 0, y = 0;
-  /* the marker (map `z`, `diameter`, `kind`) */
-  double z = 0, diameter = 0;
-  bool ball = false;
-};
+/* A landmark of the map file, with its marker (`z`, `diameter`, `kind`). */
+using MapPoint = MapLandmark;
 
 struct Detection {
   std::string class_name;

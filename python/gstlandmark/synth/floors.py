@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from gstlandmark import reference
+from .. import reference
 
 # name -> (description, plain sRGB colour or None for a generated texture)
 FLOORS = {

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from gstlandmark import reference
+from .. import reference
 
 from .camera import Camera, Pose, wrap_angle
 from .floors import FLOOR_NAMES

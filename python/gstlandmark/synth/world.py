@@ -2,14 +2,14 @@
 the scene palette that names every colour in it."""
 
 from dataclasses import dataclass, field, replace
-import json
 import math
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from gstlandmark import reference
-from gstlandmark.palette import (Palette, PaletteClass, default_palette,
+from .. import reference
+from ..landmarkmap import read_map
+from ..palette import (Palette, PaletteClass, default_palette,
                                  load_palette, parse_palette)
 
 from .camera import Camera
@@ -422,22 +422,14 @@ def palette_json(palette):
 
 
 def load_map(path):
-    """Landmarks of a map file (docs/conventions.md)."""
-    with open(path, encoding="utf-8") as f:
-        obj = json.load(f)
-    if not isinstance(obj, dict) or not isinstance(
-            obj.get("landmarks"), list):
-        raise ValueError(f"{path}: expected {{\"landmarks\": [...]}}")
+    """Landmarks of a map file (docs/conventions.md, read by
+    ``landmarkmap``); the synthetic world needs every diameter."""
     out = []
-    for i, entry in enumerate(obj["landmarks"]):
-        try:
-            out.append(Landmark(
-                id=str(entry["id"]), cls=entry["class"],
-                x=float(entry["x"]), y=float(entry["y"]),
-                diameter=float(entry["diameter"]),
-                kind=entry.get("kind", "disc"),
-                z=(float(entry["z"]) if entry.get("z") is not None
-                   else None)))
-        except (KeyError, TypeError, ValueError) as err:
-            raise ValueError(f"{path}: landmarks[{i}]: {err}") from None
+    for m in read_map(path):
+        if m["diameter"] is None:
+            raise ValueError(f"{path}: landmark {m['id']}: the synthetic "
+                             f"world needs its \"diameter\"")
+        out.append(Landmark(id=m["id"], cls=m["class"], x=m["x"], y=m["y"],
+                            diameter=m["diameter"], kind=m["kind"],
+                            z=m["z"]))
     return out

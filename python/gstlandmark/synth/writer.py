@@ -9,7 +9,7 @@ import time
 import cv2
 import numpy as np
 
-from gstlandmark.palette import save_palette
+from ..palette import save_palette
 
 from .chart import render_chart
 from .render import render_frame
@@ -43,7 +43,7 @@ class ClipWriter:
     Encoding runs in GStreamer's threads while the next frame renders."""
 
     def __init__(self, path, width, height, fps, quality):
-        from gstlandmark import pipeline
+        from .. import pipeline
         pipeline.init()
         self.Gst = Gst = pipeline.Gst
         self.error_type = pipeline.PipelineError
@@ -334,7 +334,7 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
 def write_camera_yaml(camera, path):
     """The camera as an OpenCV FileStorage camera file: intrinsics, no
     distortion, and the mounting (height, tilt, roll)."""
-    from gstlandmark.calibrate import write_camera_file
+    from ..camerafile import write_camera_file
     write_camera_file(path, {
         "image_width": camera.width, "image_height": camera.height,
         "camera_matrix": camera.matrix,

@@ -1,7 +1,9 @@
 /* Unit tests of birdseye: output size and scale, a line on the floor at a
  * known distance (its image row from the pinhole model written out here),
  * strides of odd widths, the frame's metadata kept and image metadata
- * dropped, bad settings, and the cost of a 640x480 -> 400x400 remap. */
+ * dropped, bad settings (the cost of a remap: tests/bench/element-cost.c). */
+
+#include "landmarkcheck.h"
 
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
@@ -9,7 +11,6 @@
 
 #include <math.h>
 #include <string.h>
-#include <time.h>
 
 #define CAM_H 0.3
 #define TILT 25.0
@@ -56,16 +57,26 @@ harness_new (const gchar * props, guint w, guint h)
       "hfov=60 %s", props ? props : "");
   gchar *caps = g_strdup_printf ("video/x-raw,format=RGB,width=%u,"
       "height=%u,framerate=30/1", w, h);
-  GError *err = NULL;
-  GstElement *e = gst_parse_launch (desc, &err);
-  GstHarness *hr;
-  fail_unless (e != NULL, "%s: %s", desc, err ? err->message : "?");
-  hr = gst_harness_new_with_element (e, "sink", "src");
-  gst_object_unref (e);
-  gst_harness_set_src_caps_str (hr, caps);
+  GstHarness *hr = landmark_check_harness_new (desc, caps);
   g_free (caps);
   g_free (desc);
   return hr;
+}
+
+/* A w x h frame with a bright band from 1.9 to 2.1 m ahead, remapped: the
+ * output and its video info. */
+static GstBuffer *
+remap_band (GstHarness * hr, guint w, guint h, GstVideoInfo * out_info)
+{
+  GstVideoInfo in;
+  GstCaps *caps;
+  GstBuffer *out;
+  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, w, h);
+  out = gst_harness_push_and_pull (hr, frame_with_band (&in, 1.9, 2.1));
+  caps = gst_pad_get_current_caps (hr->sinkpad);
+  fail_unless (gst_video_info_from_caps (out_info, caps));
+  gst_caps_unref (caps);
+  return out;
 }
 
 static guint8
@@ -82,22 +93,16 @@ pixel (GstBuffer * out, const GstVideoInfo * info, guint i, guint j)
 /* A band of floor from 1.9 to 2.1 m shows as output rows 400 - 100 x:
  * rows 190..209 white, rows outside it grey, and the same across the
  * view (a straight line). Odd input width: strides. */
-GST_START_TEST (test_band_at_two_metres)
+LANDMARK_TEST ("general", test_band_at_two_metres)
 {
   const guint sizes[][2] = { {640, 480}, {321, 241} };
   guint k;
   for (k = 0; k < G_N_ELEMENTS (sizes); k++) {
     const guint w = sizes[k][0], h = sizes[k][1];
     GstHarness *hr = harness_new (NULL, w, h);
-    GstVideoInfo in, out_info;
-    GstBuffer *out;
-    GstCaps *caps;
+    GstVideoInfo out_info;
+    GstBuffer *out = remap_band (hr, w, h, &out_info);
     guint i;
-    gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, w, h);
-    out = gst_harness_push_and_pull (hr, frame_with_band (&in, 1.9, 2.1));
-    caps = gst_pad_get_current_caps (hr->sinkpad);
-    fail_unless (gst_video_info_from_caps (&out_info, caps));
-    gst_caps_unref (caps);
     fail_unless_equals_int (GST_VIDEO_INFO_WIDTH (&out_info), 400);
     fail_unless_equals_int (GST_VIDEO_INFO_HEIGHT (&out_info), 400);
     for (i = 150; i <= 250; i += 10) {
@@ -118,18 +123,12 @@ GST_START_TEST (test_band_at_two_metres)
 GST_END_TEST;
 
 /* pixels-per-metre and the extents set the size and the scale */
-GST_START_TEST (test_scale_and_extent)
+LANDMARK_TEST ("general", test_scale_and_extent)
 {
   GstHarness *hr = harness_new ("pixels-per-metre=50 forward=3 behind=1 "
       "side=1.5", 640, 480);
-  GstVideoInfo in, out_info;
-  GstBuffer *out;
-  GstCaps *caps;
-  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, 640, 480);
-  out = gst_harness_push_and_pull (hr, frame_with_band (&in, 1.9, 2.1));
-  caps = gst_pad_get_current_caps (hr->sinkpad);
-  fail_unless (gst_video_info_from_caps (&out_info, caps));
-  gst_caps_unref (caps);
+  GstVideoInfo out_info;
+  GstBuffer *out = remap_band (hr, 640, 480, &out_info);
   fail_unless_equals_int (GST_VIDEO_INFO_WIDTH (&out_info), 150);
   fail_unless_equals_int (GST_VIDEO_INFO_HEIGHT (&out_info), 200);
   /* the camera's floor point is 1 m (50 px) above the bottom: 2 m ahead
@@ -145,7 +144,7 @@ GST_END_TEST;
 
 /* The frame's results travel with it; the label plane (pixel
  * coordinates of the camera image) does not. */
-GST_START_TEST (test_metadata)
+LANDMARK_TEST ("general", test_metadata)
 {
   GstHarness *hr = harness_new (NULL, 64, 48);
   GstVideoInfo in;
@@ -174,85 +173,18 @@ GST_START_TEST (test_metadata)
 
 GST_END_TEST;
 
-static void
-check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
+LANDMARK_TEST ("general", test_bad_properties)
 {
-  GstElement *e = gst_element_factory_make ("birdseye", NULL);
-  GstBus *bus = gst_bus_new ();
-  GstMessage *msg;
-  GError *err = NULL;
-  gst_util_set_object_arg (G_OBJECT (e), prop, value);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
-  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
-  fail_unless (msg != NULL);
-  gst_message_parse_error (msg, &err, NULL);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
-  fail_unless (strstr (err->message, named) != NULL, "%s", err->message);
-  g_clear_error (&err);
-  gst_message_unref (msg);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
-}
-
-GST_START_TEST (test_bad_properties)
-{
-  check_bad_start ("side", "0", "'side'");
-  check_bad_start ("forward", "0", "'forward'");
-  check_bad_start ("tilt", "-45", "'tilt'");
-  check_bad_start ("calibration", "/nonexistent/camera.yaml",
-      "'calibration'");
+  static const gchar *const bad[] = {
+    "side=0",
+    "forward=0",
+    "tilt=-45",
+    "calibration=/nonexistent/camera.yaml",
+    NULL
+  };
+  landmark_check_bad_settings ("birdseye", bad);
 }
 
 GST_END_TEST;
 
-/* 640x480 -> 400x400 RGB, per frame; printed, not asserted. */
-GST_START_TEST (test_cost_640x480)
-{
-  GstHarness *hr = harness_new (NULL, 640, 480);
-  GstVideoInfo in;
-  GstBuffer *buf;
-  const guint n = 300;
-  gint64 t0;
-  gdouble cpu0, cpu1;
-  guint i;
-  struct timespec ts;
-  gst_video_info_set_format (&in, GST_VIDEO_FORMAT_RGB, 640, 480);
-  buf = frame_with_band (&in, 1, 2);
-  for (i = 0; i < 10; i++)
-    gst_buffer_unref (gst_harness_push_and_pull (hr, gst_buffer_ref (buf)));
-  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
-  cpu0 = ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
-  t0 = g_get_monotonic_time ();
-  for (i = 0; i < n; i++)
-    gst_buffer_unref (gst_harness_push_and_pull (hr, gst_buffer_ref (buf)));
-  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
-  cpu1 = ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
-  g_print ("birdseye 640x480 RGB -> 400x400: %.1f us per frame wall-clock, "
-      "%.1f us CPU\n", (g_get_monotonic_time () - t0) / (gdouble) n,
-      (cpu1 - cpu0) / n);
-  gst_buffer_unref (buf);
-  gst_harness_teardown (hr);
-}
-
-GST_END_TEST;
-
-static Suite *
-birdseye_suite (void)
-{
-  Suite *s = suite_create ("birdseye");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_band_at_two_metres);
-  tcase_add_test (tc, test_scale_and_extent);
-  tcase_add_test (tc, test_metadata);
-  tcase_add_test (tc, test_bad_properties);
-  tcase_add_test (tc, test_cost_640x480);
-  return s;
-}
-
-GST_CHECK_MAIN (birdseye);
+LANDMARK_CHECK_MAIN (birdseye);

@@ -7,6 +7,8 @@
  * counting the drawn pixels, never from the element's own code. One test
  * runs labsegment upstream on a drawn colour frame. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -14,7 +16,7 @@
 #include <math.h>
 #include <string.h>
 
-#define LABELS_META "GstLandmarkLabelsMeta"
+#define LABELS_META LANDMARK_LABELS_META
 #define BLOB "landmark-blob"
 
 /* ------------------------------------------------------------------ */
@@ -136,12 +138,6 @@ plane_draw (Plane * p, InsideFunc inside, const gdouble * s, guint8 label)
 }
 
 /* The palette of the tests: label k + 1 is names[k]. */
-static const gchar *names7[] = { "red", "green", "yellow", "pink", "blue",
-  "white", "grey"
-};
-static const gboolean markers7[] = { TRUE, TRUE, TRUE, TRUE, TRUE, FALSE,
-  FALSE
-};
 
 #define RED 1
 #define GREEN 2
@@ -151,46 +147,13 @@ static const gboolean markers7[] = { TRUE, TRUE, TRUE, TRUE, TRUE, FALSE,
 #define WHITE 6
 #define GREY 7
 
-static void
-set_array (GstStructure * s, const gchar * field, GType type,
-    gconstpointer values, guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, type);
-    if (type == G_TYPE_STRING)
-      g_value_set_string (&x, ((const gchar **) values)[i]);
-    else
-      g_value_set_boolean (&x, ((const gboolean *) values)[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
 /* Attaches a labels meta holding a copy of the plane. */
 static void
 labels_attach (GstBuffer * buf, const Plane * p, const gchar ** names,
     const gboolean * markers, guint n)
 {
-  GstCustomMeta *m = gst_buffer_add_custom_meta (buf, LABELS_META);
-  GstStructure *s;
-  GstBuffer *plane;
-
-  fail_unless (m != NULL, LABELS_META " is not registered: plugin not "
-      "loaded?");
-  s = gst_custom_meta_get_structure (m);
-  plane = gst_buffer_new_memdup (p->data, (gsize) MAX (p->stride * p->h, 1));
-  gst_structure_set (s, "labels", GST_TYPE_BUFFER, plane,
-      "width", G_TYPE_UINT, p->w, "height", G_TYPE_UINT, p->h,
-      "stride", G_TYPE_UINT, p->stride,
-      "analysis-width", G_TYPE_UINT, p->w,
-      "analysis-height", G_TYPE_UINT, p->h, NULL);
-  gst_buffer_unref (plane);
-  set_array (s, "class-names", G_TYPE_STRING, names, n);
-  set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
+  landmark_check_labels_attach (buf, p->data, p->w, p->h, p->stride, names,
+      markers, n);
 }
 
 /* A GRAY8 frame of the plane's size (contents: a ramp, to check that the
@@ -206,7 +169,8 @@ frame_with_labels (const Plane * p)
   for (i = 0; i < map.size; i++)
     map.data[i] = (guint8) (i * 7);
   gst_buffer_unmap (buf, &map);
-  labels_attach (buf, p, names7, markers7, G_N_ELEMENTS (names7));
+  labels_attach (buf, p, landmark_check_names7, landmark_check_markers7,
+      G_N_ELEMENTS (landmark_check_names7));
   return buf;
 }
 
@@ -225,15 +189,8 @@ static GstHarness *
 harness_new (const gchar * props, guint w, guint h)
 {
   gchar *desc = g_strdup_printf ("blobroundness %s", props ? props : "");
-  GError *err = NULL;
-  /* one element: gst_parse_launch returns it, properties set */
-  GstElement *e = gst_parse_launch (desc, &err);
-  GstHarness *hr;
   gchar *caps = gray_caps (w, h);
-  fail_unless (e != NULL, "%s: %s", desc, err ? err->message : "?");
-  hr = gst_harness_new_with_element (e, "sink", "src");
-  gst_object_unref (e);
-  gst_harness_set_src_caps_str (hr, caps);
+  GstHarness *hr = landmark_check_harness_new (desc, caps);
   g_free (caps);
   g_free (desc);
   return hr;
@@ -347,7 +304,7 @@ nearest (const Blobs * b, gdouble cx, gdouble cy, guint * index)
 /* Properties                                                         */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_properties)
+LANDMARK_TEST ("properties", test_properties)
 {
   GstElement *e = gst_element_factory_make ("blobroundness", NULL);
   gchar *classes = NULL;
@@ -401,7 +358,7 @@ GST_END_TEST;
 
 /* Discs of radius 6..40 at sub-pixel centres, one per frame: found, round
  * in both modes, area and box as drawn, centroid and ellipse as analytic */
-GST_START_TEST (test_discs)
+LANDMARK_TEST ("shapes", test_discs)
 {
   const gchar *modes[] = { "shape=circle", "shape=ellipse" };
   guint mode, k;
@@ -476,7 +433,7 @@ GST_START_TEST (test_discs)
 GST_END_TEST;
 
 /* A disc drawn symmetrically about a pixel centre: centroid exact */
-GST_START_TEST (test_disc_centroid_exact)
+LANDMARK_TEST ("shapes", test_disc_centroid_exact)
 {
   GstHarness *hr = harness_new (NULL, 81, 81);
   gdouble r;
@@ -500,7 +457,7 @@ GST_END_TEST;
 
 /* Drawn ellipses: axes within 1 px, angle, kept by shape=ellipse and
  * rejected by shape=circle when elongated */
-GST_START_TEST (test_ellipses)
+LANDMARK_TEST ("shapes", test_ellipses)
 {
   GstHarness *he = harness_new ("keep-rejected=true", 161, 121);
   GstHarness *hc = harness_new ("keep-rejected=true shape=circle", 161, 121);
@@ -587,7 +544,7 @@ check_rejected (InsideFunc inside, const gdouble * s, const gchar * what)
   }
 }
 
-GST_START_TEST (test_squares)
+LANDMARK_TEST ("shapes", test_squares)
 {
   guint side, deg;
   for (side = 20; side <= 60; side += 20)
@@ -601,7 +558,7 @@ GST_START_TEST (test_squares)
 
 GST_END_TEST;
 
-GST_START_TEST (test_stripes_and_triangles)
+LANDMARK_TEST ("shapes", test_stripes_and_triangles)
 {
   guint k;
   for (k = 0; k < 6; k++) {
@@ -619,7 +576,7 @@ GST_END_TEST;
  * about 1 - (r/R)^2 of a disc. Rings with r >= 0.4 R are not taken for
  * discs by either test; smaller holes (glare, a printed centre) fail only
  * the ellipse test, from r >= 0.3 R (IoU (1 - f^2) / (1 + f^2)). */
-GST_START_TEST (test_rings)
+LANDMARK_TEST ("shapes", test_rings)
 {
   gdouble frac;
   for (frac = 0.3; frac < 0.85; frac += 0.1) {
@@ -654,7 +611,7 @@ GST_START_TEST (test_rings)
 GST_END_TEST;
 
 /* Specks below min-area are dropped, or kept with reason "area" */
-GST_START_TEST (test_specks)
+LANDMARK_TEST ("shapes", test_specks)
 {
   GstHarness *hr = harness_new ("min-area=30", 64, 48);
   GstHarness *hk = harness_new ("min-area=30 keep-rejected=true", 64, 48);
@@ -703,7 +660,7 @@ GST_START_TEST (test_specks)
 GST_END_TEST;
 
 /* max-area and max-aspect */
-GST_START_TEST (test_area_and_aspect_limits)
+LANDMARK_TEST ("shapes", test_area_and_aspect_limits)
 {
   GstHarness *hr = harness_new ("keep-rejected=true max-area=2000 "
       "min-area=50 max-aspect=10", 200, 100);
@@ -760,7 +717,7 @@ many_blobs_plane (guint w, guint h, guint per_class)
   return p;
 }
 
-GST_START_TEST (test_classes)
+LANDMARK_TEST ("shapes", test_classes)
 {
   const guint per = 12;
   Plane *p = many_blobs_plane (340, 200, per);
@@ -776,7 +733,7 @@ GST_START_TEST (test_classes)
   for (i = 0; i < b.n; i++) {
     const guint c = i / per, k = i % per;
     fail_unless_equals_string (gst_structure_get_string (b.blob[i], "class"),
-        names7[c]);
+        landmark_check_names7[c]);
     fail_unless (fabs (dbl (b.blob[i], "centroid-x") - (14 + 28.0 * k +
                 (c % 2) * 0.4)) < 0.3);
     fail_unless (kept (b.blob[i]));
@@ -810,7 +767,7 @@ GST_START_TEST (test_classes)
 GST_END_TEST;
 
 /* Hundreds of blobs over several classes in one frame, every frame */
-GST_START_TEST (test_many_blobs)
+LANDMARK_TEST ("shapes", test_many_blobs)
 {
   const guint per = 22;
   Plane *p = many_blobs_plane (640, 200, per);
@@ -836,7 +793,7 @@ GST_END_TEST;
 /* Morphology                                                         */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_morphology)
+LANDMARK_TEST ("shapes", test_morphology)
 {
   GstHarness *hr = harness_new ("min-area=20", 120, 60);
   Plane *p = plane_new (120, 60, 120);
@@ -909,7 +866,7 @@ GST_END_TEST;
 /* Frame sizes, strides, caps                                         */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_odd_sizes)
+LANDMARK_TEST ("frames", test_odd_sizes)
 {
   static const guint sizes[][2] = { {1, 1}, {1, 7}, {7, 1}, {2, 3}, {17, 5},
   {641, 479}, {33, 481}
@@ -958,7 +915,7 @@ GST_START_TEST (test_odd_sizes)
 GST_END_TEST;
 
 /* Any video/x-raw caps; the pixels are neither read nor changed */
-GST_START_TEST (test_any_caps_video_untouched)
+LANDMARK_TEST ("frames", test_any_caps_video_untouched)
 {
   static const gchar *caps[] = {
     "video/x-raw,format=I420,width=64,height=48,framerate=25/1",
@@ -1000,7 +957,7 @@ GST_END_TEST;
 
 /* A label plane whose size differs from the caps: the boxes are in
  * pixels of the frame, the landmark-blob values in the plane's */
-GST_START_TEST (test_plane_size_differs)
+LANDMARK_TEST ("frames", test_plane_size_differs)
 {
   GstHarness *hr = harness_new ("min-area=20", 200, 100);
   Plane *p = plane_new (100, 50, 100);
@@ -1026,25 +983,7 @@ GST_END_TEST;
 /* No labels, bad settings, live changes                              */
 /* ------------------------------------------------------------------ */
 
-static guint
-count_messages (GstBus * bus, GstMessageType type, GError ** first)
-{
-  GstMessage *msg;
-  guint n = 0;
-  while ((msg = gst_bus_pop_filtered (bus, type))) {
-    if (n == 0 && first) {
-      if (type == GST_MESSAGE_WARNING)
-        gst_message_parse_warning (msg, first, NULL);
-      else
-        gst_message_parse_error (msg, first, NULL);
-    }
-    n++;
-    gst_message_unref (msg);
-  }
-  return n;
-}
-
-GST_START_TEST (test_no_labels_meta)
+LANDMARK_TEST ("errors", test_no_labels_meta)
 {
   GstHarness *hr = harness_new (NULL, 32, 24);
   GstBus *bus = gst_bus_new ();
@@ -1062,12 +1001,14 @@ GST_START_TEST (test_no_labels_meta)
     fail_unless (gst_buffer_get_video_region_of_interest_meta (out) == NULL);
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
   fail_unless (g_error_matches (err, GST_STREAM_ERROR,
           GST_STREAM_ERROR_FORMAT));
   fail_unless (strstr (err->message, "labsegment") != NULL);
   g_clear_error (&err);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, NULL), 0);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, NULL), 0);
   gst_element_set_bus (hr->element, NULL);
   gst_object_unref (bus);
   gst_harness_teardown (hr);
@@ -1076,44 +1017,23 @@ GST_START_TEST (test_no_labels_meta)
 GST_END_TEST;
 
 /* start() fails with RESOURCE/SETTINGS naming the property */
-static void
-check_bad_start (const gchar * prop, const gchar * value, const gchar * prop2,
-    const gchar * value2, const gchar * named)
+LANDMARK_TEST ("errors", test_bad_properties)
 {
-  GstElement *e = gst_element_factory_make ("blobroundness", NULL);
-  GstBus *bus = gst_bus_new ();
-  GError *err = NULL;
-  gst_util_set_object_arg (G_OBJECT (e), prop, value);
-  if (prop2)
-    gst_util_set_object_arg (G_OBJECT (e), prop2, value2);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
-  fail_unless (strstr (err->message, named) != NULL, "\"%s\" does not name "
-      "%s", err->message, named);
-  g_clear_error (&err);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
-}
-
-GST_START_TEST (test_bad_properties)
-{
-  check_bad_start ("morphology", "4", NULL, NULL, "'morphology'");
-  check_bad_start ("morphology", "2", NULL, NULL, "'morphology'");
-  check_bad_start ("min-area", "500", "max-area", "100", "'min-area'");
-  check_bad_start ("classes", "red,,blue", NULL, NULL, "'classes'");
-  check_bad_start ("classes", " , ", NULL, NULL, "'classes'");
+  static const gchar *const bad[] = {
+    "morphology=4",
+    "morphology=2",
+    "min-area=500;max-area=100",
+    "classes=red,,blue",
+    "classes= , ",
+    NULL
+  };
+  landmark_check_bad_settings ("blobroundness", bad);
 }
 
 GST_END_TEST;
 
 /* An unknown class is known only once the labels arrive: an error then */
-GST_START_TEST (test_unknown_class)
+LANDMARK_TEST ("errors", test_unknown_class)
 {
   GstHarness *hr = harness_new ("classes=red,purple", 32, 24);
   GstBus *bus = gst_bus_new ();
@@ -1122,7 +1042,8 @@ GST_START_TEST (test_unknown_class)
   gst_element_set_bus (hr->element, bus);
   fail_unless_equals_int (gst_harness_push (hr, frame_with_labels (p)),
       GST_FLOW_ERROR);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, &err), 1);
   fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
           GST_RESOURCE_ERROR_SETTINGS));
   fail_unless (strstr (err->message, "'classes'") != NULL);
@@ -1138,7 +1059,7 @@ GST_END_TEST;
 
 /* Changes while playing take effect at the next frame; a bad value is
  * reported once and the previous settings stay */
-GST_START_TEST (test_change_while_playing)
+LANDMARK_TEST ("properties", test_change_while_playing)
 {
   GstHarness *hr = harness_new ("min-area=20", 100, 60);
   GstBus *bus = gst_bus_new ();
@@ -1167,7 +1088,8 @@ GST_START_TEST (test_change_while_playing)
     fail_unless_equals_int (b.n, 1);    /* min-area=200 still in force */
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
   fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
           GST_RESOURCE_ERROR_SETTINGS));
   fail_unless (strstr (err->message, "'morphology'") != NULL);
@@ -1187,7 +1109,7 @@ GST_START_TEST (test_change_while_playing)
 GST_END_TEST;
 
 /* Properties hammered from another thread while frames stream */
-GST_START_TEST (test_property_stress)
+LANDMARK_TEST ("properties", test_property_stress)
 {
   GstHarness *hr = harness_new (NULL, 160, 120);
   Plane *p = many_blobs_plane (160, 120, 5);
@@ -1223,22 +1145,16 @@ GST_START_TEST (test_property_stress)
 GST_END_TEST;
 
 /* QoS is off: late frames are measured, never dropped */
-GST_START_TEST (test_no_frame_dropped)
+LANDMARK_TEST ("frames", test_no_frame_dropped)
 {
   GstHarness *hr = harness_new ("min-area=20", 64, 48);
   Plane *p = plane_new (64, 48, 64);
   const gdouble s[3] = { 30, 20, 8 };
-  guint i;
+  GstBuffer *templ;
   plane_draw (p, in_disc, s, RED);
-  /* a QoS event saying everything is very late */
-  gst_harness_push_upstream_event (hr, gst_event_new_qos (GST_QOS_TYPE_UNDERFLOW,
-          0.1, 10 * GST_SECOND, 0));
-  for (i = 0; i < 50; i++) {
-    GstBuffer *in = frame_with_labels (p);
-    GST_BUFFER_PTS (in) = i * GST_MSECOND;
-    fail_unless_equals_int (gst_harness_push (hr, in), GST_FLOW_OK);
-  }
-  fail_unless_equals_int (gst_harness_buffers_received (hr), 50);
+  templ = frame_with_labels (p);
+  landmark_check_no_frame_dropped (hr, templ, 50, LABELS_META);
+  gst_buffer_unref (templ);
   plane_free (p);
   gst_harness_teardown (hr);
 }
@@ -1246,76 +1162,20 @@ GST_START_TEST (test_no_frame_dropped)
 GST_END_TEST;
 
 /* ------------------------------------------------------------------ */
-/* Cost                                                               */
+/* A busy frame (its cost: tests/bench/element-cost.c)                */
 /* ------------------------------------------------------------------ */
 
-/* n GRAY8 buffers sharing one label plane. */
-static GstBuffer **
-prepared_frames (const Plane * p, guint n)
-{
-  GstBuffer **bufs = g_new0 (GstBuffer *, n);
-  GstBuffer *plane = gst_buffer_new_memdup (p->data, (gsize) p->stride * p->h);
-  guint i;
-  for (i = 0; i < n; i++) {
-    GstCustomMeta *m;
-    GstStructure *s;
-    bufs[i] = gst_buffer_new_allocate (NULL, (gsize) p->w * p->h, NULL);
-    GST_BUFFER_PTS (bufs[i]) = i * GST_SECOND / 30;
-    m = gst_buffer_add_custom_meta (bufs[i], LABELS_META);
-    s = gst_custom_meta_get_structure (m);
-    gst_structure_set (s, "labels", GST_TYPE_BUFFER, plane,
-        "width", G_TYPE_UINT, p->w, "height", G_TYPE_UINT, p->h,
-        "stride", G_TYPE_UINT, p->stride, NULL);
-    set_array (s, "class-names", G_TYPE_STRING, names7, 7);
-    set_array (s, "class-markers", G_TYPE_BOOLEAN, markers7, 7);
-  }
-  gst_buffer_unref (plane);
-  return bufs;
-}
-
-/* Microseconds per frame through the harness, best of 3 runs. */
-static gdouble
-time_per_frame (GstHarness * hr, const Plane * p, guint n, guint expect)
-{
-  gdouble best = G_MAXDOUBLE;
-  guint run_i, i;
-  for (run_i = 0; run_i < 3; run_i++) {
-    GstBuffer **bufs = prepared_frames (p, n);
-    gint64 t0 = g_get_monotonic_time ();
-    for (i = 0; i < n; i++) {
-      GstBuffer *out = gst_harness_push_and_pull (hr, bufs[i]);
-      if (i == n - 1 && expect != G_MAXUINT) {
-        Blobs b;
-        guint j;
-        blobs_read (out, &b);
-        fail_unless_equals_int (b.n, expect);
-        for (j = 0; j < b.n; j++)
-          fail_unless (kept (b.blob[j]));
-      }
-      gst_buffer_unref (out);
-    }
-    best = MIN (best, (g_get_monotonic_time () - t0) / (gdouble) n);
-    g_free (bufs);
-  }
-  return best;
-}
-
-/* 640x480, five marker classes, ten blobs of 150 to 3000 pixels over a
+/* 640x480, five marker classes, ten ellipses of 150 to 3000 pixels over a
  * background of two labels with 2 % speckle (as labsegment leaves JPEG
- * frames). The cost is printed (docs/blobroundness.md), not asserted. */
-GST_START_TEST (test_cost_640x480)
+ * frames): the ten blobs are found and kept, with and without morphology. */
+LANDMARK_TEST ("pipelines", test_speckled_background)
 {
   Plane *p = plane_new (640, 480, 640);
   GRand *rand = g_rand_new_with_seed (1);
-  GstHarness *hr = harness_new (NULL, 640, 480);
-  GstHarness *hm = harness_new ("morphology=3", 640, 480);
-  GstHarness *ref = gst_harness_new ("identity");
+  const gchar *props[] = { NULL, "morphology=3" };
   gsize i;
-  guint k;
-  gdouble t_blob, t_morph, t_ref;
+  guint k, j;
 
-  gst_harness_set_src_caps_str (ref, "video/x-raw,format=GRAY8,width=640,"
-      "height=480,framerate=30/1");
   for (i = 0; i < (gsize) 640 * 480; i++)
     p->data[i] = g_rand_int_range (rand, 0, 50) ? GREY : WHITE;
   for (k = 0; k < 10; k++) {
@@ -1324,17 +1184,19 @@ GST_START_TEST (test_cost_640x480)
     };
     plane_draw (p, in_ellipse, s, 1 + k % 5);
   }
-  t_ref = time_per_frame (ref, p, 300, G_MAXUINT);
-  t_blob = time_per_frame (hr, p, 300, 10);
-  t_morph = time_per_frame (hm, p, 100, 10);
-  g_print ("blobroundness 640x480, 10 blobs: %.1f us per frame (identity "
-      "%.1f us, so %.1f us of work); morphology=3: %.1f us\n", t_blob, t_ref,
-      t_blob - t_ref, t_morph - t_ref);
+  for (k = 0; k < G_N_ELEMENTS (props); k++) {
+    GstHarness *hr = harness_new (props[k], 640, 480);
+    Blobs b;
+    GstBuffer *out = run (hr, p, &b);
+    fail_unless_equals_int (b.n, 10);
+    for (j = 0; j < b.n; j++)
+      fail_unless (kept (b.blob[j]), "%s: blob %u",
+          props[k] ? props[k] : "defaults", j);
+    gst_buffer_unref (out);
+    gst_harness_teardown (hr);
+  }
   g_rand_free (rand);
   plane_free (p);
-  gst_harness_teardown (hr);
-  gst_harness_teardown (hm);
-  gst_harness_teardown (ref);
 }
 
 GST_END_TEST;
@@ -1345,7 +1207,7 @@ GST_END_TEST;
 
 /* Grey #808080 and blue #1E50C8 are exactly the built-in palette's grey
  * and blue; pink #FF69B4 its pink. */
-GST_START_TEST (test_labsegment_pipeline)
+LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
 {
   GstHarness *hr = gst_harness_new_parse ("labsegment min-class-pixels=0 ! "
       "blobroundness min-area=50");
@@ -1406,49 +1268,4 @@ GST_START_TEST (test_labsegment_pipeline)
 
 GST_END_TEST;
 
-static Suite *
-blobroundness_suite (void)
-{
-  Suite *s = suite_create ("blobroundness");
-  TCase *props = tcase_create ("properties");
-  TCase *shapes = tcase_create ("shapes");
-  TCase *frames = tcase_create ("frames");
-  TCase *errors = tcase_create ("errors");
-  TCase *pipelines = tcase_create ("pipelines");
-
-  suite_add_tcase (s, props);
-  tcase_add_test (props, test_properties);
-  tcase_add_test (props, test_change_while_playing);
-  tcase_add_test (props, test_property_stress);
-
-  suite_add_tcase (s, shapes);
-  tcase_add_test (shapes, test_discs);
-  tcase_add_test (shapes, test_disc_centroid_exact);
-  tcase_add_test (shapes, test_ellipses);
-  tcase_add_test (shapes, test_squares);
-  tcase_add_test (shapes, test_stripes_and_triangles);
-  tcase_add_test (shapes, test_rings);
-  tcase_add_test (shapes, test_specks);
-  tcase_add_test (shapes, test_area_and_aspect_limits);
-  tcase_add_test (shapes, test_classes);
-  tcase_add_test (shapes, test_many_blobs);
-  tcase_add_test (shapes, test_morphology);
-
-  suite_add_tcase (s, frames);
-  tcase_add_test (frames, test_odd_sizes);
-  tcase_add_test (frames, test_any_caps_video_untouched);
-  tcase_add_test (frames, test_plane_size_differs);
-  tcase_add_test (frames, test_no_frame_dropped);
-
-  suite_add_tcase (s, errors);
-  tcase_add_test (errors, test_no_labels_meta);
-  tcase_add_test (errors, test_bad_properties);
-  tcase_add_test (errors, test_unknown_class);
-
-  suite_add_tcase (s, pipelines);
-  tcase_add_test (pipelines, test_labsegment_pipeline);
-  tcase_add_test (pipelines, test_cost_640x480);
-  return s;
-}
-
-GST_CHECK_MAIN (blobroundness);
+LANDMARK_CHECK_MAIN (blobroundness);

@@ -5,27 +5,19 @@
  * written out in this file (range = h / tan (tilt + atan ((v - cy) / f))
  * for the centre column), never from the element's own code. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
 
 #include <math.h>
 #include <string.h>
-#include <time.h>
 
-#define LABELS_META "GstLandmarkLabelsMeta"
-#define FLOOR_META "GstLandmarkFloorMeta"
+#define FLOOR_META LANDMARK_FLOOR_META
 
 enum
 { NONE, RED, GREEN, YELLOW, PINK, BLUE, WHITE, GREY };
-
-static const gchar *names7[] = { "red", "green", "yellow", "pink", "blue",
-  "white", "grey"
-};
-
-static const gboolean markers7[] = { TRUE, TRUE, TRUE, TRUE, TRUE, FALSE,
-  FALSE
-};
 
 #define W 640
 #define H 480
@@ -48,45 +40,13 @@ edge_distance (guint edge)
   return CAM_H / tan (below);
 }
 
-static void
-set_array (GstStructure * s, const gchar * field, GType type,
-    gconstpointer values, guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, type);
-    if (type == G_TYPE_STRING)
-      g_value_set_string (&x, ((const gchar **) values)[i]);
-    else
-      g_value_set_boolean (&x, ((const gboolean *) values)[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
 static GstBuffer *
 frame_with_labels (const guint8 * plane, guint w, guint h,
     const gchar ** names, const gboolean * markers, guint n)
 {
   GstBuffer *buf = gst_buffer_new_allocate (NULL, (gsize) w * h, NULL);
-  GstCustomMeta *m;
-  GstStructure *s;
-  GstBuffer *pb;
   gst_buffer_memset (buf, 0, 0x55, (gsize) w * h);
-  m = gst_buffer_add_custom_meta (buf, LABELS_META);
-  fail_unless (m != NULL, LABELS_META " is not registered");
-  s = gst_custom_meta_get_structure (m);
-  pb = gst_buffer_new_memdup (plane, (gsize) w * h);
-  gst_structure_set (s, "labels", GST_TYPE_BUFFER, pb,
-      "width", G_TYPE_UINT, w, "height", G_TYPE_UINT, h,
-      "stride", G_TYPE_UINT, w, "analysis-width", G_TYPE_UINT, w,
-      "analysis-height", G_TYPE_UINT, h, NULL);
-  gst_buffer_unref (pb);
-  set_array (s, "class-names", G_TYPE_STRING, names, n);
-  set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
+  landmark_check_labels_attach (buf, plane, w, h, w, names, markers, n);
   return buf;
 }
 
@@ -95,14 +55,8 @@ harness_new (const gchar * props)
 {
   gchar *desc = g_strdup_printf ("floorboundary camera-height=0.3 tilt=25 "
       "hfov=60 %s", props ? props : "");
-  GError *err = NULL;
-  GstElement *e = gst_parse_launch (desc, &err);
-  GstHarness *hr;
-  fail_unless (e != NULL, "%s: %s", desc, err ? err->message : "?");
-  hr = gst_harness_new_with_element (e, "sink", "src");
-  gst_object_unref (e);
-  gst_harness_set_src_caps_str (hr, "video/x-raw,format=GRAY8,width=640,"
-      "height=480,framerate=30/1");
+  GstHarness *hr = landmark_check_harness_new (desc,
+      "video/x-raw,format=GRAY8,width=640,height=480,framerate=30/1");
   g_free (desc);
   return hr;
 }
@@ -165,32 +119,14 @@ static GstBuffer *
 push (GstHarness * hr, const guint8 * plane)
 {
   GstBuffer *out = gst_harness_push_and_pull (hr, frame_with_labels (plane,
-          W, H, names7, markers7, G_N_ELEMENTS (names7)));
+          W, H, landmark_check_names7, landmark_check_markers7, 7));
   fail_unless (out != NULL);
   return out;
 }
 
-static guint
-count_messages (GstBus * bus, GstMessageType type, GError ** first)
-{
-  GstMessage *msg;
-  guint n = 0;
-  while ((msg = gst_bus_pop_filtered (bus, type))) {
-    if (n == 0 && first) {
-      if (type == GST_MESSAGE_WARNING)
-        gst_message_parse_warning (msg, first, NULL);
-      else
-        gst_message_parse_error (msg, first, NULL);
-    }
-    n++;
-    gst_message_unref (msg);
-  }
-  return n;
-}
-
 /* A wall straight ahead: white above a grey floor. Bin 0 and the centre
  * column see it at h / tan of the edge's angle. */
-GST_START_TEST (test_wall_straight_ahead)
+LANDMARK_TEST ("general", test_wall_straight_ahead)
 {
   GstHarness *hr = harness_new ("floor-classes=grey");
   const guint edges[] = { 70, 160, 300 };
@@ -224,10 +160,10 @@ GST_END_TEST;
 
 /* All floor: free up to max-range ahead; with a max-range beyond the top
  * row's floor point, the view ends there (state 3). */
-GST_START_TEST (test_free_and_view_edge)
+LANDMARK_TEST ("general", test_free_and_view_edge)
 {
-  GstHarness *hr = harness_new ("max-range=3");
   guint8 *p = plane_floor_below (0, GREY, GREY);
+  GstHarness *hr = harness_new ("max-range=3");
   GstBuffer *out = push (hr, p);
   Floor f;
   floor_read (out, &f);
@@ -251,7 +187,7 @@ GST_END_TEST;
 /* A red disc lying on the floor is walked over and reported in
  * rop-marker-range; with markers=obstacles it ends the floor. Specks
  * and a two-row shadow change nothing. */
-GST_START_TEST (test_markers_specks_shadows)
+LANDMARK_TEST ("general", test_markers_specks_shadows)
 {
   GstHarness *hr = harness_new ("floor-classes=grey max-range=4");
   guint8 *p = plane_floor_below (0, GREY, GREY);
@@ -290,7 +226,7 @@ GST_START_TEST (test_markers_specks_shadows)
 
 GST_END_TEST;
 
-GST_START_TEST (test_message)
+LANDMARK_TEST ("general", test_message)
 {
   GstHarness *hr = harness_new ("floor-classes=grey post-messages=true "
       "bearing-bins=72");
@@ -321,37 +257,18 @@ GST_START_TEST (test_message)
 
 GST_END_TEST;
 
-static void
-check_bad_start (const gchar * prop, const gchar * value, const gchar * named)
+LANDMARK_TEST ("general", test_bad_properties)
 {
-  GstElement *e = gst_element_factory_make ("floorboundary", NULL);
-  GstBus *bus = gst_bus_new ();
-  GError *err = NULL;
-  gst_util_set_object_arg (G_OBJECT (e), prop, value);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS), "%s", err->message);
-  fail_unless (strstr (err->message, named) != NULL, "\"%s\" does not name "
-      "%s", err->message, named);
-  g_clear_error (&err);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
-}
-
-GST_START_TEST (test_bad_properties)
-{
-  check_bad_start ("max-range", "0", "'max-range'");
-  check_bad_start ("floor-classes", "grey,,white", "'floor-classes'");
-  check_bad_start ("calibration", "/nonexistent/camera.yaml",
-      "'calibration'");
-  check_bad_start ("camera-height", "0", "'camera-height'");
-  /* looking up: the camera sees no floor */
-  check_bad_start ("tilt", "-45", "'tilt'");
+  static const gchar *const bad[] = {
+    "max-range=0",
+    "floor-classes=grey,,white",
+    "calibration=/nonexistent/camera.yaml",
+    "camera-height=0",
+    /* looking up: the camera sees no floor */
+    "tilt=-45",
+    NULL
+  };
+  landmark_check_bad_settings ("floorboundary", bad);
 }
 
 GST_END_TEST;
@@ -369,7 +286,8 @@ check_bad_labels (const gchar * props, const gchar ** names,
   gst_element_set_bus (hr->element, bus);
   fail_unless_equals_int (gst_harness_push (hr, frame_with_labels (p, W, H,
               names, markers, n)), GST_FLOW_ERROR);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, &err), 1);
   fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
           GST_RESOURCE_ERROR_SETTINGS));
   fail_unless (strstr (err->message, text) != NULL, "%s", err->message);
@@ -380,18 +298,19 @@ check_bad_labels (const gchar * props, const gchar ** names,
   gst_harness_teardown (hr);
 }
 
-GST_START_TEST (test_no_floor_class)
+LANDMARK_TEST ("general", test_no_floor_class)
 {
   static const gchar *markers_only[] = { "red", "blue" };
   static const gboolean all_markers[] = { TRUE, TRUE };
-  check_bad_labels ("floor-classes=carpet", names7, markers7, 7, "carpet");
+  check_bad_labels ("floor-classes=carpet", landmark_check_names7,
+      landmark_check_markers7, 7, "carpet");
   check_bad_labels (NULL, markers_only, all_markers, 2, "No floor class");
 }
 
 GST_END_TEST;
 
 /* A bad value while playing: one warning, the previous settings stay */
-GST_START_TEST (test_change_while_playing)
+LANDMARK_TEST ("general", test_change_while_playing)
 {
   GstHarness *hr = harness_new ("floor-classes=grey max-range=3");
   GstBus *bus = gst_bus_new ();
@@ -409,7 +328,8 @@ GST_START_TEST (test_change_while_playing)
     fail_unless (f.range[0] == 3.0f);
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
   fail_unless (strstr (err->message, "'tilt'") != NULL, "%s", err->message);
   g_clear_error (&err);
   g_object_set (hr->element, "tilt", 25.0, "max-range", 2.0, NULL);
@@ -417,7 +337,8 @@ GST_START_TEST (test_change_while_playing)
   floor_read (out, &f);
   fail_unless (f.range[0] == 2.0f);
   gst_buffer_unref (out);
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_ERROR, NULL), 0);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_ERROR, NULL), 0);
   gst_element_set_bus (hr->element, NULL);
   gst_object_unref (bus);
   g_free (p);
@@ -427,7 +348,7 @@ GST_START_TEST (test_change_while_playing)
 GST_END_TEST;
 
 /* Video untouched; no labels meta: one warning, buffers pass */
-GST_START_TEST (test_no_labels_meta)
+LANDMARK_TEST ("general", test_no_labels_meta)
 {
   GstHarness *hr = harness_new (NULL);
   GstBus *bus = gst_bus_new ();
@@ -443,7 +364,8 @@ GST_START_TEST (test_no_labels_meta)
     fail_unless (gst_buffer_get_custom_meta (out, FLOOR_META) == NULL);
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (count_messages (bus, GST_MESSAGE_WARNING, &err), 1);
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
   fail_unless (strstr (err->message, "labsegment") != NULL);
   g_clear_error (&err);
   gst_element_set_bus (hr->element, NULL);
@@ -453,78 +375,4 @@ GST_START_TEST (test_no_labels_meta)
 
 GST_END_TEST;
 
-/* CPU time of the process, microseconds: the machine is shared */
-static gdouble
-cpu_us (void)
-{
-  struct timespec ts;
-  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e6 + ts.tv_nsec / 1e3;
-}
-
-/* Per-frame cost at 640x480 beside identity; printed, not asserted. */
-GST_START_TEST (test_cost_640x480)
-{
-  GstHarness *hr = harness_new ("floor-classes=grey");
-  GstHarness *ref = gst_harness_new ("identity");
-  guint8 *p = plane_floor_below (120, GREY, WHITE);
-  const guint n = 300;
-  gdouble t[2], cpu[2];
-  guint k, i;
-  GstHarness *hs[2] = { ref, hr };
-  gst_harness_set_src_caps_str (ref, "video/x-raw,format=GRAY8,width=640,"
-      "height=480,framerate=30/1");
-  /* boxes and specks */
-  for (i = 0; i < (guint) W * H; i++)
-    if (i % 53 == 0)
-      p[i] = WHITE;
-  for (k = 0; k < 2; k++) {
-    GstBuffer *bufs[32];
-    gint64 t0;
-    /* one plane for every frame, as warm in the cache as the plane
-     * labsegment has just written */
-    bufs[0] = frame_with_labels (p, W, H, names7, markers7, 7);
-    for (i = 1; i < 32; i++)
-      bufs[i] = gst_buffer_copy (bufs[0]);
-    for (i = 0; i < 10; i++)
-      gst_buffer_unref (gst_harness_push_and_pull (hs[k],
-              gst_buffer_ref (bufs[i % 32])));
-    t0 = g_get_monotonic_time ();
-    cpu[k] = cpu_us ();
-    for (i = 0; i < n; i++)
-      gst_buffer_unref (gst_harness_push_and_pull (hs[k],
-              gst_buffer_copy (bufs[i % 32])));
-    t[k] = (g_get_monotonic_time () - t0) / (gdouble) n;
-    cpu[k] = (cpu_us () - cpu[k]) / n;
-    for (i = 0; i < 32; i++)
-      gst_buffer_unref (bufs[i]);
-  }
-  g_print ("floorboundary 640x480: %.1f us per frame (identity %.1f us, so "
-      "%.1f us of work); CPU time %.1f us (identity %.1f us)\n", t[1], t[0],
-      t[1] - t[0], cpu[1], cpu[0]);
-  g_free (p);
-  gst_harness_teardown (hr);
-  gst_harness_teardown (ref);
-}
-
-GST_END_TEST;
-
-static Suite *
-floorboundary_suite (void)
-{
-  Suite *s = suite_create ("floorboundary");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_wall_straight_ahead);
-  tcase_add_test (tc, test_free_and_view_edge);
-  tcase_add_test (tc, test_markers_specks_shadows);
-  tcase_add_test (tc, test_message);
-  tcase_add_test (tc, test_bad_properties);
-  tcase_add_test (tc, test_no_floor_class);
-  tcase_add_test (tc, test_change_while_playing);
-  tcase_add_test (tc, test_no_labels_meta);
-  tcase_add_test (tc, test_cost_640x480);
-  return s;
-}
-
-GST_CHECK_MAIN (floorboundary);
+LANDMARK_CHECK_MAIN (floorboundary);

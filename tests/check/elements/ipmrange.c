@@ -1,6 +1,8 @@
 /* ipmrange: hand-attached detections (landmark-blob with centroid and
  * frame size) against analytic range and bearing; no-floor; bad properties
  * and calibration files fail READY; calibration files are read. */
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -39,10 +41,7 @@ run_one (GstHarness * h, GstBuffer * in)
 static const GstStructure *
 range_of (GstBuffer * buf, gint id)
 {
-  GstVideoRegionOfInterestMeta *roi =
-      gst_buffer_get_video_region_of_interest_meta_id (buf, id);
-  fail_unless (roi != NULL);
-  return gst_video_region_of_interest_meta_get_param (roi, "landmark-range");
+  return landmark_check_roi_param (buf, id, "landmark-range");
 }
 
 /* Floor point of normalized camera coordinates (xn, yn) for a camera at
@@ -97,7 +96,7 @@ check_point (const GstStructure * r, double gx, double gy, double tol)
   fail_unless (fabs (rg - range) < 1e-12);
 }
 
-GST_START_TEST (test_pinhole_hfov)
+LANDMARK_TEST ("general", test_pinhole_hfov)
 {
   GstHarness *h = harness ("ipmrange camera-height=0.5 tilt=30 hfov=60");
   const double f = (W / 2.0) / tan (M_PI / 6), cx = (W - 1) / 2.0,
@@ -127,7 +126,7 @@ GST_START_TEST (test_pinhole_hfov)
 GST_END_TEST;
 
 /* Detections measured on a half-size frame are scaled to the caps. */
-GST_START_TEST (test_scaled_detections)
+LANDMARK_TEST ("general", test_scaled_detections)
 {
   GstHarness *h = harness ("ipmrange camera-height=0.4 tilt=20 fx=600 "
       "cx=300 cy=250");
@@ -148,7 +147,7 @@ GST_START_TEST (test_scaled_detections)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_no_floor)
+LANDMARK_TEST ("general", test_no_floor)
 {
   /* tilt 10: rows above v ~ 120 look above the horizon */
   GstHarness *h = harness ("ipmrange camera-height=0.5 tilt=10 hfov=60");
@@ -183,34 +182,11 @@ GST_END_TEST;
 static void
 expect_ready_error (const gchar * launch, const gchar * what)
 {
-  GError *perr = NULL;
-  GstElement *e = gst_parse_launch (launch, &perr);
-  GstBus *bus = gst_bus_new ();
-  GstMessage *msg;
-  GError *err = NULL;
-  gchar *dbg = NULL;
-
-  fail_unless (e != NULL && perr == NULL, "%s", launch);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_FAILURE);
-  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
-  fail_unless (msg != NULL, "no error for %s", launch);
-  gst_message_parse_error (msg, &err, &dbg);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS));
-  fail_unless (strstr (err->message, what) || (dbg && strstr (dbg, what)),
-      "'%s' not in '%s' / '%s'", what, err->message, dbg);
-  g_error_free (err);
-  g_free (dbg);
-  gst_message_unref (msg);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_start_fails (landmark_check_element (launch),
+      GST_STATE_READY, LANDMARK_CHECK_IN_EITHER, what, NULL);
 }
 
-GST_START_TEST (test_bad_properties)
+LANDMARK_TEST ("general", test_bad_properties)
 {
   expect_ready_error ("ipmrange camera-height=0", "camera-height");
   expect_ready_error ("ipmrange hfov=0", "hfov");
@@ -239,7 +215,7 @@ GST_START_TEST (test_bad_properties)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_calibration_yaml)
+LANDMARK_TEST ("general", test_calibration_yaml)
 {
   GstHarness *h = harness ("ipmrange camera-height=0.3 tilt=25 "
       "calibration=" CAL_DIR "/cam640.yaml");
@@ -279,7 +255,7 @@ undistort (double u, double v, const double *k, double fx, double fy,
   *yn = y;
 }
 
-GST_START_TEST (test_calibration_xml_distorted)
+LANDMARK_TEST ("general", test_calibration_xml_distorted)
 {
   GstHarness *h = gst_harness_new_parse ("ipmrange camera-height=0.3 "
       "tilt=25 calibration=" CAL_DIR "/cam640-distorted.xml");
@@ -307,7 +283,7 @@ GST_START_TEST (test_calibration_xml_distorted)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_seed_model)
+LANDMARK_TEST ("general", test_seed_model)
 {
   /* h 0.4, b 0.3, d 0.9, w 0.6: bottom row at b, centre of the left edge
    * at (b + d, +w), eqs 3.5-3.6 */
@@ -326,7 +302,7 @@ GST_START_TEST (test_seed_model)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_change_while_playing)
+LANDMARK_TEST ("general", test_change_while_playing)
 {
   GstHarness *h = harness ("ipmrange camera-height=0.5 tilt=30 hfov=60");
   GstBuffer *in, *out;
@@ -351,21 +327,4 @@ GST_START_TEST (test_change_while_playing)
 }
 GST_END_TEST;
 
-static Suite *
-ipmrange_suite (void)
-{
-  Suite *s = suite_create ("ipmrange");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_pinhole_hfov);
-  tcase_add_test (tc, test_scaled_detections);
-  tcase_add_test (tc, test_no_floor);
-  tcase_add_test (tc, test_bad_properties);
-  tcase_add_test (tc, test_calibration_yaml);
-  tcase_add_test (tc, test_calibration_xml_distorted);
-  tcase_add_test (tc, test_seed_model);
-  tcase_add_test (tc, test_change_while_playing);
-  return s;
-}
-
-GST_CHECK_MAIN (ipmrange);
+LANDMARK_CHECK_MAIN (ipmrange);

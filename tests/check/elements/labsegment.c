@@ -14,6 +14,8 @@
  * The labels meta is read as applications do: gst_buffer_get_custom_meta()
  * by name, then the GstStructure fields. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -125,36 +127,6 @@ rgb01_to_lab (const gdouble rgb[3], gdouble lab[3])
   lab[0] = 116.0 * cie_f (y) - 16.0;
   lab[1] = 500.0 * (cie_f (x) - cie_f (y));
   lab[2] = 200.0 * (cie_f (y) - cie_f (z));
-}
-
-static gdouble
-cie_f_inverse (gdouble f)
-{
-  const gdouble d = 6.0 / 29.0;
-  return f > d ? f * f * f : 3.0 * d * d * (f - 4.0 / 29.0);
-}
-
-static gdouble
-srgb_encode (gdouble v)
-{
-  v = CLAMP (v, 0.0, 1.0);
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * pow (v, 1.0 / 2.4) - 0.055;
-}
-
-/* CIE L*a*b* (D65) -> 0xRRGGBB, each linear component clipped */
-static guint
-lab_to_rgb24 (const gdouble lab[3])
-{
-  const gdouble fy = (lab[0] + 16.0) / 116.0;
-  const gdouble x = 0.95047 * cie_f_inverse (fy + lab[1] / 500.0);
-  const gdouble y = cie_f_inverse (fy);
-  const gdouble z = 1.08883 * cie_f_inverse (fy - lab[2] / 200.0);
-  const gdouble r = 3.2404542 * x - 1.5371385 * y - 0.4985314 * z;
-  const gdouble g = -0.9692660 * x + 1.8760108 * y + 0.0415560 * z;
-  const gdouble b = 0.0556434 * x - 0.2040259 * y + 1.0572252 * z;
-  return ((guint) lround (255.0 * srgb_encode (r)) << 16) |
-      ((guint) lround (255.0 * srgb_encode (g)) << 8) |
-      (guint) lround (255.0 * srgb_encode (b));
 }
 
 static guint8
@@ -766,7 +738,7 @@ check_labels_meta (GstBuffer * out, const Picture * pic, const Config * cfg,
     {
       /* the display colour of the reference, within rounding */
       const guint got = array_uint (s, "class-rgb", k);
-      const guint want = lab_to_rgb24 (p->cls[k].lab);
+      const guint want = landmark_check_lab_to_rgb24 (p->cls[k].lab);
       guint shift;
       fail_unless (got <= 0xffffff);
       for (shift = 0; shift <= 16; shift += 8)
@@ -943,7 +915,7 @@ check_builtin_colour_choice (const FormatDesc * fmt)
 /* ------------------------------------------------------------------ */
 
 /* Loop tests run once per entry of formats[]. */
-GST_START_TEST (test_format_passthrough)
+LANDMARK_TEST_LOOP ("formats", test_format_passthrough, G_N_ELEMENTS (formats))
 {
   const FormatDesc *fmt = &formats[__i__];
   Config cfg = builtin_config (0);
@@ -959,7 +931,7 @@ GST_START_TEST (test_format_passthrough)
 
 GST_END_TEST;
 
-GST_START_TEST (test_format_sizes)
+LANDMARK_TEST_LOOP ("formats", test_format_sizes, G_N_ELEMENTS (formats))
 {
   static const guint sizes[][2] = {
     {1, 1}, {2, 2}, {3, 4}, {3, 5}, {3, 1}, {641, 479},
@@ -982,7 +954,8 @@ GST_START_TEST (test_format_sizes)
 
 GST_END_TEST;
 
-GST_START_TEST (test_format_padded_strides)
+LANDMARK_TEST_LOOP ("formats", test_format_padded_strides,
+    G_N_ELEMENTS (formats))
 {
   static const guint pads[] = { 7, 64 };
   const FormatDesc *fmt = &formats[__i__];
@@ -1003,7 +976,8 @@ GST_END_TEST;
 
 /* output=labels: the frame shows the class colours (class-rgb), black for
  * label 0; labels themselves are unchanged by the mode. */
-GST_START_TEST (test_format_output_labels)
+LANDMARK_TEST_LOOP ("formats", test_format_output_labels,
+    G_N_ELEMENTS (formats))
 {
   static const guint8 cycle[] = {
     C_RED, C_GREY, C_FAR_GREEN, C_WHITE, C_BLUE, C_YELLOW, C_GREEN, C_PINK,
@@ -1080,7 +1054,7 @@ dominance_picture (Picture * pic, const FormatDesc * fmt, guint * n_pink)
   *n_pink = 36;
 }
 
-GST_START_TEST (test_dominant_colour_rule)
+LANDMARK_TEST_LOOP ("rules", test_dominant_colour_rule, G_N_ELEMENTS (formats))
 {
   const FormatDesc *fmt = &formats[__i__];
   const guint pink = ref_label (&builtin, "pink");
@@ -1127,7 +1101,8 @@ GST_END_TEST;
 
 /* Many demoted pixels of two classes, in an odd-sized frame: the
  * relabelling must cover every one of them, wherever they are. */
-GST_START_TEST (test_dominant_colour_rule_large)
+LANDMARK_TEST_LOOP ("rules", test_dominant_colour_rule_large,
+    G_N_ELEMENTS (formats))
 {
   const FormatDesc *fmt = &formats[__i__];
   Config cfg = builtin_config (20000);
@@ -1156,7 +1131,7 @@ GST_START_TEST (test_dominant_colour_rule_large)
 
 GST_END_TEST;
 
-GST_START_TEST (test_no_class_reaches_threshold)
+LANDMARK_TEST ("rules", test_no_class_reaches_threshold)
 {
   Config cfg = builtin_config (65);
   GstBuffer *out;
@@ -1196,7 +1171,7 @@ GST_START_TEST (test_no_class_reaches_threshold)
 
 GST_END_TEST;
 
-GST_START_TEST (test_max_distance)
+LANDMARK_TEST ("rules", test_max_distance)
 {
   const guint green = ref_label (&builtin, "green");
   Picture pic;
@@ -1235,7 +1210,7 @@ GST_START_TEST (test_max_distance)
 
 GST_END_TEST;
 
-GST_START_TEST (test_use_lightness)
+LANDMARK_TEST ("rules", test_use_lightness)
 {
   static const Rgb greys[] = { {60, 60, 60}, {200, 200, 200} };
   const gchar *path = PALETTES "lightness.json";
@@ -1290,7 +1265,7 @@ GST_START_TEST (test_use_lightness)
 
 GST_END_TEST;
 
-GST_START_TEST (test_custom_palette)
+LANDMARK_TEST ("configuration", test_custom_palette)
 {
   static const Rgb colours[] = {
     {235, 145, 40},             /* orange */
@@ -1325,7 +1300,7 @@ GST_END_TEST;
 /* YUV frames in the colorimetry their caps state. Each case has a colour
  * that the wrong interpretation (BT.601 limited, the usual assumption)
  * would put in another class, so a matrix or range that is ignored shows. */
-GST_START_TEST (test_yuv_colorimetry)
+LANDMARK_TEST ("formats", test_yuv_colorimetry)
 {
   static const struct
   {
@@ -1384,7 +1359,7 @@ GST_END_TEST;
 
 /* One element through caps changes: format, size and colorimetry change
  * between buffers; every buffer is labelled for its own caps. */
-GST_START_TEST (test_caps_change_midstream)
+LANDMARK_TEST ("formats", test_caps_change_midstream)
 {
   static const struct
   {
@@ -1439,7 +1414,7 @@ GST_START_TEST (test_caps_change_midstream)
 GST_END_TEST;
 
 /* The largest palette: 64 classes, labels 1..64 all in use. */
-GST_START_TEST (test_palette_64_classes)
+LANDMARK_TEST ("configuration", test_palette_64_classes)
 {
   static const guint8 levels[] = { 32, 96, 160, 224 };
   const gchar *path = PALETTES "good-64-classes.json";
@@ -1487,7 +1462,7 @@ segment_builtin_pattern_rgb (GstHarness * h, Picture * pic, GstBuffer ** in)
 
 /* One landmark-histogram element message per buffer, fields as in the
  * meta of that buffer, times from the segment. */
-GST_START_TEST (test_post_messages)
+LANDMARK_TEST ("streaming", test_post_messages)
 {
   Config cfg = builtin_config (40);
   GstHarness *h = harness_new (NULL, &cfg);
@@ -1683,7 +1658,8 @@ check_palette_error (GstBus * bus, GstElement * element, const BadPalette * b,
   gst_message_unref (msg);
 }
 
-GST_START_TEST (test_bad_palette_fails_start)
+LANDMARK_TEST_LOOP ("configuration", test_bad_palette_fails_start,
+    G_N_ELEMENTS (bad_palettes))
 {
   const BadPalette *b = &bad_palettes[__i__];
   gchar *path = g_build_filename (GST_TEST_FILES_PATH, "palettes", b->file,
@@ -1693,32 +1669,18 @@ GST_START_TEST (test_bad_palette_fails_start)
 
   fail_unless (e != NULL);
   g_object_set (e, "palette", path, NULL);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
+  landmark_check_refuses_paused (e, bus);
   check_palette_error (bus, e, b, path, GST_MESSAGE_ERROR);
 
   /* fixing the setting is enough to start */
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  g_object_set (e, "palette", PALETTES "good-custom.json", NULL);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR) == NULL);
-
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_NULL),
-      GST_STATE_CHANGE_SUCCESS);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_fixed_setting_starts (e, bus, "palette",
+      PALETTES "good-custom.json");
   g_free (path);
 }
 
 GST_END_TEST;
 
-GST_START_TEST (test_bad_palette_while_playing)
+LANDMARK_TEST ("configuration", test_bad_palette_while_playing)
 {
   const BadPalette *b = &bad_palettes[5];       /* duplicate name */
   gchar *bad = g_build_filename (GST_TEST_FILES_PATH, "palettes", b->file,
@@ -1770,7 +1732,7 @@ GST_START_TEST (test_bad_palette_while_playing)
 GST_END_TEST;
 
 /* Properties changed from other threads while buffers flow. */
-GST_START_TEST (test_properties_while_streaming)
+LANDMARK_TEST ("streaming", test_properties_while_streaming)
 {
   const gchar *custom = PALETTES "good-custom.json";
   const gchar *alt = PALETTES "good-alt.json";
@@ -1877,35 +1839,14 @@ GST_END_TEST;
 /* A measuring element never drops frames, not even when downstream says
  * it is far behind (a QoS event that would make a QoS-enabled transform
  * drop everything below). */
-GST_START_TEST (test_no_buffer_dropped)
+LANDMARK_TEST ("streaming", test_no_buffer_dropped)
 {
   GstHarness *h = gst_harness_new ("labsegment");
   GstBuffer *templ;
   Picture pic;
-  guint i;
-  const guint n = 50;
 
   segment_builtin_pattern_rgb (h, &pic, &templ);
-  fail_unless (gst_harness_push_upstream_event (h,
-          gst_event_new_qos (GST_QOS_TYPE_UNDERFLOW, 2.0, 60 * GST_SECOND,
-              0)));
-
-  for (i = 0; i < n; i++) {
-    GstBuffer *in = gst_buffer_copy (templ);
-    GST_BUFFER_PTS (in) = i * 40 * GST_MSECOND;
-    GST_BUFFER_DURATION (in) = 40 * GST_MSECOND;
-    fail_unless_equals_int (gst_harness_push (h, in), GST_FLOW_OK);
-  }
-  for (i = 0; i < n; i++) {
-    GstBuffer *out = gst_harness_try_pull (h);
-    fail_unless (out != NULL, "only %u of %u buffers came out", i, n);
-    fail_unless_equals_uint64 (GST_BUFFER_PTS (out), i * 40 * GST_MSECOND);
-    fail_unless (gst_buffer_get_custom_meta (out, META_NAME) != NULL);
-    gst_buffer_unref (out);
-  }
-  fail_unless (gst_harness_try_pull (h) == NULL);
-  fail_unless_equals_int (gst_harness_buffers_received (h), n);
-
+  landmark_check_no_frame_dropped (h, templ, 50, META_NAME);
   gst_buffer_unref (templ);
   picture_clear (&pic);
   gst_harness_teardown (h);
@@ -1913,47 +1854,5 @@ GST_START_TEST (test_no_buffer_dropped)
 
 GST_END_TEST;
 
-static Suite *
-labsegment_suite (void)
-{
-  Suite *s = suite_create ("labsegment");
-  TCase *formats_tc = tcase_create ("formats");
-  TCase *rules = tcase_create ("rules");
-  TCase *config = tcase_create ("configuration");
-  TCase *streaming = tcase_create ("streaming");
-  const gint n_formats = G_N_ELEMENTS (formats);
-
-  suite_add_tcase (s, formats_tc);
-  tcase_add_unchecked_fixture (formats_tc, load_builtin, clear_builtin);
-  tcase_add_loop_test (formats_tc, test_format_passthrough, 0, n_formats);
-  tcase_add_loop_test (formats_tc, test_format_sizes, 0, n_formats);
-  tcase_add_loop_test (formats_tc, test_format_padded_strides, 0, n_formats);
-  tcase_add_loop_test (formats_tc, test_format_output_labels, 0, n_formats);
-  tcase_add_test (formats_tc, test_yuv_colorimetry);
-  tcase_add_test (formats_tc, test_caps_change_midstream);
-
-  suite_add_tcase (s, rules);
-  tcase_add_unchecked_fixture (rules, load_builtin, clear_builtin);
-  tcase_add_loop_test (rules, test_dominant_colour_rule, 0, n_formats);
-  tcase_add_loop_test (rules, test_dominant_colour_rule_large, 0, n_formats);
-  tcase_add_test (rules, test_no_class_reaches_threshold);
-  tcase_add_test (rules, test_max_distance);
-  tcase_add_test (rules, test_use_lightness);
-
-  suite_add_tcase (s, config);
-  tcase_add_unchecked_fixture (config, load_builtin, clear_builtin);
-  tcase_add_test (config, test_custom_palette);
-  tcase_add_test (config, test_palette_64_classes);
-  tcase_add_loop_test (config, test_bad_palette_fails_start, 0,
-      G_N_ELEMENTS (bad_palettes));
-  tcase_add_test (config, test_bad_palette_while_playing);
-
-  suite_add_tcase (s, streaming);
-  tcase_add_unchecked_fixture (streaming, load_builtin, clear_builtin);
-  tcase_add_test (streaming, test_post_messages);
-  tcase_add_test (streaming, test_properties_while_streaming);
-  tcase_add_test (streaming, test_no_buffer_dropped);
-  return s;
-}
-
-GST_CHECK_MAIN (labsegment);
+LANDMARK_CHECK_MAIN (labsegment, .setup = load_builtin,
+    .teardown = clear_builtin);

@@ -7,6 +7,8 @@
  * (videotestsrc ! labsegment ! landmarklog) are checked against the metas
  * seen by a sink after the logger. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -30,41 +32,10 @@
 /* Files                                                              */
 /* ------------------------------------------------------------------ */
 
-static gchar *tmp_dir;
-
-static void
-tmp_dir_setup (void)
-{
-  GError *err = NULL;
-  tmp_dir = g_dir_make_tmp ("landmarklog-XXXXXX", &err);
-  fail_unless (tmp_dir != NULL, "%s", err ? err->message : "?");
-}
-
-static void
-tmp_dir_teardown (void)
-{
-  GDir *d = g_dir_open (tmp_dir, 0, NULL);
-  const gchar *name;
-  while (d && (name = g_dir_read_name (d))) {
-    gchar *p = g_build_filename (tmp_dir, name, NULL);
-    if (g_file_test (p, G_FILE_TEST_IS_DIR)) {
-      g_chmod (p, 0700);
-      g_rmdir (p);
-    } else {
-      g_remove (p);
-    }
-    g_free (p);
-  }
-  if (d)
-    g_dir_close (d);
-  g_rmdir (tmp_dir);
-  g_clear_pointer (&tmp_dir, g_free);
-}
-
 static gchar *
 tmp_file (const gchar * name)
 {
-  return g_build_filename (tmp_dir, name, NULL);
+  return g_build_filename (landmark_check_tmp_dir, name, NULL);
 }
 
 /* A log file read back: every line parsed (the test fails on the first
@@ -251,78 +222,6 @@ frame_new (guint i)
   return buf;
 }
 
-static GstStructure *
-custom_meta_add (GstBuffer * buf, const gchar * name)
-{
-  GstCustomMeta *m = gst_buffer_add_custom_meta (buf, name);
-  fail_unless (m != NULL, "%s is not registered: plugin not loaded?", name);
-  return gst_custom_meta_get_structure (m);
-}
-
-static void
-set_uint_array (GstStructure * s, const gchar * field, const guint * v,
-    guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, G_TYPE_UINT);
-    g_value_set_uint (&x, v[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
-static void
-set_bool_array (GstStructure * s, const gchar * field, const gboolean * v,
-    guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, G_TYPE_BOOLEAN);
-    g_value_set_boolean (&x, v[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
-static void
-set_double_array (GstStructure * s, const gchar * field, const gdouble * v,
-    guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, G_TYPE_DOUBLE);
-    g_value_set_double (&x, v[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
-static void
-set_string_array (GstStructure * s, const gchar * field,
-    const gchar * const *v, guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, G_TYPE_STRING);
-    g_value_set_string (&x, v[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
-
 static GstVideoRegionOfInterestMeta *
 roi_add (GstBuffer * buf, const gchar * cls, gint id, guint x, guint y,
     guint w, guint h)
@@ -401,7 +300,7 @@ run_to_eos (const gchar * desc, gboolean keep)
 /* Tests                                                              */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_properties)
+LANDMARK_TEST ("format", test_properties)
 {
   GstElement *e = gst_element_factory_make ("landmarklog", NULL);
   gchar *loc = (gchar *) "x";
@@ -429,7 +328,7 @@ GST_END_TEST;
 
 /* N buffers in, N lines out, in order, with their timestamps; buffers
  * without timestamps have no pts/duration keys. */
-GST_START_TEST (test_every_frame_in_order)
+LANDMARK_TEST ("format", test_every_frame_in_order)
 {
   gchar *path = tmp_file ("order.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -499,7 +398,8 @@ static const struct
       1920, 1080},
 };
 
-GST_START_TEST (test_passthrough_unchanged)
+LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
+    G_N_ELEMENTS (any_caps))
 {
   gchar *path = tmp_file ("pass.jsonl");
   GstHarness *h = log_harness (path, any_caps[__i__].caps);
@@ -549,7 +449,7 @@ GST_START_TEST (test_passthrough_unchanged)
 
 GST_END_TEST;
 
-GST_START_TEST (test_labels_meta)
+LANDMARK_TEST ("format", test_labels_meta)
 {
   gchar *path = tmp_file ("labels.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -568,7 +468,7 @@ GST_START_TEST (test_labels_meta)
 
   /* frame 0: a full labels meta, as labsegment writes it */
   buf = frame_new (0);
-  s = custom_meta_add (buf, LABELS_META);
+  s = landmark_check_meta_add (buf, LABELS_META);
   plane = gst_buffer_new_allocate (NULL, 8 * 4, NULL);
   gst_buffer_memset (plane, 0, 2, 8 * 4);
   gst_structure_set (s, "labels", GST_TYPE_BUFFER, plane,
@@ -579,18 +479,18 @@ GST_START_TEST (test_labels_meta)
       "max-distance", G_TYPE_DOUBLE, 12.3, "use-lightness", G_TYPE_BOOLEAN,
       FALSE, NULL);
   gst_buffer_unref (plane);
-  set_string_array (s, "class-names", names, 3);
-  set_bool_array (s, "class-markers", markers, 3);
-  set_uint_array (s, "class-rgb", rgb, 3);
-  set_uint_array (s, "class-counts", counts, 3);
-  set_bool_array (s, "class-active", active, 3);
-  set_uint_array (s, "label-counts", labelled, 3);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING, names, 3);
+  landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, 3);
+  landmark_check_set_array (s, "class-rgb", G_TYPE_UINT, rgb, 3);
+  landmark_check_set_array (s, "class-counts", G_TYPE_UINT, counts, 3);
+  landmark_check_set_array (s, "class-active", G_TYPE_BOOLEAN, active, 3);
+  landmark_check_set_array (s, "label-counts", G_TYPE_UINT, labelled, 3);
   fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
 
   /* frame 1: a meta with only some fields: only those are written */
   buf = frame_new (1);
-  s = custom_meta_add (buf, LABELS_META);
-  set_string_array (s, "class-names", names, 1);
+  s = landmark_check_meta_add (buf, LABELS_META);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING, names, 1);
   gst_structure_set (s, "unclassified", G_TYPE_UINT, 0, NULL);
   fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
 
@@ -654,7 +554,7 @@ GST_START_TEST (test_labels_meta)
 
 GST_END_TEST;
 
-GST_START_TEST (test_detections)
+LANDMARK_TEST ("format", test_detections)
 {
   gchar *path = tmp_file ("detections.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -696,7 +596,7 @@ GST_START_TEST (test_detections)
         "matched", G_TYPE_BOOLEAN, TRUE,
         "landmark-id", G_TYPE_STRING, "L\"1\"\n\t\x01/\xc3\xa9",
         "residual", G_TYPE_DOUBLE, 1e300, NULL);
-    set_double_array (m, "axes", axes, 3);
+    landmark_check_set_array (m, "axes", G_TYPE_DOUBLE, axes, 3);
     gst_video_region_of_interest_meta_add_param (roi, m);
   }
 
@@ -801,7 +701,7 @@ GST_START_TEST (test_detections)
 
 GST_END_TEST;
 
-GST_START_TEST (test_pose_meta)
+LANDMARK_TEST ("format", test_pose_meta)
 {
   gchar *path = tmp_file ("pose.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -810,7 +710,7 @@ GST_START_TEST (test_pose_meta)
   };
   static const gchar *used[] = { "L1", "L2", "L4" };
   GstBuffer *buf = frame_new (0);
-  GstStructure *s = custom_meta_add (buf, POSE_META);
+  GstStructure *s = landmark_check_meta_add (buf, POSE_META);
   JsonObject *pose;
   JsonArray *a;
   LogFile lf;
@@ -820,8 +720,8 @@ GST_START_TEST (test_pose_meta)
       "heading", G_TYPE_DOUBLE, G_PI, "residual", G_TYPE_DOUBLE, 0.0125,
       "solver", G_TYPE_STRING, "gauss-newton",
       "n-landmarks", G_TYPE_UINT, 3, "converged", G_TYPE_BOOLEAN, TRUE, NULL);
-  set_double_array (s, "covariance", cov, 9);
-  set_string_array (s, "landmarks", used, 3);
+  landmark_check_set_array (s, "covariance", G_TYPE_DOUBLE, cov, 9);
+  landmark_check_set_array (s, "landmarks", G_TYPE_STRING, used, 3);
   fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
   fail_unless_equals_int (gst_harness_push (h, frame_new (1)), GST_FLOW_OK);
   push_eos (h);
@@ -890,7 +790,7 @@ check_uint_array_matches (JsonObject * o, const gchar * key,
   }
 }
 
-GST_START_TEST (test_labsegment_pipeline)
+LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
 {
   gchar *path = tmp_file ("segment.jsonl");
   const guint n = 12, w = 160, h = 120;
@@ -962,7 +862,7 @@ GST_END_TEST;
 
 /* Lines are buffered (flush-every=0); EOS writes them out before it goes
  * downstream, so the file is complete while the element still runs. */
-GST_START_TEST (test_eos_completes_file)
+LANDMARK_TEST ("output", test_eos_completes_file)
 {
   gchar *path = tmp_file ("eos.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1007,7 +907,7 @@ count_lines (const gchar * path)
 
 /* flush-every: whole frames reach the file every N frames; a flushing
  * seek and pausing also write the pending lines. */
-GST_START_TEST (test_flush_every)
+LANDMARK_TEST ("output", test_flush_every)
 {
   gchar *path = tmp_file ("every.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1055,7 +955,7 @@ GST_END_TEST;
 
 /* Frames big enough that the pending lines go out mid-stream: whenever the
  * file is looked at, it holds only complete lines, frames 0..k-1. */
-GST_START_TEST (test_whole_lines_mid_stream)
+LANDMARK_TEST ("output", test_whole_lines_mid_stream)
 {
   gchar *path = tmp_file ("big.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1108,14 +1008,11 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
   GstMessage *msg;
   GError *err = NULL;
   gchar *dbg = NULL;
+  gchar *good = tmp_file ("good.jsonl");
 
   if (location)
     g_object_set (e, "location", location, NULL);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
+  landmark_check_refuses_paused (e, bus);
   msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
   fail_unless (msg != NULL, "no error message");
   fail_unless (GST_MESSAGE_SRC (msg) == GST_OBJECT (e));
@@ -1133,28 +1030,16 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
   g_free (dbg);
   gst_message_unref (msg);
 
-  /* a usable location is enough to start */
-  {
-    gchar *good = tmp_file ("good.jsonl");
-    fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-        GST_STATE_CHANGE_SUCCESS);
-    g_object_set (e, "location", good, NULL);
-    fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-        GST_STATE_CHANGE_SUCCESS);
-    fail_unless (g_file_test (good, G_FILE_TEST_IS_REGULAR));
-    g_free (good);
-  }
-  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR) == NULL);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_NULL),
-      GST_STATE_CHANGE_SUCCESS);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  /* a usable location is enough to start (and makes the file) */
+  landmark_check_fixed_setting_starts (e, bus, "location", good);
+  fail_unless (g_file_test (good, G_FILE_TEST_IS_REGULAR));
+  g_free (good);
 }
 
-GST_START_TEST (test_missing_directory)
+LANDMARK_TEST ("errors", test_missing_directory)
 {
-  gchar *path = g_build_filename (tmp_dir, "no-such-dir", "x.jsonl", NULL);
+  gchar *path = g_build_filename (landmark_check_tmp_dir, "no-such-dir",
+      "x.jsonl", NULL);
   expect_start_error (path, GST_RESOURCE_ERROR, GST_RESOURCE_ERROR_OPEN_WRITE,
       g_strerror (ENOENT));
   fail_if (g_file_test (path, G_FILE_TEST_EXISTS));
@@ -1163,15 +1048,15 @@ GST_START_TEST (test_missing_directory)
 
 GST_END_TEST;
 
-GST_START_TEST (test_location_is_a_directory)
+LANDMARK_TEST ("errors", test_location_is_a_directory)
 {
-  expect_start_error (tmp_dir, GST_RESOURCE_ERROR,
+  expect_start_error (landmark_check_tmp_dir, GST_RESOURCE_ERROR,
       GST_RESOURCE_ERROR_OPEN_WRITE, g_strerror (EISDIR));
 }
 
 GST_END_TEST;
 
-GST_START_TEST (test_no_permission)
+LANDMARK_TEST ("errors", test_no_permission)
 {
   gchar *dir = tmp_file ("read-only");
   gchar *path = g_build_filename (dir, "x.jsonl", NULL);
@@ -1191,7 +1076,7 @@ GST_START_TEST (test_no_permission)
 
 GST_END_TEST;
 
-GST_START_TEST (test_no_location)
+LANDMARK_TEST ("errors", test_no_location)
 {
   expect_start_error (NULL, GST_RESOURCE_ERROR, GST_RESOURCE_ERROR_SETTINGS,
       "location");
@@ -1201,7 +1086,7 @@ GST_END_TEST;
 
 /* A write that fails (a full disk: /dev/full) is a RESOURCE WRITE error
  * naming the file, and stops the stream. */
-GST_START_TEST (test_write_error)
+LANDMARK_TEST ("errors", test_write_error)
 {
   const gchar *full = "/dev/full";
   GstHarness *h;
@@ -1243,7 +1128,7 @@ GST_END_TEST;
 
 /* A write cut short by a file size limit: the partial line is cut off,
  * so the file still ends with the last complete line. */
-GST_START_TEST (test_partial_write_trimmed)
+LANDMARK_TEST ("errors", test_partial_write_trimmed)
 {
   gchar *path = tmp_file ("limited.jsonl");
   const rlim_t limit = 100000;
@@ -1302,7 +1187,7 @@ GST_END_TEST;
 
 /* Two loggers on one stream (in a chain and on the branches of a tee)
  * write the same lines to their own files. */
-GST_START_TEST (test_two_loggers)
+LANDMARK_TEST ("pipelines", test_two_loggers)
 {
   gchar *a = tmp_file ("a.jsonl"), *b = tmp_file ("b.jsonl");
   gchar *c = tmp_file ("c.jsonl"), *d = tmp_file ("d.jsonl");
@@ -1348,7 +1233,7 @@ GST_START_TEST (test_two_loggers)
 GST_END_TEST;
 
 /* append=true keeps what the file had; append=false starts it anew. */
-GST_START_TEST (test_append)
+LANDMARK_TEST ("output", test_append)
 {
   gchar *path = tmp_file ("append.jsonl");
   guint run, i;
@@ -1375,7 +1260,7 @@ GST_END_TEST;
 
 /* Restarting the element (PLAYING -> READY -> PLAYING) starts the frame
  * count again and truncates the file, or appends with append=true. */
-GST_START_TEST (test_restart)
+LANDMARK_TEST ("output", test_restart)
 {
   gchar *path = tmp_file ("restart.jsonl");
   guint append, i;
@@ -1414,7 +1299,7 @@ GST_START_TEST (test_restart)
 GST_END_TEST;
 
 /* QoS events do not make the logger drop late frames. */
-GST_START_TEST (test_no_frame_dropped)
+LANDMARK_TEST ("output", test_no_frame_dropped)
 {
   gchar *path = tmp_file ("qos.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1455,7 +1340,7 @@ fail_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
   return GST_PAD_PROBE_HANDLED;
 }
 
-GST_START_TEST (test_downstream_error)
+LANDMARK_TEST ("errors", test_downstream_error)
 {
   gchar *path = tmp_file ("error.jsonl");
   gchar *desc = g_strdup_printf ("appsrc name=src format=time "
@@ -1523,7 +1408,7 @@ count_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
   return GST_PAD_PROBE_OK;
 }
 
-GST_START_TEST (test_stop_mid_stream)
+LANDMARK_TEST ("errors", test_stop_mid_stream)
 {
   gchar *path = tmp_file ("stop.jsonl");
   gchar *desc = g_strdup_printf ("videotestsrc ! video/x-raw,width=64,"
@@ -1574,7 +1459,7 @@ GST_END_TEST;
 
 /* Never PLAYING: the prerolled buffer is logged, and written when the
  * element stops (PAUSED to READY), the only flush on this path. */
-GST_START_TEST (test_stop_while_paused)
+LANDMARK_TEST ("errors", test_stop_while_paused)
 {
   gchar *path = tmp_file ("paused.jsonl");
   gchar *desc = g_strdup_printf ("videotestsrc num-buffers=50 ! "
@@ -1629,7 +1514,7 @@ push_many (GstHarness * h, GstBuffer * templ, guint n)
   return (g_get_monotonic_time () - t0) / (gdouble) n;
 }
 
-GST_START_TEST (test_many_frames)
+LANDMARK_TEST ("output", test_many_frames)
 {
   gchar *path = tmp_file ("many.jsonl");
   GstHarness *h = log_harness (path, NULL);
@@ -1663,52 +1548,7 @@ GST_START_TEST (test_many_frames)
 
 GST_END_TEST;
 
-static Suite *
-landmarklog_suite (void)
-{
-  Suite *s = suite_create ("landmarklog");
-  TCase *format = tcase_create ("format");
-  TCase *output = tcase_create ("output");
-  TCase *errors = tcase_create ("errors");
-  TCase *pipelines = tcase_create ("pipelines");
-
-  suite_add_tcase (s, format);
-  tcase_add_checked_fixture (format, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_test (format, test_properties);
-  tcase_add_test (format, test_every_frame_in_order);
-  tcase_add_loop_test (format, test_passthrough_unchanged, 0,
-      G_N_ELEMENTS (any_caps));
-  tcase_add_test (format, test_labels_meta);
-  tcase_add_test (format, test_detections);
-  tcase_add_test (format, test_pose_meta);
-
-  suite_add_tcase (s, output);
-  tcase_add_checked_fixture (output, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_test (output, test_eos_completes_file);
-  tcase_add_test (output, test_flush_every);
-  tcase_add_test (output, test_whole_lines_mid_stream);
-  tcase_add_test (output, test_append);
-  tcase_add_test (output, test_restart);
-  tcase_add_test (output, test_no_frame_dropped);
-  tcase_add_test (output, test_many_frames);
-
-  suite_add_tcase (s, errors);
-  tcase_add_checked_fixture (errors, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_test (errors, test_missing_directory);
-  tcase_add_test (errors, test_location_is_a_directory);
-  tcase_add_test (errors, test_no_permission);
-  tcase_add_test (errors, test_no_location);
-  tcase_add_test (errors, test_write_error);
-  tcase_add_test (errors, test_partial_write_trimmed);
-  tcase_add_test (errors, test_downstream_error);
-  tcase_add_test (errors, test_stop_mid_stream);
-  tcase_add_test (errors, test_stop_while_paused);
-
-  suite_add_tcase (s, pipelines);
-  tcase_add_checked_fixture (pipelines, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_test (pipelines, test_labsegment_pipeline);
-  tcase_add_test (pipelines, test_two_loggers);
-  return s;
-}
-
-GST_CHECK_MAIN (landmarklog);
+/* a fresh folder for every test's log files */
+LANDMARK_CHECK_MAIN (landmarklog,
+    .setup = landmark_check_tmp_dir_setup,
+    .teardown = landmark_check_tmp_dir_teardown, .checked = TRUE);

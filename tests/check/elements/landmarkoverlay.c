@@ -9,6 +9,8 @@
  * inside the ellipse or far away from it; insets only when their metadata
  * is there; nothing at all when every part is switched off. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -330,24 +332,40 @@ count_in (const guint8 * mask, gint w, gint x0, gint y0, gint x1, gint y1)
 }
 
 /* Pixels of [x0, x1) x [y0, y1) whose decoded colour is within tol of c
- * in every channel. */
+ * in every channel: their number, and their mean x, y when asked. */
 static guint
-count_colour (const Layout * l, GstBuffer * buf, const guint8 c[3], gint tol,
-    gint x0, gint y0, gint x1, gint y1)
+colour_centroid (const Layout * l, GstBuffer * buf, const guint8 c[3],
+    gint tol, gint x0, gint y0, gint x1, gint y1, gdouble * mx, gdouble * my)
 {
   GstMapInfo map;
   guint n = 0;
+  gdouble sx = 0, sy = 0;
   gint x, y;
   gst_buffer_map (buf, &map, GST_MAP_READ);
   for (y = y0; y < y1; y++)
     for (x = x0; x < x1; x++) {
       guint8 p[3];
       get_rgb (l, map.data, x, y, p);
-      n += ABS (p[0] - c[0]) <= tol && ABS (p[1] - c[1]) <= tol &&
-          ABS (p[2] - c[2]) <= tol;
+      if (ABS (p[0] - c[0]) <= tol && ABS (p[1] - c[1]) <= tol &&
+          ABS (p[2] - c[2]) <= tol) {
+        n++;
+        sx += x;
+        sy += y;
+      }
     }
   gst_buffer_unmap (buf, &map);
+  if (mx && my) {
+    *mx = n ? sx / n : 0;
+    *my = n ? sy / n : 0;
+  }
   return n;
+}
+
+static guint
+count_colour (const Layout * l, GstBuffer * buf, const guint8 c[3], gint tol,
+    gint x0, gint y0, gint x1, gint y1)
+{
+  return colour_centroid (l, buf, c, tol, x0, y0, x1, y1, NULL, NULL);
 }
 
 /* ------------------------------------------------------------------ */
@@ -453,51 +471,35 @@ typedef struct
 } TestClass;
 
 static void
-array_append (GValue * array, GType type, gconstpointer value)
-{
-  GValue v = G_VALUE_INIT;
-  g_value_init (&v, type);
-  if (type == G_TYPE_STRING)
-    g_value_set_string (&v, value);
-  else if (type == G_TYPE_UINT)
-    g_value_set_uint (&v, *(const guint *) value);
-  else
-    g_value_set_boolean (&v, *(const gboolean *) value);
-  gst_value_array_append_and_take_value (array, &v);
-}
-
-static void
 add_labels (GstBuffer * buf, const TestClass * classes, guint n,
     guint min_class_pixels, guint aw, guint ah)
 {
-  GstCustomMeta *m = gst_buffer_add_custom_meta (buf, LABELS_META);
-  GstStructure *s;
-  GValue names = G_VALUE_INIT, rgb = G_VALUE_INIT, counts = G_VALUE_INIT,
-      active = G_VALUE_INIT, markers = G_VALUE_INIT;
+  GstStructure *s = landmark_check_meta_add (buf, LABELS_META);
+  const gchar **names = g_new (const gchar *, n);
+  guint *rgb = g_new (guint, n), *counts = g_new (guint, n);
+  gboolean *active = g_new (gboolean, n), *markers = g_new (gboolean, n);
   guint k;
 
-  fail_unless (m != NULL, "labels meta not registered");
-  s = gst_custom_meta_get_structure (m);
-  gst_value_array_init (&names, n);
-  gst_value_array_init (&rgb, n);
-  gst_value_array_init (&counts, n);
-  gst_value_array_init (&active, n);
-  gst_value_array_init (&markers, n);
   for (k = 0; k < n; k++) {
-    array_append (&names, G_TYPE_STRING, classes[k].name);
-    array_append (&rgb, G_TYPE_UINT, &classes[k].rgb);
-    array_append (&counts, G_TYPE_UINT, &classes[k].count);
-    array_append (&active, G_TYPE_BOOLEAN, &classes[k].active);
-    array_append (&markers, G_TYPE_BOOLEAN, &classes[k].marker);
+    names[k] = classes[k].name;
+    rgb[k] = classes[k].rgb;
+    counts[k] = classes[k].count;
+    active[k] = classes[k].active;
+    markers[k] = classes[k].marker;
   }
-  gst_structure_take_value (s, "class-names", &names);
-  gst_structure_take_value (s, "class-rgb", &rgb);
-  gst_structure_take_value (s, "class-counts", &counts);
-  gst_structure_take_value (s, "class-active", &active);
-  gst_structure_take_value (s, "class-markers", &markers);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING, names, n);
+  landmark_check_set_array (s, "class-rgb", G_TYPE_UINT, rgb, n);
+  landmark_check_set_array (s, "class-counts", G_TYPE_UINT, counts, n);
+  landmark_check_set_array (s, "class-active", G_TYPE_BOOLEAN, active, n);
+  landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN, markers, n);
   gst_structure_set (s, "min-class-pixels", G_TYPE_UINT, min_class_pixels,
       "analysis-width", G_TYPE_UINT, aw, "analysis-height", G_TYPE_UINT, ah,
       "width", G_TYPE_UINT, aw, "height", G_TYPE_UINT, ah, NULL);
+  g_free (names);
+  g_free (rgb);
+  g_free (counts);
+  g_free (active);
+  g_free (markers);
 }
 
 static void
@@ -542,36 +544,10 @@ add_floor (GstBuffer * buf, guint cols, guint rows, const gfloat * row,
 /* Files                                                              */
 /* ------------------------------------------------------------------ */
 
-static gchar *tmp_dir;
-
-static void
-tmp_dir_setup (void)
-{
-  GError *err = NULL;
-  tmp_dir = g_dir_make_tmp ("landmarkoverlay-XXXXXX", &err);
-  fail_unless (tmp_dir != NULL, "%s", err ? err->message : "?");
-}
-
-static void
-tmp_dir_teardown (void)
-{
-  GDir *d = g_dir_open (tmp_dir, 0, NULL);
-  const gchar *name;
-  while (d && (name = g_dir_read_name (d))) {
-    gchar *p = g_build_filename (tmp_dir, name, NULL);
-    g_remove (p);
-    g_free (p);
-  }
-  if (d)
-    g_dir_close (d);
-  g_rmdir (tmp_dir);
-  g_clear_pointer (&tmp_dir, g_free);
-}
-
 static gchar *
 write_file (const gchar * name, const gchar * text)
 {
-  gchar *path = g_build_filename (tmp_dir, name, NULL);
+  gchar *path = g_build_filename (landmark_check_tmp_dir, name, NULL);
   fail_unless (g_file_set_contents (path, text, -1, NULL));
   return path;
 }
@@ -628,6 +604,18 @@ run (GstHarness * h, GstBuffer * in)
   GstBuffer *out = gst_harness_push_and_pull (h, gst_buffer_copy (in));
   fail_unless (out != NULL);
   return out;
+}
+
+/* A copy of `in` comes out unchanged (`what`, when given, names the
+ * case); then `in` and the harness are freed. */
+static void
+unchanged_then_done (GstHarness * h, GstBuffer * in, const gchar * what)
+{
+  GstBuffer *out = run (h, in);
+  fail_unless (buffers_equal (in, out), "%s changed", what ? what : "frame");
+  gst_buffer_unref (out);
+  gst_buffer_unref (in);
+  gst_harness_teardown (h);
 }
 
 /* The test ellipse: in a 320x240 frame, centred at (200, 140), 80 x 40,
@@ -700,7 +688,7 @@ check_detection_drawing (const Ellipse * e, gint w, gint h,
 /* Tests: drawing where the detections are                            */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_properties)
+LANDMARK_TEST ("detections", test_properties)
 {
   GstElement *e = gst_element_factory_make ("landmarkoverlay", NULL);
   const gchar *shows[] = { "show-detections", "show-rejected", "show-pose",
@@ -733,7 +721,7 @@ GST_START_TEST (test_properties)
 
 GST_END_TEST;
 
-GST_START_TEST (test_ellipse_drawn_where_the_detection_is)
+LANDMARK_TEST ("detections", test_ellipse_drawn_where_the_detection_is)
 {
   Layout l;
   GstHarness *h;
@@ -759,7 +747,7 @@ GST_START_TEST (test_ellipse_drawn_where_the_detection_is)
 GST_END_TEST;
 
 /* Blob pixel fields refer to the analysed frame: drawn scaled. */
-GST_START_TEST (test_ellipse_scaled_from_analysed_frame)
+LANDMARK_TEST ("detections", test_ellipse_scaled_from_analysed_frame)
 {
   Layout l;
   GstHarness *h;
@@ -787,7 +775,7 @@ GST_END_TEST;
 
 /* Kept blobs: a solid outline in the class colour. Rejected: dashed (part
  * of the outline only) and grey; not drawn with show-rejected=false. */
-GST_START_TEST (test_rejected_blob_style)
+LANDMARK_TEST ("detections", test_rejected_blob_style)
 {
   Layout l;
   GstHarness *h;
@@ -848,17 +836,13 @@ GST_START_TEST (test_rejected_blob_style)
   g_object_set (h->element, "show-rejected", FALSE, NULL);
   in = frame_new (&l, GREY, GREY, GREY);
   add_detection (in, "red", e, 320, 240, FALSE);
-  out = run (h, in);
-  fail_unless (buffers_equal (in, out));
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h);
+  unchanged_then_done (h, in, NULL);
 }
 
 GST_END_TEST;
 
 /* A detection without blob parameters: its bounding box is drawn. */
-GST_START_TEST (test_bbox_without_ellipse)
+LANDMARK_TEST ("detections", test_bbox_without_ellipse)
 {
   Layout l;
   GstHarness *h;
@@ -897,7 +881,7 @@ GST_END_TEST;
 
 /* The same drawing in every format: the same pixels change (luma in YUV),
  * colour reaches the chroma, nothing but pixels is written. */
-GST_START_TEST (test_every_format)
+LANDMARK_TEST_LOOP ("detections", test_every_format, G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   /* odd size: padded rows, partial chroma blocks */
@@ -1031,31 +1015,28 @@ frame_with_everything (const Layout * l)
   return buf;
 }
 
-GST_START_TEST (test_no_metadata_unchanged)
+LANDMARK_TEST_LOOP ("unchanged", test_no_metadata_unchanged,
+    G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   Layout l;
   GstHarness *h;
-  GstBuffer *in, *out;
+  GstBuffer *in;
   gchar *map = write_file ("map.json", map_json);
   gchar *props = g_strdup_printf ("map=%s", map);
 
   layout_init (&l, f->name, 33, 17);
   h = overlay_new (&l, props);
   in = frame_new (&l, 10, 200, 60);
-  out = run (h, in);
-  fail_unless (buffers_equal (in, out), "%s changed without metadata",
-      f->name);
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h);
+  unchanged_then_done (h, in, f->name);
   g_free (props);
   g_free (map);
 }
 
 GST_END_TEST;
 
-GST_START_TEST (test_all_parts_off_unchanged)
+LANDMARK_TEST_LOOP ("unchanged", test_all_parts_off_unchanged,
+    G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   Layout l;
@@ -1096,7 +1077,7 @@ static const guint8 GREEN[3] = { 40, 200, 60 };
 
 /* Colours are right in every format: an active class's bar is a solid
  * area of its colour; an inactive one is not drawn in its pure colour. */
-GST_START_TEST (test_histogram_colours)
+LANDMARK_TEST_LOOP ("insets", test_histogram_colours, G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   const gint w = 640, h = 480;
@@ -1147,7 +1128,7 @@ GST_START_TEST (test_histogram_colours)
 
 GST_END_TEST;
 
-GST_START_TEST (test_histogram_only_with_labels)
+LANDMARK_TEST ("insets", test_histogram_only_with_labels)
 {
   const gint w = 320, h = 240;
   static const TestClass classes[] = {
@@ -1188,18 +1169,14 @@ GST_START_TEST (test_histogram_only_with_labels)
   /* histogram and indicators off: nothing */
   g_object_set (h_->element, "show-histogram", FALSE, "show-indicators",
       FALSE, NULL);
-  out = run (h_, in);
-  fail_unless (buffers_equal (in, out));
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h_);
+  unchanged_then_done (h_, in, NULL);
 }
 
 GST_END_TEST;
 
 /* A larger count gives a taller bar; the threshold line moves up with the
  * threshold. */
-GST_START_TEST (test_histogram_scale_and_threshold)
+LANDMARK_TEST ("insets", test_histogram_scale_and_threshold)
 {
   const gint w = 640, h = 480;
   TestClass classes[] = {
@@ -1253,7 +1230,7 @@ GST_START_TEST (test_histogram_scale_and_threshold)
 GST_END_TEST;
 
 /* One indicator per marker class, lit in its colour when active. */
-GST_START_TEST (test_indicators)
+LANDMARK_TEST ("insets", test_indicators)
 {
   const gint w = 640, h = 480;
   TestClass classes[] = {
@@ -1294,7 +1271,7 @@ GST_END_TEST;
 /* Tests: pose line, mini-map                                         */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_pose_line)
+LANDMARK_TEST ("insets", test_pose_line)
 {
   const gint w = 320, h = 240;
   Layout l;
@@ -1302,6 +1279,8 @@ GST_START_TEST (test_pose_line)
   GstBuffer *in, *out;
   guint8 *mask;
   guint n;
+
+  GstBuffer *same, *other, *out_same, *out_other;
 
   layout_init (&l, "NV12", w, h);
   h_ = overlay_new (&l, NULL);
@@ -1312,21 +1291,33 @@ GST_START_TEST (test_pose_line)
   fail_unless (n >= 200);
   fail_unless_equals_int (n, count_in (mask, w, 0, h * 3 / 4, w, h));
   g_free (mask);
+
+  /* the line is the pose's (its text: tests/core/test_overlaytext.cpp):
+   * the same pose draws the same pixels, one a centimetre away others */
+  same = frame_new (&l, GREY, GREY, GREY);
+  add_pose (same, 1.25, -3.5, 2.0);
+  other = frame_new (&l, GREY, GREY, GREY);
+  add_pose (other, 1.26, -3.5, 2.0);
+  out_same = run (h_, same);
+  out_other = run (h_, other);
+  fail_unless (buffers_equal (out, out_same));
+  fail_if (buffers_equal (out, out_other), "a different pose drew the "
+      "same line");
   gst_buffer_unref (out);
+  gst_buffer_unref (out_same);
+  gst_buffer_unref (out_other);
+  gst_buffer_unref (same);
+  gst_buffer_unref (other);
 
   g_object_set (h_->element, "show-pose", FALSE, NULL);
-  out = run (h_, in);
-  fail_unless (buffers_equal (in, out));
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h_);
+  unchanged_then_done (h_, in, NULL);
 }
 
 GST_END_TEST;
 
 /* The mini-map needs both a pose and a map; it shows the landmarks in
  * their class colours, the robot where it is, and range circles. */
-GST_START_TEST (test_minimap_needs_pose_and_map)
+LANDMARK_TEST ("insets", test_minimap_needs_pose_and_map)
 {
   const gint w = 320, h = 240;
   static const TestClass classes[] = {
@@ -1415,11 +1406,7 @@ GST_START_TEST (test_minimap_needs_pose_and_map)
   in = frame_new (&l, GREY, GREY, GREY);
   add_pose (in, 3, 3, 0);
   g_object_set (h_->element, "show-minimap", FALSE, NULL);
-  out = run (h_, in);
-  fail_unless (buffers_equal (in, out));
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h_);
+  unchanged_then_done (h_, in, NULL);
   g_free (map);
 }
 
@@ -1429,7 +1416,7 @@ GST_END_TEST;
  * boundary row r of column c is drawn at frame pixel
  * ((c + 0.5) 2 - 0.5, (r + 0.5) 2 - 0.5): red on obstacle columns, cyan on
  * free ones, nothing on not-seen ones, and nothing else changes. */
-GST_START_TEST (test_floor_boundary)
+LANDMARK_TEST ("insets", test_floor_boundary)
 {
   const gint w = 320, h = 240, cols = 160, rows = 120;
   const guint8 red[3] = { 255, 40, 40 }, cyan[3] = { 0, 220, 255 };
@@ -1473,48 +1460,17 @@ GST_START_TEST (test_floor_boundary)
   gst_buffer_unref (out);
 
   g_object_set (h_->element, "show-boundary", FALSE, NULL);
-  out = run (h_, in);
-  fail_unless (buffers_equal (in, out));
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h_);
+  unchanged_then_done (h_, in, NULL);
 }
 
 GST_END_TEST;
-
-/* Mean x, y of the pixels of [x0, x1) x [y0, y1) within tol of c. */
-static guint
-colour_centroid (const Layout * l, GstBuffer * buf, const guint8 c[3],
-    gint tol, gint x0, gint y0, gint x1, gint y1, gdouble * mx, gdouble * my)
-{
-  GstMapInfo map;
-  guint n = 0;
-  gdouble sx = 0, sy = 0;
-  gint x, y;
-  gst_buffer_map (buf, &map, GST_MAP_READ);
-  for (y = y0; y < y1; y++)
-    for (x = x0; x < x1; x++) {
-      guint8 p[3];
-      get_rgb (l, map.data, x, y, p);
-      if (ABS (p[0] - c[0]) <= tol && ABS (p[1] - c[1]) <= tol &&
-          ABS (p[2] - c[2]) <= tol) {
-        n++;
-        sx += x;
-        sy += y;
-      }
-    }
-  gst_buffer_unmap (buf, &map);
-  *mx = n ? sx / n : 0;
-  *my = n ? sy / n : 0;
-  return n;
-}
 
 /* The free space: a wedge of +-30 degrees around straight ahead, an
  * obstacle 1 m away. Its green fill (translucent over grey) and its red
  * far edge lie in the mini-map, the red beyond the green in the robot's
  * forward direction: up without a pose, along the heading with one
  * (right for heading 0, up for 90 degrees, left for 180). */
-GST_START_TEST (test_floor_free_space)
+LANDMARK_TEST ("insets", test_floor_free_space)
 {
   const gint w = 320, h = 240, bins = 360;
   const guint8 red[3] = { 255, 40, 40 };
@@ -1644,35 +1600,22 @@ check_map_error (GstBus * bus, const gchar * path, const gchar * expect,
   gst_message_unref (msg);
 }
 
-GST_START_TEST (test_bad_map_fails_start)
+LANDMARK_TEST_LOOP ("configuration", test_bad_map_fails_start,
+    G_N_ELEMENTS (bad_maps))
 {
   const BadMap *b = &bad_maps[__i__];
   gchar *path = b->json ? write_file ("bad.json", b->json) :
-      g_build_filename (tmp_dir, "missing.json", NULL);
+      g_build_filename (landmark_check_tmp_dir, "missing.json", NULL);
   gchar *good = write_file ("good.json", map2_json);
   GstElement *e = gst_element_factory_make ("landmarkoverlay", NULL);
   GstBus *bus = gst_bus_new ();
 
   g_object_set (e, "map", path, NULL);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_FAILURE);
+  landmark_check_refuses_paused (e, bus);
   check_map_error (bus, path, b->expect, GST_MESSAGE_ERROR);
 
   /* a good map is enough to start */
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
-  g_object_set (e, "map", good, NULL);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
-      GST_STATE_CHANGE_SUCCESS);
-  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR) == NULL);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_NULL),
-      GST_STATE_CHANGE_SUCCESS);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_fixed_setting_starts (e, bus, "map", good);
   g_remove (path);
   g_free (path);
   g_free (good);
@@ -1680,7 +1623,7 @@ GST_START_TEST (test_bad_map_fails_start)
 
 GST_END_TEST;
 
-GST_START_TEST (test_bad_map_while_playing)
+LANDMARK_TEST ("configuration", test_bad_map_while_playing)
 {
   gchar *good = write_file ("good.json", map_json);
   gchar *bad = write_file ("bad.json", bad_maps[5].json);
@@ -1726,7 +1669,7 @@ GST_END_TEST;
 /* Tests: sizes, streaming                                            */
 /* ------------------------------------------------------------------ */
 
-GST_START_TEST (test_odd_sizes)
+LANDMARK_TEST_LOOP ("streaming", test_odd_sizes, G_N_ELEMENTS (formats))
 {
   const Fmt *f = &formats[__i__];
   static const gint sizes[][2] = { {1, 1}, {2, 2}, {3, 5}, {5, 3}, {17, 13},
@@ -1764,7 +1707,7 @@ GST_END_TEST;
 
 /* Properties changed from other threads while buffers flow: every buffer
  * comes out, in order, drawn or not, never with an error. */
-GST_START_TEST (test_properties_while_streaming)
+LANDMARK_TEST ("streaming", test_properties_while_streaming)
 {
   gchar *map = write_file ("map.json", map_json);
   gchar *map2 = write_file ("map2.json", map2_json);
@@ -1831,85 +1774,23 @@ GST_START_TEST (test_properties_while_streaming)
 GST_END_TEST;
 
 /* Never drops a frame, not even when downstream says it is far behind. */
-GST_START_TEST (test_no_buffer_dropped)
+LANDMARK_TEST ("streaming", test_no_buffer_dropped)
 {
   Layout l;
   GstHarness *h;
   GstBuffer *templ;
-  guint i;
-  const guint n = 40;
 
   layout_init (&l, "BGRx", 160, 120);
   h = overlay_new (&l, NULL);
   templ = frame_with_everything (&l);
-  fail_unless (gst_harness_push_upstream_event (h,
-          gst_event_new_qos (GST_QOS_TYPE_UNDERFLOW, 2.0, 60 * GST_SECOND,
-              0)));
-  for (i = 0; i < n; i++) {
-    GstBuffer *in = gst_buffer_copy (templ);
-    GST_BUFFER_PTS (in) = i * 40 * GST_MSECOND;
-    GST_BUFFER_DURATION (in) = 40 * GST_MSECOND;
-    fail_unless_equals_int (gst_harness_push (h, in), GST_FLOW_OK);
-  }
-  for (i = 0; i < n; i++) {
-    GstBuffer *out = gst_harness_try_pull (h);
-    fail_unless (out != NULL, "only %u of %u buffers came out", i, n);
-    fail_unless_equals_uint64 (GST_BUFFER_PTS (out), i * 40 * GST_MSECOND);
-    gst_buffer_unref (out);
-  }
+  landmark_check_no_frame_dropped (h, templ, 40, NULL);
   gst_buffer_unref (templ);
   gst_harness_teardown (h);
 }
 
 GST_END_TEST;
 
-static Suite *
-landmarkoverlay_suite (void)
-{
-  Suite *s = suite_create ("landmarkoverlay");
-  TCase *draw = tcase_create ("detections");
-  TCase *none = tcase_create ("unchanged");
-  TCase *insets = tcase_create ("insets");
-  TCase *config = tcase_create ("configuration");
-  TCase *streaming = tcase_create ("streaming");
-  const gint n_formats = G_N_ELEMENTS (formats);
-
-  suite_add_tcase (s, draw);
-  tcase_add_test (draw, test_properties);
-  tcase_add_test (draw, test_ellipse_drawn_where_the_detection_is);
-  tcase_add_test (draw, test_ellipse_scaled_from_analysed_frame);
-  tcase_add_test (draw, test_rejected_blob_style);
-  tcase_add_test (draw, test_bbox_without_ellipse);
-  tcase_add_loop_test (draw, test_every_format, 0, n_formats);
-
-  suite_add_tcase (s, none);
-  tcase_add_unchecked_fixture (none, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_loop_test (none, test_no_metadata_unchanged, 0, n_formats);
-  tcase_add_loop_test (none, test_all_parts_off_unchanged, 0, n_formats);
-
-  suite_add_tcase (s, insets);
-  tcase_add_unchecked_fixture (insets, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_loop_test (insets, test_histogram_colours, 0, n_formats);
-  tcase_add_test (insets, test_histogram_only_with_labels);
-  tcase_add_test (insets, test_histogram_scale_and_threshold);
-  tcase_add_test (insets, test_indicators);
-  tcase_add_test (insets, test_pose_line);
-  tcase_add_test (insets, test_minimap_needs_pose_and_map);
-  tcase_add_test (insets, test_floor_boundary);
-  tcase_add_test (insets, test_floor_free_space);
-
-  suite_add_tcase (s, config);
-  tcase_add_unchecked_fixture (config, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_loop_test (config, test_bad_map_fails_start, 0,
-      G_N_ELEMENTS (bad_maps));
-  tcase_add_test (config, test_bad_map_while_playing);
-
-  suite_add_tcase (s, streaming);
-  tcase_add_unchecked_fixture (streaming, tmp_dir_setup, tmp_dir_teardown);
-  tcase_add_loop_test (streaming, test_odd_sizes, 0, n_formats);
-  tcase_add_test (streaming, test_properties_while_streaming);
-  tcase_add_test (streaming, test_no_buffer_dropped);
-  return s;
-}
-
-GST_CHECK_MAIN (landmarkoverlay);
+/* a temporary folder for map and palette files */
+LANDMARK_CHECK_MAIN (landmarkoverlay,
+    .setup = landmark_check_tmp_dir_setup,
+    .teardown = landmark_check_tmp_dir_teardown);

@@ -4,6 +4,8 @@
  * bound it is given and says so once; a broker that is not there is a
  * warning, not an error. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 
@@ -41,19 +43,7 @@ frame_intact (GstBuffer * buf, guint i)
   return ok;
 }
 
-/* Every message of the given types on the bus, in order (the caller
- * frees the list with g_list_free_full (l, gst_message_unref)). */
-static GList *
-pop_all (GstBus * bus, GstMessageType types)
-{
-  GList *out = NULL;
-  GstMessage *m;
-  while ((m = gst_bus_pop_filtered (bus, types)))
-    out = g_list_append (out, m);
-  return out;
-}
-
-GST_START_TEST (test_frames_pass_untouched_and_never_wait)
+LANDMARK_TEST ("general", test_frames_pass_untouched_and_never_wait)
 {
   const guint n = 2000;
   GstHarness *h = gst_harness_new_parse (NO_BROKER
@@ -80,7 +70,8 @@ GST_START_TEST (test_frames_pass_untouched_and_never_wait)
 
   /* the bound: dropping started once, when the 11th message came */
   /* popping by type drops the other types: take both kinds at once */
-  GList *all = pop_all (bus, GST_MESSAGE_ELEMENT | GST_MESSAGE_WARNING), *l;
+  GList *all = landmark_check_pop_all (bus,
+      GST_MESSAGE_ELEMENT | GST_MESSAGE_WARNING), *l;
   GList *elements = NULL, *warnings = NULL;
   for (l = all; l; l = l->next) {
     if (GST_MESSAGE_TYPE (l->data) == GST_MESSAGE_ELEMENT)
@@ -124,7 +115,7 @@ GST_START_TEST (test_frames_pass_untouched_and_never_wait)
 
   /* stopping says how many results never left: the 10 kept */
   gst_element_set_state (h->element, GST_STATE_NULL);
-  GList *stop = pop_all (bus, GST_MESSAGE_WARNING);
+  GList *stop = landmark_check_pop_all (bus, GST_MESSAGE_WARNING);
   gboolean said = FALSE;
   for (l = stop; l; l = l->next) {
     GError *err = NULL;
@@ -144,7 +135,7 @@ GST_START_TEST (test_frames_pass_untouched_and_never_wait)
 
 GST_END_TEST;
 
-GST_START_TEST (test_bytes_bound)
+LANDMARK_TEST ("general", test_bytes_bound)
 {
   /* a message here is about 150 bytes: a 1000-byte bound keeps a few */
   GstHarness *h = gst_harness_new_parse (NO_BROKER
@@ -174,7 +165,7 @@ GST_START_TEST (test_bytes_bound)
 
 GST_END_TEST;
 
-GST_START_TEST (test_queue_bound_changes_while_playing)
+LANDMARK_TEST ("general", test_queue_bound_changes_while_playing)
 {
   /* the bounds are read per frame: lowering one takes effect at once (the
    * 50 first messages fit the default bound) */
@@ -205,16 +196,4 @@ GST_START_TEST (test_queue_bound_changes_while_playing)
 
 GST_END_TEST;
 
-static Suite *
-landmarkpublish_suite (void)
-{
-  Suite *s = suite_create ("landmarkpublish");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_frames_pass_untouched_and_never_wait);
-  tcase_add_test (tc, test_bytes_bound);
-  tcase_add_test (tc, test_queue_bound_changes_while_playing);
-  return s;
-}
-
-GST_CHECK_MAIN (landmarkpublish);
+LANDMARK_CHECK_MAIN (landmarkpublish);

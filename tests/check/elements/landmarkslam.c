@@ -5,6 +5,8 @@
  * errors; odometry carries the pose through frames without landmarks; a
  * bad map set while PLAYING is refused with a warning; a blob cut by the
  * image border is left out. */
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -29,12 +31,7 @@ static const struct
 static gchar *
 write_tmp (const gchar * text)
 {
-  gchar *path = NULL;
-  gint fd = g_file_open_tmp ("landmarkslam-XXXXXX.json", &path, NULL);
-  fail_unless (fd >= 0);
-  fail_unless (write (fd, text, strlen (text)) == (gssize) strlen (text));
-  close (fd);
-  return path;
+  return landmark_check_write_tmp ("landmarkslam", ".json", text);
 }
 
 /* landmark k seen from (x, y, h), robot frame (docs/conventions.md) */
@@ -59,10 +56,7 @@ add_seen (GstBuffer * buf, gint id, guint k, double x, double y, double h)
 static GstBuffer *
 frame (guint n)
 {
-  GstBuffer *b = gst_buffer_new_and_alloc (64 * 48);
-  GST_BUFFER_PTS (b) = n * GST_SECOND / 30;
-  GST_BUFFER_DURATION (b) = GST_SECOND / 30;
-  return b;
+  return landmark_check_frame_new (64 * 48, n);
 }
 
 static GstHarness *
@@ -110,7 +104,7 @@ drive (GstHarness * h, guint n)
   return out;
 }
 
-GST_START_TEST (test_no_map_builds_map)
+LANDMARK_TEST ("general", test_no_map_builds_map)
 {
   GstHarness *h = harness ("confirm-views=3 confirm-baseline=0.1");
   GstBuffer *out = drive (h, 60);
@@ -160,7 +154,7 @@ load_map_landmarks (const gchar * path, JsonParser * parser)
       (json_parser_get_root (parser)), "landmarks");
 }
 
-GST_START_TEST (test_map_out_keeps_ids)
+LANDMARK_TEST ("general", test_map_out_keeps_ids)
 {
   /* the map knows one red disc and the green one; the second red disc,
    * 0.5 m from the first, and the blue one are added */
@@ -207,11 +201,10 @@ GST_START_TEST (test_map_out_keeps_ids)
 
 GST_END_TEST;
 
-GST_START_TEST (test_map_out_unwritable)
+LANDMARK_TEST ("general", test_map_out_unwritable)
 {
   GstHarness *h = harness ("map-out=/nonexistent-dir/map.json");
-  GstBus *bus = gst_bus_new ();
-  gst_element_set_bus (h->element, bus);
+  GstBus *bus = landmark_check_bus_attach (h->element);
   gst_buffer_unref (drive (h, 5));
   gst_harness_push_event (h, gst_event_new_eos ());
   GstMessage *msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
@@ -225,14 +218,13 @@ GST_START_TEST (test_map_out_unwritable)
   g_error_free (err);
   g_free (dbg);
   gst_message_unref (msg);
-  gst_element_set_bus (h->element, NULL);
-  gst_object_unref (bus);
+  landmark_check_bus_detach (h->element, bus);
   gst_harness_teardown (h);
 }
 
 GST_END_TEST;
 
-GST_START_TEST (test_bad_odometry_fails_ready)
+LANDMARK_TEST ("general", test_bad_odometry_fails_ready)
 {
   gchar *odo = write_tmp ("{\"t\": 0.1, \"dx\": 0.01, \"dheading\": 0}\n"
       "{\"t\": 0.05, \"dx\": 0.01, \"dheading\": 0}\n");
@@ -263,7 +255,7 @@ GST_START_TEST (test_bad_odometry_fails_ready)
 
 GST_END_TEST;
 
-GST_START_TEST (test_odometry_bridges)
+LANDMARK_TEST ("general", test_odometry_bridges)
 {
   /* 0.01 m forward per frame; landmarks only in the first 30 frames */
   GString *text = g_string_new (NULL);
@@ -302,13 +294,12 @@ GST_START_TEST (test_odometry_bridges)
 
 GST_END_TEST;
 
-GST_START_TEST (test_bad_map_while_playing_keeps_previous)
+LANDMARK_TEST ("general", test_bad_map_while_playing_keeps_previous)
 {
   GstHarness *h = harness ("");
-  GstBus *bus = gst_bus_new ();
-  gst_element_set_bus (h->element, bus);
-  gst_buffer_unref (drive (h, 10));
   GstElement *slam = gst_harness_find_element (h, "landmarkslam");
+  GstBus *bus = landmark_check_bus_attach (h->element);
+  gst_buffer_unref (drive (h, 10));
   g_object_set (slam, "map", "/nonexistent-dir/map.json", NULL);
   gst_object_unref (slam);
   GstBuffer *out = drive (h, 3);
@@ -321,15 +312,14 @@ GST_START_TEST (test_bad_map_while_playing_keeps_previous)
   fail_unless_equals_int (gst_value_array_get_size (gst_structure_get_value
           (map, "ids")), N_LM);
   gst_buffer_unref (out);
-  gst_element_set_bus (h->element, NULL);
-  gst_object_unref (bus);
+  landmark_check_bus_detach (h->element, bus);
   gst_harness_teardown (h);
 }
 
 GST_END_TEST;
 
 /* a blob touching the image border is left out of the estimate */
-GST_START_TEST (test_cut_blob_left_out)
+LANDMARK_TEST ("general", test_cut_blob_left_out)
 {
   GstHarness *h = harness ("");
   GstBuffer *b = frame (0);
@@ -359,20 +349,4 @@ GST_START_TEST (test_cut_blob_left_out)
 
 GST_END_TEST;
 
-static Suite *
-landmarkslam_suite (void)
-{
-  Suite *s = suite_create ("landmarkslam");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_no_map_builds_map);
-  tcase_add_test (tc, test_map_out_keeps_ids);
-  tcase_add_test (tc, test_map_out_unwritable);
-  tcase_add_test (tc, test_bad_odometry_fails_ready);
-  tcase_add_test (tc, test_odometry_bridges);
-  tcase_add_test (tc, test_bad_map_while_playing_keeps_previous);
-  tcase_add_test (tc, test_cut_blob_left_out);
-  return s;
-}
-
-GST_CHECK_MAIN (landmarkslam);
+LANDMARK_CHECK_MAIN (landmarkslam);

@@ -2,6 +2,8 @@
  * known pose recover it (one, two, three landmarks), the pose meta,
  * landmark-match and landmark-pose message fields, frames without a pose,
  * bad maps failing READY, filter=ekf bridging frames without landmarks. */
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -35,12 +37,7 @@ static gchar *map_path;
 static gchar *
 write_tmp (const gchar * text)
 {
-  gchar *path = NULL;
-  gint fd = g_file_open_tmp ("trilaterate-XXXXXX.json", &path, NULL);
-  fail_unless (fd >= 0);
-  fail_unless (write (fd, text, strlen (text)) == (gssize) strlen (text));
-  close (fd);
-  return path;
+  return landmark_check_write_tmp ("trilaterate", ".json", text);
 }
 
 static void
@@ -101,26 +98,21 @@ harness (const gchar * props, GstBus ** bus)
   g_free (launch);
   gst_harness_set_src_caps_str (h, "video/x-raw,format=GRAY8,width=64,"
       "height=48,framerate=30/1");
-  *bus = gst_bus_new ();
-  gst_element_set_bus (h->element, *bus);
+  *bus = landmark_check_bus_attach (h->element);
   return h;
 }
 
 static void
 harness_done (GstHarness * h, GstBus * bus)
 {
-  gst_element_set_bus (h->element, NULL);
-  gst_object_unref (bus);
+  landmark_check_bus_detach (h->element, bus);
   gst_harness_teardown (h);
 }
 
 static GstBuffer *
 frame (guint n)
 {
-  GstBuffer *b = gst_buffer_new_and_alloc (64 * 48);
-  GST_BUFFER_PTS (b) = n * GST_SECOND / 30;
-  GST_BUFFER_DURATION (b) = GST_SECOND / 30;
-  return b;
+  return landmark_check_frame_new (64 * 48, n);
 }
 
 /* the trilaterate element's landmark-pose message for the last frame */
@@ -174,10 +166,7 @@ check_pose_structure (const GstStructure * s, double x, double y, double h,
 static const GstStructure *
 match_of (GstBuffer * buf, gint id)
 {
-  GstVideoRegionOfInterestMeta *roi =
-      gst_buffer_get_video_region_of_interest_meta_id (buf, id);
-  fail_unless (roi != NULL);
-  return gst_video_region_of_interest_meta_get_param (roi, "landmark-match");
+  return landmark_check_roi_param (buf, id, "landmark-match");
 }
 
 static void
@@ -200,7 +189,7 @@ check_matched (GstBuffer * buf, gint id, const gchar * landmark)
   }
 }
 
-GST_START_TEST (test_three_landmarks)
+LANDMARK_TEST ("general", test_three_landmarks)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
@@ -258,7 +247,7 @@ GST_START_TEST (test_three_landmarks)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_two_and_one)
+LANDMARK_TEST ("general", test_two_and_one)
 {
   GstBus *bus;
   GstHarness *h = harness ("heading=30", &bus);
@@ -291,7 +280,7 @@ GST_START_TEST (test_two_and_one)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_no_pose)
+LANDMARK_TEST ("general", test_no_pose)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
@@ -328,8 +317,7 @@ GST_START_TEST (test_no_pose)
     g_free (launch);
     gst_harness_set_src_caps_str (h, "video/x-raw,format=GRAY8,width=64,"
         "height=48,framerate=30/1");
-    bus = gst_bus_new ();
-    gst_element_set_bus (h->element, bus);
+    bus = landmark_check_bus_attach (h->element);
   }
   out = gst_harness_push_and_pull (h, frame (1));
   fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT) == NULL);
@@ -338,7 +326,7 @@ GST_START_TEST (test_no_pose)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_outlier_and_gate)
+LANDMARK_TEST ("general", test_outlier_and_gate)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
@@ -374,7 +362,7 @@ GST_START_TEST (test_outlier_and_gate)
 }
 GST_END_TEST;
 
-GST_START_TEST (test_ekf_bridges)
+LANDMARK_TEST ("general", test_ekf_bridges)
 {
   GstBus *bus;
   GstHarness *h = harness ("filter=ekf max-age=0.5", &bus);
@@ -422,34 +410,11 @@ static void
 expect_ready_error (const gchar * launch, const gchar * what1,
     const gchar * what2)
 {
-  GError *perr = NULL;
-  GstElement *e = gst_parse_launch (launch, &perr);
-  GstBus *bus = gst_bus_new ();
-  GstMessage *msg;
-  GError *err = NULL;
-  gchar *dbg = NULL;
-
-  fail_unless (e != NULL && perr == NULL, "%s", launch);
-  gst_element_set_bus (e, bus);
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_FAILURE);
-  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR);
-  fail_unless (msg != NULL, "no error for %s", launch);
-  gst_message_parse_error (msg, &err, &dbg);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS));
-  fail_unless (dbg && strstr (dbg, what1) && (!what2 || strstr (dbg, what2)),
-      "'%s' / '%s' not in '%s'", what1, what2, dbg);
-  g_error_free (err);
-  g_free (dbg);
-  gst_message_unref (msg);
-  gst_element_set_state (e, GST_STATE_NULL);
-  gst_element_set_bus (e, NULL);
-  gst_object_unref (bus);
-  gst_object_unref (e);
+  landmark_check_start_fails (landmark_check_element (launch),
+      GST_STATE_READY, LANDMARK_CHECK_IN_DEBUG, what1, what2);
 }
 
-GST_START_TEST (test_bad_maps)
+LANDMARK_TEST ("general", test_bad_maps)
 {
   gchar *bad = write_tmp ("{\"landmarks\": [{\"id\": \"A\", \"class\": "
       "\"red\", \"x\": 1, \"y\": 2}, {\"id\": \"B7\", \"class\": \"red\", "
@@ -473,20 +438,5 @@ GST_START_TEST (test_bad_maps)
 }
 GST_END_TEST;
 
-static Suite *
-trilaterate_suite (void)
-{
-  Suite *s = suite_create ("trilaterate");
-  TCase *tc = tcase_create ("general");
-  suite_add_tcase (s, tc);
-  tcase_add_checked_fixture (tc, setup, teardown);
-  tcase_add_test (tc, test_three_landmarks);
-  tcase_add_test (tc, test_two_and_one);
-  tcase_add_test (tc, test_no_pose);
-  tcase_add_test (tc, test_outlier_and_gate);
-  tcase_add_test (tc, test_ekf_bridges);
-  tcase_add_test (tc, test_bad_maps);
-  return s;
-}
-
-GST_CHECK_MAIN (trilaterate);
+LANDMARK_CHECK_MAIN (trilaterate, .setup = setup, .teardown = teardown,
+    .checked = TRUE);

@@ -18,6 +18,8 @@
  * templates, so a new element of the plugin is covered without editing this
  * file. Flushing seeks on a file pipeline are in tests/python/test_seek.py. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -53,8 +55,6 @@ static const Size sizes[] = {
 
 /* the elements of the plugin, sorted; filled when the suite is built */
 static GList *element_names;
-static gchar *tmp_dir;
-
 /* ------------------------------------------------------------------ */
 /* The plugin's elements and how to configure them                     */
 /* ------------------------------------------------------------------ */
@@ -115,25 +115,9 @@ tmp_file (const gchar * stem)
   static gint counter = 0;
   gchar *name = g_strdup_printf ("%s-%d-%d.jsonl", stem, (gint) getpid (),
       g_atomic_int_add (&counter, 1));
-  gchar *path = g_build_filename (tmp_dir, name, NULL);
+  gchar *path = g_build_filename (landmark_check_tmp_dir, name, NULL);
   g_free (name);
   return path;
-}
-
-/* What elements need to start: a file to write (landmarklog location=), a
- * landmark map (trilaterate map=), as in states.c. */
-static void
-configure_element (GstElement * e)
-{
-  GParamSpec *p = g_object_class_find_property (G_OBJECT_GET_CLASS (e),
-      "location");
-  if (p && G_PARAM_SPEC_VALUE_TYPE (p) == G_TYPE_STRING) {
-    gchar *path = tmp_file (GST_OBJECT_NAME (e));
-    g_object_set (e, "location", path, NULL);
-    g_object_set_data_full (G_OBJECT (e), "robustness-file", path, g_free);
-  }
-  if (!g_strcmp0 (factory_name (e), "trilaterate"))
-    g_object_set (e, "map", MAP_FILE, NULL);
 }
 
 static GstElement *
@@ -141,7 +125,7 @@ make_element (const gchar * name)
 {
   GstElement *e = gst_element_factory_make (name, NULL);
   fail_unless (e != NULL, "cannot create %s", name);
-  configure_element (e);
+  landmark_check_configure_element (e);
   return e;
 }
 
@@ -220,27 +204,13 @@ typedef struct
  * file's L*a*b*, not taken from the plugin */
 static guint8 red_rgb[3];
 
-static gdouble
-lab_f_inverse (gdouble t)
-{
-  const gdouble d = 6.0 / 29.0;
-  return t > d ? t * t * t : 3 * d * d * (t - 4.0 / 29.0);
-}
-
-static guint8
-srgb_byte (gdouble v)
-{
-  v = v <= 0.0031308 ? 12.92 * v : 1.055 * pow (v, 1 / 2.4) - 0.055;
-  return (guint8) CLAMP (v * 255 + 0.5, 0, 255);
-}
-
 static void
 load_red (void)
 {
   JsonParser *parser = json_parser_new ();
   JsonArray *classes;
   GError *err = NULL;
-  guint i;
+  guint i, k;
   gboolean found = FALSE;
 
   fail_unless (json_parser_load_from_file (parser, LANDMARK_DEFAULT_PALETTE,
@@ -250,21 +220,17 @@ load_red (void)
   for (i = 0; i < json_array_get_length (classes); i++) {
     JsonObject *c = json_array_get_object_element (classes, i);
     JsonArray *lab;
-    gdouble L, a, b, fy, X, Y, Z;
+    gdouble v[3];
+    guint rgb;
     if (g_strcmp0 (json_object_get_string_member (c, "name"), "red"))
       continue;
     lab = json_object_get_array_member (c, "lab");
-    L = json_array_get_double_element (lab, 0);
-    a = json_array_get_double_element (lab, 1);
-    b = json_array_get_double_element (lab, 2);
-    /* CIE L*a*b* (D65) -> XYZ -> linear sRGB -> sRGB */
-    fy = (L + 16) / 116;
-    X = 0.95047 * lab_f_inverse (fy + a / 500);
-    Y = lab_f_inverse (fy);
-    Z = 1.08883 * lab_f_inverse (fy - b / 200);
-    red_rgb[0] = srgb_byte (3.2404542 * X - 1.5371385 * Y - 0.4985314 * Z);
-    red_rgb[1] = srgb_byte (-0.9692660 * X + 1.8760108 * Y + 0.0415560 * Z);
-    red_rgb[2] = srgb_byte (0.0556434 * X - 0.2040259 * Y + 1.0572252 * Z);
+    for (k = 0; k < 3; k++)
+      v[k] = json_array_get_double_element (lab, k);
+    rgb = landmark_check_lab_to_rgb24 (v);
+    red_rgb[0] = rgb >> 16;
+    red_rgb[1] = (rgb >> 8) & 0xff;
+    red_rgb[2] = rgb & 0xff;
     found = TRUE;
   }
   g_object_unref (parser);
@@ -389,34 +355,6 @@ disc_at (guint w, guint h, gdouble nx, gdouble ny)
 /* Metadata made by hand, for elements tested without their upstream   */
 /* ------------------------------------------------------------------ */
 
-static const gchar *class_names[] = { "red", "green", "yellow", "pink",
-  "blue", "white", "grey"
-};
-
-static const gboolean class_markers[] = { TRUE, TRUE, TRUE, TRUE, TRUE,
-  FALSE, FALSE
-};
-
-static void
-take_array (GstStructure * s, const gchar * field, GType type,
-    gconstpointer values, guint n)
-{
-  GValue a = G_VALUE_INIT;
-  guint i;
-  gst_value_array_init (&a, n);
-  for (i = 0; i < n; i++) {
-    GValue x = G_VALUE_INIT;
-    g_value_init (&x, type);
-    if (type == G_TYPE_STRING)
-      g_value_set_string (&x, ((const gchar **) values)[i]);
-    else if (type == G_TYPE_BOOLEAN)
-      g_value_set_boolean (&x, ((const gboolean *) values)[i]);
-    else
-      g_value_set_uint (&x, ((const guint *) values)[i]);
-    gst_value_array_append_and_take_value (&a, &x);
-  }
-  gst_structure_take_value (s, field, &a);
-}
 
 /* A labels meta with a w x h plane (stride, and plane_bytes bytes of
  * storage, may disagree with it on purpose): label 1 (red) in the disc,
@@ -458,10 +396,12 @@ add_labels (GstBuffer * buf, guint w, guint h, guint stride,
       "analysis-width", G_TYPE_UINT, w, "analysis-height", G_TYPE_UINT, h,
       "min-class-pixels", G_TYPE_UINT, 1, NULL);
   gst_buffer_unref (plane);
-  take_array (s, "class-names", G_TYPE_STRING, class_names, 7);
-  take_array (s, "class-markers", G_TYPE_BOOLEAN, class_markers, 7);
-  take_array (s, "class-counts", G_TYPE_UINT, counts, 7);
-  take_array (s, "class-active", G_TYPE_BOOLEAN, active, 7);
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING,
+      landmark_check_names7, 7);
+  landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN,
+      landmark_check_markers7, 7);
+  landmark_check_set_array (s, "class-counts", G_TYPE_UINT, counts, 7);
+  landmark_check_set_array (s, "class-active", G_TYPE_BOOLEAN, active, 7);
 }
 
 /* A detection of the disc, as blobroundness would attach it, for a frame
@@ -719,7 +659,8 @@ check_geometry_cb (GstBuffer * out, guint i, gpointer data)
 /* Each format x size x (packed, padded): a frame with every metadata the
  * elements read, then one with none. Analysers return both frames byte
  * for byte; an element that draws returns the bare frame unchanged. */
-GST_START_TEST (test_element_formats_and_sizes)
+LANDMARK_TEST_LOOP ("formats", test_element_formats_and_sizes,
+    LANDMARK_CHECK_PER_ELEMENT)
 {
   const gchar *name = element_name (__i__);
   GPtrArray *formats = sink_formats (name);
@@ -731,7 +672,7 @@ GST_START_TEST (test_element_formats_and_sizes)
     const gchar *format = g_ptr_array_index (formats, f);
     GstHarness *h = harness_for (name);
     gchar *log = g_strdup (g_object_get_data (G_OBJECT (h->element),
-            "robustness-file"));
+            LANDMARK_CHECK_FILE));
     guint pushed = 0;
 
     for (s = 0; s < G_N_ELEMENTS (sizes); s++) {
@@ -834,7 +775,7 @@ check_chain_cb (GstBuffer * out, guint i, gpointer data)
 
 /* The chain with every overlay part off: all six elements leave the bytes
  * alone, and the metadata has the frame's geometry. */
-GST_START_TEST (test_chain_formats_and_sizes)
+LANDMARK_TEST ("formats", test_chain_formats_and_sizes)
 {
   GPtrArray *formats = sink_formats ("labsegment");
   GPtrArray *overlay = sink_formats ("landmarkoverlay");
@@ -1052,7 +993,7 @@ check_phase_cb (GstBuffer * out, guint i, gpointer data)
 
 /* The disc moves with each caps change; labels, detection, range and
  * overlay follow. */
-GST_START_TEST (test_chain_renegotiation)
+LANDMARK_TEST ("renegotiation", test_chain_renegotiation)
 {
   GstHarness *h = chain_harness ("show-rejected=false show-pose=false "
       "show-histogram=false show-indicators=false show-minimap=false", NULL);
@@ -1213,8 +1154,8 @@ meta_case_frame (const GstVideoInfo * info, MetaCase c, guint index)
       GstCustomMeta *m = gst_buffer_add_custom_meta (b, LABELS_META);
       gst_structure_set (gst_custom_meta_get_structure (m), "width",
           G_TYPE_UINT, MW, "height", G_TYPE_UINT, MH, NULL);
-      take_array (gst_custom_meta_get_structure (m), "class-names",
-          G_TYPE_STRING, class_names, 7);
+      landmark_check_set_array (gst_custom_meta_get_structure (m),
+          "class-names", G_TYPE_STRING, landmark_check_names7, 7);
       break;
     }
     case BLOB_ZERO_FRAME:
@@ -1250,7 +1191,8 @@ meta_case_frame (const GstVideoInfo * info, MetaCase c, guint index)
  * frame comes out in order, analysers leave the bytes alone (and the
  * overlay too when there is nothing to draw), boxes stay inside the frame,
  * at most one warning per stream and no error. */
-GST_START_TEST (test_element_bad_metadata)
+LANDMARK_TEST_LOOP ("metadata", test_element_bad_metadata,
+    LANDMARK_CHECK_PER_ELEMENT)
 {
   const gchar *name = element_name (__i__);
   const gboolean paints = draws (name);
@@ -1261,7 +1203,7 @@ GST_START_TEST (test_element_bad_metadata)
   for (c = 0; c < N_META_CASES; c++) {
     GstHarness *h = harness_for (name);
     gchar *log = g_strdup (g_object_get_data (G_OBJECT (h->element),
-            "robustness-file"));
+            LANDMARK_CHECK_FILE));
     GstBus *bus = gst_bus_new ();
     gchar *what = g_strdup_printf ("%s, %s", name, meta_case_names[c]);
     GeometryCheck g = { MW, MH, what };
@@ -1485,7 +1427,8 @@ stress_thread (gpointer data)
 
 /* Every settable property set from another thread, to random valid
  * values, while 220 frames flow: each comes out, in order. */
-GST_START_TEST (test_element_property_stress)
+LANDMARK_TEST_LOOP ("properties", test_element_property_stress,
+    LANDMARK_CHECK_PER_ELEMENT)
 {
   const gchar *name = element_name (__i__);
   GstHarness *h = harness_for (name);
@@ -1497,6 +1440,13 @@ GST_START_TEST (test_element_property_stress)
   gint64 t0;
   guint i, j;
 
+  /* values for a property the element no longer has would quietly test
+   * nothing */
+  for (i = 0; i < G_N_ELEMENTS (string_values); i++)
+    if (!strcmp (string_values[i].element, name))
+      fail_unless (g_object_class_find_property (G_OBJECT_GET_CLASS
+              (h->element), string_values[i].property) != NULL,
+          "%s has no property %s", name, string_values[i].property);
   st.props = stress_properties (h->element, skipped);
   fail_unless (st.props->len > 0, "%s: no property to set", name);
   video_info_init (&info, "BGRx", 160, 120);
@@ -1579,7 +1529,8 @@ cycle (GstHarness * h, const gchar * what)
   /* the figure is printed, not asserted: speed lives in benchmarks */
 }
 
-GST_START_TEST (test_element_state_cycles)
+LANDMARK_TEST_LOOP ("states", test_element_state_cycles,
+    LANDMARK_CHECK_PER_ELEMENT)
 {
   const gchar *name = element_name (__i__);
   GstHarness *h = harness_for (name);
@@ -1589,7 +1540,7 @@ GST_START_TEST (test_element_state_cycles)
 
 GST_END_TEST;
 
-GST_START_TEST (test_chain_state_cycles)
+LANDMARK_TEST ("states", test_chain_state_cycles)
 {
   GstHarness *h = chain_harness ("", NULL);
   cycle (h, "chain");
@@ -1603,73 +1554,29 @@ GST_END_TEST;
 static void
 suite_setup (void)
 {
-  GError *err = NULL;
   /* load the plugin so its metas are registered by name */
   GstPlugin *plugin = gst_plugin_load_by_name (PLUGIN_NAME);
   g_assert (plugin != NULL);
   gst_object_unref (plugin);
   load_red ();
-  tmp_dir = g_dir_make_tmp ("landmark-robustness-XXXXXX", &err);
-  g_assert (tmp_dir != NULL);
+  landmark_check_tmp_dir_setup ();
 }
 
 static void
 suite_teardown (void)
 {
-  GDir *dir = g_dir_open (tmp_dir, 0, NULL);
-  const gchar *f;
-  while (dir && (f = g_dir_read_name (dir))) {
-    gchar *path = g_build_filename (tmp_dir, f, NULL);
-    g_remove (path);
-    g_free (path);
-  }
-  if (dir)
-    g_dir_close (dir);
-  g_rmdir (tmp_dir);
-  g_clear_pointer (&tmp_dir, g_free);
+  landmark_check_tmp_dir_teardown ();
 }
 
-static Suite *
-robustness_suite (void)
+static gint
+count_elements (void)
 {
-  Suite *s = suite_create ("robustness");
-  TCase *formats = tcase_create ("formats");
-  TCase *caps = tcase_create ("renegotiation");
-  TCase *meta = tcase_create ("metadata");
-  TCase *props = tcase_create ("properties");
-  TCase *states = tcase_create ("states");
-  guint n;
-
   element_names = plugin_element_names ();
-  n = g_list_length (element_names);
-  /* 3840x2160 frames, and labsegment rebuilding its class table for each
-   * max-distance a thread sets, take several seconds on a shared 2-core
-   * machine: more than check's 20 s default when it is busy */
-  tcase_set_timeout (formats, 120);
-  tcase_set_timeout (props, 120);
-
-  suite_add_tcase (s, formats);
-  tcase_add_unchecked_fixture (formats, suite_setup, suite_teardown);
-  tcase_add_loop_test (formats, test_element_formats_and_sizes, 0, n);
-  tcase_add_test (formats, test_chain_formats_and_sizes);
-
-  suite_add_tcase (s, caps);
-  tcase_add_unchecked_fixture (caps, suite_setup, suite_teardown);
-  tcase_add_test (caps, test_chain_renegotiation);
-
-  suite_add_tcase (s, meta);
-  tcase_add_unchecked_fixture (meta, suite_setup, suite_teardown);
-  tcase_add_loop_test (meta, test_element_bad_metadata, 0, n);
-
-  suite_add_tcase (s, props);
-  tcase_add_unchecked_fixture (props, suite_setup, suite_teardown);
-  tcase_add_loop_test (props, test_element_property_stress, 0, n);
-
-  suite_add_tcase (s, states);
-  tcase_add_unchecked_fixture (states, suite_setup, suite_teardown);
-  tcase_add_loop_test (states, test_element_state_cycles, 0, n);
-  tcase_add_test (states, test_chain_state_cycles);
-  return s;
+  return g_list_length (element_names);
 }
 
-GST_CHECK_MAIN (robustness);
+/* 3840x2160 frames, and labsegment rebuilding its class table for each
+ * max-distance a thread sets, take several seconds on a shared 2-core
+ * machine: more than check's 20 s default when it is busy */
+LANDMARK_CHECK_MAIN (robustness, .setup = suite_setup,
+    .teardown = suite_teardown, .timeout = 120, .elements = count_elements);

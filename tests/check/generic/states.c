@@ -4,6 +4,8 @@
  * The element list comes from the registry, so new elements of the plugin
  * are covered without editing this file. */
 
+#include "landmarkcheck.h"
+
 #include <gst/check/gstcheck.h>
 #include <glib/gstdio.h>
 #include <unistd.h>
@@ -39,37 +41,6 @@ plugin_element_names (void)
   return names;
 }
 
-/* Elements that need a file to start (landmarklog) get one in the
- * temporary directory. */
-static void
-configure_element (GstElement * element)
-{
-  GParamSpec *p = g_object_class_find_property (G_OBJECT_GET_CLASS (element),
-      "location");
-  if (p && G_PARAM_SPEC_VALUE_TYPE (p) == G_TYPE_STRING) {
-    gchar *name = g_strdup_printf ("states-%s-%u.out",
-        GST_OBJECT_NAME (element), (guint) getpid ());
-    gchar *path = g_build_filename (g_get_tmp_dir (), name, NULL);
-    g_object_set (element, "location", path, NULL);
-    g_object_set_data_full (G_OBJECT (element), "states-file", path,
-        (GDestroyNotify) g_free);
-    g_free (name);
-  }
-  /* trilaterate needs a map to reach READY */
-  if (!g_strcmp0 (GST_OBJECT_NAME (gst_element_get_factory (element)),
-          "trilaterate"))
-    g_object_set (element, "map",
-        GST_TEST_FILES_PATH "/clips/path-small/map.json", NULL);
-}
-
-static void
-remove_element_file (GstElement * element)
-{
-  const gchar *path = g_object_get_data (G_OBJECT (element), "states-file");
-  if (path)
-    g_remove (path);
-}
-
 /* Sets the state and waits until it is reached. */
 static void
 go_to_state (GstElement * element, GstState target)
@@ -99,19 +70,18 @@ cycle_every_element (const GstState * sequence, guint n, guint rounds)
     guint r, i;
 
     fail_unless (element != NULL, "cannot create %s", (gchar *) l->data);
-    configure_element (element);
+    landmark_check_configure_element (element);
     GST_INFO ("cycling %s", (gchar *) l->data);
     for (r = 0; r < rounds; r++)
       for (i = 0; i < n; i++)
         go_to_state (element, sequence[i]);
     go_to_state (element, GST_STATE_NULL);
-    remove_element_file (element);
     gst_object_unref (element);
   }
   g_list_free_full (names, g_free);
 }
 
-GST_START_TEST (test_state_changes_up_and_down_seq)
+LANDMARK_TEST ("general", test_state_changes_up_and_down_seq)
 {
   static const GstState seq[] = {
     GST_STATE_READY, GST_STATE_PAUSED, GST_STATE_PLAYING,
@@ -122,7 +92,7 @@ GST_START_TEST (test_state_changes_up_and_down_seq)
 
 GST_END_TEST;
 
-GST_START_TEST (test_state_changes_up_seq_down_jumps)
+LANDMARK_TEST ("general", test_state_changes_up_seq_down_jumps)
 {
   /* up one step at a time, down in single jumps */
   static const GstState seq[] = {
@@ -135,7 +105,7 @@ GST_START_TEST (test_state_changes_up_seq_down_jumps)
 
 GST_END_TEST;
 
-GST_START_TEST (test_state_changes_jumps)
+LANDMARK_TEST ("general", test_state_changes_jumps)
 {
   /* skipping states both ways: the element must handle every transition
    * GstElement walks through on its behalf */
@@ -152,7 +122,7 @@ GST_END_TEST;
 /* Elements with one always sink and one always src pad: each in a
  * videotestsrc ! element ! fakesink pipeline, so state changes also happen
  * while buffers flow (caps negotiated, streaming thread running). */
-GST_START_TEST (test_state_changes_while_streaming)
+LANDMARK_TEST ("general", test_state_changes_while_streaming)
 {
   GList *names = plugin_element_names (), *l;
   guint tested = 0;
@@ -200,7 +170,7 @@ GST_START_TEST (test_state_changes_while_streaming)
 
       fail_unless (pipeline != NULL, "%s: %s", desc, err ? err->message : "");
       under = gst_bin_get_by_name (GST_BIN (pipeline), "under");
-      configure_element (under);
+      landmark_check_configure_element (under);
       bus = gst_element_get_bus (pipeline);
       for (r = 0; r < 3; r++) {
         for (i = 0; i < G_N_ELEMENTS (seq); i++) {
@@ -218,7 +188,6 @@ GST_START_TEST (test_state_changes_while_streaming)
             error->message, debug ? debug : "");
       }
       gst_object_unref (bus);
-      remove_element_file (under);
       gst_object_unref (under);
       gst_object_unref (pipeline);
       g_free (desc);
@@ -231,18 +200,6 @@ GST_START_TEST (test_state_changes_while_streaming)
 
 GST_END_TEST;
 
-static Suite *
-states_suite (void)
-{
-  Suite *s = suite_create ("states");
-  TCase *tc = tcase_create ("general");
-
-  suite_add_tcase (s, tc);
-  tcase_add_test (tc, test_state_changes_up_and_down_seq);
-  tcase_add_test (tc, test_state_changes_up_seq_down_jumps);
-  tcase_add_test (tc, test_state_changes_jumps);
-  tcase_add_test (tc, test_state_changes_while_streaming);
-  return s;
-}
-
-GST_CHECK_MAIN (states);
+/* a folder for the files elements write (landmarklog) */
+LANDMARK_CHECK_MAIN (states, .setup = landmark_check_tmp_dir_setup,
+    .teardown = landmark_check_tmp_dir_teardown);

@@ -1,0 +1,560 @@
+/* The shape of a camera file: see camerafileshape.h. */
+#include "camerafileshape.h"
+
+#include "jsonutil.h"
+
+#include <glib.h>
+
+#include <cstring>
+#include <set>
+#include <sstream>
+
+namespace landmark {
+
+namespace {
+
+bool
+is_digit (char c)
+{
+  return c >= '0' && c <= '9';
+}
+
+bool
+is_word_char (char c, bool first)
+{
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'
+      || (!first && is_digit (c));
+}
+
+/* A name as OpenCV writes keys: a letter or _, then letters, digits, _ */
+bool
+is_key (const std::string & s)
+{
+  if (s.empty () || !is_word_char (s[0], true))
+    return false;
+  for (char c : s)
+    if (!is_word_char (c, false))
+      return false;
+  return true;
+}
+
+/* 12, -0.25, 1., .5, 1e-3, 5.0000000000000000e-01, .nan, -.inf */
+bool
+is_number (const std::string & s)
+{
+  size_t i = 0;
+  if (i < s.size () && (s[i] == '-' || s[i] == '+'))
+    i++;
+  const std::string rest = s.substr (i);
+  if (rest == ".nan" || rest == ".NaN" || rest == ".inf" || rest == ".Inf")
+    return true;
+  size_t digits = 0;
+  while (i < s.size () && is_digit (s[i])) {
+    i++;
+    digits++;
+  }
+  if (i < s.size () && s[i] == '.') {
+    i++;
+    while (i < s.size () && is_digit (s[i])) {
+      i++;
+      digits++;
+    }
+  }
+  if (digits == 0 || digits > 40)
+    return false;
+  if (i < s.size () && (s[i] == 'e' || s[i] == 'E')) {
+    i++;
+    if (i < s.size () && (s[i] == '-' || s[i] == '+'))
+      i++;
+    size_t e = 0;
+    while (i < s.size () && is_digit (s[i])) {
+      i++;
+      e++;
+    }
+    if (e == 0 || e > 3)
+      return false;
+  }
+  return i == s.size ();
+}
+
+/* rows and cols: a count OpenCV reads as int */
+bool
+is_count (const std::string & s)
+{
+  if (s.empty () || s.size () > 9)
+    return false;
+  for (char c : s)
+    if (!is_digit (c))
+      return false;
+  return true;
+}
+
+/* "a quoted text": printable characters, no quote or backslash inside */
+bool
+is_quoted (const std::string & s)
+{
+  if (s.size () < 2 || s.front () != '"' || s.back () != '"')
+    return false;
+  for (size_t i = 1; i + 1 < s.size (); i++) {
+    const unsigned char c = s[i];
+    if (c < 0x20 || c == 0x7f || c == '"' || c == '\\')
+      return false;
+  }
+  return true;
+}
+
+/* a matrix's element type: d, f, u, "2f", "3d" */
+bool
+is_dt (const std::string & s)
+{
+  const std::string t = is_quoted (s) ? s.substr (1, s.size () - 2) : s;
+  if (t.empty () || t.size () > 4)
+    return false;
+  for (char c : t)
+    if (!(is_digit (c) || (c >= 'a' && c <= 'z')))
+      return false;
+  return true;
+}
+
+bool
+is_scalar (const std::string & s)
+{
+  return is_number (s) || is_key (s) || is_quoted (s);
+}
+
+/* "is_number" separated by white space (XML matrix data, XML lists) */
+bool
+is_number_list (const std::string & text)
+{
+  std::istringstream in (text);
+  std::string word;
+  while (in >> word)
+    if (!is_number (word))
+      return false;
+  return true;
+}
+
+std::string
+trimmed (const std::string & s)
+{
+  const size_t a = s.find_first_not_of (" \t\r\n");
+  if (a == std::string::npos)
+    return std::string ();
+  const size_t b = s.find_last_not_of (" \t\r\n");
+  return s.substr (a, b - a + 1);
+}
+
+const char *const kMatrixFields[] = { "rows", "cols", "dt", "data" };
+
+const char *const kShapeHint = "a camera file holds top-level keys with a "
+    "number, a word, a quoted text, a list of numbers or an opencv-matrix "
+    "(rows, cols, dt, data), as OpenCV writes them";
+
+/* YAML, line by line: the %YAML:1.0 header, `---`, then `key: value`
+ * lines, `key: !!opencv-matrix` followed by indented rows, cols, dt and
+ * data lines, flow lists of numbers that may continue on indented lines,
+ * comments and blank lines. */
+class YamlShape {
+public:
+  explicit YamlShape (const std::string & path) : path_ (path) { }
+
+  bool check (const std::string & text, std::string * error)
+  {
+    std::istringstream in (text);
+    std::string line;
+    while (std::getline (in, line)) {
+      n_++;
+      if (!line.empty () && line.back () == '\r')
+        line.pop_back ();
+      while (!line.empty () && line.back () == ' ')
+        line.pop_back ();
+      if (!this->line (line))
+        break;
+    }
+    if (why_.empty () && n_ < 2)
+      fail ("the YAML header (%YAML:1.0, then ---) is incomplete");
+    if (why_.empty () && (field_ >= 0 || in_list_))
+      fail (key_ + ": the file ends inside it");
+    if (!why_.empty ())
+      *error = why_;
+    return why_.empty ();
+  }
+
+private:
+  bool fail (const std::string & what)
+  {
+    why_ = path_ + ": line " + std::to_string (n_) + ": " + what;
+    return false;
+  }
+
+  bool line (const std::string & line)
+  {
+    if (n_ == 1)
+      return line == "%YAML:1.0" || line == "%YAML 1.0" ? true :
+          fail ("not the YAML header %YAML:1.0");
+    if (n_ == 2)
+      return line == "---" ? true : fail ("expected --- after the header");
+    if (line.find ('%') != std::string::npos)
+      return fail ("'%' outside the header (OpenCV's parser does not end "
+          "on it)");
+    const size_t indent = line.find_first_not_of (' ');
+    if (indent == std::string::npos)
+      return true;
+    if (line[indent] == '#' && !in_list_ && field_ < 0)
+      return true;
+    if (in_list_) {
+      if (indent == 0)
+        return fail (key_ + ": its list of numbers is not closed");
+      return list (line, indent);
+    }
+    if (field_ >= 0)
+      return matrix_field (line, indent);
+    if (indent != 0)
+      return fail ("unexpected indentation; " + std::string (kShapeHint));
+    const size_t colon = line.find (':');
+    const std::string key = line.substr (0, colon);
+    if (colon == std::string::npos || !is_key (key))
+      return fail ("expected `key: value`; " + std::string (kShapeHint));
+    key_ = key;
+    if (!keys_.insert (key).second)
+      return fail (key + " appears twice");
+    if (colon + 1 >= line.size () || line[colon + 1] != ' ')
+      return fail (key + ": expected a value after `" + key + ": `");
+    const size_t v = line.find_first_not_of (' ', colon + 1);
+    const std::string value = line.substr (v);
+    if (value == "!!opencv-matrix") {
+      field_ = 0;
+      return true;
+    }
+    if (value[0] == '[')
+      return list (line, v);
+    if (!is_scalar (value))
+      return fail (key + ": `" + value + "` is not a number, a word or a "
+          "quoted text");
+    return true;
+  }
+
+  bool matrix_field (const std::string & line, size_t indent)
+  {
+    const std::string want = kMatrixFields[field_];
+    const std::string expect = key_ + ": expected `" + want + ": ` (an "
+        "opencv-matrix has rows, cols, dt and data, in this order)";
+    if (indent == 0 || line.compare (indent, want.size () + 2,
+            want + ": ") != 0)
+      return fail (expect);
+    const std::string value = trimmed (line.substr (indent + want.size () +
+            2));
+    field_++;
+    if (want == "data") {
+      field_ = -1;
+      if (value.empty () || value[0] != '[')
+        return fail (key_ + ": data must be a list of numbers");
+      return list (line, line.find ('[', indent));
+    }
+    if (want == "dt" ? !is_dt (value) : !is_count (value))
+      return fail (key_ + ": " + want + " `" + value + "` is not " +
+          (want == "dt" ? "an element type (d, f, \"2f\")" :
+              "a whole number"));
+    return true;
+  }
+
+  /* numbers separated by commas, between [ and ], over several lines */
+  bool list (const std::string & line, size_t i)
+  {
+    if (!in_list_) {
+      in_list_ = true;
+      need_item_ = true;
+      items_ = 0;
+      i++;                      /* the [ */
+    }
+    for (;;) {
+      while (i < line.size () && line[i] == ' ')
+        i++;
+      if (i == line.size ())
+        return need_item_ ? true :
+            fail (key_ + ": a list line must end with a comma or ]");
+      if (line[i] == ']') {
+        if (need_item_ && items_ > 0)
+          return fail (key_ + ": a comma before ]");
+        in_list_ = false;
+        return i + 1 == line.size () ? true :
+            fail (key_ + ": text after the list's ]");
+      }
+      if (!need_item_) {
+        if (line[i] != ',')
+          return fail (key_ + ": expected a comma between numbers");
+        i++;
+        need_item_ = true;
+        continue;
+      }
+      size_t end = i;
+      while (end < line.size () && line[end] != ',' && line[end] != ' '
+          && line[end] != ']')
+        end++;
+      if (!is_number (line.substr (i, end - i)))
+        return fail (key_ + ": `" + line.substr (i, end - i) + "` in its "
+            "list is not a number");
+      items_++;
+      need_item_ = false;
+      i = end;
+    }
+  }
+
+  const std::string & path_;
+  std::string why_, key_;
+  std::set<std::string> keys_;
+  int n_ = 0;
+  int field_ = -1;              /* next opencv-matrix field, -1: none */
+  bool in_list_ = false, need_item_ = false;
+  size_t items_ = 0;
+};
+
+/* XML through GMarkup: <opencv_storage> holding elements with a scalar
+ * or a list of numbers, or type_id="opencv-matrix" with rows, cols, dt
+ * and data. Only the <?xml ...?> declaration and comments besides. */
+struct XmlShape {
+  const std::string *path;
+  std::string why, key, text;
+  std::set<std::string> keys;
+  int depth = 0;
+  int field = -1;               /* in a matrix: the next field */
+  bool root_seen = false;
+
+  static XmlShape *of (gpointer p) { return static_cast<XmlShape *> (p); }
+
+  static void fail (GMarkupParseContext * ctx, GError ** err, XmlShape * s,
+      const std::string & what)
+  {
+    if (!s->why.empty () || *err)
+      return;                   /* one error: the first */
+    int line = 0;
+    g_markup_parse_context_get_position (ctx, &line, nullptr);
+    s->why = *s->path + ": line " + std::to_string (line) + ": " + what;
+    g_set_error_literal (err, G_MARKUP_ERROR, G_MARKUP_ERROR_INVALID_CONTENT,
+        s->why.c_str ());
+  }
+
+  static void start (GMarkupParseContext * ctx, const gchar * name,
+      const gchar ** attr_names, const gchar ** attr_values, gpointer data,
+      GError ** err)
+  {
+    XmlShape *s = of (data);
+    const std::string n = name;
+    if (!trimmed (s->text).empty ())
+      return fail (ctx, err, s, "text outside an element's value");
+    s->text.clear ();
+    if (s->depth == 0) {
+      if (n != "opencv_storage" || attr_names[0] || s->root_seen)
+        return fail (ctx, err, s, "the top element must be one "
+            "<opencv_storage> without attributes");
+      s->root_seen = true;
+    } else if (s->depth == 1) {
+      if (!is_key (n))
+        return fail (ctx, err, s, "<" + n + ">: not a key name");
+      if (!s->keys.insert (n).second)
+        return fail (ctx, err, s, n + " appears twice");
+      s->key = n;
+      s->field = -1;
+      if (attr_names[0]) {
+        if (strcmp (attr_names[0], "type_id") != 0 || attr_names[1]
+            || strcmp (attr_values[0], "opencv-matrix") != 0)
+          return fail (ctx, err, s, n + ": the only attribute read is "
+              "type_id=\"opencv-matrix\"");
+        s->field = 0;
+      }
+    } else if (s->depth == 2 && s->field >= 0 && s->field < 4
+        && n == kMatrixFields[s->field] && !attr_names[0]) {
+      s->field++;
+    } else {
+      return fail (ctx, err, s, s->key + ": <" + n + "> is not expected "
+          "here; " + kShapeHint);
+    }
+    s->depth++;
+  }
+
+  static void end (GMarkupParseContext * ctx, const gchar * name,
+      gpointer data, GError ** err)
+  {
+    XmlShape *s = of (data);
+    const std::string n = name, value = trimmed (s->text);
+    s->text.clear ();
+    s->depth--;
+    if (s->depth == 1 && s->field >= 0) {
+      if (s->field != 4)
+        return fail (ctx, err, s, s->key + ": an opencv-matrix needs rows, "
+            "cols, dt and data, in this order");
+      if (!value.empty ())
+        return fail (ctx, err, s, s->key + ": text outside its fields");
+    } else if (s->depth == 0) {
+      if (!value.empty ())
+        return fail (ctx, err, s, "text outside an element's value");
+    } else if (s->depth == 1) {
+      if (!is_scalar (value) && !is_number_list (value))
+        return fail (ctx, err, s, s->key + ": `" + value + "` is not a "
+            "number, a word, a quoted text or numbers");
+    } else if (s->depth == 2) {
+      const bool ok = n == "data" ? is_number_list (value) :
+          n == "dt" ? is_dt (value) : is_count (value);
+      if (!ok)
+        return fail (ctx, err, s, s->key + ": <" + n + "> `" + value +
+            "` is not " + (n == "data" ? "a list of numbers" : n == "dt" ?
+                "an element type (d, f, \"2f\")" : "a whole number"));
+    }
+  }
+
+  static void text_cb (GMarkupParseContext *, const gchar * text, gsize len,
+      gpointer data, GError **)
+  {
+    of (data)->text.append (text, len);
+  }
+
+  static void passthrough (GMarkupParseContext *, const gchar * text,
+      gsize len, gpointer data, GError ** err)
+  {
+    XmlShape *s = of (data);
+    const std::string t (text, len);
+    const bool declaration = t.rfind ("<?xml ", 0) == 0 && !s->root_seen;
+    const bool comment = t.rfind ("<!--", 0) == 0;
+    if (!declaration && !comment && s->why.empty () && !*err) {
+      /* GMarkup's position is past it here: name it by its text */
+      s->why = *s->path + ": `" + t.substr (0, 40) + "`: only the <?xml "
+          "...?> declaration and comments may accompany <opencv_storage>";
+      g_set_error_literal (err, G_MARKUP_ERROR,
+          G_MARKUP_ERROR_INVALID_CONTENT, s->why.c_str ());
+    }
+  }
+};
+
+bool
+xml_shape_ok (const std::string & text, const std::string & path,
+    std::string * error)
+{
+  if (text.find ('&') != std::string::npos) {
+    *error = path + ": '&' (an XML entity) is not read in a camera file";
+    return false;
+  }
+  static const GMarkupParser parser = { XmlShape::start, XmlShape::end,
+    XmlShape::text_cb, XmlShape::passthrough, nullptr
+  };
+  XmlShape shape;
+  shape.path = &path;
+  GMarkupParseContext *ctx = g_markup_parse_context_new (&parser,
+      (GMarkupParseFlags) 0, &shape, nullptr);
+  GError *err = nullptr;
+  const bool ok = g_markup_parse_context_parse (ctx, text.data (),
+      (gssize) text.size (), &err) && g_markup_parse_context_end_parse (ctx,
+      &err);
+  g_markup_parse_context_free (ctx);
+  if (!ok) {
+    *error = !shape.why.empty () ? shape.why :
+        path + ": not well-formed XML: " + err->message;
+    g_error_free (err);
+    return false;
+  }
+  if (!shape.root_seen) {
+    *error = path + ": no <opencv_storage> element";
+    return false;
+  }
+  return true;
+}
+
+/* JSON through json-glib: an object of scalars, lists of numbers and
+ * {"type_id": "opencv-matrix", "rows", "cols", "dt", "data"} objects. */
+bool
+json_member_ok (JsonNode * node)
+{
+  if (JSON_NODE_HOLDS_VALUE (node)) {
+    const GType t = json_node_get_value_type (node);
+    return t == G_TYPE_INT64 || t == G_TYPE_DOUBLE || (t == G_TYPE_STRING
+        && is_quoted ("\"" + std::string (json_node_get_string (node)) +
+            "\""));
+  }
+  if (JSON_NODE_HOLDS_ARRAY (node)) {
+    JsonArray *a = json_node_get_array (node);
+    for (guint i = 0; i < json_array_get_length (a); i++) {
+      JsonNode *e = json_array_get_element (a, i);
+      if (!JSON_NODE_HOLDS_VALUE (e) || (json_node_get_value_type (e) !=
+              G_TYPE_INT64 && json_node_get_value_type (e) != G_TYPE_DOUBLE))
+        return false;
+    }
+    return true;
+  }
+  if (!JSON_NODE_HOLDS_OBJECT (node))
+    return false;
+  JsonObject *m = json_node_get_object (node);
+  const char *type = json_object_has_member (m, "type_id") ?
+      json_string (json_object_get_member (m, "type_id")) : nullptr;
+  if (!type || strcmp (type, "opencv-matrix") != 0
+      || json_object_get_size (m) != 5)
+    return false;
+  for (const char *f : kMatrixFields) {
+    JsonNode *v = json_object_get_member (m, f);
+    if (!v)
+      return false;
+    const std::string field = f;
+    if (field == "data" ? !JSON_NODE_HOLDS_ARRAY (v) ||
+        !json_member_ok (v) : field == "dt" ? !json_string (v) ||
+        !is_dt (json_string (v)) : !JSON_NODE_HOLDS_VALUE (v) ||
+        json_node_get_value_type (v) != G_TYPE_INT64 ||
+        !is_count (std::to_string (json_node_get_int (v))))
+      return false;
+  }
+  return true;
+}
+
+bool
+json_shape_ok (const std::string & text, const std::string & path,
+    std::string * error)
+{
+  if (text.find ('\\') != std::string::npos) {
+    *error = path + ": a backslash escape is not read in a camera file";
+    return false;
+  }
+  JsonParserPtr parser (nullptr, g_object_unref);
+  JsonObject *root = json_parse_object (text, path, "camera file keys",
+      parser, error);
+  if (!root)
+    return false;
+  bool ok = true;
+  json_object_foreach_member (root, [](JsonObject *, const gchar * name,
+          JsonNode * node, gpointer data) {
+        auto e = static_cast<std::string *> (data);
+        if (e->empty () && (!is_key (name) || !json_member_ok (node)))
+          *e = name;
+      }, error);
+  if (!error->empty ()) {
+    *error = path + ": " + *error + ": " + kShapeHint;
+    ok = false;
+  }
+  return ok;
+}
+
+}  // namespace
+
+bool
+camera_file_shape_ok (const std::string & text, const std::string & path,
+    std::string * error)
+{
+  error->clear ();
+  for (unsigned char c : text)
+    if ((c < 0x20 && c != '\n' && c != '\r' && c != '\t') || c == 0x7f) {
+      *error = path + ": control characters in a camera file";
+      return false;
+    }
+  if (!g_utf8_validate (text.data (), (gssize) text.size (), nullptr)) {
+    /* GMarkup goes on after its own error on some of these */
+    *error = path + ": not UTF-8 text";
+    return false;
+  }
+  if (text.rfind ("%YAML", 0) == 0)
+    return YamlShape (path).check (text, error);
+  if (text.rfind ("<?xml", 0) == 0)
+    return xml_shape_ok (text, path, error);
+  if (text.rfind ("{", 0) == 0)
+    return json_shape_ok (text, path, error);
+  *error = path + ": not an OpenCV FileStorage file (YAML starting with "
+      "%YAML:1.0, XML with <?xml, or JSON with {)";
+  return false;
+}
+
+}  // namespace landmark

@@ -1,0 +1,206 @@
+/* Range estimates: see rangeestimate.h. */
+#include "rangeestimate.h"
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace landmark {
+
+bool
+fit_circle (const std::vector<double> & xy, double *cx, double *cy,
+    double *radius)
+{
+  const size_t n = xy.size () / 2;
+  if (n < 3)
+    return false;
+  double mx = 0, my = 0;
+  for (size_t i = 0; i < n; i++) {
+    mx += xy[2 * i];
+    my += xy[2 * i + 1];
+  }
+  mx /= n;
+  my /= n;
+  /* x^2 + y^2 + D x + E y + F = 0, least squares in D, E, F */
+  cv::Matx33d a = cv::Matx33d::zeros ();
+  cv::Vec3d b (0, 0, 0);
+  for (size_t i = 0; i < n; i++) {
+    const double x = xy[2 * i] - mx, y = xy[2 * i + 1] - my;
+    const cv::Vec3d row (x, y, 1);
+    const double rhs = -(x * x + y * y);
+    for (int r = 0; r < 3; r++) {
+      for (int c = 0; c < 3; c++)
+        a (r, c) += row[r] * row[c];
+      b[r] += row[r] * rhs;
+    }
+  }
+  cv::Vec3d s;
+  if (!cv::solve (a, b, s, cv::DECOMP_SVD))
+    return false;
+  const double ox = -s[0] / 2, oy = -s[1] / 2;
+  const double r2 = ox * ox + oy * oy - s[2];
+  if (!(r2 > 0) || !std::isfinite (r2))
+    return false;
+  *cx = ox + mx;
+  *cy = oy + my;
+  *radius = std::sqrt (r2);
+  return true;
+}
+
+namespace {
+
+Vec3
+unit (const Vec3 & d)
+{
+  const double n = std::sqrt (d.x * d.x + d.y * d.y + d.z * d.z);
+  return Vec3 {d.x / n, d.y / n, d.z / n};
+}
+
+/* Range and bearing of the plane point of pixel (u, v), for derivatives. */
+bool
+polar_at (const CameraGeometry & g, double u, double v, double z0,
+    double *r, double *b)
+{
+  double gx, gy;
+  if (!g.pixel_to_plane (u, v, z0, &gx, &gy))
+    return false;
+  *r = std::hypot (gx, gy);
+  *b = std::atan2 (gy, gx);
+  return true;
+}
+
+}  // namespace
+
+RangeEstimate
+estimate_range (const CameraGeometry & g, const BlobObservation & blob,
+    const MarkerSpec & m, double pixel_sigma)
+{
+  RangeEstimate out;
+  auto to_geom = [&](double u, double v, std::vector<double> *uv) {
+    uv->push_back ((u + 0.5) * blob.sx - 0.5);
+    uv->push_back ((v + 0.5) * blob.sy - 0.5);
+  };
+  const bool ellipse = blob.has_ellipse && blob.major > 0 && blob.minor > 0
+      && std::isfinite (blob.major) && std::isfinite (blob.minor);
+  const double ca = std::cos (blob.angle), sa = std::sin (blob.angle);
+  const double a = blob.major / 2, b = blob.minor / 2;
+
+  Vec3 axis;                    /* direction of the marker centre */
+  bool have_axis = false;
+  double size_distance = 0;     /* slant distance from size, metres */
+  double size_rel_sigma = 0;
+  double centre_u, centre_v;    /* for derivatives, geometry pixels */
+
+  if (ellipse && m.ball) {
+    std::vector<double> uv;
+    to_geom (blob.eu + a * ca, blob.ev + a * sa, &uv);
+    to_geom (blob.eu - a * ca, blob.ev - a * sa, &uv);
+    std::vector<Vec3> d;
+    g.rays (uv, &d);
+    const Vec3 d1 = unit (d[0]), d2 = unit (d[1]);
+    axis = unit (Vec3 {d1.x + d2.x, d1.y + d2.y, d1.z + d2.z});
+    have_axis = true;
+    const double cosang = std::min (1.0, d1.x * d2.x + d1.y * d2.y +
+        d1.z * d2.z);
+    const double half = std::acos (cosang) / 2;
+    if (m.diameter > 0 && half > 0) {
+      size_distance = (m.diameter / 2) / std::sin (half);
+      size_rel_sigma = pixel_sigma / blob.major;
+    }
+    centre_u = (uv[0] + uv[2]) / 2;
+    centre_v = (uv[1] + uv[3]) / 2;
+  } else if (ellipse) {
+    const int n = 48;
+    std::vector<double> uv;
+    for (int i = 0; i < n; i++) {
+      const double t = 2 * M_PI * i / n;
+      const double x = a * std::cos (t), y = b * std::sin (t);
+      to_geom (blob.eu + x * ca - y * sa, blob.ev + x * sa + y * ca, &uv);
+    }
+    std::vector<Vec3> d;
+    g.rays (uv, &d);
+    std::vector<double> plane;
+    for (const Vec3 & di : d) {
+      double gx, gy;
+      if (!g.intersect (di, m.z, &gx, &gy))
+        break;
+      plane.push_back (gx);
+      plane.push_back (gy);
+    }
+    double ox, oy, radius;
+    if (plane.size () == 2 * (size_t) n && fit_circle (plane, &ox, &oy,
+            &radius)) {
+      axis = unit (Vec3 {ox, oy, m.z - g.params ().camera_height});
+      have_axis = true;
+      if (m.diameter > 0) {
+        /* the plane's distance below the camera scales the circle: the
+         * size estimate needs no camera height */
+        const double slant = std::sqrt (ox * ox + oy * oy +
+            std::pow (m.z - g.params ().camera_height, 2));
+        size_distance = slant * (m.diameter / 2) / radius;
+        size_rel_sigma = pixel_sigma / blob.minor;
+      }
+    }
+    std::vector<double> c;
+    to_geom (blob.eu, blob.ev, &c);
+    centre_u = c[0];
+    centre_v = c[1];
+  }
+  if (!have_axis) {
+    std::vector<double> c;
+    to_geom (blob.u, blob.v, &c);
+    centre_u = c[0];
+    centre_v = c[1];
+    axis = unit (g.ray (c[0], c[1]));
+    have_axis = true;
+    if (m.diameter > 0 && blob.equivalent_diameter > 0) {
+      /* apparent angular size from the equivalent diameter */
+      const Vec3 d1 = unit (g.ray (c[0] - blob.equivalent_diameter *
+              blob.sx / 2, c[1]));
+      const Vec3 d2 = unit (g.ray (c[0] + blob.equivalent_diameter *
+              blob.sx / 2, c[1]));
+      const double half = std::acos (std::min (1.0, d1.x * d2.x +
+              d1.y * d2.y + d1.z * d2.z)) / 2;
+      if (half > 0) {
+        size_distance = (m.diameter / 2) / std::tan (half);
+        size_rel_sigma = pixel_sigma / blob.equivalent_diameter + 0.05;
+      }
+    }
+  }
+
+  /* bearing from the axis's horizontal direction */
+  double gx, gy;
+  const bool hit = g.intersect (axis, m.z, &gx, &gy);
+  out.no_floor = !hit;
+  if (!hit)
+    return out;
+  out.ground_x = gx;
+  out.ground_y = gy;
+  out.range_ground = std::hypot (gx, gy);
+  out.bearing = std::atan2 (gy, gx);
+
+  /* uncertainty: a pixel_sigma error of the centre point, propagated */
+  double r0, b0, ru, bu, rv, bv;
+  if (polar_at (g, centre_u, centre_v, m.z, &r0, &b0)
+      && polar_at (g, centre_u + 1, centre_v, m.z, &ru, &bu)
+      && polar_at (g, centre_u, centre_v + 1, m.z, &rv, &bv)) {
+    const double dbu = std::remainder (bu - b0, 2 * M_PI);
+    const double dbv = std::remainder (bv - b0, 2 * M_PI);
+    out.range_ground_sigma = pixel_sigma * std::hypot (ru - r0, rv - r0);
+    out.bearing_sigma = pixel_sigma * std::hypot (dbu, dbv);
+  } else {
+    /* next to the horizon: the ground range is barely constrained */
+    out.range_ground_sigma = out.range_ground;
+    out.bearing_sigma = pixel_sigma / std::max (1.0, g.params ().fx);
+  }
+  if (size_distance > 0 && std::isfinite (size_distance)) {
+    const double horiz = std::hypot (axis.x, axis.y);
+    out.has_size = true;
+    out.range_size = size_distance * horiz;
+    out.range_size_sigma = out.range_size * size_rel_sigma;
+  }
+  return out;
+}
+
+}  // namespace landmark

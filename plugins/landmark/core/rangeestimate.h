@@ -1,0 +1,61 @@
+/* Range and bearing of one detection through a CameraGeometry
+ * (docs/ipmrange.md): discs by the circle their outline maps to on the
+ * marker's plane, balls by the cone tangent to them, and the size range
+ * from a known diameter. No GStreamer types. */
+#pragma once
+
+#include <vector>
+
+#include "camerageometry.h"
+
+namespace landmark {
+
+/* A circle through points in a plane (algebraic least squares); false
+ * with fewer than 3 points or a degenerate set. */
+bool fit_circle (const std::vector<double> & xy, double *cx, double *cy,
+    double *radius);
+
+
+/* A detection as landmark-blob describes it, in pixels of the frame it was
+ * measured on; sx, sy scale those to the geometry's frame
+ * (u' = (u + 0.5) sx - 0.5). */
+struct BlobObservation {
+  double u = 0, v = 0;                 /* centroid */
+  bool has_ellipse = false;
+  double eu = 0, ev = 0;               /* ellipse centre */
+  double major = 0, minor = 0;         /* full axis lengths */
+  double angle = 0;                    /* radians, +u towards +v */
+  double equivalent_diameter = 0;      /* 0: unknown */
+  double sx = 1, sy = 1;
+};
+
+/* What the detection is: a disc lying flat with its centre at height z
+ * (0: on the floor), or a ball whose centre is at height z; diameter in
+ * metres, 0 when unknown. */
+struct MarkerSpec {
+  double z = 0;
+  double diameter = 0;
+  bool ball = false;
+};
+
+struct RangeEstimate {
+  bool no_floor = true;          /* the ray misses the marker's plane */
+  double ground_x = 0, ground_y = 0;   /* ground method, metres */
+  double range_ground = 0, range_ground_sigma = 0;
+  bool has_size = false;         /* a diameter was known and usable */
+  double range_size = 0, range_size_sigma = 0;
+  double bearing = 0, bearing_sigma = 0;
+};
+
+/* Range and bearing of one detection. Discs: the ellipse's outline mapped
+ * to the marker's plane, its centre by a circle fit; size range from the
+ * fitted circle's radius against the known diameter (the plane's distance
+ * scaled). Balls: the axis of the cone tangent to the ball bisects the rays
+ * of the ellipse's major-axis ends; its half angle gives the distance.
+ * Without an ellipse, the centroid's ray. pixel_sigma: one-sigma error of
+ * a measured point, pixels. */
+RangeEstimate estimate_range (const CameraGeometry & geometry,
+    const BlobObservation & blob, const MarkerSpec & marker,
+    double pixel_sigma);
+
+}  // namespace landmark

@@ -1,0 +1,846 @@
+"""The console's pipeline: the chain on a file, a camera or a test source,
+with a tee to two appsinks (the raw frame with its metadata, and the
+overlay as JPEG), live tuning checked against the elements' own
+GParamSpecs, and palette teaching.
+
+Streaming threads only hand results to the asyncio loop (``Handoff``:
+the newest one, never a queue); everything else runs on the loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import glob
+import json
+import math
+import os
+import threading
+import time
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import cv2
+import numpy as np
+
+from ... import meta, palette as pal, pipeline
+from ...landmarkmap import MapError, read_map
+from .. import runner
+
+from gi.repository import GObject  # noqa: E402  (after pipeline's gi setup)
+
+Gst = pipeline.Gst
+
+# The properties a user tunes from the page, per element (the ranges come
+# from the elements at run time, never from here).
+TUNABLE: Dict[str, Tuple[str, ...]] = {
+    "labsegment": ("min-class-pixels", "max-distance", "use-lightness",
+                   "rare-classes"),
+    "blobroundness": ("min-area", "max-area", "max-aspect", "min-roundness",
+                      "min-ellipse-fit", "shape", "morphology",
+                      "keep-rejected"),
+    "ipmrange": ("camera-height", "tilt", "roll", "hfov", "range-method",
+                 "marker-diameter", "pixel-sigma"),
+    "trilaterate": ("filter", "gate", "inlier-distance", "max-age"),
+    "landmarkoverlay": ("show-detections", "show-rejected", "show-pose",
+                        "show-histogram", "show-indicators", "show-minimap",
+                        "text-scale"),
+}
+CHAIN = ("labsegment", "blobroundness", "ipmrange", "trilaterate",
+         "landmarkoverlay")
+PATH_LENGTH = 2000      # poses kept for browsers that join late
+UNDO_DEPTH = 20
+JPEG_QUALITY = 80
+
+
+class ConsoleError(ValueError):
+    """A request that cannot be carried out; the message says why."""
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _plain(value):
+    """A structure value as JSON-ready data."""
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return value
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    return str(value)
+
+
+def property_spec(element: Gst.Element, name: str) -> Dict[str, Any]:
+    """Type, range, default and current value of one property, read from
+    the element's GParamSpec."""
+    pspec = element.find_property(name)
+    if pspec is None:
+        raise ConsoleError(f"{element.get_name()} has no property "
+                           f"{name!r}")
+    vtype = pspec.value_type
+    spec: Dict[str, Any] = {"name": name, "blurb": pspec.blurb}
+    value = element.get_property(name)
+    if vtype == GObject.TYPE_BOOLEAN:
+        spec.update(type="boolean", default=bool(pspec.default_value),
+                    value=bool(value))
+    elif vtype in (GObject.TYPE_UINT, GObject.TYPE_INT, GObject.TYPE_UINT64,
+                   GObject.TYPE_INT64, GObject.TYPE_ULONG,
+                   GObject.TYPE_LONG):
+        spec.update(type="integer", minimum=int(pspec.minimum),
+                    maximum=int(pspec.maximum),
+                    default=int(pspec.default_value), value=int(value))
+    elif vtype in (GObject.TYPE_DOUBLE, GObject.TYPE_FLOAT):
+        spec.update(type="number", minimum=float(pspec.minimum),
+                    maximum=float(pspec.maximum),
+                    default=float(pspec.default_value), value=float(value))
+    elif vtype.is_a(GObject.TYPE_ENUM):
+        nicks = [v.value_nick for v in
+                 sorted(pspec.enum_class.__enum_values__.values(),
+                        key=int)]
+        spec.update(type="enum", choices=nicks,
+                    default=pspec.default_value.value_nick,
+                    value=value.value_nick)
+    else:
+        spec.update(type="other", value=_plain(value))
+    return spec
+
+
+def check_value(element_name: str, spec: Dict[str, Any], value):
+    """The value to set, or ConsoleError naming element, property and
+    fault."""
+    where = f"{element_name}.{spec['name']}"
+    kind = spec["type"]
+    if kind == "boolean":
+        if not isinstance(value, bool):
+            raise ConsoleError(f"{where}: expected true or false, got "
+                               f"{json.dumps(value)}")
+        return value
+    if kind == "enum":
+        if value not in spec["choices"]:
+            raise ConsoleError(f"{where}: expected one of "
+                               f"{', '.join(spec['choices'])}, got "
+                               f"{json.dumps(value)}")
+        return value
+    if kind in ("integer", "number"):
+        if not _is_number(value):
+            raise ConsoleError(f"{where}: expected a number, got "
+                               f"{json.dumps(value)}")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ConsoleError(f"{where}: expected a finite number")
+        if kind == "integer":
+            if isinstance(value, float):
+                if not value.is_integer():
+                    raise ConsoleError(f"{where}: expected an integer, got "
+                                       f"{value!r}")
+                value = int(value)
+        else:
+            value = float(value)
+        if not spec["minimum"] <= value <= spec["maximum"]:
+            raise ConsoleError(f"{where}: {value!r} is outside "
+                               f"{spec['minimum']!r}..{spec['maximum']!r}")
+        return value
+    raise ConsoleError(f"{where}: cannot be set from the console")
+
+
+def read_landmarks(map_path: Optional[str]) -> List[Dict[str, Any]]:
+    """The map's landmarks for the page's mini-map ([] without a map; a
+    map the elements cannot read stops the pipeline with its error)."""
+    if not map_path:
+        return []
+    try:
+        return read_map(map_path)
+    except MapError:
+        return []
+
+
+def error_text(msg: Gst.Message) -> str:
+    """An error message as "element: message (debug)"."""
+    err, debug = msg.parse_error()
+    source = msg.src.get_name() if msg.src is not None else "?"
+    text = f"{source}: {err.message}"
+    return f"{text} ({debug})" if debug else text
+
+
+def source_fragment(input_path: Optional[str] = None,
+                    camera: Optional[str] = None,
+                    testsrc: bool = False) -> str:
+    """The launch fragment that produces raw video for the chain."""
+    chosen = [x for x in (input_path, camera, testsrc or None)
+              if x is not None]
+    if len(chosen) != 1:
+        raise ConsoleError("give one of --input FILE, --camera /dev/videoN "
+                           "or --testsrc")
+    if input_path is not None:
+        if not os.path.isfile(input_path):
+            raise ConsoleError(f"{input_path}: no such file")
+        return (f"filesrc location={runner.quote(os.path.abspath(input_path))}"
+                " ! decodebin")
+    if camera is not None:
+        if not os.path.exists(camera):
+            raise ConsoleError(f"{camera}: no such device")
+        # decodebin passes raw video through and decodes MJPEG cameras
+        return f"v4l2src device={runner.quote(camera)} ! decodebin"
+    return "videotestsrc is-live=true pattern=ball ! video/x-raw,width=640," \
+           "height=480,framerate=30/1"
+
+
+VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".webm", ".mjpeg",
+                  ".mjpg")
+
+
+def list_sources(out_dir: str, start_source: str
+                 ) -> Dict[str, Dict[str, str]]:
+    """The sources a browser may choose, by id: the one given at start,
+    the test source, every V4L2 camera, and video files under the output
+    folder (nothing else: a client names an id, never a path)."""
+    sources = {"start": {"label": "as started", "fragment": start_source},
+               "testsrc": {"label": "test source",
+                           "fragment": source_fragment(testsrc=True)}}
+    for device in sorted(glob.glob("/dev/video*")):
+        sources[f"camera:{device}"] = {
+            "label": device, "fragment": source_fragment(camera=device)}
+    root = os.path.realpath(out_dir)
+    for folder, dirs, files in os.walk(root):
+        if folder[len(root):].count(os.sep) >= 2:
+            dirs[:] = []            # two levels below the output folder
+        for name in sorted(files):
+            path = os.path.join(folder, name)
+            # a link out of the folder is not under it
+            if not name.lower().endswith(VIDEO_SUFFIXES) or \
+                    not os.path.realpath(path).startswith(root + os.sep):
+                continue
+            rel = os.path.relpath(path, root)
+            sources[f"file:{rel}"] = {
+                "label": rel, "fragment": source_fragment(input_path=path)}
+    return sources
+
+
+class Handoff:
+    """From a streaming thread to the loop, the newest item only: at most
+    one callback waits on the loop per channel, so a loop that falls
+    behind skips items instead of piling them up in memory."""
+
+    def __init__(self, loop: asyncio.AbstractEventLoop,
+                 consumer: Callable[..., None]):
+        self.loop, self.consumer = loop, consumer
+        self.lock = threading.Lock()
+        self.item: Optional[tuple] = None
+        self.dropped = 0
+
+    def put(self, *item) -> None:
+        with self.lock:
+            waiting = self.item is not None
+            if waiting:
+                self.dropped += 1
+            self.item = item
+        if not waiting:
+            self.loop.call_soon_threadsafe(self._deliver)
+
+    def _deliver(self) -> None:
+        with self.lock:
+            item, self.item = self.item, None
+        if item is not None:
+            self.consumer(*item)
+
+
+class LatestJpeg:
+    """The newest JPEG of one video view, for any number of MJPEG
+    readers on the loop (each takes the newest, skipping what it
+    missed)."""
+
+    def __init__(self):
+        self.data: Optional[bytes] = None
+        self.seq = 0
+        self.time = 0.0
+        self.pts: Optional[float] = None
+        self.readers = 0
+        self.closed = False
+        self._waiter: Optional[asyncio.Future] = None
+
+    def publish(self, data: bytes, now: float,
+                pts: Optional[float]) -> None:
+        self.data, self.time, self.pts = data, now, pts
+        self.seq += 1
+        self._wake()
+
+    def close(self) -> None:
+        """Ends every reader (the server is shutting down)."""
+        self.closed = True
+        self._wake()
+
+    def _wake(self) -> None:
+        waiter, self._waiter = self._waiter, None
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    async def next(self, after_seq: int
+                   ) -> Tuple[int, bytes, float, Optional[float]]:
+        """The newest JPEG newer than ``after_seq`` (waits for one);
+        EOFError once closed."""
+        while self.seq <= after_seq or self.data is None:
+            if self.closed:
+                raise EOFError("closed")
+            if self._waiter is None:
+                self._waiter = asyncio.get_running_loop().create_future()
+            await asyncio.shield(self._waiter)
+        return self.seq, self.data, self.time, self.pts
+
+
+class Engine:
+    """The running chain and what the server needs from it.
+
+    ``source`` is a launch fragment ending in raw video (see
+    ``source_fragment``); ``loop_file`` seeks back to the start at EOS.
+    """
+
+    def __init__(self, source: str, out_dir: str,
+                 palette_path: Optional[str] = None,
+                 map_path: Optional[str] = None,
+                 camera_path: Optional[str] = None,
+                 properties: Optional[Dict[str, Dict[str, Any]]] = None,
+                 loop_file: bool = True):
+        self.source = source
+        self.start_source, self.source_id = source, "start"
+        self.out_dir = os.path.abspath(out_dir)
+        os.makedirs(self.out_dir, exist_ok=True)
+        self.map_path = map_path
+        self.camera_path = camera_path
+        self.loop_file = loop_file
+        self.log_path = os.path.join(self.out_dir, "log.jsonl")
+        self.palette = (pal.load_palette(palette_path) if palette_path
+                        else pal.default_palette())
+        self.palette_path = palette_path
+        self.undo_stack: List[Tuple[pal.Palette, Optional[str]]] = []
+        self._live_palettes: List[str] = []
+        self._palette_serial = 0
+        self.landmarks = read_landmarks(map_path)
+        self.initial_properties = properties or {}
+        self.loop: Optional[asyncio.AbstractEventLoop] = None
+        self._handoffs: Dict[str, Handoff] = {}
+        self.pipe: Optional[Gst.Pipeline] = None
+        self.state = "stopped"
+        self.error: Optional[str] = None
+        # the newest overlay JPEG and false-colour classes (made only
+        # while someone watches them)
+        self.views = {"overlay": LatestJpeg(), "labels": LatestJpeg()}
+        self.frame_bgr: Optional[np.ndarray] = None
+        self.frame_index = 0
+        self.path: List[Tuple[float, float]] = []
+        self.listeners: List[Callable[[Dict[str, Any]], None]] = []
+        self._times: List[float] = []
+        self._bus_task: Optional[asyncio.Task] = None
+        # per-element processing time of recent frames, by pts (written
+        # by the chain's streaming thread, read by the results branch)
+        self._cost_start: Dict[str, float] = {}
+        self._costs: Dict[Any, Dict[str, float]] = {}
+        self._costs_lock = threading.Lock()
+
+    # -- the pipeline ------------------------------------------------------
+
+    def launch_line(self) -> str:
+        q = runner.quote
+        maps = f" map={q(self.map_path)}" if self.map_path else ""
+        camera = (f" calibration={q(self.camera_path)}"
+                  if self.camera_path else "")
+        palette = (f" palette={q(self.palette_path)}"
+                   if self.palette_path else "")
+        pose = (f" ! trilaterate name=trilaterate{maps} post-messages=false"
+                if self.map_path else "")
+        queue = "queue max-size-buffers=2 max-size-bytes=0 max-size-time=0"
+        sink = ("emit-signals=true max-buffers=1 drop=true sync="
+                + ("true" if self.is_file else "false"))
+        return (
+            f"{self.source} ! videoconvert ! video/x-raw,format=BGR ! "
+            f"labsegment name=labsegment{palette} ! "
+            "blobroundness name=blobroundness ! "
+            f"ipmrange name=ipmrange{camera}{maps}{pose} ! "
+            # every line on disk at once: the download is current
+            f"landmarklog location={q(self.log_path)} flush-every=1 ! "
+            "tee name=t "
+            # For a file both sinks keep the clock (it plays at its own
+            # rate, results and video together) and preroll (a frame
+            # sought to while paused is shown). A live source keeps its
+            # own pace: its frames go on as soon as they are done. A
+            # browser never holds the sinks: the server hands it the
+            # newest frame.
+            f"t. ! {queue} ! appsink name=results {sink} "
+            f"t. ! {queue} ! landmarkoverlay name=landmarkoverlay{maps} ! "
+            f"videoconvert ! jpegenc quality={JPEG_QUALITY} ! "
+            f"appsink name=jpeg {sink}")
+
+    def elements(self) -> Dict[str, Gst.Element]:
+        if self.pipe is None:
+            return {}
+        found = {}
+        for name in CHAIN:
+            element = self.pipe.get_by_name(name)
+            if element is not None:
+                found[name] = element
+        return found
+
+    def build(self) -> None:
+        pipeline.init()
+        try:
+            self.pipe = Gst.parse_launch(self.launch_line())
+        except Exception as err:    # GLib.Error: unknown element, syntax
+            raise ConsoleError(f"cannot build the pipeline: "
+                               f"{getattr(err, 'message', err)}") from None
+        # preroll too: a frame sought to while paused is shown
+        for sink, handler in (("results", self._on_results),
+                              ("jpeg", self._on_jpeg)):
+            element = self.pipe.get_by_name(sink)
+            element.connect("new-sample", handler, "pull-sample")
+            element.connect("new-preroll", handler, "pull-preroll")
+        for name, element in self.elements().items():
+            if name != "landmarkoverlay":   # after the tee, not the chain
+                self._probe_cost(name, element)
+        errors = []
+        for element_name, props in self.initial_properties.items():
+            for prop, value in props.items():
+                try:
+                    self._set_checked([(element_name, prop, value)])
+                except ConsoleError as err:
+                    errors.append(str(err))
+        if errors:
+            raise ConsoleError("project config: " + "; ".join(errors))
+
+    async def start(self) -> None:
+        """PLAYING (building the pipeline when needed)."""
+        if self.loop is None:
+            self.loop = asyncio.get_running_loop()
+            self._handoffs = {
+                "results": Handoff(self.loop, self._publish_results),
+                "overlay": Handoff(self.loop, self.views["overlay"].publish),
+                "labels": Handoff(self.loop, self.views["labels"].publish)}
+        if self.pipe is None:
+            self.build()
+        if self.state == "ended" or self.error is not None:
+            await self.stop()           # from the beginning
+        self.error = None
+        ret = self.pipe.set_state(Gst.State.PLAYING)
+        if ret == Gst.StateChangeReturn.FAILURE:
+            msg = self.pipe.get_bus().pop_filtered(Gst.MessageType.ERROR)
+            text = error_text(msg) if msg else "could not start"
+            self.pipe.set_state(Gst.State.NULL)
+            self.error = text
+            raise ConsoleError(f"the pipeline could not start: {text}")
+        self.state = "playing"
+        if self._bus_task is None:
+            self._bus_task = asyncio.ensure_future(self._watch_bus())
+
+    async def pause(self) -> None:
+        if self.pipe is None or self.state == "stopped":
+            raise ConsoleError("not running: start first")
+        self.pipe.set_state(Gst.State.PAUSED)
+        self.state = "paused"
+
+    async def stop(self) -> None:
+        """NULL: the source closes; start plays from the beginning.
+        A new pipeline with the same settings replaces the old one
+        (decodebin's delayed link from the launch line is not made a
+        second time)."""
+        if self.pipe is not None:
+            settings = self.current_properties()
+            self.pipe.set_state(Gst.State.NULL)
+            self.pipe = None
+            self.initial_properties = settings
+            self.build()
+        self.state = "stopped"
+
+    def sources(self) -> Dict[str, Dict[str, str]]:
+        return list_sources(self.out_dir, self.start_source)
+
+    async def set_source(self, source_id) -> None:
+        """Plays the source ``source_id`` (an id of ``sources()``) with
+        the same settings and palette."""
+        sources = self.sources()
+        if not isinstance(source_id, str) or source_id not in sources:
+            raise ConsoleError(f"unknown source {json.dumps(source_id)}; "
+                               f"one of {', '.join(sources)}")
+        settings = self.current_properties() if self.pipe else \
+            self.initial_properties
+        if self.pipe is not None:
+            self.pipe.set_state(Gst.State.NULL)
+            self.pipe = None
+        self.source, self.source_id = sources[source_id]["fragment"], \
+            source_id
+        self.initial_properties = settings
+        self.path.clear()
+        self.state = "stopped"
+        await self.start()
+
+    async def close(self) -> None:
+        if self.pipe is not None:
+            self.pipe.set_state(Gst.State.NULL)
+        self.state = "stopped"
+        if self._bus_task is not None:
+            self._bus_task.cancel()
+            self._bus_task = None
+        self.pipe = None
+
+    async def _watch_bus(self) -> None:
+        # polling keeps GLib's main loop out of the asyncio process
+        while True:
+            pipe = self.pipe
+            msg = None
+            if pipe is not None:
+                msg = pipe.get_bus().pop_filtered(
+                    Gst.MessageType.ERROR | Gst.MessageType.EOS)
+            if msg is None:
+                await asyncio.sleep(0.05)
+                continue
+            if msg.type == Gst.MessageType.ERROR:
+                error = error_text(msg)
+                await self.stop()
+                self.error = error
+                self._notify({"type": "error", "error": error})
+            elif self.loop_file and self.is_file:
+                self.path.clear()
+                pipe.seek_simple(Gst.Format.TIME, Gst.SeekFlags.FLUSH, 0)
+            else:
+                self.state = "ended"
+                self._notify({"type": "state", "state": self.state})
+
+    # -- streaming-thread callbacks -------------------------------------
+
+    def _on_jpeg(self, sink, pull: str) -> Gst.FlowReturn:
+        sample = sink.emit(pull)
+        if sample is None:
+            return Gst.FlowReturn.OK
+        buf = sample.get_buffer()
+        data = buf.extract_dup(0, buf.get_size())
+        now = time.time()
+        pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
+        if self.loop is not None:
+            self._handoffs["overlay"].put(data, now, pts)
+        return Gst.FlowReturn.OK
+
+    def _probe_cost(self, name: str, element: Gst.Element) -> None:
+        """Wall time from a buffer entering ``element`` to leaving it."""
+        def entering(pad, info):
+            self._cost_start[name] = time.perf_counter()
+            return Gst.PadProbeReturn.OK
+
+        def leaving(pad, info):
+            start = self._cost_start.pop(name, None)
+            if start is not None:
+                pts = info.get_buffer().pts
+                with self._costs_lock:
+                    costs = self._costs.setdefault(pts, {})
+                    costs[name] = 1000 * (time.perf_counter() - start)
+                    while len(self._costs) > 64:    # frames dropped later
+                        self._costs.pop(next(iter(self._costs)))
+            return Gst.PadProbeReturn.OK
+
+        element.get_static_pad("sink").add_probe(Gst.PadProbeType.BUFFER,
+                                                 entering)
+        element.get_static_pad("src").add_probe(Gst.PadProbeType.BUFFER,
+                                                leaving)
+
+    def _on_results(self, sink, pull: str) -> Gst.FlowReturn:
+        sample = sink.emit(pull)
+        if sample is None:
+            return Gst.FlowReturn.OK
+        now = time.time()
+        buf = sample.get_buffer()
+        caps = sample.get_caps().get_structure(0)
+        width, height = caps.get_value("width"), caps.get_value("height")
+        ok, info = buf.map(Gst.MapFlags.READ)
+        frame = None
+        if ok:
+            try:
+                stride = len(info.data) // height if height else 0
+                rows = np.frombuffer(info.data, np.uint8,
+                                     count=stride * height)
+                frame = rows.reshape(height, stride)[:, :width * 3] \
+                    .reshape(height, width, 3).copy()
+            finally:
+                buf.unmap(info)
+        result = self.frame_json(buf, width, height, now)
+        if self.views["labels"].readers > 0:
+            self._labels_jpeg(buf, now)
+        result["delay_ms"] = self._delay_ms(sample)
+        with self._costs_lock:
+            # get, not pop: a prerolled frame comes again as a sample
+            result["cost_ms"] = dict(self._costs.get(buf.pts, {}))
+        if self.loop is not None:
+            self._handoffs["results"].put(result, frame)
+        return Gst.FlowReturn.OK
+
+    def _delay_ms(self, sample) -> Optional[float]:
+        """How far behind its time on the pipeline clock the frame
+        reached the results (for a live source: from capture)."""
+        pipe, buf = self.pipe, sample.get_buffer()
+        clock = pipe.get_clock() if pipe is not None else None
+        if clock is None or buf.pts == Gst.CLOCK_TIME_NONE:
+            return None
+        running = sample.get_segment().to_running_time(Gst.Format.TIME,
+                                                       buf.pts)
+        now = clock.get_time() - pipe.get_base_time()
+        return (now - running) / 1e6
+
+    def _labels_jpeg(self, buf: Gst.Buffer, now: float) -> None:
+        """The label plane in class colours (black: no class) as JPEG."""
+        labels = meta.labels(buf)
+        if labels is None or self.loop is None:
+            return
+        lut = np.zeros((256, 3), np.uint8)
+        for c in labels.classes:
+            lut[c.label] = c.rgb[::-1]      # BGR for OpenCV
+        ok, jpg = cv2.imencode(".jpg", lut[labels.plane],
+                               [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+        if ok:
+            pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
+            self._handoffs["labels"].put(jpg.tobytes(), now, pts)
+
+    @staticmethod
+    def frame_json(buf: Gst.Buffer, width: int, height: int,
+                   now: float) -> Dict[str, Any]:
+        """The per-frame results a browser draws (docs/console.md)."""
+        labels = meta.labels(buf)
+        classes = []
+        threshold = None
+        if labels is not None:
+            threshold = labels.min_class_pixels
+            classes = [{"name": c.name, "marker": c.marker,
+                        "rgb": "#%02x%02x%02x" % c.rgb, "count": c.count,
+                        "active": c.active, "labelled": c.labelled}
+                       for c in labels.classes]
+        detections = []
+        for det in meta.detections(buf):
+            blob, rng, match = det.blob, det.range, det.match
+            entry: Dict[str, Any] = {
+                "id": det.id, "class": det.class_name,
+                "bbox": list(det.bbox), "kept": bool(blob.get("kept", True)),
+                "roundness": _plain(blob.get("roundness")),
+                "ellipse_fit": _plain(blob.get("ellipse-fit"))}
+            if "range" in rng:
+                entry["range_m"] = _plain(rng["range"])
+                entry["range"] = f"{rng['range']:.4f}"
+                entry["bearing_deg"] = _plain(math.degrees(rng["bearing"]))
+                entry["range_sigma_m"] = _plain(rng.get("range-sigma"))
+            if match:
+                entry["matched"] = bool(match.get("matched", False))
+                entry["landmark"] = match.get("landmark-id")
+            detections.append(entry)
+        lamps = {c["name"]: False for c in classes if c["marker"]}
+        for d in detections:
+            if d["kept"] and d["class"] in lamps:
+                lamps[d["class"]] = True
+        pose = meta.pose(buf)
+        pose_json = None
+        if pose is not None:
+            f = pose.fields
+            cov = f.get("covariance") or []
+            pose_json = {
+                "x": _plain(f.get("x")), "y": _plain(f.get("y")),
+                "heading_deg": _plain(math.degrees(f.get("heading", 0.0))),
+                "sigma_x": _plain(math.sqrt(max(cov[0], 0))) if cov else None,
+                "sigma_y": _plain(math.sqrt(max(cov[4], 0))) if cov else None,
+                "solver": f.get("solver"),
+                "landmarks": _plain(f.get("landmarks") or [])}
+        pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
+        return {"type": "frame", "time": now, "pts": pts, "width": width,
+                "height": height, "threshold": threshold,
+                "classes": classes, "lamps": lamps,
+                "detections": detections, "pose": pose_json}
+
+    # -- on the loop -----------------------------------------------------
+
+    def _publish_results(self, result: Dict[str, Any],
+                         frame: Optional[np.ndarray]) -> None:
+        if frame is not None:
+            self.frame_bgr = frame
+        self.frame_index += 1
+        result["frame"] = self.frame_index
+        self._times.append(result["time"])
+        del self._times[:-31]
+        span = self._times[-1] - self._times[0]
+        result["fps"] = (len(self._times) - 1) / span if span > 0 else None
+        pose = result.get("pose")
+        if pose is not None and pose["x"] is not None:
+            self.path.append((pose["x"], pose["y"]))
+            del self.path[:-PATH_LENGTH]
+        self._notify(result)
+
+    def _notify(self, message: Dict[str, Any]) -> None:
+        for listener in list(self.listeners):
+            listener(message)
+
+    # -- tuning ----------------------------------------------------------
+
+    # -- scrubbing a file --------------------------------------------
+
+    @property
+    def is_file(self) -> bool:
+        return self.source.startswith("filesrc")
+
+    def duration(self) -> Optional[float]:
+        """Seconds, for a file whose length is known."""
+        if not self.is_file or self.pipe is None:
+            return None
+        ok, value = self.pipe.query_duration(Gst.Format.TIME)
+        return value / 1e9 if ok and value > 0 else None
+
+    def seek(self, seconds) -> None:
+        if not self.is_file:
+            raise ConsoleError("seek: only a file can be scrubbed")
+        if self.state not in ("playing", "paused"):
+            raise ConsoleError("seek: start first")
+        if not _is_number(seconds) or not math.isfinite(seconds):
+            raise ConsoleError(f"seek: seconds must be a number, got "
+                               f"{json.dumps(seconds)}")
+        duration = self.duration()
+        if duration is None:
+            raise ConsoleError("seek: the file's duration is not known")
+        if not 0 <= seconds <= duration:
+            raise ConsoleError(f"seek: {seconds!r} is outside "
+                               f"0..{duration:.3f} s")
+        self.path.clear()
+        if not self.pipe.seek_simple(
+                Gst.Format.TIME,
+                Gst.SeekFlags.FLUSH | Gst.SeekFlags.ACCURATE,
+                int(seconds * Gst.SECOND)):
+            raise ConsoleError("seek: refused by the pipeline")
+
+    def tunables(self) -> Dict[str, List[Dict[str, Any]]]:
+        out = {}
+        for name, element in self.elements().items():
+            out[name] = [property_spec(element, p) for p in TUNABLE[name]
+                         if element.find_property(p) is not None]
+        return out
+
+    def _set_checked(self, changes: Sequence[Tuple[str, str, Any]]
+                     ) -> List[Dict[str, Any]]:
+        elements = self.elements()
+        checked = []
+        for element_name, prop, value in changes:
+            if element_name not in TUNABLE:
+                raise ConsoleError(f"unknown element {element_name!r} "
+                                   f"(tunable: {', '.join(TUNABLE)})")
+            if element_name not in elements:
+                raise ConsoleError(f"{element_name} is not in this chain "
+                                   f"(trilaterate needs --map)")
+            if prop not in TUNABLE[element_name]:
+                raise ConsoleError(
+                    f"{element_name} has no tunable property {prop!r} "
+                    f"(tunable: {', '.join(TUNABLE[element_name])})")
+            element = elements[element_name]
+            spec = property_spec(element, prop)
+            checked.append((element, spec, check_value(element_name, spec,
+                                                        value)))
+        # every value checked before any is set: all or nothing
+        for element, spec, value in checked:
+            element.set_property(spec["name"], value)
+        return [property_spec(element, spec["name"])
+                for element, spec, _ in checked]
+
+    def tune(self, changes: Sequence[Tuple[str, str, Any]]
+             ) -> List[Dict[str, Any]]:
+        if self.pipe is None:
+            raise ConsoleError("no pipeline: start first")
+        return self._set_checked(changes)
+
+    def current_properties(self) -> Dict[str, Dict[str, Any]]:
+        return {name: {s["name"]: s["value"] for s in specs}
+                for name, specs in self.tunables().items()}
+
+    def save_config(self) -> str:
+        """project.json in the output folder: the files and the tuned
+        properties (``gst-landmark run`` reads the files; ``console
+        --config`` reads both)."""
+        config: Dict[str, Any] = {}
+        palette_file = self.save_palette()
+        config["palette"] = os.path.relpath(palette_file, self.out_dir)
+        if self.map_path:
+            config["map"] = os.path.abspath(self.map_path)
+        if self.camera_path:
+            config["camera"] = os.path.abspath(self.camera_path)
+        config["properties"] = self.current_properties()
+        path = os.path.join(self.out_dir, "project.json")
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump(config, f, indent=2)
+            f.write("\n")
+        return path
+
+    # -- teaching ------------------------------------------------------
+
+    def palette_json(self) -> Dict[str, Any]:
+        return pal.palette_to_json(self.palette)
+
+    def _apply_palette(self, palette: pal.Palette) -> None:
+        """Writes ``palette`` to a new file and points labsegment at it
+        (a new name each time: the element reads the file on the next
+        frame)."""
+        self._palette_serial += 1
+        path = os.path.join(self.out_dir,
+                            f"palette-live-{self._palette_serial}.json")
+        pal.save_palette(palette, path)
+        labsegment = self.elements().get("labsegment")
+        if labsegment is not None:
+            labsegment.set_property("palette", path)
+        self.palette, self.palette_path = palette, path
+        self._live_palettes.append(path)
+        # the element may still be reading the previous file
+        while len(self._live_palettes) > 3:
+            try:
+                os.remove(self._live_palettes.pop(0))
+            except OSError:
+                pass
+
+    def teach(self, name: str, x, y, w, h,
+              marker: Optional[bool] = None) -> Dict[str, Any]:
+        """Learns class ``name`` from the current frame's pixels in the
+        box and applies the palette; returns the class's new entry."""
+        for label, v in (("x", x), ("y", y), ("w", w), ("h", h)):
+            if not isinstance(v, int) or isinstance(v, bool):
+                raise ConsoleError(f"teach: {label} must be an integer "
+                                   f"(frame pixels), got {json.dumps(v)}")
+        if marker is not None and not isinstance(marker, bool):
+            raise ConsoleError("teach: marker must be true or false")
+        if not isinstance(name, str):
+            raise ConsoleError("teach: class must be a string")
+        frame = self.frame_bgr
+        if frame is None:
+            raise ConsoleError("teach: no frame yet")
+        try:
+            learned = pal.learn_from_rects(frame, [(name, x, y, w, h)])
+        except pal.PaletteError as err:
+            raise ConsoleError(f"teach: {err}") from None
+        lab = learned.classes[0].lab
+        classes = list(self.palette.classes)
+        names = [c.name for c in classes]
+        if name in names:
+            i = names.index(name)
+            keep = classes[i].marker if marker is None else marker
+            classes[i] = pal.PaletteClass(name, lab, keep)
+        else:
+            classes.append(pal.PaletteClass(
+                name, lab, True if marker is None else marker))
+        try:
+            new = pal.parse_palette(
+                pal.palette_to_json(pal.Palette(classes)), "teach")
+        except pal.PaletteError as err:
+            raise ConsoleError(str(err)) from None
+        self.undo_stack.append((self.palette, self.palette_path))
+        del self.undo_stack[:-UNDO_DEPTH]
+        self._apply_palette(new)
+        entry = next(c for c in self.palette_json()["classes"]
+                     if c["name"] == name)
+        return entry
+
+    def undo(self) -> None:
+        if not self.undo_stack:
+            raise ConsoleError("nothing to undo")
+        previous, _ = self.undo_stack.pop()
+        self._apply_palette(previous)
+
+    def save_palette(self) -> str:
+        path = os.path.join(self.out_dir, "palette.json")
+        pal.save_palette(self.palette, path,
+                         description="Saved by gst-landmark console.")
+        return path

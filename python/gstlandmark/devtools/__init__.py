@@ -1,0 +1,4 @@
+"""Developer tools: benchmarks, regression goldens, soak and valgrind runs,
+the accuracy sweep. They may import the library and the commands; neither
+imports them (``commands.cli`` only lists the ones that are sub-commands,
+by name)."""

@@ -273,14 +273,29 @@ private:
   guint generation_ = 0;
 };
 
-/* Defines an element of this pattern (after its TypeName##Private struct,
- * which holds `landmark::SharedSettings<Settings> settings`): the instance
- * struct with its priv, the GType (parent ParentName, PARENT_TYPE) with a
- * debug category named like the element (declare type_name##_debug with
+/* What an element of this pattern owns: the user's settings and what the
+ * streaming thread keeps. */
+template <typename Settings, typename State> struct ElementPrivate {
+  SharedSettings<Settings> settings;
+  State state;
+};
+
+/* Defines an element of this pattern, whose private part is
+ * landmark::ElementPrivate<Settings, State>: the instance struct with its
+ * priv, the GType (parent ParentName, PARENT_TYPE) with a debug category
+ * named like the element (declare type_name##_debug with
  * GST_DEBUG_CATEGORY_STATIC first), the element's registration,
  * type_name##_finalize (deleting priv) and type_name##_settings. */
 #define LANDMARK_DEFINE_ELEMENT(TypeName, type_name, ParentName, PARENT_TYPE, \
     element, description)                                                     \
+  using TypeName##Private = landmark::ElementPrivate<Settings, State>;         \
+  LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (TypeName, type_name, ParentName,      \
+      PARENT_TYPE, element, description)
+
+/* The same for an element that declares its own TypeName##Private struct
+ * (holding `landmark::SharedSettings<Settings> settings`). */
+#define LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE(TypeName, type_name, ParentName,  \
+    PARENT_TYPE, element, description)                                        \
   struct _##TypeName                                                          \
   {                                                                           \
     ParentName parent;                                                        \

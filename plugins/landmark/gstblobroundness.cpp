@@ -134,11 +134,6 @@ struct State {
 
 }  // namespace
 
-struct GstBlobRoundnessPrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT (GstBlobRoundness, gst_blob_roundness, GstBaseTransform,

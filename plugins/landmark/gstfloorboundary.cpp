@@ -120,11 +120,6 @@ struct State {
 
 }  // namespace
 
-struct GstFloorBoundaryPrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT (GstFloorBoundary, gst_floor_boundary, GstBaseTransform,

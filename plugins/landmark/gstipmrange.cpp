@@ -125,11 +125,6 @@ struct State {
 
 }  // namespace
 
-struct GstIpmRangePrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT (GstIpmRange, gst_ipm_range, GstBaseTransform,

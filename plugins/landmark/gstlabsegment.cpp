@@ -119,11 +119,6 @@ struct State {
 
 }  // namespace
 
-struct GstLabSegmentPrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT (GstLabSegment, gst_lab_segment, GstVideoFilter,

@@ -98,11 +98,6 @@ struct State {
 
 }  // namespace
 
-struct GstLandmarkSlamPrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT (GstLandmarkSlam, gst_landmark_slam, GstBaseTransform,

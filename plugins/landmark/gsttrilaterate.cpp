@@ -121,11 +121,6 @@ struct State {
 
 }  // namespace
 
-struct GstTrilateratePrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT (GstTrilaterate, gst_trilaterate, GstBaseTransform,

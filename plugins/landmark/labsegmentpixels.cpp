@@ -56,9 +56,10 @@ count_values_avx2 (const guint8 * plane, gsize end, const guint8 * values,
 #endif
 
 /* counts[v] = pixels of the plane with label v, for v in 1..n and
- * kPending (other entries are left 0). One pass per value: compares of 16
- * labels at a time beat a scalar histogram on any palette up to 16 classes;
- * larger palettes use four interleaved scalar histograms. */
+ * kPending (other entries are left 0). Compares of 32 labels at a time
+ * (AVX2, up to 8 values per pass) or 16 (SSE2, one pass per value) beat a
+ * scalar histogram on any palette up to 16 classes; larger palettes, and
+ * LANDMARK_SIMD=none, use four interleaved scalar histograms. */
 void
 count_labels (const guint8 * plane, gsize size, guint n, SimdLevel simd,
     guint32 counts[256])

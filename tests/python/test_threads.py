@@ -159,6 +159,33 @@ def thread_count():
     return n
 
 
+def workers_after_one_frame(element, width, height):
+    """Worker threads while element has just processed one BGRx frame."""
+    Gst = pipeline.Gst
+    caps = F.caps_string("BGRx", width, height)
+    pipe = Gst.parse_launch(
+        f"appsrc name=src format=time caps={caps} ! {element} ! "
+        "appsink name=sink sync=false")
+    src, sink = pipe.get_by_name("src"), pipe.get_by_name("sink")
+    pipe.set_state(Gst.State.PLAYING)
+    try:
+        src.emit("push-buffer",
+                 Gst.Buffer.new_wrapped(bytes(width * 4 * height)))
+        assert sink.emit("try-pull-sample", 10 * Gst.SECOND) is not None
+        return thread_count()
+    finally:
+        pipe.set_state(Gst.State.NULL)
+
+
+def test_default_uses_every_core_from_1080p(gst):
+    cores = min(len(os.sched_getaffinity(0)), 64)
+    assert workers_after_one_frame("labsegment", 1920, 1080) == cores - 1
+    assert workers_after_one_frame("labsegment", 1920, 1078) == 0
+    assert workers_after_one_frame(
+        "labsegment min-class-pixels=0 ! blobroundness n-threads=0",
+        1920, 1080) == 2 * (cores - 1)
+
+
 def test_workers_follow_the_property_while_playing(gst):
     """The pool is resized at the next frame after n-threads changes, and
     0 (auto) starts no worker below 1920x1080."""

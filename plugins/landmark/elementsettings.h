@@ -273,6 +273,16 @@ private:
   guint generation_ = 0;
 };
 
+/* Defines get_type () of a GEnum registered as name, from its
+ * {value, description, nick} entries. */
+#define LANDMARK_DEFINE_ENUM_TYPE(get_type, name, ...)                       \
+  GType get_type (void)                                                       \
+  {                                                                           \
+    static const GEnumValue values[] = { __VA_ARGS__, {0, nullptr, nullptr} };\
+    static const GType type = g_enum_register_static (name, values);          \
+    return type;                                                              \
+  }
+
 /* What an element of this pattern owns: the user's settings and what the
  * streaming thread keeps. */
 template <typename Settings, typename State> struct ElementPrivate {
@@ -291,6 +301,18 @@ template <typename Settings, typename State> struct ElementPrivate {
   using TypeName##Private = landmark::ElementPrivate<Settings, State>;         \
   LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (TypeName, type_name, ParentName,      \
       PARENT_TYPE, element, description)
+
+/* The same, with the instance init of an element that works in place and
+ * never drops a frame (init_metadata_element). */
+#define LANDMARK_DEFINE_IN_PLACE_ELEMENT(TypeName, type_name, ParentName,    \
+    PARENT_TYPE, element, description)                                        \
+  LANDMARK_DEFINE_ELEMENT (TypeName, type_name, ParentName, PARENT_TYPE,      \
+      element, description);                                                  \
+  static void type_name##_init (TypeName * self)                              \
+  {                                                                           \
+    self->priv = new TypeName##Private ();                                    \
+    landmark::init_metadata_element (GST_BASE_TRANSFORM (self));              \
+  }
 
 /* The same for an element that declares its own TypeName##Private struct
  * (holding `landmark::SharedSettings<Settings> settings`). */

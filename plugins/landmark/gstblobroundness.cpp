@@ -136,27 +136,19 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstBlobRoundness, gst_blob_roundness, GstBaseTransform,
-    GST_TYPE_BASE_TRANSFORM, blobroundness,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstBlobRoundness, gst_blob_roundness,
+    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, blobroundness,
     "Landmark blob measurement");
 
-GType
-gst_blob_roundness_shape_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_blob_roundness_shape_get_type,
+    "GstBlobRoundnessShape",
     {GST_BLOB_ROUNDNESS_SHAPE_CIRCLE,
         "Roundness of the image blob at least min-roundness (the seed's test)",
         "circle"},
     {GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE,
           "The blob matches its moment ellipse (ellipse-fit at least "
           "min-ellipse-fit): a disc seen at a slant",
-        "ellipse"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstBlobRoundnessShape", values);
-  return type;
-}
+        "ellipse"});
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -221,13 +213,6 @@ blob_roundness_properties ()
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_blob_roundness_init (GstBlobRoundness * self)
-{
-  self->priv = new GstBlobRoundnessPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 
 /* ---- states and caps ------------------------------------------------ */
@@ -504,22 +489,6 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
   return GST_FLOW_OK;
 }
 
-static GstFlowReturn
-gst_blob_roundness_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
-{
-  auto self = GST_BLOB_ROUNDNESS (trans);
-  State & st = self->priv->state;
-
-  gst_blob_roundness_sync_settings (self);
-
-  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
-      buf, &st.warned_no_meta);
-  if (!labels)
-    return GST_FLOW_OK;         /* buffers pass unmeasured */
-  return landmark::run_frame (GST_ELEMENT (self), "Blob measurement failed.",
-      [&] { return gst_blob_roundness_process (self, buf, labels); });
-}
-
 static void
 gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
 {
@@ -534,8 +503,8 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
-  trans_class->transform_ip =
-      GST_DEBUG_FUNCPTR (gst_blob_roundness_transform_ip);
+  trans_class->transform_ip = landmark_measure_labels_ip<GstBlobRoundness,
+      gst_blob_roundness_sync_settings, gst_blob_roundness_process>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_BLOB_ROUNDNESS_SHAPE,
       (GstPluginAPIFlags) 0);

@@ -121,39 +121,23 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstLabSegment, gst_lab_segment, GstVideoFilter,
-    GST_TYPE_VIDEO_FILTER, labsegment,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstLabSegment, gst_lab_segment,
+    GstVideoFilter, GST_TYPE_VIDEO_FILTER, labsegment,
     "CIE L*a*b* colour segmentation");
 
-GType
-gst_lab_segment_output_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_lab_segment_output_get_type,
+    "GstLabSegmentOutput",
     {GST_LAB_SEGMENT_OUTPUT_PASSTHROUGH,
         "Video unchanged; labels as metadata only", "passthrough"},
     {GST_LAB_SEGMENT_OUTPUT_LABELS,
-        "False-colour view of the class labels", "labels"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstLabSegmentOutput", values);
-  return type;
-}
+        "False-colour view of the class labels", "labels"});
 
-GType
-gst_lab_segment_rare_classes_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_lab_segment_rare_classes_get_type,
+    "GstLabSegmentRareClasses",
     {GST_LAB_SEGMENT_RARE_NEAREST,
         "The nearest class that reached the threshold (the seed's rule)",
         "nearest"},
-    {GST_LAB_SEGMENT_RARE_UNLABELLED, "No class (label 0)", "unlabelled"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstLabSegmentRareClasses", values);
-  return type;
-}
+    {GST_LAB_SEGMENT_RARE_UNLABELLED, "No class (label 0)", "unlabelled"});
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -273,13 +257,6 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_lab_segment_init (GstLabSegment * self)
-{
-  self->priv = new GstLabSegmentPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 /* ---- states and caps ------------------------------------------------ */
 

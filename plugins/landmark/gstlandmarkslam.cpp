@@ -100,8 +100,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstLandmarkSlam, gst_landmark_slam, GstBaseTransform,
-    GST_TYPE_BASE_TRANSFORM, landmarkslam,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstLandmarkSlam, gst_landmark_slam,
+    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, landmarkslam,
     "Landmark SLAM: robot pose and landmark map together");
 
 /* ---- configuration -------------------------------------------------- */
@@ -201,13 +201,6 @@ gst_landmark_slam_sync_settings (GstLandmarkSlam * self)
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_landmark_slam_init (GstLandmarkSlam * self)
-{
-  self->priv = new GstLandmarkSlamPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 /* ---- states and events ---------------------------------------------- */
 

@@ -71,7 +71,7 @@
 #include "landmarkmap.h"
 #include "landmarkmeta.h"
 #include "posemeta.h"
-#include "posesolver.h"
+#include "posefilter.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_trilaterate_debug);
 #define GST_CAT_DEFAULT gst_trilaterate_debug
@@ -123,24 +123,16 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstTrilaterate, gst_trilaterate, GstBaseTransform,
-    GST_TYPE_BASE_TRANSFORM, trilaterate,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstTrilaterate, gst_trilaterate,
+    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, trilaterate,
     "Robot pose from landmark ranges and bearings");
 
-GType
-gst_trilaterate_filter_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_trilaterate_filter_get_type,
+    "GstTrilaterateFilter",
     {GST_TRILATERATE_FILTER_NONE, "Each frame's own solution", "none"},
     {GST_TRILATERATE_FILTER_EKF, "Constant-velocity extended Kalman filter "
           "over the ranges and bearings; bridges frames with too few "
-          "landmarks", "ekf"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstTrilaterateFilter", values);
-  return type;
-}
+          "landmarks", "ekf"});
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -199,13 +191,6 @@ trilaterate_properties ()
 }
 
 /* ---- instance and states -------------------------------------------- */
-
-static void
-gst_trilaterate_init (GstTrilaterate * self)
-{
-  self->priv = new GstTrilateratePrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 static GstStateChangeReturn
 gst_trilaterate_change_state (GstElement * element, GstStateChange transition)

@@ -98,6 +98,19 @@ class MapMatch:
     missed: List[int] = field(default_factory=list)
 
 
+def nearest_first(candidates: Sequence[Tuple[float, int, int]]
+                  ) -> List[Tuple[int, int]]:
+    """One-to-one pairs ``(i, j)`` from ``(distance, i, j)`` candidates,
+    nearest first."""
+    used_i, used_j, out = set(), set(), []
+    for _, i, j in sorted(candidates):
+        if i not in used_i and j not in used_j:
+            used_i.add(i)
+            used_j.add(j)
+            out.append((i, j))
+    return out
+
+
 def _pair(est_xy, est_cls, true_xy, true_cls, gate):
     """Nearest-first one-to-one pairs of the same class within gate, and
     the unpaired estimates split into duplicated and spurious."""
@@ -108,13 +121,8 @@ def _pair(est_xy, est_cls, true_xy, true_cls, gate):
                 dist = float(np.hypot(*(p - q)))
                 if dist <= gate:
                     cand.append((dist, i, j))
-    cand.sort()
-    used_e, used_t, pairs = set(), set(), []
-    for _, i, j in cand:
-        if i not in used_e and j not in used_t:
-            used_e.add(i)
-            used_t.add(j)
-            pairs.append((i, j))
+    pairs = nearest_first(cand)
+    used_e = {i for i, _ in pairs}
     near = {i for _, i, _ in cand}
     dup = [i for i in range(len(est_xy)) if i not in used_e and i in near]
     spur = [i for i in range(len(est_xy)) if i not in used_e and i not in near]

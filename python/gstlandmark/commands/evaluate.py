@@ -52,7 +52,8 @@ import numpy as np
 from ..landmarklog import LogError, read_jsonl
 from ..landmarkmap import read_map
 from ..trajectory import (CHI2_95, Rigid2D, align_rigid, associate_map,
-                          nees, nees_summary, pose_transform, wrap_angle)
+                          nearest_first, nees, nees_summary, pose_transform,
+                          wrap_angle)
 
 DEFAULT_BANDS = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0)
 
@@ -155,14 +156,7 @@ def match_frame(dets: Sequence[Dict[str, Any]],
             dist = math.hypot(du - t["u"], dv - t["v"])
             if dist <= (gate(t) if gate else match_px):
                 pairs.append((dist, i, j))
-    pairs.sort()
-    used_d, used_t, out = set(), set(), []
-    for _, i, j in pairs:
-        if i not in used_d and j not in used_t:
-            used_d.add(i)
-            used_t.add(j)
-            out.append((i, j))
-    return out
+    return nearest_first(pairs)
 
 
 def required(mark: Dict[str, Any], min_pixels: float,

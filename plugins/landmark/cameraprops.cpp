@@ -44,19 +44,20 @@ camera_properties ()
       .string ("calibration", "Calibration file",
           "Camera file (OpenCV FileStorage YAML or XML, as gst-landmark "
           "calibrate writes it): camera_matrix and distortion_coefficients "
-          "(model pinhole), or model: seed with its four lengths (model "
-          "seed); what the file holds (also camera_height, tilt_deg, "
-          "roll_deg) overrides the properties", &CameraSettings::calibration)
+          "(model pinhole), or model: angle-linear with its four lengths "
+          "(model angle-linear); what the file holds (also camera_height, "
+          "tilt_deg, roll_deg) overrides the properties",
+          &CameraSettings::calibration)
       .number ("blind-distance", "Blind distance",
-          "model=seed: metres along the floor from the camera's floor point "
-          "to the first visible floor point (b)",
+          "model=angle-linear: metres along the floor from the camera's "
+          "floor point to the first visible floor point (b)",
           &CameraSettings::blind_distance, 0.0, 1000.0)
       .number ("view-depth", "View depth",
-          "model=seed: metres of floor from the first visible point to the "
-          "point seen at the image centre line (d)",
+          "model=angle-linear: metres of floor from the first visible "
+          "point to the point seen at the image centre line (d)",
           &CameraSettings::view_depth, 0.0, 1000.0)
       .number ("half-width", "Half width",
-          "model=seed: half-width of the visible floor at distance b + d, "
-          "metres (w)", &CameraSettings::half_width, 0.0, 1000.0);
+          "model=angle-linear: half-width of the visible floor at distance "
+          "b + d, metres (w)", &CameraSettings::half_width, 0.0, 1000.0);
   return table;
 }

@@ -16,10 +16,38 @@
 #include <functional>
 #include <mutex>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 namespace landmark {
+
+/* The GParamSpec and GValue access of the number types properties have. */
+template <typename T>
+GParamSpec *
+number_param_spec (const char *name, const char *nick, const char *blurb,
+    T min, T max, T def, GParamFlags f)
+{
+  if constexpr (std::is_same<T, gdouble>::value)
+    return g_param_spec_double (name, nick, blurb, min, max, def, f);
+  else if constexpr (std::is_same<T, gint>::value)
+    return g_param_spec_int (name, nick, blurb, min, max, def, f);
+  else if constexpr (std::is_same<T, guint>::value)
+    return g_param_spec_uint (name, nick, blurb, min, max, def, f);
+  else {
+    static_assert (std::is_same<T, guint64>::value, "not a number property");
+    return g_param_spec_uint64 (name, nick, blurb, min, max, def, f);
+  }
+}
+
+inline void value_get_number (const GValue *v, gdouble *x) { *x = g_value_get_double (v); }
+inline void value_get_number (const GValue *v, gint *x) { *x = g_value_get_int (v); }
+inline void value_get_number (const GValue *v, guint *x) { *x = g_value_get_uint (v); }
+inline void value_get_number (const GValue *v, guint64 *x) { *x = g_value_get_uint64 (v); }
+inline void value_set_number (GValue *v, gdouble x) { g_value_set_double (v, x); }
+inline void value_set_number (GValue *v, gint x) { g_value_set_int (v, x); }
+inline void value_set_number (GValue *v, guint x) { g_value_set_uint (v, x); }
+inline void value_set_number (GValue *v, guint64 x) { g_value_set_uint64 (v, x); }
 
 /* The properties of one Settings struct, installed with ids 1, 2, ... in
  * the order they are added. Built once, in class_init. */
@@ -47,37 +75,19 @@ public:
         [=](const Settings &s, GValue *v) { g_value_set_boolean (v, s.*field); });
   }
 
+  /* A number: gint, guint, guint64 or gdouble, as the field is. */
+  template <typename T>
   PropertyTable &number (const char *name, const char *nick,
-      const char *blurb, gdouble Settings::*field, gdouble min, gdouble max)
+      const char *blurb, T Settings::*field,
+      typename std::common_type<T>::type min,
+      typename std::common_type<T>::type max)
   {
-    const gdouble def = Settings ().*field;
+    const T def = Settings ().*field;
     return add ([=](GParamFlags f) {
-          return g_param_spec_double (name, nick, blurb, min, max, def, f);
+          return number_param_spec (name, nick, blurb, min, max, def, f);
         },
-        [=](Settings &s, const GValue *v) { s.*field = g_value_get_double (v); },
-        [=](const Settings &s, GValue *v) { g_value_set_double (v, s.*field); });
-  }
-
-  PropertyTable &number (const char *name, const char *nick,
-      const char *blurb, guint Settings::*field, guint min, guint max)
-  {
-    const guint def = Settings ().*field;
-    return add ([=](GParamFlags f) {
-          return g_param_spec_uint (name, nick, blurb, min, max, def, f);
-        },
-        [=](Settings &s, const GValue *v) { s.*field = g_value_get_uint (v); },
-        [=](const Settings &s, GValue *v) { g_value_set_uint (v, s.*field); });
-  }
-
-  PropertyTable &number (const char *name, const char *nick,
-      const char *blurb, gint Settings::*field, gint min, gint max)
-  {
-    const gint def = Settings ().*field;
-    return add ([=](GParamFlags f) {
-          return g_param_spec_int (name, nick, blurb, min, max, def, f);
-        },
-        [=](Settings &s, const GValue *v) { s.*field = g_value_get_int (v); },
-        [=](const Settings &s, GValue *v) { g_value_set_int (v, s.*field); });
+        [=](Settings &s, const GValue *v) { value_get_number (v, &(s.*field)); },
+        [=](const Settings &s, GValue *v) { value_set_number (v, s.*field); });
   }
 
   /* A string; unset (NULL) and "" are both the empty string. */
@@ -114,6 +124,18 @@ public:
     return *this;
   }
 
+  /* A string whose empty value means "off" (e.g. a topic not sent): it
+   * reads back as "", where an unset string reads back as NULL. */
+  PropertyTable &string_or_empty (const char *name, const char *nick,
+      const char *blurb, std::string Settings::*field)
+  {
+    string (name, nick, blurb, field);
+    entries_.back ().get = [=](const Settings &s, GValue *v) {
+      g_value_set_string (v, (s.*field).c_str ());
+    };
+    return *this;
+  }
+
   template <typename Enum>
   PropertyTable &enumeration (const char *name, const char *nick,
       const char *blurb, Enum Settings::*field, GType type)
@@ -139,6 +161,16 @@ public:
       return spec ((GParamFlags) ((f & ~(GST_PARAM_MUTABLE_PLAYING |
                       GST_PARAM_MUTABLE_PAUSED | GST_PARAM_MUTABLE_READY)) |
               mutability));
+    };
+    return *this;
+  }
+
+  /* The last property added can be set but not read (e.g. a password). */
+  PropertyTable &write_only ()
+  {
+    Spec spec = std::move (entries_.back ().spec);
+    entries_.back ().spec = [spec](GParamFlags f) {
+      return spec ((GParamFlags) (f & ~G_PARAM_READABLE));
     };
     return *this;
   }
@@ -241,14 +273,51 @@ private:
   guint generation_ = 0;
 };
 
-/* Defines an element of this pattern (after its TypeName##Private struct,
- * which holds `landmark::SharedSettings<Settings> settings`): the instance
- * struct with its priv, the GType (parent ParentName, PARENT_TYPE) with a
- * debug category named like the element (declare type_name##_debug with
+/* Defines get_type () of a GEnum registered as name, from its
+ * {value, description, nick} entries. */
+#define LANDMARK_DEFINE_ENUM_TYPE(get_type, name, ...)                       \
+  GType get_type (void)                                                       \
+  {                                                                           \
+    static const GEnumValue values[] = { __VA_ARGS__, {0, nullptr, nullptr} };\
+    static const GType type = g_enum_register_static (name, values);          \
+    return type;                                                              \
+  }
+
+/* What an element of this pattern owns: the user's settings and what the
+ * streaming thread keeps. */
+template <typename Settings, typename State> struct ElementPrivate {
+  SharedSettings<Settings> settings;
+  State state;
+};
+
+/* Defines an element of this pattern, whose private part is
+ * landmark::ElementPrivate<Settings, State>: the instance struct with its
+ * priv, the GType (parent ParentName, PARENT_TYPE) with a debug category
+ * named like the element (declare type_name##_debug with
  * GST_DEBUG_CATEGORY_STATIC first), the element's registration,
  * type_name##_finalize (deleting priv) and type_name##_settings. */
 #define LANDMARK_DEFINE_ELEMENT(TypeName, type_name, ParentName, PARENT_TYPE, \
     element, description)                                                     \
+  using TypeName##Private = landmark::ElementPrivate<Settings, State>;         \
+  LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (TypeName, type_name, ParentName,      \
+      PARENT_TYPE, element, description)
+
+/* The same, with the instance init of an element that works in place and
+ * never drops a frame (init_metadata_element). */
+#define LANDMARK_DEFINE_IN_PLACE_ELEMENT(TypeName, type_name, ParentName,    \
+    PARENT_TYPE, element, description)                                        \
+  LANDMARK_DEFINE_ELEMENT (TypeName, type_name, ParentName, PARENT_TYPE,      \
+      element, description);                                                  \
+  static void type_name##_init (TypeName * self)                              \
+  {                                                                           \
+    self->priv = new TypeName##Private ();                                    \
+    landmark::init_metadata_element (GST_BASE_TRANSFORM (self));              \
+  }
+
+/* The same for an element that declares its own TypeName##Private struct
+ * (holding `landmark::SharedSettings<Settings> settings`). */
+#define LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE(TypeName, type_name, ParentName,  \
+    PARENT_TYPE, element, description)                                        \
   struct _##TypeName                                                          \
   {                                                                           \
     ParentName parent;                                                        \

@@ -89,11 +89,6 @@ struct State {
 
 }  // namespace
 
-struct GstBirdsEyePrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT (GstBirdsEye, gst_birds_eye, GstVideoFilter,

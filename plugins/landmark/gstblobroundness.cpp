@@ -101,6 +101,7 @@ struct Settings {
   gdouble min_ellipse_fit = -1.0;
   GstBlobRoundnessShape shape = GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE;
   gboolean keep_rejected = FALSE;
+  guint n_threads = 0;  /* 0: landmark::frame_threads decides */
 };
 
 /* Settings checked and parsed: what the streaming thread works with. */
@@ -119,6 +120,8 @@ struct State {
   std::vector<guint> wanted_labels;
 
   landmark::BlobAnalyzer analyzer;
+  /* threads of the run search, started on the first frame that needs them */
+  landmark::WorkerPool workers;
   landmark::BlobShape shape;
   std::vector<uint8_t> morph_in, morph_out;
   cv::Mat kernel;
@@ -131,34 +134,21 @@ struct State {
 
 }  // namespace
 
-struct GstBlobRoundnessPrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstBlobRoundness, gst_blob_roundness, GstBaseTransform,
-    GST_TYPE_BASE_TRANSFORM, blobroundness,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstBlobRoundness, gst_blob_roundness,
+    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, blobroundness,
     "Landmark blob measurement");
 
-GType
-gst_blob_roundness_shape_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_blob_roundness_shape_get_type,
+    "GstBlobRoundnessShape",
     {GST_BLOB_ROUNDNESS_SHAPE_CIRCLE,
         "Roundness of the image blob at least min-roundness (the seed's test)",
         "circle"},
     {GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE,
           "The blob matches its moment ellipse (ellipse-fit at least "
           "min-ellipse-fit): a disc seen at a slant",
-        "ellipse"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstBlobRoundnessShape", values);
-  return type;
-}
+        "ellipse"});
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -213,18 +203,16 @@ blob_roundness_properties ()
           GST_TYPE_BLOB_ROUNDNESS_SHAPE)
       .boolean ("keep-rejected", "Keep rejected",
           "Also attach rejected blobs (kept=false, with reject-reason), for "
-          "tuning", &Settings::keep_rejected);
+          "tuning", &Settings::keep_rejected)
+      .number ("n-threads", "Threads",
+          "Threads that search the label plane for runs in horizontal "
+          "slices, with results identical to one thread (0: every core for "
+          "planes of 1920x1080 pixels and more, one below)",
+          &Settings::n_threads, 0u, landmark::WorkerPool::kMaxThreads);
   return table;
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_blob_roundness_init (GstBlobRoundness * self)
-{
-  self->priv = new GstBlobRoundnessPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 
 /* ---- states and caps ------------------------------------------------ */
@@ -257,6 +245,7 @@ gst_blob_roundness_stop (GstBaseTransform * trans)
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
   st.classes.reset ();
+  st.workers.resize (1);
   return TRUE;
 }
 
@@ -446,7 +435,8 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
 
   landmark::BlobAnalyzer & a = st.analyzer;
   a.begin (w, h);
-  a.add_label_runs (map.data, stride, st.slot_of);
+  st.workers.resize (landmark::frame_threads (cfg.n_threads, (gsize) w * h));
+  a.add_label_runs (map.data, stride, st.slot_of, st.workers);
   gst_buffer_unmap (plane, &map);
   gst_buffer_unref (plane);
   if (cfg.morphology > 0)
@@ -499,22 +489,6 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
   return GST_FLOW_OK;
 }
 
-static GstFlowReturn
-gst_blob_roundness_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
-{
-  auto self = GST_BLOB_ROUNDNESS (trans);
-  State & st = self->priv->state;
-
-  gst_blob_roundness_sync_settings (self);
-
-  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
-      buf, &st.warned_no_meta);
-  if (!labels)
-    return GST_FLOW_OK;         /* buffers pass unmeasured */
-  return landmark::run_frame (GST_ELEMENT (self), "Blob measurement failed.",
-      [&] { return gst_blob_roundness_process (self, buf, labels); });
-}
-
 static void
 gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
 {
@@ -529,8 +503,8 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
-  trans_class->transform_ip =
-      GST_DEBUG_FUNCPTR (gst_blob_roundness_transform_ip);
+  trans_class->transform_ip = landmark_measure_labels_ip<GstBlobRoundness,
+      gst_blob_roundness_sync_settings, gst_blob_roundness_process>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_BLOB_ROUNDNESS_SHAPE,
       (GstPluginAPIFlags) 0);

@@ -120,34 +120,21 @@ struct State {
 
 }  // namespace
 
-struct GstFloorBoundaryPrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstFloorBoundary, gst_floor_boundary, GstBaseTransform,
-    GST_TYPE_BASE_TRANSFORM, floorboundary,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstFloorBoundary, gst_floor_boundary,
+    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, floorboundary,
     "Floor boundary and radial obstacle profile");
 
-GType
-gst_floor_boundary_markers_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_floor_boundary_markers_get_type,
+    "GstFloorBoundaryMarkers",
     {GST_FLOOR_BOUNDARY_MARKERS_FLOOR, "Marker pixels are walked over as "
           "floor and reported in rop-marker-range", "floor"},
     {GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS, "Marker pixels are floor "
           "inside the boxes of accepted detections, obstacles elsewhere",
         "detections"},
     {GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES, "Marker pixels end the floor "
-          "like any obstacle", "obstacles"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstFloorBoundaryMarkers", values);
-  return type;
-}
+          "like any obstacle", "obstacles"});
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -232,13 +219,6 @@ floor_boundary_properties ()
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_floor_boundary_init (GstFloorBoundary * self)
-{
-  self->priv = new GstFloorBoundaryPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 
 /* ---- states --------------------------------------------------------- */
@@ -561,20 +541,6 @@ gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
   return GST_FLOW_OK;
 }
 
-static GstFlowReturn
-gst_floor_boundary_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
-{
-  auto self = GST_FLOOR_BOUNDARY (trans);
-  State & st = self->priv->state;
-  gst_floor_boundary_sync_settings (self);
-  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (self),
-      buf, &st.warned_no_meta);
-  if (!labels)
-    return GST_FLOW_OK;         /* buffers pass unmeasured */
-  return landmark::run_frame (GST_ELEMENT (self), "Floor boundary failed.",
-      [&] { return gst_floor_boundary_process (self, buf, labels); });
-}
-
 static void
 gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
 {
@@ -591,8 +557,8 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
   trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
-  trans_class->transform_ip =
-      GST_DEBUG_FUNCPTR (gst_floor_boundary_transform_ip);
+  trans_class->transform_ip = landmark_measure_labels_ip<GstFloorBoundary,
+      gst_floor_boundary_sync_settings, gst_floor_boundary_process>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_FLOOR_BOUNDARY_MARKERS,
       (GstPluginAPIFlags) 0);

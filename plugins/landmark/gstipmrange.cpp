@@ -35,7 +35,7 @@
  *   properties. Exact ray-plane intersection.
  * - `seed`: the seed's angle-linear model from `camera-height`,
  *   `blind-distance`, `view-depth` and `half-width` (equations 3.1-3.6),
- *   or a `calibration` file with `model: seed` (`gst-landmark calibrate
+ *   or a `calibration` file with `model: angle-linear` (`gst-landmark calibrate
  *   seed`), which selects this model.
  *
  * A camera file wins for what it holds; the properties give the rest.
@@ -125,63 +125,35 @@ struct State {
 
 }  // namespace
 
-struct GstIpmRangePrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstIpmRange, gst_ipm_range, GstBaseTransform,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstIpmRange, gst_ipm_range, GstBaseTransform,
     GST_TYPE_BASE_TRANSFORM, ipmrange,
     "Landmark range and bearing by inverse perspective mapping");
 
-GType
-gst_ipm_range_model_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_ipm_range_model_get_type, "GstIpmRangeModel",
     {GST_IPM_RANGE_MODEL_PINHOLE, "Pinhole camera (OpenCV intrinsics, "
           "optional distortion), exact ray-floor intersection", "pinhole"},
-    {GST_IPM_RANGE_MODEL_SEED, "The seed's angle-linear model from "
-          "camera-height, blind-distance, view-depth, half-width", "seed"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstIpmRangeModel", values);
-  return type;
-}
+    {GST_IPM_RANGE_MODEL_SEED, "Angle-linear floor model (the seed's) "
+          "from camera-height, blind-distance, view-depth, half-width",
+        "angle-linear"},
+    /* its former name, still accepted */
+    {GST_IPM_RANGE_MODEL_SEED, "The same as angle-linear", "seed"});
 
-GType
-gst_ipm_range_method_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_ipm_range_method_get_type, "GstIpmRangeMethod",
     {GST_IPM_RANGE_METHOD_GROUND, "Where the ray meets the marker's plane",
         "ground"},
     {GST_IPM_RANGE_METHOD_SIZE, "From the apparent size and the known "
           "diameter (ground when the diameter is unknown)", "size"},
     {GST_IPM_RANGE_METHOD_FUSED, "Inverse-variance weighted mean of ground "
-          "and size", "fused"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstIpmRangeMethod", values);
-  return type;
-}
+          "and size", "fused"});
 
-GType
-gst_ipm_range_marker_kind_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_ipm_range_marker_kind_get_type,
+    "GstIpmRangeMarkerKind",
     {GST_IPM_RANGE_MARKER_DISC, "A flat disc, centre at marker-height",
         "disc"},
     {GST_IPM_RANGE_MARKER_BALL, "A ball, centre at marker-height (its "
-          "radius when it rests on the floor)", "ball"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstIpmRangeMarkerKind", values);
-  return type;
-}
+          "radius when it rests on the floor)", "ball"});
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -260,7 +232,7 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
       GST_INFO_OBJECT (self, "geometry for %dx%d: %s, height %.4f m, "
           "tilt %.3f, roll %.3f deg, fx %.3f fy %.3f cx %.3f cy %.3f, %zu "
           "distortion coefficients, seed b %.4f d %.4f w %.4f", width, height,
-          p.model == landmark::CameraModel::Seed ? "seed" : "pinhole",
+          p.model == landmark::CameraModel::Seed ? "angle-linear" : "pinhole",
           p.camera_height, p.tilt_deg, p.roll_deg, p.fx, p.fy, p.cx, p.cy,
           p.dist.size (), p.blind_distance, p.view_depth, p.half_width);
       return TRUE;
@@ -279,13 +251,6 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
 }
 
 /* ---- GObject -------------------------------------------------------- */
-
-static void
-gst_ipm_range_init (GstIpmRange * self)
-{
-  self->priv = new GstIpmRangePrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
 
 /* ---- states and caps ------------------------------------------------ */
 

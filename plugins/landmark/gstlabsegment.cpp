@@ -73,6 +73,7 @@ struct Settings {
   GstLabSegmentOutput output = GST_LAB_SEGMENT_OUTPUT_PASSTHROUGH;
   gboolean post_messages = FALSE;
   GstLabSegmentRareClasses rare_classes = GST_LAB_SEGMENT_RARE_UNLABELLED;
+  guint n_threads = 0;  /* 0: landmark::frame_threads decides */
 };
 
 /* Every value the properties accept is valid; the palette file is read
@@ -94,6 +95,9 @@ struct State {
   landmark::InputModel model;
   guint width = 0, height = 0;
   GstBufferPool *plane_pool = nullptr;
+  /* started on the first frame that needs them, resized when n-threads or
+   * the frame size changes the count */
+  landmark::PixelWorkers workers;
 
   /* per-class colour in the frame's own components, for output=labels */
   std::vector<std::array<uint8_t, 3>> display;
@@ -115,46 +119,25 @@ struct State {
 
 }  // namespace
 
-struct GstLabSegmentPrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstLabSegment, gst_lab_segment, GstVideoFilter,
-    GST_TYPE_VIDEO_FILTER, labsegment,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstLabSegment, gst_lab_segment,
+    GstVideoFilter, GST_TYPE_VIDEO_FILTER, labsegment,
     "CIE L*a*b* colour segmentation");
 
-GType
-gst_lab_segment_output_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_lab_segment_output_get_type,
+    "GstLabSegmentOutput",
     {GST_LAB_SEGMENT_OUTPUT_PASSTHROUGH,
         "Video unchanged; labels as metadata only", "passthrough"},
     {GST_LAB_SEGMENT_OUTPUT_LABELS,
-        "False-colour view of the class labels", "labels"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstLabSegmentOutput", values);
-  return type;
-}
+        "False-colour view of the class labels", "labels"});
 
-GType
-gst_lab_segment_rare_classes_get_type (void)
-{
-  static const GEnumValue values[] = {
+LANDMARK_DEFINE_ENUM_TYPE (gst_lab_segment_rare_classes_get_type,
+    "GstLabSegmentRareClasses",
     {GST_LAB_SEGMENT_RARE_NEAREST,
         "The nearest class that reached the threshold (the seed's rule)",
         "nearest"},
-    {GST_LAB_SEGMENT_RARE_UNLABELLED, "No class (label 0)", "unlabelled"},
-    {0, nullptr, nullptr},
-  };
-  static const GType type =
-      g_enum_register_static ("GstLabSegmentRareClasses", values);
-  return type;
-}
+    {GST_LAB_SEGMENT_RARE_UNLABELLED, "No class (label 0)", "unlabelled"});
 
 /* ---- configuration -------------------------------------------------- */
 
@@ -197,7 +180,12 @@ lab_segment_properties ()
       .enumeration ("rare-classes", "Rare classes",
           "Where pixels go whose nearest class has fewer than "
           "min-class-pixels pixels in the frame", &Settings::rare_classes,
-          GST_TYPE_LAB_SEGMENT_RARE_CLASSES);
+          GST_TYPE_LAB_SEGMENT_RARE_CLASSES)
+      .number ("n-threads", "Threads",
+          "Threads that label a frame in horizontal slices, with results "
+          "identical to one thread (0: every core for frames of 1920x1080 "
+          "pixels and more, one below)", &Settings::n_threads, 0u,
+          landmark::WorkerPool::kMaxThreads);
   return table;
 }
 
@@ -270,13 +258,6 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
 
 /* ---- GObject -------------------------------------------------------- */
 
-static void
-gst_lab_segment_init (GstLabSegment * self)
-{
-  self->priv = new GstLabSegmentPrivate ();
-  landmark::init_metadata_element (GST_BASE_TRANSFORM (self));
-}
-
 /* ---- states and caps ------------------------------------------------ */
 
 static gboolean
@@ -307,6 +288,7 @@ gst_lab_segment_stop (GstBaseTransform * trans)
   }
   st.table_valid = false;
   st.width = st.height = 0;
+  st.workers.set_threads (1);
   return TRUE;
 }
 
@@ -446,16 +428,19 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
   /* pass 1: nearest class over the whole palette, and its histogram;
    * pass 2: the dominant-colour rule */
   const guint n = st.palette.contents.classes.size ();
+  st.workers.set_threads (landmark::frame_threads (s.n_threads,
+          (gsize) w * h));
   guint32 counts[256];
-  landmark::label_frame (st.table, &frame, st.layout, n, labels, counts);
+  landmark::label_frame (st.table, &frame, st.layout, n, labels, counts,
+      st.workers);
   landmark::ClassRule rule;
   landmark::dominant_colour_rule (st.table, &frame, st.layout, n,
       s.min_class_pixels, s.rare_classes == GST_LAB_SEGMENT_RARE_NEAREST,
-      counts, labels, &rule);
+      counts, labels, &rule, st.workers.pool);
 
   if (draw)
     landmark::draw_false_colour (&frame, st.layout, labels, st.display,
-        st.black);
+        st.black, st.workers.pool);
   gst_buffer_unmap (plane, &pmap);
   gst_video_frame_unmap (&frame);
 

@@ -128,11 +128,6 @@ struct State {
 
 }  // namespace
 
-struct GstLandmarkOverlayPrivate {
-  landmark::SharedSettings<Settings> settings;
-  State state;
-};
-
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT (GstLandmarkOverlay, gst_landmark_overlay,

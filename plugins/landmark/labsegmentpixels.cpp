@@ -3,6 +3,10 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define LANDMARK_HAVE_AVX2_PATH 1
+#endif
 
 #include <cstring>
 
@@ -10,20 +14,73 @@ namespace landmark {
 
 namespace {
 
+#ifdef LANDMARK_HAVE_AVX2_PATH
+/* counts[values[i]] = pixels equal to values[i] in plane[0..end), end a
+ * multiple of 32: up to 8 values per pass, one load per 32 labels
+ * compared with each value (8-bit per-lane counters, summed before they
+ * can overflow). Built for AVX2 whatever the compiler's target; called
+ * only when the processor has it. */
+__attribute__ ((target ("avx2"))) void
+count_values_avx2 (const guint8 * plane, gsize end, const guint8 * values,
+    guint nvalues, guint32 counts[256])
+{
+  for (guint first = 0; first < nvalues; first += 8) {
+    const guint k = MIN (8u, nvalues - first);
+    __m256i v[8];
+    guint64 total[8] = { 0 };
+    for (guint i = 0; i < k; i++)
+      v[i] = _mm256_set1_epi8 ((char) values[first + i]);
+    gsize pos = 0;
+    while (pos < end) {
+      const gsize stop = MIN (end, pos + 255 * 32);
+      __m256i acc[8];
+      for (guint i = 0; i < k; i++)
+        acc[i] = _mm256_setzero_si256 ();
+      for (; pos < stop; pos += 32) {
+        const __m256i x = _mm256_loadu_si256 ((const __m256i *) (plane + pos));
+        for (guint i = 0; i < k; i++)
+          acc[i] = _mm256_sub_epi8 (acc[i], _mm256_cmpeq_epi8 (x, v[i]));
+      }
+      for (guint i = 0; i < k; i++) {
+        const __m256i s = _mm256_sad_epu8 (acc[i], _mm256_setzero_si256 ());
+        total[i] += (guint64) _mm256_extract_epi64 (s, 0) +
+            (guint64) _mm256_extract_epi64 (s, 1) +
+            (guint64) _mm256_extract_epi64 (s, 2) +
+            (guint64) _mm256_extract_epi64 (s, 3);
+      }
+    }
+    for (guint i = 0; i < k; i++)
+      counts[values[first + i]] = (guint32) total[i];
+  }
+}
+#endif
+
 /* counts[v] = pixels of the plane with label v, for v in 1..n and
- * kPending (other entries are left 0). One pass per value: compares of 16
- * labels at a time beat a scalar histogram on any palette up to 16 classes;
- * larger palettes use four interleaved scalar histograms. */
+ * kPending (other entries are left 0). Compares of 32 labels at a time
+ * (AVX2, up to 8 values per pass) or 16 (SSE2, one pass per value) beat a
+ * scalar histogram on any palette up to 16 classes; larger palettes, and
+ * LANDMARK_SIMD=none, use four interleaved scalar histograms. */
 void
-count_labels (const guint8 * plane, gsize size, guint n, guint32 counts[256])
+count_labels (const guint8 * plane, gsize size, guint n, SimdLevel simd,
+    guint32 counts[256])
 {
   memset (counts, 0, sizeof (guint32) * 256);
 #ifdef __SSE2__
-  if (n <= 16) {
+  if (simd != SimdLevel::NONE && n <= 16) {
     guint8 values[kMaxClasses + 2];
     for (guint k = 0; k < n; k++)
       values[k] = k + 1;
     values[n] = ClassTable::kPending;
+#ifdef LANDMARK_HAVE_AVX2_PATH
+    if (simd == SimdLevel::AVX2) {
+      const gsize end = size & ~(gsize) 31;
+      count_values_avx2 (plane, end, values, n + 1, counts);
+      for (gsize j = end; j < size; j++)
+        for (guint i = 0; i <= n; i++)
+          counts[values[i]] += plane[j] == values[i];
+      return;
+    }
+#endif
     const gsize vec_end = size & ~(gsize) 15;
     for (guint i = 0; i <= n; i++) {
       const __m128i v = _mm_set1_epi8 ((char) values[i]);
@@ -49,6 +106,7 @@ count_labels (const guint8 * plane, gsize size, guint n, guint32 counts[256])
   }
 #endif
   (void) n;
+  (void) simd;
   guint32 bank[4][256] = { {0} };
   gsize j = 0;
   for (; j + 4 <= size; j += 4) {
@@ -148,14 +206,83 @@ classify_packed3 (const guint8 * table, const guint8 * row, guint width,
   }
 }
 
-/* YUV keys are Y | U << 8 | V << 16; two pixels share one chroma pair. */
+#ifdef __SSE2__
+/* The 4:2:0 lookups 16 pixels at a time: the keys Y | U << 8 | V << 16
+ * are built by byte unpacking (each chroma byte twice) and stored, then
+ * looked up one by one; building them pixel by pixel took half the time
+ * of the loop. ps: 1 for planar chroma, 2 for NV12's interleaved UV (ur
+ * then points at U, vr at V). Returns the pixels done (a multiple of 16). */
+guint
+classify_yuv420_sse2 (const guint8 * t, const guint8 * yr, const guint8 * ur,
+    const guint8 * vr, int ps, guint width, guint8 * out)
+{
+  alignas (16) guint32 keys[16];
+  const __m128i zero = _mm_setzero_si128 ();
+  const __m128i low = _mm_set1_epi16 (0xff);
+  guint x = 0;
+  for (; x + 16 <= width; x += 16) {
+    __m128i u, v;
+    if (ps == 2) {
+      /* U0 V0 U1 V1 ...: U from the low bytes of 16-bit lanes, V high */
+      const __m128i uv = _mm_loadu_si128 ((const __m128i *) (ur + x));
+      u = _mm_packus_epi16 (_mm_and_si128 (uv, low), zero);
+      v = _mm_packus_epi16 (_mm_srli_epi16 (uv, 8), zero);
+    } else {
+      u = _mm_loadl_epi64 ((const __m128i *) (ur + x / 2));
+      v = _mm_loadl_epi64 ((const __m128i *) (vr + x / 2));
+    }
+    u = _mm_unpacklo_epi8 (u, u);
+    v = _mm_unpacklo_epi8 (v, v);
+    const __m128i y = _mm_loadu_si128 ((const __m128i *) (yr + x));
+    const __m128i yu0 = _mm_unpacklo_epi8 (y, u), yu1 = _mm_unpackhi_epi8 (y,
+        u);
+    const __m128i v0 = _mm_unpacklo_epi8 (v, zero), v1 =
+        _mm_unpackhi_epi8 (v, zero);
+    _mm_store_si128 ((__m128i *) keys, _mm_unpacklo_epi16 (yu0, v0));
+    _mm_store_si128 ((__m128i *) (keys + 4), _mm_unpackhi_epi16 (yu0, v0));
+    _mm_store_si128 ((__m128i *) (keys + 8), _mm_unpacklo_epi16 (yu1, v1));
+    _mm_store_si128 ((__m128i *) (keys + 12), _mm_unpackhi_epi16 (yu1, v1));
+    for (int i = 0; i < 16; i++)
+      out[x + i] = t[keys[i]];
+  }
+  return x;
+}
+
+/* YUY2 the same way, 8 pixels (four Y0 U Y1 V words) at a time. */
+guint
+classify_yuy2_sse2 (const guint8 * t, const guint8 * row, guint width,
+    guint8 * out)
+{
+  alignas (16) guint32 keys[8];
+  const __m128i y_mask = _mm_set1_epi32 (0xff);
+  const __m128i u_mask = _mm_set1_epi32 (0xff00);
+  const __m128i v_mask = _mm_set1_epi32 (0xff0000);
+  guint x = 0;
+  for (; x + 8 <= width; x += 8) {
+    const __m128i w = _mm_loadu_si128 ((const __m128i *) (row + x * 2));
+    const __m128i uv = _mm_or_si128 (_mm_and_si128 (w, u_mask),
+        _mm_and_si128 (_mm_srli_epi32 (w, 8), v_mask));
+    const __m128i k0 = _mm_or_si128 (uv, _mm_and_si128 (w, y_mask));
+    const __m128i k1 = _mm_or_si128 (uv, _mm_and_si128 (_mm_srli_epi32 (w,
+                16), y_mask));
+    _mm_store_si128 ((__m128i *) keys, _mm_unpacklo_epi32 (k0, k1));
+    _mm_store_si128 ((__m128i *) (keys + 4), _mm_unpackhi_epi32 (k0, k1));
+    for (int i = 0; i < 8; i++)
+      out[x + i] = t[keys[i]];
+  }
+  return x;
+}
+#endif
+
+/* Rows y0..y1-1; labels points at the plane's row 0. YUV keys are
+ * Y | U << 8 | V << 16; two pixels share one chroma pair. */
 void
-classify_frame (const ClassTable & table, PixelReader & reader,
-    guint width, guint height, guint8 * labels)
+classify_rows (const ClassTable & table, PixelReader & reader,
+    guint width, guint y0, guint y1, guint8 * labels)
 {
   const guint8 *t = table.labels ();
   const FrameLayout & layout = reader.layout;
-  for (guint y = 0; y < height; y++) {
+  for (guint y = y0; y < y1; y++) {
     reader.set_row (y);
     guint8 *out = labels + (gsize) y * width;
     switch (layout.layout) {
@@ -168,7 +295,12 @@ classify_frame (const ClassTable & table, PixelReader & reader,
       case PixelLayout::YUV420:{
         const guint8 *yr = reader.row0, *ur = reader.row1, *vr = reader.row2;
         const int ps = reader.upstride;
-        for (guint x = 0; x < width; x++) {
+        guint x = 0;
+#ifdef __SSE2__
+        if (layout.simd != SimdLevel::NONE)
+          x = classify_yuv420_sse2 (t, yr, ur, vr, ps, width, out);
+#endif
+        for (; x < width; x++) {
           const guint32 uv = (ur[(x >> 1) * ps] << 8) |
               ((guint32) vr[(x >> 1) * ps] << 16);
           out[x] = t[yr[x] | uv];
@@ -178,6 +310,10 @@ classify_frame (const ClassTable & table, PixelReader & reader,
       case PixelLayout::YUY2:{
         const guint8 *r = reader.row0;
         guint x = 0;
+#ifdef __SSE2__
+        if (layout.simd != SimdLevel::NONE)
+          x = classify_yuy2_sse2 (t, r, width, out);
+#endif
         for (; x + 2 <= width; x += 2) {
           const guint32 w = load32 (r + x * 2);   /* Y0 U Y1 V */
           const guint32 uv = (w & 0xff00) | ((w >> 8) & 0xff0000);
@@ -194,22 +330,20 @@ classify_frame (const ClassTable & table, PixelReader & reader,
   }
 }
 
-/* Writes each pixel's class colour into the frame (output=labels). */
-}  // namespace
-
+/* Rows y0..y1-1 of draw_false_colour; y0 is even, so the rows of 2x2
+ * subsampled chroma it writes are its own. */
 void
-draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
+draw_rows (GstVideoFrame * f, const FrameLayout & layout,
     const guint8 * labels, const std::vector<std::array<uint8_t, 3>> & display,
-    const std::array<uint8_t, 3> & black)
+    const std::array<uint8_t, 3> & black, guint y0, guint y1)
 {
   const guint width = GST_VIDEO_FRAME_WIDTH (f);
-  const guint height = GST_VIDEO_FRAME_HEIGHT (f);
   /* label 0 is black */
   const uint8_t *none = black.data ();
   auto colour = [&](guint8 l) -> const uint8_t * {
     return l == 0 ? none : display[l - 1].data ();
   };
-  for (guint y = 0; y < height; y++) {
+  for (guint y = y0; y < y1; y++) {
     const guint8 *lab = labels + (gsize) y * width;
     guint8 *r0 = (guint8 *) GST_VIDEO_FRAME_PLANE_DATA (f, 0) +
         (gsize) y * GST_VIDEO_FRAME_PLANE_STRIDE (f, 0);
@@ -261,6 +395,37 @@ draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
   }
 }
 
+}  // namespace
+
+void
+draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
+    const guint8 * labels, const std::vector<std::array<uint8_t, 3>> & display,
+    const std::array<uint8_t, 3> & black, WorkerPool & pool)
+{
+  auto slice = [&](unsigned, guint y0, guint y1) {
+    draw_rows (f, layout, labels, display, black, y0, y1);
+  };
+  pool.run_slices (GST_VIDEO_FRAME_HEIGHT (f), slice);
+}
+
+SimdLevel
+simd_level ()
+{
+  SimdLevel best = SimdLevel::NONE;
+#ifdef __SSE2__
+  best = SimdLevel::SSE2;
+#endif
+#ifdef LANDMARK_HAVE_AVX2_PATH
+  if (__builtin_cpu_supports ("avx2"))
+    best = SimdLevel::AVX2;
+#endif
+  const gchar *want = g_getenv ("LANDMARK_SIMD");
+  if (want && g_str_equal (want, "none"))
+    return SimdLevel::NONE;
+  if (want && g_str_equal (want, "sse2") && best != SimdLevel::NONE)
+    return SimdLevel::SSE2;
+  return best;
+}
 
 FrameLayout
 frame_layout (const LandmarkFrameFormat & format)
@@ -285,18 +450,34 @@ frame_layout (const LandmarkFrameFormat & format)
       layout.layout = PixelLayout::YUV420;
       break;
   }
+  layout.simd = simd_level ();
   return layout;
 }
 
 void
 label_frame (ClassTable & table, const GstVideoFrame * frame,
-    const FrameLayout & layout, guint n, guint8 * labels, guint32 counts[256])
+    const FrameLayout & layout, guint n, guint8 * labels, guint32 counts[256],
+    PixelWorkers & workers)
 {
   const guint w = GST_VIDEO_FRAME_WIDTH (frame);
   const guint h = GST_VIDEO_FRAME_HEIGHT (frame);
   PixelReader reader { frame, layout };
-  classify_frame (table, reader, w, h, labels);
-  count_labels (labels, (gsize) w * h, n, counts);
+  /* the table is only read here: cells are filled below, on this thread */
+  auto slice = [&](unsigned i, guint y0, guint y1) {
+    PixelReader rows { frame, layout };
+    classify_rows (table, rows, w, y0, y1, labels);
+    count_labels (labels + (gsize) y0 * w, (gsize) (y1 - y0) * w, n,
+        layout.simd,
+        workers.slice_counts[i].data ());
+  };
+  const unsigned slices = workers.pool.slices ();
+  for (unsigned i = 0; i < slices; i++)
+    workers.slice_counts[i].fill (0);
+  workers.pool.run_slices (h, slice);
+  memset (counts, 0, sizeof (guint32) * 256);
+  for (unsigned i = 0; i < slices; i++)
+    for (int v = 0; v < 256; v++)
+      counts[v] += workers.slice_counts[i][v];
 
   /* pixels in boundary cells not met before: fill those cells now */
   for (guint y = 0; y < h && counts[ClassTable::kPending] > 0; y++) {
@@ -320,7 +501,7 @@ void
 dominant_colour_rule (ClassTable & table, const GstVideoFrame * frame,
     const FrameLayout & layout, guint n, guint min_class_pixels,
     bool to_nearest, const guint32 counts[256], guint8 * labels,
-    ClassRule * rule)
+    ClassRule * rule, WorkerPool & pool)
 {
   const guint w = GST_VIDEO_FRAME_WIDTH (frame);
   const guint h = GST_VIDEO_FRAME_HEIGHT (frame);
@@ -342,12 +523,16 @@ dominant_colour_rule (ClassTable & table, const GstVideoFrame * frame,
    * converted in batches like the table's boundary cells, or lose their
    * label */
   if (!to_nearest || !rule->any_active) {
-    const gsize size = (gsize) w * h;
-    for (gsize i = 0; i < size; i++)
-      if (demoted[labels[i]])
-        labels[i] = 0;
+    auto slice = [&](unsigned, guint y0, guint y1) {
+      const gsize end = (gsize) y1 * w;
+      for (gsize i = (gsize) y0 * w; i < end; i++)
+        if (demoted[labels[i]])
+          labels[i] = 0;
+    };
+    pool.run_slices (h, slice);
     return;
   }
+  /* the direct computation uses the table's scratch: one thread */
   PixelReader reader { frame, layout };
   guint8 comps[3 * ClassTable::kBatch];
   guint8 *where[ClassTable::kBatch];

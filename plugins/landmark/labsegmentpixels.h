@@ -12,8 +12,15 @@
 
 #include "classtable.h"
 #include "frameformat.h"
+#include "workerpool.h"
 
 namespace landmark {
+
+/* The vector instructions the pixel loops use: the best the processor
+ * has, or less when LANDMARK_SIMD is "sse2" or "none" (to compare the
+ * loops; every level gives identical results). */
+enum class SimdLevel { NONE, SSE2, AVX2 };
+SimdLevel simd_level ();
 
 /* How the three components of a pixel are laid out in a frame. */
 enum class PixelLayout { PACKED3, PACKED4, YUV420, YUY2 };
@@ -23,17 +30,34 @@ struct FrameLayout {
   int offset[3] = { 0, 1, 2 };  /* R,G,B byte offsets for packed RGB */
   int key_shift = 0;            /* bits to drop from a 4-byte pixel */
   KeyOrder order = KeyOrder::C0_LOW;
+  SimdLevel simd = SimdLevel::NONE;   /* simd_level () */
 };
 
 /* The layout of a negotiated format, and the byte order of its table keys. */
 FrameLayout frame_layout (const LandmarkFrameFormat & format);
 
+/* The threads a frame's passes run on (horizontal slices, results identical
+ * to one thread), and each slice's class histogram, kept here so that a
+ * frame allocates nothing. */
+struct PixelWorkers {
+  WorkerPool pool;
+  std::vector<std::array<guint32, 256>> slice_counts;
+
+  /* Starts or stops workers only when the number changes. */
+  void set_threads (unsigned threads) {
+    pool.resize (threads);
+    slice_counts.resize (pool.slices ());
+  }
+};
+
 /* Pass 1: labels[] (width x height, tightly packed) = the nearest class of
  * each pixel over the whole palette of n classes, and counts[v] = pixels
- * with label v (v in 0..n). */
+ * with label v (v in 0..n). The table lookups and the histogram run in
+ * slices on workers; colours of boundary cells not met before are then
+ * computed on the calling thread (the table fills them). */
 void label_frame (ClassTable & table, const GstVideoFrame * frame,
     const FrameLayout & layout, guint n, guint8 * labels,
-    guint32 counts[256]);
+    guint32 counts[256], PixelWorkers & workers);
 
 /* What the dominant-colour rule decided for a frame. */
 struct ClassRule {
@@ -51,13 +75,13 @@ struct ClassRule {
 void dominant_colour_rule (ClassTable & table,
     const GstVideoFrame * frame, const FrameLayout & layout, guint n,
     guint min_class_pixels, bool to_nearest, const guint32 counts[256],
-    guint8 * labels, ClassRule * rule);
+    guint8 * labels, ClassRule * rule, WorkerPool & pool);
 
 /* Writes each pixel's class colour into the frame (output=labels): display
  * holds a colour per class in the frame's own components, black is label
  * 0's. */
 void draw_false_colour (GstVideoFrame * frame, const FrameLayout & layout,
     const guint8 * labels, const std::vector<std::array<uint8_t, 3>> & display,
-    const std::array<uint8_t, 3> & black);
+    const std::array<uint8_t, 3> & black, WorkerPool & pool);
 
 }  // namespace landmark

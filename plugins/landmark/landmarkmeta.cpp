@@ -557,6 +557,17 @@ landmark_warn_map_classes_missing (GstElement * element,
             missing.c_str (), landmark_labels_class_list (labels).c_str ()));
 }
 
+GstEvent *
+landmark_odometry_event_new (gdouble dx, gdouble dy, gdouble dheading,
+    gboolean out_of_band)
+{
+  return gst_event_new_custom (out_of_band ?
+      GST_EVENT_CUSTOM_DOWNSTREAM_OOB : GST_EVENT_CUSTOM_DOWNSTREAM,
+      gst_structure_new (GST_LANDMARK_ODOMETRY_EVENT_NAME,
+          "dx", G_TYPE_DOUBLE, dx, "dy", G_TYPE_DOUBLE, dy,
+          "dheading", G_TYPE_DOUBLE, dheading, nullptr));
+}
+
 GstStructure *
 landmark_frame_message_new (const gchar * name, GstBuffer * buf,
     const GstSegment * segment)

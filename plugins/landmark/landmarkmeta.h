@@ -156,6 +156,15 @@ gboolean landmark_floor_map_array (const GstStructure * floor,
     const gchar * field, gsize elem_size, GstBuffer ** plane,
     GstMapInfo * map, gsize * count);
 
+/* Live odometry for landmarkslam: a custom downstream event (serialized,
+ * or out-of-band to reach the element at once) carrying the robot-frame
+ * motion since the previous one: dx forward and dy left (metres), dheading
+ * (radians, counter-clockwise). Send it to landmarkslam's sink pad
+ * (docs/embedding.md). */
+#define GST_LANDMARK_ODOMETRY_EVENT_NAME "landmark-odometry"
+GstEvent *landmark_odometry_event_new (gdouble dx, gdouble dy,
+    gdouble dheading, gboolean out_of_band);
+
 /* An element message structure about the frame buf: name with its
  * `timestamp`, `stream-time` and `running-time` (ns, in segment). */
 GstStructure *landmark_frame_message_new (const gchar * name,
@@ -170,6 +179,9 @@ void landmark_value_array_append_string (GValue * array, const gchar * x);
 G_END_DECLS
 
 #ifdef __cplusplus
+#include <gst/base/gstbasetransform.h>
+
+#include <exception>
 #include <string>
 #include <utility>
 #include <vector>
@@ -210,6 +222,32 @@ struct LandmarkLabelClasses
   /* "red, green, ..." */
   std::string list () const;
 };
+
+/* transform_ip of an element that measures labsegment's labels: its
+ * settings brought up to date (sync), then process (self, buf, labels),
+ * an exception becoming an element ERROR; a buffer without labels passes
+ * unmeasured, with one warning. Self's priv->state has `bool
+ * warned_no_meta`. */
+template < typename Self, void (*sync) (Self *),
+    GstFlowReturn (*process) (Self *, GstBuffer *, const GstStructure *) >
+GstFlowReturn
+landmark_measure_labels_ip (GstBaseTransform * trans, GstBuffer * buf)
+{
+  Self *self = (Self *) trans;
+  sync (self);
+  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (trans),
+      buf, &self->priv->state.warned_no_meta);
+  if (!labels)
+    return GST_FLOW_OK;
+  try {
+    return process (self, buf, labels);
+  }
+  catch (const std::exception & e) {
+    GST_ELEMENT_ERROR (trans, STREAM, FAILED,
+        ("Could not measure the labels of a frame."), ("%s", e.what ()));
+    return GST_FLOW_ERROR;
+  }
+}
 
 /* The region-of-interest metas of buffer, in its order (out is cleared
  * first; its storage is kept, so a reused vector does not allocate). */

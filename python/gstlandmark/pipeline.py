@@ -220,3 +220,23 @@ def run_file(path: str, chain: str = "labsegment",
             print(r.frame, r.labels.class_by_name("red").count)
     """
     return iterate(file_pipeline(path, chain), **kwargs)
+
+
+ODOMETRY_EVENT = "landmark-odometry"
+
+
+def send_odometry(element: Gst.Element, dx: float, dy: float,
+                  dheading: float, out_of_band: bool = True) -> bool:
+    """Gives landmarkslam live wheel odometry: the robot-frame motion since
+    the previous call (dx forward, dy left, metres; dheading radians,
+    counter-clockwise), as a ``landmark-odometry`` event on its sink pad.
+    Out of band (the default) it reaches the element at once from any
+    thread and counts for the next frame; serialized, it travels between
+    the buffers (docs/embedding.md)."""
+    kind = (Gst.EventType.CUSTOM_DOWNSTREAM_OOB if out_of_band
+            else Gst.EventType.CUSTOM_DOWNSTREAM)
+    s = Gst.Structure.new_empty(ODOMETRY_EVENT)
+    for name, value in (("dx", dx), ("dy", dy), ("dheading", dheading)):
+        s.set_value(name, float(value))
+    return element.get_static_pad("sink").send_event(
+        Gst.Event.new_custom(kind, s))

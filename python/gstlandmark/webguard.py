@@ -4,13 +4,14 @@ with a constant-time compare, from an ``Authorization: Bearer`` header,
 the address (``?token=``, the first page load) or the HttpOnly cookie
 that load set; on loopback without a token the Host header must name
 loopback (no DNS rebinding); a request from a page of another origin is
-refused. Also the pages' shared middleware and WebSocket loop."""
+refused. Also the pages' shared middleware, routes and WebSocket loop."""
 
 from __future__ import annotations
 
 import asyncio
 import hmac
 import ipaddress
+import os
 import secrets
 from typing import Callable, Optional, Tuple
 
@@ -125,3 +126,16 @@ async def serve_socket(ws: web.WebSocketResponse, send) -> None:
                 break
     finally:
         sender.cancel()
+
+
+def add_page_routes(app: web.Application, root: str, websocket) -> None:
+    """The routes every page has: ``/`` (``root``'s index.html, never
+    cached, so a new version shows at once), ``/static/`` (the files of
+    ``root``) and ``/ws`` (``websocket``, the page's socket)."""
+    async def index(request):
+        return web.FileResponse(os.path.join(root, "index.html"),
+                                headers={"Cache-Control": "no-store"})
+
+    app.router.add_get("/", index)
+    app.router.add_static("/static/", root)
+    app.router.add_get("/ws", websocket)

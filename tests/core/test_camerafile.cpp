@@ -78,12 +78,28 @@ test_hand_written ()
   const std::string path = "test-camerafile-hand.yaml";
   CameraFile f;
   std::string err;
-  write_text (path, "%YAML:1.0\n---\n# a seed file\nmodel: seed\n"
-      "camera_height: 0.4\nblind_distance: 0.3\nview_depth: .9\n"
-      "half_width: 6e-1\n");
-  CHECK (load_camera_file (path, &f, &err) && f.seed &&
-      f.camera_height == 0.4 && f.blind_distance == 0.3 &&
-      f.view_depth == 0.9 && f.half_width == 0.6, "seed: %s", err.c_str ());
+  /* the angle-linear model, under its name and its former name (YAML and
+   * XML, as OpenCV writes them) */
+  for (const char *model : { "angle-linear", "seed" }) {
+    write_text (path, std::string ("%YAML:1.0\n---\n# an angle-linear file\n"
+            "model: ") + model + "\ncamera_height: 0.4\n"
+        "blind_distance: 0.3\nview_depth: .9\nhalf_width: 6e-1\n");
+    CHECK (load_camera_file (path, &f, &err) && f.seed &&
+        f.camera_height == 0.4 && f.blind_distance == 0.3 &&
+        f.view_depth == 0.9 && f.half_width == 0.6, "%s: %s", model,
+        err.c_str ());
+  }
+  const std::string xml = "test-camerafile-hand.xml";
+  write_text (xml, "<?xml version=\"1.0\"?>\n<opencv_storage>\n"
+      "<model>angle-linear</model>\n<camera_height>0.4</camera_height>\n"
+      "<blind_distance>0.3</blind_distance>\n<view_depth>0.9</view_depth>\n"
+      "<half_width>0.6</half_width>\n</opencv_storage>\n");
+  CHECK (load_camera_file (xml, &f, &err) && f.seed &&
+      f.half_width == 0.6, "xml angle-linear: %s", err.c_str ());
+  std::remove (xml.c_str ());
+  /* a word may not start or end with '-' */
+  write_text (path, "%YAML:1.0\n---\nmodel: angle-\n");
+  CHECK (!load_camera_file (path, &f, &err), "'angle-' accepted");
   /* a list split over lines, CRLF line ends, no distortion */
   write_text (path, "%YAML:1.0\r\n---\r\ncameraMatrix: !!opencv-matrix\r\n"
       "  rows: 3\r\n  cols: 3\r\n  dt: d\r\n  data: [ 400., 0., 160.,\r\n"
@@ -166,8 +182,8 @@ test_refused ()
       path + ": image_width and image_height must be at most 16384, got "
           "100000x480" },
     { head + "model: fisheye\n", path + ": unknown model 'fisheye' "
-          "(expected seed, or a pinhole file with camera_matrix)" },
-    { head + "foo: 1\n", path + ": no camera_matrix (nor model: seed)" },
+          "(expected angle-linear, or a pinhole file with camera_matrix)" },
+    { head + "foo: 1\n", path + ": no camera_matrix (nor model: angle-linear)" },
     { head + k + "camera_height: \"high\"\n", path + ": camera_height is not "
           "a number" },
     { head + k + std::string (1 << 20, '#'),

@@ -3,7 +3,7 @@
  * degenerate geometry reported, an outlier rejected, association with
  * repeated colours, the EKF bridging a gap. Observations are made here
  * from docs/conventions.md directly, not with the solver's helpers. */
-#include "posesolver.h"
+#include "posefilter.h"
 #include "corecheck.h"
 
 #include <cmath>

@@ -197,7 +197,7 @@ def test_seed_cli(tmp_path, capsys):
     assert "30.000" in text and "90.000" in text
     assert out.read_text().startswith("%YAML:1.0")
     fs = cv2.FileStorage(str(out), cv2.FILE_STORAGE_READ)
-    assert fs.getNode("model").string() == "seed"
+    assert fs.getNode("model").string() == "angle-linear"
     assert fs.getNode("image_width").real() == 640
     assert fs.getNode("image_height").real() == 480
     assert fs.getNode("camera_height").real() == pytest.approx(1.0)

@@ -25,8 +25,8 @@ from gstlandmark import palette as pal  # noqa: E402
 from gstlandmark.commands.console import server  # noqa: E402
 from gstlandmark.commands.console.engine import Engine  # noqa: E402
 
-from webpages import (check_self_contained,  # noqa: E402
-                      check_token_required)
+from webpages import (check_loopback_guard,  # noqa: E402
+                      check_self_contained, check_token_required)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))))
@@ -300,19 +300,11 @@ def test_token_required_off_loopback(gst, tmp_path):
 
 def test_loopback_refuses_other_hosts_and_origins(gst, tmp_path):
     async def check(client):
-        r = await client.get("/api/state",
-                             headers={"Host": "attacker.example:80"})
-        assert r.status == 403
         r = await client.post("/api/control", json={"action": "stop"},
                               headers={"Origin": "http://attacker.example"})
         assert r.status == 403
-        with pytest.raises(aiohttp.WSServerHandshakeError) as err:
-            await client.ws_connect(
-                "/ws", headers={"Origin": "http://attacker.example"})
-        assert err.value.status == 403
         assert engine.state == "playing"
-        r = await client.get("/api/state", headers={"Host": "localhost:1"})
-        assert r.status == 200
+        await check_loopback_guard(client, "/api/state")
 
     engine = clip_engine(tmp_path, loop_file=True)
     serve(engine, check)

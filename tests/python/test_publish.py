@@ -98,6 +98,15 @@ class Run:
         raise AssertionError(f"no EOS within {timeout_s} s: "
                              f"{self.warnings} {self.errors}")
 
+    def run_through(self, timeout_s):
+        """Starts, waits for EOS (or an error) and stops: a whole run."""
+        self.start()
+        try:
+            self.wait(timeout_s)
+        finally:
+            self.stop()
+        return self
+
     def stop(self):
         # READY first: what the element says when it stops is on the bus
         # until the pipeline reaches NULL, which flushes the bus
@@ -147,11 +156,7 @@ def test_every_frame_once_in_order_as_the_log(gst, broker, tmp_path,
                   f"trilaterate map={mp} filter=ekf ! "
                   f"landmarklog location={log} ! "
                   f"landmarkpublish port={broker.port} robot=r1 mqtt-qos=1 ! "
-                  "fakesink name=sink").start()
-        try:
-            run.wait(60)
-        finally:
-            run.stop()
+                  "fakesink name=sink").run_through(60)
         after = time.time()
         # the offline status is the last thing the element sends
         assert wait_for(lambda: any(b'"offline"' in p for t, p, _ in
@@ -351,11 +356,7 @@ def test_unknown_host_is_a_warning_and_video_flows(gst):
     run = Run(gst, "videotestsrc num-buffers=30 ! "
               "video/x-raw,width=64,height=48 ! landmarkpublish "
               "host=no-such-host.invalid drain-timeout=200 ! "
-              "fakesink name=sink").start()
-    try:
-        run.wait(20)
-    finally:
-        run.stop()
+              "fakesink name=sink").run_through(20)
     assert run.errors == [] and run.eos and run.sunk == 30
     host = [w for w in run.warnings if "'host'" in w]
     assert len(host) == 1, run.warnings
@@ -374,11 +375,7 @@ def test_refused_credentials_are_a_clear_warning(gst, tmp_path, username,
         run = Run(gst, f"{live_source(20)} ! landmarkpublish "
                   f"port={broker.port} username={username} "
                   f"password={password} drain-timeout=100 ! "
-                  "fakesink name=sink").start()
-        try:
-            run.wait(20)
-        finally:
-            run.stop()
+                  "fakesink name=sink").run_through(20)
     finally:
         broker.stop()
     assert run.errors == [] and run.sunk == 20
@@ -404,11 +401,7 @@ def test_tls_with_the_right_and_a_wrong_authority(gst, tmp_path):
             run = Run(gst, f"{live_source(15)} ! landmarkpublish "
                       f"port={broker.port} robot={name} "
                       f"tls-ca-file={authority} drain-timeout=3000 ! "
-                      "fakesink name=sink").start()
-            try:
-                run.wait(20)
-            finally:
-                run.stop()
+                      "fakesink name=sink").run_through(20)
             runs[name] = run
         # what the broker kept: the retained status of each robot
         sub = Subscriber(broker, ca=ca)

@@ -160,14 +160,23 @@ def random_bytes(n, seed):
     return np.random.default_rng(seed).integers(0, 256, n).astype(np.uint8)
 
 
+def random_420_frame(width, height, seed):
+    """A random 4:2:0 frame (I420 or NV12: a full Y plane, then chroma of
+    half the width and height rounded up): its bytes, the Y plane, the
+    chroma bytes and the chroma width and height."""
+    cw, ch = (width + 1) // 2, (height + 1) // 2
+    buf = random_bytes(width * height + 2 * cw * ch, seed)
+    return (buf, buf[:width * height].reshape(height, width),
+            buf[width * height:], cw, ch)
+
+
 @pytest.mark.parametrize("width, height", SIZES)
 @pytest.mark.parametrize("matrix, full_range", MODES)
 def test_i420_matches_pixel_loop(width, height, matrix, full_range):
-    cw, ch = (width + 1) // 2, (height + 1) // 2
-    buf = random_bytes(width * height + 2 * cw * ch, width * 31 + height)
-    yplane = buf[:width * height].reshape(height, width)
-    uplane = buf[width * height:width * height + cw * ch].reshape(ch, cw)
-    vplane = buf[width * height + cw * ch:].reshape(ch, cw)
+    buf, yplane, chroma, cw, ch = random_420_frame(width, height,
+                                                   width * 31 + height)
+    uplane = chroma[:cw * ch].reshape(ch, cw)
+    vplane = chroma[cw * ch:].reshape(ch, cw)
     got = reference.i420_planes_to_rgb_float(yplane, uplane, vplane,
                                              matrix=matrix,
                                              full_range=full_range)
@@ -179,10 +188,9 @@ def test_i420_matches_pixel_loop(width, height, matrix, full_range):
 @pytest.mark.parametrize("width, height", SIZES)
 @pytest.mark.parametrize("matrix, full_range", MODES)
 def test_nv12_matches_pixel_loop(width, height, matrix, full_range):
-    cw, ch = (width + 1) // 2, (height + 1) // 2
-    buf = random_bytes(width * height + 2 * cw * ch, width * 17 + height)
-    yplane = buf[:width * height].reshape(height, width)
-    uvplane = buf[width * height:].reshape(ch, cw, 2)
+    buf, yplane, chroma, cw, ch = random_420_frame(width, height,
+                                                   width * 17 + height)
+    uvplane = chroma.reshape(ch, cw, 2)
     got = reference.nv12_to_rgb_float(yplane, uvplane, matrix=matrix,
                                       full_range=full_range)
     want = loop_nv12(buf, width, height, matrix, full_range)

@@ -169,3 +169,176 @@ def test_odometry_file(gst, clip, slam_run, tmp_path):
     # measured: median 0.48 cm, p95 0.62 cm (without odometry 1.0, 1.9 cm)
     assert np.median(errs) < 0.01, np.median(errs)
     assert np.percentile(errs, 95) < 0.015, np.percentile(errs, 95)
+
+
+def test_bad_value_while_playing_keeps_previous_settings(gst, tmp_path):
+    """A bad odometry file set while playing, together with a new anchor
+    map, is one warning naming 'odometry' and the previous settings stay
+    (the map meta keeps the old anchors); clearing odometry applies the new
+    map (docs/landmarkslam.md)."""
+    def anchors(*ids):
+        return json.dumps({"landmarks": [
+            {"id": i, "class": "red", "x": float(n), "y": 1.0}
+            for n, i in enumerate(ids)]})
+    old = tmp_path / "old.json"
+    old.write_text(anchors("A1", "A2"))
+    new = tmp_path / "new.json"
+    new.write_text(anchors("B1", "B2", "B3"))
+    bad = tmp_path / "bad-odometry.jsonl"
+    bad.write_text('{"t": 0.0, "dx": 0.1}\nnot json\n')
+    caps = "video/x-raw,width=64,height=48,framerate=30/1"
+    pipe = gst.parse_launch(f"videotestsrc num-buffers=60 ! {caps} ! "
+                            f"landmarkslam name=s map={old} ! "
+                            f"fakesink name=sink sync=true")
+    s = pipe.get_by_name("s")
+    seen = []
+    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
+        gst.PadProbeType.BUFFER, lambda pad, info: seen.append(
+            [lm.id for lm in meta.landmark_map(info.get_buffer())])
+        or gst.PadProbeReturn.OK)
+    bus = pipe.get_bus()
+    kinds = (gst.MessageType.WARNING | gst.MessageType.ERROR |
+             gst.MessageType.EOS)
+    try:
+        pipe.set_state(gst.State.PAUSED)    # prerolled with the old map
+        assert pipe.get_state(30 * gst.SECOND)[0] == \
+            gst.StateChangeReturn.SUCCESS
+        s.set_property("map", str(new))
+        s.set_property("odometry", str(bad))
+        pipe.set_state(gst.State.PLAYING)
+        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+        assert msg is not None and msg.type == gst.MessageType.WARNING, \
+            msg and msg.type
+        err, debug = msg.parse_warning()
+        text = f"{err.message}\n{debug}"
+        assert msg.src is s and "'odometry'" in err.message, text
+        assert "bad-odometry.jsonl" in text, text
+        assert bus.timed_pop_filtered(200 * gst.MSECOND, kinds) is None
+        after_warning = len(seen)
+        s.set_property("odometry", None)
+        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+        assert msg is not None and msg.type == gst.MessageType.EOS, \
+            msg and msg.type
+    finally:
+        pipe.set_state(gst.State.NULL)
+    assert after_warning >= 2
+    assert all(ids == ["A1", "A2"] for ids in seen[:after_warning]), seen
+    # a frame or two may pass between the set and the next one
+    assert seen[-1] == ["B1", "B2", "B3"], seen
+    assert len(seen) == 60
+
+
+def test_live_odometry_equals_the_file(gst, clip, slam_run, tmp_path):
+    """Odometry sent live as landmark-odometry events (pipeline.send_odometry,
+    each frame's increment just before the frame) gives the estimate the
+    same increments give from an odometry file, and not the estimate
+    without odometry."""
+    frames_plain, _, truth, _ = slam_run
+    odo = str(tmp_path / "odometry.jsonl")
+    write_odometry(truth, odo)
+    frames_file, _ = run_chain(gst, clip, f"landmarkslam odometry={odo}",
+                               str(tmp_path / "slam-file.jsonl"))
+    steps = list(read_jsonl(odo))
+    log = str(tmp_path / "slam-live.jsonl")
+    desc = (f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
+            f"labsegment palette={clip}/palette.json min-class-pixels=0 ! "
+            f"blobroundness ! ipmrange calibration={clip}/camera.yml "
+            f"map={clip}/map.json ! landmarkslam name=slam ! "
+            f"landmarklog location={log} ! fakesink")
+    pipeline.init()
+    pipe = gst.parse_launch(desc)
+    slam = pipe.get_by_name("slam")
+    count = [0]
+
+    def before_frame(pad, info):
+        k = count[0]
+        count[0] += 1
+        if k >= 1:      # step k - 1 is the motion from frame k - 1 to k
+            st = steps[k - 1]
+            assert pipeline.send_odometry(slam, st["dx"], st["dy"],
+                                          st["dheading"])
+        return gst.PadProbeReturn.OK
+
+    slam.get_static_pad("sink").add_probe(gst.PadProbeType.BUFFER,
+                                          before_frame)
+    pipe.set_state(gst.State.PLAYING)
+    try:
+        pipeline.wait_eos(pipe, 120, desc)
+    finally:
+        pipe.set_state(gst.State.NULL)
+    frames_live = [f for f in read_jsonl(log) if "frame" in f]
+    assert len(frames_live) == len(frames_file) == FRAMES
+    differs = 0
+    for a, b, c in zip(frames_live, frames_file, frames_plain):
+        assert ("pose" in a) == ("pose" in b)
+        if "pose" in a:
+            for key in ("x", "y", "heading"):
+                assert a["pose"][key] == pytest.approx(b["pose"][key],
+                                                       abs=1e-9)
+            differs += abs(a["pose"]["x"] - c["pose"]["x"]) > 1e-4
+    assert differs > FRAMES // 2, differs
+
+
+def test_malformed_live_odometry_is_a_warning(gst):
+    """An odometry event without dheading is refused with a warning naming
+    the field; the stream goes on to EOS."""
+    caps = "video/x-raw,width=64,height=48,framerate=30/1"
+    pipe = gst.parse_launch(f"videotestsrc num-buffers=5 ! {caps} ! "
+                            f"landmarkslam name=s ! fakesink")
+    s = pipe.get_by_name("s")
+    bus = pipe.get_bus()
+    kinds = (gst.MessageType.WARNING | gst.MessageType.ERROR |
+             gst.MessageType.EOS)
+    try:
+        pipe.set_state(gst.State.PAUSED)
+        assert pipe.get_state(30 * gst.SECOND)[0] == \
+            gst.StateChangeReturn.SUCCESS
+        bad = gst.Structure.new_empty(pipeline.ODOMETRY_EVENT)
+        bad.set_value("dx", 0.1)
+        s.get_static_pad("sink").send_event(gst.Event.new_custom(
+            gst.EventType.CUSTOM_DOWNSTREAM_OOB, bad))
+        pipe.set_state(gst.State.PLAYING)
+        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+        assert msg is not None and msg.type == gst.MessageType.WARNING, \
+            msg and msg.type
+        err, _ = msg.parse_warning()
+        assert msg.src is s and "'dheading'" in err.message, err.message
+        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+        assert msg is not None and msg.type == gst.MessageType.EOS
+    finally:
+        pipe.set_state(gst.State.NULL)
+
+
+def test_map_messages(gst, clip, tmp_path):
+    """post-messages=true: one landmark-map message per frame with the
+    map meta's landmarks."""
+    desc = (f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
+            f"labsegment palette={clip}/palette.json min-class-pixels=0 ! "
+            f"blobroundness ! ipmrange calibration={clip}/camera.yml "
+            f"map={clip}/map.json ! landmarkslam post-messages=true ! "
+            f"fakesink name=sink")
+    metas, messages = [], []
+    pipeline.init()
+    pipe = gst.parse_launch(desc)
+    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
+        gst.PadProbeType.BUFFER, lambda pad, info: metas.append(
+            [lm.id for lm in meta.landmark_map(info.get_buffer())])
+        or gst.PadProbeReturn.OK)
+    bus = pipe.get_bus()
+    pipe.set_state(gst.State.PLAYING)
+    try:
+        while True:
+            msg = bus.timed_pop_filtered(
+                60 * gst.SECOND, gst.MessageType.ELEMENT |
+                gst.MessageType.EOS | gst.MessageType.ERROR)
+            assert msg is not None and msg.type != gst.MessageType.ERROR
+            if msg.type == gst.MessageType.EOS:
+                break
+            st = msg.get_structure()
+            if st.get_name() == "landmark-map":
+                messages.append(list(st.get_value("ids")))
+    finally:
+        pipe.set_state(gst.State.NULL)
+    assert len(messages) == len(metas) == FRAMES
+    assert messages == metas
+    assert len(messages[-1]) >= 5

@@ -159,3 +159,60 @@ def test_evaluate_plot(runs, tmp_path):
     assert s["pose"]["frames_with_pose"] > 0
     assert sum(v["frames"] for v in s["pose_by_visible"].values()) == \
         N_FRAMES
+
+
+def test_bad_value_while_playing_keeps_all_previous_settings(gst, tmp_path):
+    """A bad map set while playing, together with a good change
+    (post-messages=true), is one warning naming 'map', and the previous
+    settings all stay: no landmark-pose message follows. Setting a good map
+    again applies both."""
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps({"landmarks": [
+        {"id": "L1", "class": "red", "x": 1.0, "y": 2.0}]}))
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"landmarks": [')
+    pipe = gst.parse_launch(
+        "videotestsrc num-buffers=60 ! video/x-raw,width=64,height=48,"
+        f"framerate=30/1 ! trilaterate name=t map={good} ! "
+        "fakesink sync=true")
+    t = pipe.get_by_name("t")
+    bus = pipe.get_bus()
+    try:
+        assert pipe.set_state(gst.State.PAUSED) != \
+            gst.StateChangeReturn.FAILURE
+        assert pipe.get_state(30 * gst.SECOND)[0] == \
+            gst.StateChangeReturn.SUCCESS
+        t.set_property("map", str(bad))
+        t.set_property("post-messages", True)
+        pipe.set_state(gst.State.PLAYING)
+        kinds = (gst.MessageType.ELEMENT | gst.MessageType.WARNING |
+                 gst.MessageType.ERROR | gst.MessageType.EOS)
+        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+        assert msg is not None and msg.type == gst.MessageType.WARNING, \
+            msg and msg.type
+        err, debug = msg.parse_warning()
+        assert msg.src is t
+        text = f"{err.message}\n{debug}"
+        assert "'map'" in err.message and "bad.json" in text, text
+        assert "previous map" in text, text
+        # the property reads what was set, but the element keeps working
+        # with the previous settings, post-messages=false among them
+        assert t.get_property("post-messages") is True
+        msg = bus.timed_pop_filtered(200 * gst.MSECOND, kinds)
+        assert msg is None, msg.get_structure().to_string()
+        t.set_property("map", str(good))
+        poses, warnings = 0, 0
+        while True:
+            msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+            assert msg is not None and msg.type != gst.MessageType.ERROR
+            if msg.type == gst.MessageType.EOS:
+                break
+            if msg.type == gst.MessageType.WARNING:
+                warnings += 1
+            elif msg.get_structure().get_name() == "landmark-pose":
+                poses += 1
+        assert warnings == 0
+        # about 50 frames are left at 30 fps after the 200 ms wait
+        assert poses >= 30, poses
+    finally:
+        pipe.set_state(gst.State.NULL)

@@ -3,6 +3,8 @@ fleet map): the page and its files load from the server itself."""
 
 import re
 
+import pytest
+
 # nothing fetched from elsewhere: no scheme, no protocol-relative URL, no
 # CSS import or url() (lower case: the scripts' ``new URL(`` is fine)
 NO_EXTERNAL = re.compile(r"(?i:(?:https?|wss?|ftp)://|[\"'(]//\w|@import)|"
@@ -50,3 +52,18 @@ async def check_token_required(client, token, routes):
             if status == 401:
                 assert "token" in (await r.json())["error"]
     client.session.cookie_jar.clear()
+
+
+async def check_loopback_guard(client, route):
+    """On loopback without a token: ``route`` and the socket refuse another
+    host (DNS rebinding) or another page's origin (403) and ``route``
+    serves a loopback host."""
+    import aiohttp
+    r = await client.get(route, headers={"Host": "attacker.example:80"})
+    assert r.status == 403
+    with pytest.raises(aiohttp.WSServerHandshakeError) as err:
+        await client.ws_connect(
+            "/ws", headers={"Origin": "http://attacker.example"})
+    assert err.value.status == 403
+    r = await client.get(route, headers={"Host": "localhost:1"})
+    assert r.status == 200

@@ -297,15 +297,15 @@ BlobAnalyzer::begin (int width, int height)
 }
 
 void
-BlobAnalyzer::add_label_runs (const uint8_t * plane, size_t stride,
-    const uint8_t slot_of[256])
+BlobAnalyzer::find_runs (const uint8_t * plane, size_t stride, int width,
+    int y0, int y1, const uint8_t slot_of[256], std::vector<BlobRun> & out)
 {
   uint8_t sel[256];
   int nsel = 0;
   for (int l = 0; l < 256; l++)
     if (slot_of[l])
       sel[nsel++] = (uint8_t) l;
-  if (nsel == 0 || width_ == 0)
+  if (nsel == 0 || width == 0)
     return;
 #ifdef __SSE2__
   /* up to 8 selected labels are compared 16 pixels at a time */
@@ -314,8 +314,8 @@ BlobAnalyzer::add_label_runs (const uint8_t * plane, size_t stride,
   for (int i = 0; i < nsel && i < 8; i++)
     vsel[i] = _mm_set1_epi8 ((char) sel[i]);
 #endif
-  const int w = width_;
-  for (int y = 0; y < height_; y++) {
+  const int w = width;
+  for (int y = y0; y < y1; y++) {
     const uint8_t *row = plane + (size_t) y * stride;
     int x = 0;
     while (x < w) {
@@ -344,14 +344,42 @@ BlobAnalyzer::add_label_runs (const uint8_t * plane, size_t stride,
       const uint8_t l = row[x];
       const int e = run_end (row, x + 1, w, l);
       const int slot = slot_of[l];
-      if (!runs_.empty () && runs_.back ().y == y &&
-          runs_.back ().x1 + 1 == x && runs_.back ().slot == slot)
-        runs_.back ().x1 = e - 1;       /* two labels of one slot */
+      if (!out.empty () && out.back ().y == y &&
+          out.back ().x1 + 1 == x && out.back ().slot == slot)
+        out.back ().x1 = e - 1;       /* two labels of one slot */
       else
-        runs_.push_back ({y, x, e - 1, slot});
+        out.push_back ({y, x, e - 1, slot});
       x = e;
     }
   }
+}
+
+void
+BlobAnalyzer::add_label_runs (const uint8_t * plane, size_t stride,
+    const uint8_t slot_of[256])
+{
+  find_runs (plane, stride, width_, 0, height_, slot_of, runs_);
+}
+
+void
+BlobAnalyzer::add_label_runs (const uint8_t * plane, size_t stride,
+    const uint8_t slot_of[256], WorkerPool & pool)
+{
+  if (pool.threads () == 1) {
+    add_label_runs (plane, stride, slot_of);
+    return;
+  }
+  /* each slice's runs keep their capacity from frame to frame */
+  slice_runs_.resize (pool.slices ());
+  for (auto &r : slice_runs_)
+    r.clear ();
+  auto slice = [&](unsigned i, unsigned y0, unsigned y1) {
+    find_runs (plane, stride, width_, (int) y0, (int) y1, slot_of,
+        slice_runs_[i]);
+  };
+  pool.run_slices ((unsigned) height_, slice);
+  for (const auto &r : slice_runs_)
+    runs_.insert (runs_.end (), r.begin (), r.end ());
 }
 
 void

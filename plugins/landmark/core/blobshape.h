@@ -44,6 +44,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "workerpool.h"
+
 namespace landmark {
 
 /* One horizontal run of a selected label: pixels x0..x1 (inclusive) of row
@@ -126,6 +128,12 @@ public:
   void add_label_runs (const uint8_t * plane, size_t stride,
       const uint8_t slot_of[256]);
 
+  /* The same runs, found in horizontal slices on the pool's threads and
+   * joined in raster order (label() then merges blobs across slice
+   * borders as across any two rows). */
+  void add_label_runs (const uint8_t * plane, size_t stride,
+      const uint8_t slot_of[256], WorkerPool & pool);
+
   /* Adds the runs of the non-zero pixels of a binary 8-bit mask whose
    * top-left pixel is frame pixel (ox, oy), as the given slot. */
   void add_mask_runs (const cv::Mat & mask, int ox, int oy, int slot);
@@ -169,11 +177,14 @@ private:
   };
 
   void trace (const Component & c);
+  static void find_runs (const uint8_t * plane, size_t stride, int width,
+      int y0, int y1, const uint8_t slot_of[256], std::vector<BlobRun> & out);
   double ellipse_iou (const Component & c, double cx, double cy, double qxx,
       double qxy, double qyy) const;
 
   int width_ = 0, height_ = 0;
   std::vector<BlobRun> runs_;
+  std::vector<std::vector<BlobRun>> slice_runs_;
   std::vector<BlobRun> by_slot_;
   std::vector<int> parent_;
   std::vector<int> comp_of_;

@@ -77,11 +77,12 @@ read_values (const std::string & path, const std::string & text,
     const cv::FileNode model = fs["model"];
     if (!model.empty ()) {
       const std::string name = model.isString ()? (std::string) model : "";
-      if (name == "seed") {
+      /* "seed": the angle-linear model's former name */
+      if (name == "angle-linear" || name == "seed") {
         out->seed = true;
       } else if (name != "pinhole") {
-        *error = path + ": unknown model '" + name + "' (expected seed, or "
-            "a pinhole file with camera_matrix)";
+        *error = path + ": unknown model '" + name + "' (expected "
+            "angle-linear, or a pinhole file with camera_matrix)";
         return false;
       }
     }
@@ -117,7 +118,8 @@ read_values (const std::string & path, const std::string & text,
 
     if (out->seed) {
       if (!out->has_camera_height) {
-        *error = path + ": a seed file (model: seed) needs camera_height";
+        *error = path + ": an angle-linear file (model: angle-linear) "
+            "needs camera_height";
         return false;
       }
       const char *keys[] = { "blind_distance", "view_depth", "half_width" };
@@ -128,7 +130,8 @@ read_values (const std::string & path, const std::string & text,
         if (!read_real (fs, path, keys[i], &present, dst[i], error))
           return false;
         if (!present) {
-          *error = path + ": a seed file (model: seed) needs " + keys[i];
+          *error = path + ": an angle-linear file (model: angle-linear) "
+              "needs " + keys[i];
           return false;
         }
         if (!(*dst[i] > 0)) {
@@ -158,7 +161,7 @@ read_values (const std::string & path, const std::string & text,
     const int have_k = read_matrix (fs, "camera_matrix", "cameraMatrix", 9,
         &k, &declared);
     if (have_k == 0) {
-      *error = path + ": no camera_matrix (nor model: seed)";
+      *error = path + ": no camera_matrix (nor model: angle-linear)";
       return false;
     }
     if (k.rows != 3 || k.cols != 3 || k.channels () != 1) {

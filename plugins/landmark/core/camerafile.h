@@ -19,12 +19,13 @@ constexpr int kMaxCameraImageSize = 16384;
 
 /* Everything a camera file may hold. A pinhole file has `camera_matrix`
  * (or `cameraMatrix`) 3x3 and optionally `distortion_coefficients` (or
- * `distCoeffs`); a seed file has `model: seed` with `camera_height`,
+ * `distCoeffs`); an angle-linear file has `model: angle-linear` (or its former
+ * name `seed`) with `camera_height`,
  * `blind_distance`, `view_depth` and `half_width`. The mounting keys
  * `camera_height`, `tilt_deg` and `roll_deg` are optional in a pinhole
  * file (has_* say which are there). */
 struct CameraFile {
-  bool seed = false;                   /* model: seed */
+  bool seed = false;                   /* model: angle-linear */
   double fx = 0, fy = 0, cx = 0, cy = 0;   /* pinhole */
   std::vector<double> dist;
   int image_width = 0, image_height = 0;   /* 0: not in the file */
@@ -35,7 +36,8 @@ struct CameraFile {
 
 /* Reads and checks a camera file. False with *error naming the file and
  * the key (or the line of a malformed file): unreadable, not of the shape
- * above, neither a camera_matrix nor model: seed, an unknown model, a seed
+ * above, neither a camera_matrix nor model: angle-linear, an unknown model, an
+ * angle-linear
  * file missing one of its four lengths or with a non-positive one, a
  * non-positive camera_height, tilt_deg outside [-90, 90], non-finite
  * values. */

@@ -116,10 +116,22 @@ is_dt (const std::string & s)
   return true;
 }
 
+/* A word value: a name, where a '-' may join two parts (angle-linear) */
+bool
+is_word (const std::string & s)
+{
+  if (s.empty () || s.back () == '-' || !is_word_char (s[0], true))
+    return false;
+  for (size_t i = 1; i < s.size (); i++)
+    if (!is_word_char (s[i], false) && !(s[i] == '-' && s[i - 1] != '-'))
+      return false;
+  return true;
+}
+
 bool
 is_scalar (const std::string & s)
 {
-  return is_number (s) || is_key (s) || is_quoted (s);
+  return is_number (s) || is_word (s) || is_quoted (s);
 }
 
 /* "is_number" separated by white space (XML matrix data, XML lists) */

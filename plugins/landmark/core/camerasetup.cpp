@@ -115,7 +115,7 @@ camera_setup_resolve (const CameraSettings & s, CameraSetup * out,
     }
   } else if (!(e.view_depth > 0) || !(e.half_width > 0)) {
     *property = e.view_depth > 0 ? "half-width" : "view-depth";
-    *why = "model=seed needs view-depth > 0 and half-width > 0, got " +
+    *why = "model=angle-linear needs view-depth > 0 and half-width > 0, got " +
         number_text (e.view_depth) + " and " + number_text (e.half_width);
     return false;
   }

@@ -51,6 +51,35 @@ json_parse_object (const std::string & json, const std::string & source,
   return json_node_get_object (root);
 }
 
+JsonArray *
+json_parse_list (const std::string & json, const std::string & source,
+    const char *member, unsigned max, JsonParserPtr & parser,
+    std::string * error)
+{
+  const std::string quoted = std::string ("\"") + member + "\"";
+  JsonObject *root = json_parse_object (json, source, quoted.c_str (),
+      parser, error);
+  if (!root)
+    return nullptr;
+  JsonNode *list = json_object_get_member (root, member);
+  if (!list || !JSON_NODE_HOLDS_ARRAY (list)) {
+    *error = source + ": " + quoted + " must be an array";
+    return nullptr;
+  }
+  JsonArray *array = json_node_get_array (list);
+  const guint n = json_array_get_length (array);
+  if (n == 0) {
+    *error = source + ": " + quoted + " is empty";
+    return nullptr;
+  }
+  if (n > max) {
+    *error = source + ": " + std::to_string (n) + " " + member +
+        "; at most " + std::to_string (max) + " are supported";
+    return nullptr;
+  }
+  return array;
+}
+
 bool
 json_read_file (const std::string & path, std::string * text,
     std::string * error)

@@ -24,6 +24,13 @@ JsonObject *json_parse_object (const std::string & json,
     const std::string & source, const char *what, JsonParserPtr & parser,
     std::string * error);
 
+/* The array member `member` of the document's top-level object, with 1 to
+ * max entries (the lists of palette and map files), or nullptr with
+ * *error naming source and the member. */
+JsonArray *json_parse_list (const std::string & json,
+    const std::string & source, const char *member, unsigned max,
+    JsonParserPtr & parser, std::string * error);
+
 /* Reads a whole file; on failure *error is "<path>: cannot read: ...", or
  * names a file too large or not regular (fileutil.h). */
 bool json_read_file (const std::string & path, std::string * text,

@@ -101,26 +101,11 @@ map_parse (const std::string & json, const std::string & source,
     LandmarkMap * out, std::string * error)
 {
   JsonParserPtr parser (nullptr, g_object_unref);
-  JsonObject *root = json_parse_object (json, source, "\"landmarks\"",
-      parser, error);
-  if (!root)
+  JsonArray *array = json_parse_list (json, source, "landmarks",
+      kMaxMapLandmarks, parser, error);
+  if (!array)
     return false;
-  JsonNode *list = json_object_get_member (root, "landmarks");
-  if (!list || !JSON_NODE_HOLDS_ARRAY (list)) {
-    *error = source + ": \"landmarks\" must be an array";
-    return false;
-  }
-  JsonArray *array = json_node_get_array (list);
   const guint n = json_array_get_length (array);
-  if (n == 0) {
-    *error = source + ": \"landmarks\" is empty";
-    return false;
-  }
-  if (n > kMaxMapLandmarks) {
-    *error = source + ": " + std::to_string (n) + " landmarks; at most " +
-        std::to_string (kMaxMapLandmarks) + " are supported";
-    return false;
-  }
   LandmarkMap map;
   std::set<std::string> ids;
   for (guint i = 0; i < n; i++) {

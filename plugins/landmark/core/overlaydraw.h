@@ -79,6 +79,11 @@ struct Pose {
   double x = 0, y = 0, heading = 0;  /* metres, radians */
 };
 
+/* The text of the pose line: "pose x 1.250 m  y -3.500 m  heading 114.6
+ * deg", or the compact form for narrow frames, "1.25 -3.50 115d". */
+void pose_line_text (const Pose & pose, bool compact, char *out,
+    size_t size);
+
 /* The free floor of a GstLandmarkFloorMeta (docs/floorboundary.md).
  * Pointers are borrowed for the frame; states are LandmarkFloorState
  * codes (0 not seen, 1 free, 2 obstacle, 3 view edge). */

@@ -188,18 +188,27 @@ Renderer::draw_detection (const Detection & d)
 }
 
 void
+pose_line_text (const Pose & pose, bool compact, char *out, size_t size)
+{
+  const double degrees = pose.heading * 180.0 / M_PI;
+  if (compact)
+    snprintf (out, size, "%.2f %.2f %.0fd", pose.x, pose.y, degrees);
+  else
+    snprintf (out, size, "pose x %.3f m  y %.3f m  heading %.1f deg",
+        pose.x, pose.y, degrees);
+}
+
+void
 Renderer::draw_pose_text (const Pose & pose)
 {
   if (canvas_.empty ())
     return;
   char s[128];
-  snprintf (s, sizeof (s), "pose x %.3f m  y %.3f m  heading %.1f deg",
-      pose.x, pose.y, pose.heading * 180.0 / M_PI);
+  pose_line_text (pose, false, s, sizeof (s));
   int tw = text_width (s);
   if (tw + 2 * st_.pad > width_ - 2 * st_.margin) {
     /* a narrow frame: the short form */
-    snprintf (s, sizeof (s), "%.2f %.2f %.0fd", pose.x, pose.y,
-        pose.heading * 180.0 / M_PI);
+    pose_line_text (pose, true, s, sizeof (s));
     tw = text_width (s);
   }
   const int bh = st_.line_height + st_.pad;

@@ -154,26 +154,11 @@ palette_parse (const std::string & json, const std::string & source,
     Palette * out, std::string * error)
 {
   JsonParserPtr parser (nullptr, g_object_unref);
-  JsonObject *root = json_parse_object (json, source, "\"classes\"", parser,
-      error);
-  if (!root)
+  JsonArray *classes = json_parse_list (json, source, "classes",
+      (unsigned) kMaxClasses, parser, error);
+  if (!classes)
     return false;
-  JsonNode *classes_node = json_object_get_member (root, "classes");
-  if (!classes_node || !JSON_NODE_HOLDS_ARRAY (classes_node)) {
-    *error = source + ": \"classes\" must be an array";
-    return false;
-  }
-  JsonArray *classes = json_node_get_array (classes_node);
   const guint n = json_array_get_length (classes);
-  if (n == 0) {
-    *error = source + ": \"classes\" is empty";
-    return false;
-  }
-  if (n > (size_t) kMaxClasses) {
-    *error = source + ": " + std::to_string (n) + " classes; at most " +
-        std::to_string ((size_t) kMaxClasses) + " are supported";
-    return false;
-  }
 
   Palette palette;
   std::set<std::string> names;

@@ -21,27 +21,12 @@ constexpr double kMinBearingSigma = 0.0005;
  * the two-circle intersection is ill-conditioned */
 const double kSinDegenerate = std::sin (10.0 * kPi / 180.0);
 
-double
-range_sigma_of (const RangeBearing & o)
-{
-  const double s = o.range_sigma > 0 ? o.range_sigma :
-      default_range_sigma (o.range ());
-  return std::max (s, kMinRangeSigma);
-}
-
-double
-bearing_sigma_of (const RangeBearing & o)
-{
-  const double s = o.bearing_sigma > 0 ? o.bearing_sigma :
-      default_bearing_sigma ();
-  return std::max (s, kMinBearingSigma);
-}
-
 /* one-sigma position error of an observation, metres */
 double
 position_sigma_of (const RangeBearing & o)
 {
-  return std::hypot (range_sigma_of (o), o.range () * bearing_sigma_of (o));
+  return std::hypot (o.range_sigma_used (),
+      o.range () * o.bearing_sigma_used ());
 }
 
 void
@@ -154,6 +139,22 @@ RangeBearing::range () const
 }
 
 double
+RangeBearing::range_sigma_used () const
+{
+  const double s = range_sigma > 0 ? range_sigma :
+      default_range_sigma (range ());
+  return std::max (s, kMinRangeSigma);
+}
+
+double
+RangeBearing::bearing_sigma_used () const
+{
+  const double s = bearing_sigma > 0 ? bearing_sigma :
+      default_bearing_sigma ();
+  return std::max (s, kMinBearingSigma);
+}
+
+double
 RangeBearing::bearing () const
 {
   return std::atan2 (gy, gx);
@@ -237,7 +238,8 @@ solve_one (const Correspondence & c, double heading, double heading_sigma)
   const cv::Matx33d J (-std::cos (th), rho * std::sin (th), rho * std::sin (th),
       -std::sin (th), -rho * std::cos (th), -rho * std::cos (th),
       0, 0, 1);
-  const double sr = range_sigma_of (c.obs), sb = bearing_sigma_of (c.obs);
+  const double sr = c.obs.range_sigma_used ();
+  const double sb = c.obs.bearing_sigma_used ();
   const double sh = std::max (heading_sigma, 1e-6);
   const cv::Matx33d S (sr * sr, 0, 0, 0, sb * sb, 0, 0, 0, sh * sh);
   copy_cov (J * S * J.t (), s.cov);
@@ -266,14 +268,18 @@ refine_pose (const std::vector<Correspondence> & cs, Pose2 * pose,
       if (r2 < 1e-12)
         return false;   /* the robot on a landmark: bearing undefined */
       const double r = std::sqrt (r2);
-      const double sr = range_sigma_of (c.obs), sb = bearing_sigma_of (c.obs);
+      const double sr = c.obs.range_sigma_used ();
+    const double sb = c.obs.bearing_sigma_used ();
       const double er = (r - c.obs.range ()) / sr;
       const double eb = wrap_angle (std::atan2 (dy, dx) - p.heading -
           c.obs.bearing ()) / sb;
       const cv::Vec3d jr (-dx / r / sr, -dy / r / sr, 0);
       const cv::Vec3d jb (dy / r2 / sb, -dx / r2 / sb, -1 / sb);
-      const double wr = std::fabs (er) <= huber_k ? 1 : huber_k / std::fabs (er);
-      const double wb = std::fabs (eb) <= huber_k ? 1 : huber_k / std::fabs (eb);
+      /* Huber weights */
+      const double wr = std::fabs (er) <= huber_k ? 1 :
+          huber_k / std::fabs (er);
+      const double wb = std::fabs (eb) <= huber_k ? 1 :
+          huber_k / std::fabs (eb);
       H += wr * jr * jr.t () + wb * jb * jb.t ();
       g += wr * er * jr + wb * eb * jb;
       chi2 += er * er + eb * eb;
@@ -539,6 +545,7 @@ localise (const std::vector<MapPoint> & map,
   }
   /* without a prior, or when the gate lost landmarks (a stale or wrong
    * prior): associate by consensus over pairs, kept when it places more */
+  bool by_consensus = false;
   if ((!gated || n_match < n_cand) && n_cand >= 2) {
     bool have = false, ambiguous = false;
     int best_in = -1;
@@ -630,16 +637,11 @@ localise (const std::vector<MapPoint> & map,
         reason[k] = match[k] < 0 ? "outlier" : "";
       }
       resolve_conflicts (&match, dist, &reason);
-    } else if (!gated) {
-      /* nothing agrees: keep unambiguous detections only */
-      for (size_t k = 0; k < nd; k++) {
-        if (cand[k].size () == 1)
-          match[k] = cand[k][0];
-        else if (cand[k].size () > 1)
-          reason[k] = "ambiguous";
-      }
+      by_consensus = true;
     }
-  } else if (!gated) {
+  }
+  if (!gated && !by_consensus) {
+    /* no prior and nothing agrees: keep unambiguous detections only */
     for (size_t k = 0; k < nd; k++) {
       if (cand[k].size () == 1)
         match[k] = cand[k][0];
@@ -695,144 +697,6 @@ localise (const std::vector<MapPoint> & map,
   }
   res.reasons = reason;
   return res;
-}
-
-/* ---- EKF ----------------------------------------------------------- */
-
-void
-PoseFilter::init (const Pose2 & p, const double cov[9])
-{
-  std::fill (s_, s_ + 6, 0.0);
-  std::fill (p_, p_ + 36, 0.0);
-  s_[0] = p.x;
-  s_[1] = p.y;
-  s_[2] = p.heading;
-  for (int r = 0; r < 3; r++)
-    for (int c = 0; c < 3; c++)
-      p_[r * 6 + c] = cov[r * 3 + c];
-  /* unknown velocity: a robot's few m/s and rad/s */
-  p_[3 * 6 + 3] = p_[4 * 6 + 4] = 1.0;
-  p_[5 * 6 + 5] = 4.0;
-  init_ = true;
-}
-
-void
-PoseFilter::predict (double dt)
-{
-  if (!init_ || !(dt > 0))
-    return;
-  cv::Matx<double, 6, 6> F = cv::Matx<double, 6, 6>::eye ();
-  F (0, 3) = F (1, 4) = F (2, 5) = dt;
-  cv::Matx<double, 6, 6> P (p_);
-  cv::Matx<double, 6, 6> Q = cv::Matx<double, 6, 6>::zeros ();
-  const double qa = accel_sigma * accel_sigma, qw = alpha_sigma * alpha_sigma;
-  const double t3 = dt * dt * dt / 3, t2 = dt * dt / 2;
-  for (int k = 0; k < 3; k++) {
-    const double q = k < 2 ? qa : qw;
-    Q (k, k) = t3 * q;
-    Q (k, k + 3) = Q (k + 3, k) = t2 * q;
-    Q (k + 3, k + 3) = dt * q;
-  }
-  cv::Vec<double, 6> s (s_);
-  s = F * s;
-  s[2] = wrap_angle (s[2]);
-  P = F * P * F.t () + Q;
-  for (int i = 0; i < 6; i++)
-    s_[i] = s[i];
-  for (int i = 0; i < 36; i++)
-    p_[i] = P.val[i];
-}
-
-int
-PoseFilter::update (const std::vector<Correspondence> & cs, double gate_chi2)
-{
-  if (!init_)
-    return 0;
-  int used = 0;
-  for (const auto & c : cs) {
-    /* sequential updates: one landmark's range and bearing at a time */
-    const double dx = c.lx - s_[0], dy = c.ly - s_[1];
-    const double r2 = dx * dx + dy * dy;
-    if (r2 < 1e-12)
-      continue;
-    const double r = std::sqrt (r2);
-    cv::Matx<double, 2, 6> H = cv::Matx<double, 2, 6>::zeros ();
-    H (0, 0) = -dx / r;
-    H (0, 1) = -dy / r;
-    H (1, 0) = dy / r2;
-    H (1, 1) = -dx / r2;
-    H (1, 2) = -1;
-    const cv::Vec2d innov (c.obs.range () - r,
-        wrap_angle (c.obs.bearing () - (std::atan2 (dy, dx) - s_[2])));
-    const double sr = range_sigma_of (c.obs), sb = bearing_sigma_of (c.obs);
-    const cv::Matx22d R (sr * sr, 0, 0, sb * sb);
-    cv::Matx<double, 6, 6> P (p_);
-    const cv::Matx22d S = H * P * H.t () + R;
-    cv::Matx22d Si;
-    if (cv::invert (S, Si, cv::DECOMP_CHOLESKY) == 0)
-      continue;
-    const double m2 = innov.dot (Si * innov);
-    if (!(m2 <= gate_chi2))
-      continue;
-    const cv::Matx<double, 6, 2> K = P * H.t () * Si;
-    const cv::Vec<double, 6> ds = K * innov;
-    for (int i = 0; i < 6; i++)
-      s_[i] += ds[i];
-    s_[2] = wrap_angle (s_[2]);
-    /* Joseph form keeps P symmetric and positive */
-    const cv::Matx<double, 6, 6> IKH = cv::Matx<double, 6, 6>::eye () - K * H;
-    P = IKH * P * IKH.t () + K * R * K.t ();
-    for (int i = 0; i < 36; i++)
-      p_[i] = P.val[i];
-    used++;
-  }
-  return used;
-}
-
-void
-PoseFilter::update_pose (const Pose2 & p, const double cov[9])
-{
-  if (!init_) {
-    init (p, cov);
-    return;
-  }
-  cv::Matx<double, 3, 6> H = cv::Matx<double, 3, 6>::zeros ();
-  H (0, 0) = H (1, 1) = H (2, 2) = 1;
-  const cv::Matx33d R (cov);
-  cv::Matx<double, 6, 6> P (p_);
-  const cv::Matx33d S = H * P * H.t () + R;
-  cv::Matx33d Si;
-  if (cv::invert (S, Si, cv::DECOMP_SVD) == 0)
-    return;
-  const cv::Vec3d innov (p.x - s_[0], p.y - s_[1],
-      wrap_angle (p.heading - s_[2]));
-  const cv::Matx<double, 6, 3> K = P * H.t () * Si;
-  const cv::Vec<double, 6> ds = K * innov;
-  for (int i = 0; i < 6; i++)
-    s_[i] += ds[i];
-  s_[2] = wrap_angle (s_[2]);
-  const cv::Matx<double, 6, 6> IKH = cv::Matx<double, 6, 6>::eye () - K * H;
-  P = IKH * P * IKH.t () + K * R * K.t ();
-  for (int i = 0; i < 36; i++)
-    p_[i] = P.val[i];
-}
-
-Pose2
-PoseFilter::pose () const
-{
-  Pose2 p;
-  p.x = s_[0];
-  p.y = s_[1];
-  p.heading = wrap_angle (s_[2]);
-  return p;
-}
-
-void
-PoseFilter::pose_cov (double cov[9]) const
-{
-  for (int r = 0; r < 3; r++)
-    for (int c = 0; c < 3; c++)
-      cov[r * 3 + c] = p_[r * 6 + c];
 }
 
 }  // namespace landmark

@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "landmarkmap.h"
+
 namespace landmark {
 
 struct Pose2 {
@@ -32,6 +34,10 @@ struct RangeBearing {
   double range_sigma = 0, bearing_sigma = 0;   /* <= 0: defaults */
   double range () const;
   double bearing () const;
+  /* the sigmas used as weights: the defaults where unset, and never below
+   * a floor, so that zero never means infinite confidence */
+  double range_sigma_used () const;
+  double bearing_sigma_used () const;
 };
 
 /* A matched observation: what was seen and the map position it is. */
@@ -109,13 +115,8 @@ bool landmarks_collinear (const std::vector<Correspondence> & cs,
 
 /* ---- association and the whole frame ------------------------------- */
 
-struct MapPoint {
-  std::string id, class_name;
-  double x = 0, y = 0;
-  /* the marker (map `z`, `diameter`, `kind`) */
-  double z = 0, diameter = 0;
-  bool ball = false;
-};
+/* A landmark of the map file, with its marker (`z`, `diameter`, `kind`). */
+using MapPoint = MapLandmark;
 
 struct Detection {
   std::string class_name;
@@ -164,32 +165,5 @@ constexpr int kMaxConsensusHypotheses = 2048;
  * landmarks. Detections that fit nothing stay unmatched. */
 LocaliseResult localise (const std::vector<MapPoint> & map,
     const std::vector<Detection> & dets, const LocaliseOptions & opt);
-
-/* ---- constant-velocity EKF ----------------------------------------- */
-
-/* State x, y, heading, vx, vy, omega (world frame). */
-class PoseFilter {
-public:
-  double accel_sigma = 1.0;     /* m/s^2, process noise */
-  double alpha_sigma = 3.0;     /* rad/s^2 */
-
-  bool initialised () const { return init_; }
-  void reset () { init_ = false; }
-  void init (const Pose2 & p, const double cov[9]);
-  void predict (double dt);
-  /* Range-bearing update with matched correspondences (Mahalanobis-gated
-   * per measurement at `gate_chi2`); returns how many were used. */
-  int update (const std::vector<Correspondence> & cs,
-      double gate_chi2 = 16.0);
-  /* A direct pose measurement (used when a solver gave one). */
-  void update_pose (const Pose2 & p, const double cov[9]);
-  Pose2 pose () const;
-  void pose_cov (double cov[9]) const;
-
-private:
-  bool init_ = false;
-  double s_[6] = { 0 };
-  double p_[36] = { 0 };
-};
 
 }  // namespace landmark

@@ -79,13 +79,7 @@ Slam::set_map (const std::vector<MapPoint> & map)
   lm_.clear ();
   for (const auto & m : map) {
     SlamLandmark l;
-    l.id = m.id;
-    l.class_name = m.class_name;
-    l.x = m.x;
-    l.y = m.y;
-    l.z = m.z;
-    l.diameter = m.diameter;
-    l.ball = m.ball;
+    static_cast < MapLandmark & >(l) = m;
     l.anchor = l.confirmed = true;
     lm_.push_back (l);
   }
@@ -315,10 +309,7 @@ Slam::update (const std::vector<SlamObservation> & obs)
   if (!init_) {
     if (anchored_) {
       /* the given map places the first pose */
-      std::vector<MapPoint> map;
-      for (const auto & l : lm_)
-        map.push_back ({ l.id, l.class_name, l.x, l.y, l.z, l.diameter,
-                l.ball });
+      const std::vector<MapPoint> map (lm_.begin (), lm_.end ());
       std::vector<Detection> dets;
       for (const auto & o : obs) {
         Detection d;

@@ -53,16 +53,13 @@ struct SlamOptions {
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
 };
 
-struct SlamLandmark {
-  std::string id, class_name;
-  double x = 0, y = 0;
+/* A map landmark (id, class, position, and the marker: the given map's,
+ * written back by map-out) with what the estimate knows of it. */
+struct SlamLandmark : MapLandmark {
   double cov[4] = { 0 };          /* row-major, x y */
   int views = 0;                  /* counted views (distinct poses) */
   bool confirmed = false;
   bool anchor = false;            /* from the given map: fixed */
-  /* the given map's marker (written back by map-out) */
-  double z = 0, diameter = 0;
-  bool ball = false;
 };
 
 struct SlamObservation {

@@ -76,23 +76,28 @@ odometry_load_file (const std::string & path,
 }
 
 void
+OdometrySum::add (double step_dx, double step_dy, double step_dheading)
+{
+  const double c = std::cos (dheading), s = std::sin (dheading);
+  dx += c * step_dx - s * step_dy;
+  dy += s * step_dx + c * step_dy;
+  dheading += step_dheading;
+}
+
+void
 odometry_between (const std::vector<OdometryStep> & steps, double a,
     double b, size_t * next, double *dx, double *dy, double *dheading)
 {
-  double x = 0, y = 0, h = 0;
+  OdometrySum sum;
   size_t i = *next;
   while (i < steps.size () && steps[i].t <= a)
     i++;
-  for (; i < steps.size () && steps[i].t <= b; i++) {
-    const double c = std::cos (h), s = std::sin (h);
-    x += c * steps[i].dx - s * steps[i].dy;
-    y += s * steps[i].dx + c * steps[i].dy;
-    h += steps[i].dheading;
-  }
+  for (; i < steps.size () && steps[i].t <= b; i++)
+    sum.add (steps[i].dx, steps[i].dy, steps[i].dheading);
   *next = i;
-  *dx = x;
-  *dy = y;
-  *dheading = h;
+  *dx = sum.dx;
+  *dy = sum.dy;
+  *dheading = sum.dheading;
 }
 
 std::string

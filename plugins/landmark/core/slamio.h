@@ -16,6 +16,14 @@ struct OdometryStep {
   double dx = 0, dy = 0, dheading = 0;
 };
 
+/* Robot-frame increments composed in order: the motion over all of them
+ * (the odometry between two frames, from a file or live from the
+ * application). */
+struct OdometrySum {
+  double dx = 0, dy = 0, dheading = 0;
+  void add (double step_dx, double step_dy, double step_dheading);
+};
+
 /* Bounds on a log: a run of hours at 100 Hz. */
 constexpr size_t kMaxOdometrySteps = 10000000;
 

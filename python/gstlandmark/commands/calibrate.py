@@ -32,6 +32,7 @@ import numpy as np
 from ..camerafile import (INFO_KEYS, K_DIST, K_HEIGHT, K_MATRIX, K_WIDTH,
                           CalibrationError, read_camera_file,
                           write_camera_file)
+from .common import add_actions
 
 MIN_IMAGES = 3
 
@@ -206,7 +207,7 @@ def seed_geometry(height, blind, depth, half_width):
 
 def seed_fields(geometry, size=None):
     """The camera file of a seed camera, in writing order."""
-    fields = {"model": "seed"}
+    fields = {"model": "angle-linear"}
     if size is not None:
         fields[K_WIDTH], fields[K_HEIGHT] = int(size[0]), int(size[1])
     fields.update({
@@ -576,6 +577,11 @@ def _handle_floor(args):
     return 0
 
 
+def _add_output_option(parser, help="camera file to write"):
+    parser.add_argument("-o", "--output", required=True, metavar="OUT.yml",
+                        help=help)
+
+
 def add_calibrate_parser(subparsers):
     parser = subparsers.add_parser(
         "calibrate", help="write camera files for ipmrange",
@@ -583,8 +589,7 @@ def add_calibrate_parser(subparsers):
                     "ipmrange: the seed's model from floor measurements, "
                     "intrinsics from chessboard images, or the mounting "
                     "from a chessboard on the floor.")
-    actions = parser.add_subparsers(dest="action", metavar="ACTION",
-                                    required=True)
+    actions = add_actions(parser)
 
     seed = actions.add_parser(
         "seed", help="the seed's camera model from floor measurements",
@@ -606,8 +611,7 @@ def add_calibrate_parser(subparsers):
                                         "at b + d (m)")
     seed.add_argument("--size", type=_size_type, metavar="WxH",
                       help="image size in pixels, written to the file")
-    seed.add_argument("-o", "--output", required=True, metavar="OUT.yml",
-                      help="camera file to write")
+    _add_output_option(seed)
     seed.set_defaults(handler=_handle_seed, parser=seed)
 
     board = actions.add_parser(
@@ -633,8 +637,7 @@ def add_calibrate_parser(subparsers):
     board.add_argument("--fix-k3", action="store_true",
                        help="fix the radial coefficient k3 at 0 (few "
                             "images, mild lenses)")
-    board.add_argument("-o", "--output", required=True, metavar="OUT.yml",
-                       help="camera file to write")
+    _add_output_option(board)
     board.set_defaults(handler=_handle_chessboard, parser=board)
 
     floor = actions.add_parser(
@@ -663,6 +666,5 @@ def add_calibrate_parser(subparsers):
                             "from a reference point on the robot: "
                             "prints the camera's floor point relative "
                             "to it")
-    floor.add_argument("-o", "--output", required=True, metavar="OUT.yml",
-                       help="camera file to write (may be --camera)")
+    _add_output_option(floor, "camera file to write (may be --camera)")
     floor.set_defaults(handler=_handle_floor, parser=floor)

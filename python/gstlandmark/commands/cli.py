@@ -20,7 +20,7 @@ from .. import reference
 from ..palette import (MAX_REFERENCES, PaletteError, default_palette,
                        default_palette_text, learn_from_mask,
                        learn_from_rects, load_palette, save_palette)
-from .common import PROG, CliError
+from .common import PROG, CliError, add_actions
 
 
 class _Parser(argparse.ArgumentParser):
@@ -178,8 +178,7 @@ def add_palette_parser(subparsers):
     parser = subparsers.add_parser(
         "palette", help="learn, check and show colour palettes",
         description="Learn, check and show colour palettes.")
-    actions = parser.add_subparsers(dest="action", metavar="ACTION",
-                                    required=True)
+    actions = add_actions(parser)
 
     learn = actions.add_parser(
         "learn", help="learn a palette from an image",

@@ -1,5 +1,8 @@
-"""What every command shares: the program name and the error a handler
-raises for bad input (``cli.main`` prints it and exits with its status)."""
+"""What every command shares: the program name, the error a handler
+raises for bad input (``cli.main`` prints it and exits with its status)
+and the options several commands take alike."""
+
+import argparse
 
 PROG = "gst-landmark"
 
@@ -10,3 +13,30 @@ class CliError(Exception):
     def __init__(self, message, status=1):
         super().__init__(message)
         self.status = status
+
+
+def size_type(text):
+    """argparse type for WIDTHxHEIGHT (both at least 1) -> (w, h)."""
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+        if width < 1 or height < 1:
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected WIDTHxHEIGHT, got {text!r}") from None
+    return width, height
+
+
+def add_actions(parser, dest="action", metavar="ACTION"):
+    """The sub-parsers of a command whose first word picks what it does
+    (``palette learn``, ``calibrate seed``): one is required."""
+    return parser.add_subparsers(dest=dest, metavar=metavar, required=True)
+
+
+def add_token_option(parser, what="access token"):
+    """``--token`` of a command that serves a page (webguard's rules:
+    ``webguard.choose_token`` picks the default)."""
+    parser.add_argument("--token", metavar="T",
+                        help=f"{what} (at least 16 characters; default: "
+                             f"none on loopback, a random one printed at "
+                             f"start otherwise)")

@@ -23,7 +23,7 @@ import time
 from collections import deque
 from typing import Any, Dict, Optional
 
-from .common import PROG, CliError
+from .common import PROG, CliError, add_token_option
 
 DEFAULT_PATH_LENGTH = 1200
 DEFAULT_PATH_EVERY = 0.5
@@ -407,10 +407,7 @@ def add_fleet_parser(subparsers):
                    help="serve the live fleet map on this address "
                         "(default address 127.0.0.1; any other than "
                         "loopback requires a token; port 0: any free one)")
-    p.add_argument("--token", metavar="T",
-                   help="the map's access token (at least 16 characters; "
-                        "default: none on loopback, a random one printed "
-                        "at start otherwise)")
+    add_token_option(p, "the map's access token")
     p.add_argument("--map", metavar="MAP.json",
                    help="draw this landmark map's landmarks on the map")
     p.set_defaults(handler=_handle, parser=p)

@@ -9,7 +9,6 @@ from __future__ import annotations
 import asyncio
 import importlib.resources
 import json
-import os
 import threading
 from typing import Any, Dict, List, Optional
 
@@ -54,10 +53,6 @@ def make_app(state, token: Optional[str] = None,
     sockets: set = set()
     map_text = json.dumps({"type": "map", "landmarks": landmarks or []})
 
-    async def index(request):
-        return web.FileResponse(os.path.join(root, "index.html"),
-                                headers={"Cache-Control": "no-store"})
-
     async def api_fleet(request):
         return web.Response(text=state.view_text({}),
                             content_type="application/json")
@@ -94,9 +89,7 @@ def make_app(state, token: Optional[str] = None,
             await ws.close()
 
     app.on_shutdown.append(on_shutdown)
-    app.router.add_get("/", index)
-    app.router.add_static("/static/", root)
-    app.router.add_get("/ws", websocket)
+    webguard.add_page_routes(app, root, websocket)
     app.router.add_get("/api/fleet", api_fleet)
     return app
 

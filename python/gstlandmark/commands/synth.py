@@ -7,6 +7,7 @@ import os
 from ..palette import PaletteError
 from ..synth.floors import FLOOR_NAMES
 from ..synth.scenarios import DEFAULT_ROBOT, ROBOTS, SCENARIOS
+from .common import CliError, size_type
 
 DESCRIPTION = """\
 Render a robot's camera view of a synthetic floor with coloured landmarks
@@ -44,18 +45,6 @@ scenarios:
 floors: """ + ", ".join(FLOOR_NAMES)
 
 
-def _size(text):
-    try:
-        width, height = (int(v) for v in text.lower().split("x"))
-        if width < 1 or height < 1:
-            raise ValueError
-    except ValueError:
-        import argparse
-        raise argparse.ArgumentTypeError(
-            f"expected WIDTHxHEIGHT, got {text!r}") from None
-    return width, height
-
-
 def _pose(text):
     try:
         x, y, heading = (float(v) for v in text.split(","))
@@ -79,7 +68,7 @@ def add_synth_parser(subparsers):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--frames", type=int, metavar="N",
                    help="frame count (default: the scenario's)")
-    p.add_argument("--size", type=_size, default=(640, 480),
+    p.add_argument("--size", type=size_type, default=(640, 480),
                    metavar="WxH", help="image size (default 640x480)")
     p.add_argument("--fps", type=int, default=None, help="default 30")
     p.add_argument("--robot", choices=ROBOTS, default=DEFAULT_ROBOT,
@@ -193,7 +182,6 @@ OVERRIDE_ARGS = ("fps", "hfov_deg", "fx", "fy", "cx", "cy", "height_m",
 def _handle(args):
     from ..pipeline import PipelineError
     from ..synth.writer import format_visibility, render_scenario
-    from .common import CliError
 
     if args.hfov_deg is not None and args.fx is not None:
         args.parser.error("give --hfov or --fx, not both")

@@ -34,10 +34,10 @@ import cv2
 import numpy as np
 
 from .. import reference
-from ..commands.common import CliError
+from ..commands.common import CliError, add_actions, size_type
 from ..palette import default_palette
-from .benchkit import (BenchError, OneCore, bench_environment, parse_size,
-                       pin_prefix, write_json)
+from .benchkit import (BenchError, OneCore, bench_environment, pin_prefix,
+                       write_json)
 from .benchkit import find_build_dir as find_program_build_dir
 
 DEFAULT_SIZES = ((640, 480), (1920, 1080))
@@ -707,8 +707,7 @@ def add_bench_parser(subparsers):
     parser = subparsers.add_parser(
         "bench", help="benchmarks (print numbers)",
         description="Benchmarks of the elements; they print numbers.")
-    actions = parser.add_subparsers(dest="bench", metavar="BENCH",
-                                    required=True)
+    actions = add_actions(parser, dest="bench", metavar="BENCH")
     lab = actions.add_parser(
         "labsegment", help="labsegment per-frame time vs frame copy and "
                            "the Python reference",
@@ -735,7 +734,7 @@ def add_bench_parser(subparsers):
     lab.add_argument("--warmup", type=int, default=DEFAULT_WARMUP,
                      metavar="N", help="untimed frames first (default "
                                        f"{DEFAULT_WARMUP})")
-    lab.add_argument("--size", type=parse_size, action="append",
+    lab.add_argument("--size", type=size_type, action="append",
                      metavar="WxH",
                      help="frame size (repeatable; default 640x480 and "
                           "1920x1080)")

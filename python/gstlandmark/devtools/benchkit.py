@@ -2,7 +2,6 @@
 ``bench fleet``): their error, core pinning, frame-size arguments and the
 build directory holding the C bench programs."""
 
-import argparse
 import json
 import os
 import shutil
@@ -36,18 +35,6 @@ class OneCore:
         if self.affinity is not None:
             os.sched_setaffinity(0, self.affinity)
         return False
-
-
-def parse_size(text):
-    """argparse type for WIDTHxHEIGHT."""
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-        if w <= 0 or h <= 0:
-            raise ValueError
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected WIDTHxHEIGHT, got {text!r}") from None
-    return (w, h)
 
 
 def pin_prefix(cpu):

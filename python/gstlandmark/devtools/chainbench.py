@@ -33,8 +33,9 @@ import cv2
 import numpy as np
 
 from .. import reference
-from .benchkit import (BenchError, OneCore, bench_environment, parse_size,
-                       pin_prefix, write_json)
+from ..commands.common import size_type
+from .benchkit import (BenchError, OneCore, bench_environment, pin_prefix,
+                       write_json)
 from .benchkit import find_build_dir as find_program_build_dir
 
 CHAIN_EXE = os.path.join("tests", "bench", "chain-bench")
@@ -470,7 +471,7 @@ def add_chain_bench_parser(actions):
                    metavar="N", help="frames of the 640x480 memory run "
                                      f"(default {DEFAULT_RSS_FRAMES}; 0: "
                                      "none)")
-    p.add_argument("--size", type=parse_size, action="append",
+    p.add_argument("--size", type=size_type, action="append",
                    metavar="WxH", help="frame size (repeatable; default "
                                        "640x480 and 1920x1080)")
     p.add_argument("--cpu", type=int, default=0, metavar="CORE",

@@ -1280,6 +1280,8 @@ LANDMARK_TEST ("insets", test_pose_line)
   guint8 *mask;
   guint n;
 
+  GstBuffer *same, *other, *out_same, *out_other;
+
   layout_init (&l, "NV12", w, h);
   h_ = overlay_new (&l, NULL);
   in = frame_new (&l, GREY, GREY, GREY);
@@ -1289,7 +1291,23 @@ LANDMARK_TEST ("insets", test_pose_line)
   fail_unless (n >= 200);
   fail_unless_equals_int (n, count_in (mask, w, 0, h * 3 / 4, w, h));
   g_free (mask);
+
+  /* the line is the pose's (its text: tests/core/test_overlaytext.cpp):
+   * the same pose draws the same pixels, one a centimetre away others */
+  same = frame_new (&l, GREY, GREY, GREY);
+  add_pose (same, 1.25, -3.5, 2.0);
+  other = frame_new (&l, GREY, GREY, GREY);
+  add_pose (other, 1.26, -3.5, 2.0);
+  out_same = run (h_, same);
+  out_other = run (h_, other);
+  fail_unless (buffers_equal (out, out_same));
+  fail_if (buffers_equal (out, out_other), "a different pose drew the "
+      "same line");
   gst_buffer_unref (out);
+  gst_buffer_unref (out_same);
+  gst_buffer_unref (out_other);
+  gst_buffer_unref (same);
+  gst_buffer_unref (other);
 
   g_object_set (h_->element, "show-pose", FALSE, NULL);
   unchanged_then_done (h_, in, NULL);

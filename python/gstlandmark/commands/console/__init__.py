@@ -10,7 +10,7 @@ import signal
 import sys
 from typing import Any, Dict, Optional
 
-from ..common import PROG, CliError
+from ..common import PROG, CliError, add_token_option
 
 DEFAULT_PORT = 8090
 DEFAULT_OUT = "out/console"
@@ -127,10 +127,7 @@ def add_console_parser(subparsers):
                         "other than loopback requires a token)")
     p.add_argument("--port", type=int, default=DEFAULT_PORT,
                    help="TCP port (default %(default)s; 0: any free one)")
-    p.add_argument("--token", metavar="T",
-                   help="access token (at least 16 characters; default: "
-                        "none on loopback, a random one printed at start "
-                        "otherwise)")
+    add_token_option(p)
     p.add_argument("--no-loop", action="store_true",
                    help="stop at the end of a file instead of looping")
     p.set_defaults(handler=_handle, parser=p)

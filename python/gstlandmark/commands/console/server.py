@@ -90,10 +90,6 @@ def make_app(engine: Engine, token: Optional[str] = None,
     def broadcast_state() -> None:
         engine._notify(state())
 
-    async def index(request):
-        return web.FileResponse(os.path.join(root, "index.html"),
-                                headers={"Cache-Control": "no-store"})
-
     async def api_state(request):
         return web.json_response(state())
 
@@ -286,10 +282,8 @@ def make_app(engine: Engine, token: Optional[str] = None,
         await engine.close()
 
     app.on_shutdown.append(on_shutdown)
-    app.router.add_get("/", index)
-    app.router.add_static("/static/", root)
+    webguard.add_page_routes(app, root, websocket)
     app.router.add_get("/stream.mjpg", stream)
-    app.router.add_get("/ws", websocket)
     app.router.add_get("/api/state", api_state)
     app.router.add_post("/api/control", api_control)
     app.router.add_post("/api/tune", api_tune)

@@ -1,0 +1,152 @@
+/* The constant-velocity pose EKF: see posefilter.h and
+ * docs/positioning.md. */
+#include "posefilter.h"
+
+#include <cmath>
+
+#include <opencv2/core.hpp>
+
+namespace landmark {
+
+void
+PoseFilter::init (const Pose2 & p, const double cov[9])
+{
+  std::fill (s_, s_ + 6, 0.0);
+  std::fill (p_, p_ + 36, 0.0);
+  s_[0] = p.x;
+  s_[1] = p.y;
+  s_[2] = p.heading;
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++)
+      p_[r * 6 + c] = cov[r * 3 + c];
+  /* unknown velocity: a robot's few m/s and rad/s */
+  p_[3 * 6 + 3] = p_[4 * 6 + 4] = 1.0;
+  p_[5 * 6 + 5] = 4.0;
+  init_ = true;
+}
+
+void
+PoseFilter::predict (double dt)
+{
+  if (!init_ || !(dt > 0))
+    return;
+  cv::Matx<double, 6, 6> F = cv::Matx<double, 6, 6>::eye ();
+  F (0, 3) = F (1, 4) = F (2, 5) = dt;
+  cv::Matx<double, 6, 6> P (p_);
+  cv::Matx<double, 6, 6> Q = cv::Matx<double, 6, 6>::zeros ();
+  const double qa = accel_sigma * accel_sigma, qw = alpha_sigma * alpha_sigma;
+  const double t3 = dt * dt * dt / 3, t2 = dt * dt / 2;
+  for (int k = 0; k < 3; k++) {
+    const double q = k < 2 ? qa : qw;
+    Q (k, k) = t3 * q;
+    Q (k, k + 3) = Q (k + 3, k) = t2 * q;
+    Q (k + 3, k + 3) = dt * q;
+  }
+  cv::Vec<double, 6> s (s_);
+  s = F * s;
+  s[2] = wrap_angle (s[2]);
+  P = F * P * F.t () + Q;
+  for (int i = 0; i < 6; i++)
+    s_[i] = s[i];
+  for (int i = 0; i < 36; i++)
+    p_[i] = P.val[i];
+}
+
+/* The Kalman correction of state s and covariance p (P, as a matrix) by
+ * a measurement of M values: innovation innov, Jacobian H, noise R and the
+ * inverse innovation covariance Si. Joseph form keeps P symmetric and
+ * positive. */
+template <int M>
+static void
+kalman_correct (double s[6], double p[36], const cv::Matx<double, 6, 6> & P,
+    const cv::Matx<double, M, 6> & H, const cv::Matx<double, M, M> & R,
+    const cv::Matx<double, M, M> & Si, const cv::Vec<double, M> & innov)
+{
+  const cv::Matx<double, 6, M> K = P * H.t () * Si;
+  const cv::Vec<double, 6> ds = K * innov;
+  for (int i = 0; i < 6; i++)
+    s[i] += ds[i];
+  s[2] = wrap_angle (s[2]);
+  const cv::Matx<double, 6, 6> IKH = cv::Matx<double, 6, 6>::eye () - K * H;
+  const cv::Matx<double, 6, 6> corrected = IKH * P * IKH.t () + K * R * K.t ();
+  for (int i = 0; i < 36; i++)
+    p[i] = corrected.val[i];
+}
+
+int
+PoseFilter::update (const std::vector<Correspondence> & cs, double gate_chi2)
+{
+  if (!init_)
+    return 0;
+  int used = 0;
+  for (const auto & c : cs) {
+    /* sequential updates: one landmark's range and bearing at a time */
+    const double dx = c.lx - s_[0], dy = c.ly - s_[1];
+    const double r2 = dx * dx + dy * dy;
+    if (r2 < 1e-12)
+      continue;
+    const double r = std::sqrt (r2);
+    cv::Matx<double, 2, 6> H = cv::Matx<double, 2, 6>::zeros ();
+    H (0, 0) = -dx / r;
+    H (0, 1) = -dy / r;
+    H (1, 0) = dy / r2;
+    H (1, 1) = -dx / r2;
+    H (1, 2) = -1;
+    const cv::Vec2d innov (c.obs.range () - r,
+        wrap_angle (c.obs.bearing () - (std::atan2 (dy, dx) - s_[2])));
+    const double sr = c.obs.range_sigma_used ();
+    const double sb = c.obs.bearing_sigma_used ();
+    const cv::Matx22d R (sr * sr, 0, 0, sb * sb);
+    cv::Matx<double, 6, 6> P (p_);
+    const cv::Matx22d S = H * P * H.t () + R;
+    cv::Matx22d Si;
+    if (cv::invert (S, Si, cv::DECOMP_CHOLESKY) == 0)
+      continue;
+    const double m2 = innov.dot (Si * innov);
+    if (!(m2 <= gate_chi2))
+      continue;
+    kalman_correct (s_, p_, P, H, R, Si, innov);
+    used++;
+  }
+  return used;
+}
+
+void
+PoseFilter::update_pose (const Pose2 & p, const double cov[9])
+{
+  if (!init_) {
+    init (p, cov);
+    return;
+  }
+  cv::Matx<double, 3, 6> H = cv::Matx<double, 3, 6>::zeros ();
+  H (0, 0) = H (1, 1) = H (2, 2) = 1;
+  const cv::Matx33d R (cov);
+  cv::Matx<double, 6, 6> P (p_);
+  const cv::Matx33d S = H * P * H.t () + R;
+  cv::Matx33d Si;
+  if (cv::invert (S, Si, cv::DECOMP_SVD) == 0)
+    return;
+  const cv::Vec3d innov (p.x - s_[0], p.y - s_[1],
+      wrap_angle (p.heading - s_[2]));
+  kalman_correct (s_, p_, P, H, R, Si, innov);
+}
+
+Pose2
+PoseFilter::pose () const
+{
+  Pose2 p;
+  p.x = s_[0];
+  p.y = s_[1];
+  p.heading = wrap_angle (s_[2]);
+  return p;
+}
+
+void
+PoseFilter::pose_cov (double cov[9]) const
+{
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++)
+      cov[r * 3 + c] = p_[r * 6 + c];
+}
+
+}  // namespace landmark

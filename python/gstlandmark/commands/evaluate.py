@@ -21,6 +21,19 @@
   the element saw against the truth's free range (capped at the element's
   ``max-range``): the share within 3 % or 3 cm, the relative errors, and
   obstacles reported where the floor is free or missed where it is not.
+- SLAM (``landmarkslam``), when the log carries the landmark map
+  (``landmark_map``; or ``--map-estimate`` names the map it wrote) and
+  the true map is known (``--map``, default ``map.json`` beside the
+  truth): the estimated map's confirmed landmarks paired with the true
+  ones (same class, nearest after the best rigid alignment, one to one,
+  within ``--map-gate``), duplicated, spurious and missed landmarks, the
+  position error per landmark and RMS after the alignment, and without
+  it when the map was anchored (an estimated id is a true id); the
+  absolute trajectory error (positions after the best rigid alignment of
+  the path, none when anchored) and heading error; the NEES of the pose
+  (3 dof) and of the landmarks at the end (2 dof) against the two-sided
+  95 % chi-square intervals, in the estimator's frame (the first pose
+  placed on the true first pose, or the map's when anchored).
 - ``--plot OUT.png``: a top-down trajectory plot (truth against estimate,
   with the map's landmarks), drawn with OpenCV.
 """
@@ -38,6 +51,9 @@ import numpy as np
 
 from ..landmarklog import LogError, read_jsonl
 from ..landmarkmap import read_map
+from ..trajectory import (CHI2_95, Rigid2D, align_rigid, associate_map,
+                          nearest_first, nees, nees_summary, pose_transform,
+                          wrap_angle)
 
 DEFAULT_BANDS = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0)
 
@@ -90,10 +106,6 @@ def band_name(value: Optional[float], bands: Sequence[float]) -> str:
     return f">={bands[-1]:g} m" if value >= bands[-1] else f"<{bands[0]:g} m"
 
 
-def wrap_angle(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
 # landmark-match reasons that mean the map's consensus rejected it
 REJECTED_MATCH_REASONS = ("outlier", "outside-gate")
 
@@ -144,14 +156,7 @@ def match_frame(dets: Sequence[Dict[str, Any]],
             dist = math.hypot(du - t["u"], dv - t["v"])
             if dist <= (gate(t) if gate else match_px):
                 pairs.append((dist, i, j))
-    pairs.sort()
-    used_d, used_t, out = set(), set(), []
-    for _, i, j in pairs:
-        if i not in used_d and j not in used_t:
-            used_d.add(i)
-            used_t.add(j)
-            out.append((i, j))
-    return out
+    return nearest_first(pairs)
 
 
 def required(mark: Dict[str, Any], min_pixels: float,
@@ -402,6 +407,217 @@ def format_report(s: Dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+# -- SLAM: map error, trajectory error, consistency --------------------------
+
+def estimated_map(results: Sequence[Dict[str, Any]]
+                  ) -> Optional[List[Dict[str, Any]]]:
+    """The last ``landmark_map`` of a landmarklog file (landmarkslam's map
+    meta at the end of the run) as landmarks with ``id``, ``class``,
+    ``x``, ``y``, ``covariance`` (4, row-major), ``confirmed``; None when
+    the log has none."""
+    for res in reversed(results):
+        f = res.get("landmark_map")
+        if f is None:
+            continue
+        cov = f.get("covariance") or []
+        return [{"id": f["ids"][i], "class": f["classes"][i],
+                 "x": float(f["x"][i]), "y": float(f["y"][i]),
+                 "covariance": (list(cov[4 * i:4 * i + 4])
+                                if len(cov) >= 4 * i + 4 else None),
+                 "confirmed": bool(f["confirmed"][i])
+                 if "confirmed" in f else True}
+                for i in range(len(f["ids"]))]
+    return None
+
+
+def map_file_estimate(path: str) -> List[Dict[str, Any]]:
+    """The map landmarkslam wrote with ``map-out`` (all confirmed), with
+    the ``covariance`` it keeps as an extra key."""
+    marks = read_map(path)
+    with open(path, encoding="utf-8") as f:
+        extra = {e.get("id"): e for e in json.load(f)["landmarks"]}
+    return [dict(lm, confirmed=True,
+                 covariance=extra[lm["id"]].get("covariance"))
+            for lm in marks]
+
+
+def error_stats(values: Sequence[float]) -> Dict[str, Any]:
+    """Median, p95, RMS and max of absolute errors."""
+    a = np.abs(np.asarray(values, float))
+    if a.size == 0:
+        return {"n": 0}
+    return {"n": int(a.size), "median": float(np.median(a)),
+            "p95": float(np.percentile(a, 95)),
+            "rms": float(np.sqrt(np.mean(a ** 2))), "max": float(a.max())}
+
+
+def _transform_dict(tf: Rigid2D) -> Dict[str, float]:
+    return {"angle_deg": math.degrees(tf.angle), "x": tf.tx, "y": tf.ty}
+
+
+def slam_evaluation(results: Sequence[Dict[str, Any]],
+                    truth: Sequence[Dict[str, Any]],
+                    true_map: Sequence[Dict[str, Any]] = (),
+                    est_map: Optional[List[Dict[str, Any]]] = None,
+                    anchored: Optional[bool] = None,
+                    gate: float = 0.3, min_pixels: float = 20.0
+                    ) -> Optional[Dict[str, Any]]:
+    """Map error, absolute trajectory error and NEES of a SLAM run (see
+    the module's description); None when there is no estimated map."""
+    if est_map is None:
+        est_map = estimated_map(results)
+    if est_map is None:
+        return None
+    true_ids = {lm["id"] for lm in true_map}
+    if anchored is None:
+        anchored = any(lm["id"] in true_ids for lm in est_map)
+    robots = {t["frame"]: t["robot"] for t in truth if "robot" in t}
+    rows = [(res["pose"], robots[res["frame"]]) for res in results
+            if res.get("pose") is not None and res.get("frame") in robots]
+    out: Dict[str, Any] = {"anchored": anchored}
+
+    # trajectory: the best rigid alignment of the path, none when anchored
+    est_xy = np.array([[p["x"], p["y"]] for p, _ in rows]).reshape(-1, 2)
+    true_xy = np.array([[r["x"], r["y"]] for _, r in rows]).reshape(-1, 2)
+    path_tf = Rigid2D() if anchored else align_rigid(est_xy, true_xy)
+    moved = path_tf.apply(est_xy)
+    out["trajectory"] = {
+        "frames": len(rows), "aligned": not anchored,
+        "transform": _transform_dict(path_tf),
+        "position_m": error_stats(np.hypot(*(moved - true_xy).T)
+                                  if len(rows) else []),
+        "heading_deg": error_stats([math.degrees(wrap_angle(
+            p["heading"] + path_tf.angle - r["heading"])) for p, r in rows])}
+
+    # the estimator's frame: the map's when anchored, else its first pose
+    # is its origin (docs/landmarkslam.md), so put it on the true first pose
+    frame_tf = Rigid2D() if anchored or not rows else \
+        pose_transform(rows[0][0], rows[0][1])
+    to_est = frame_tf.inverse()
+    pose_nees = []
+    for p, r in rows:
+        cov = p.get("covariance")
+        if not cov or len(cov) != 9:
+            pose_nees.append(None)
+            continue
+        q = to_est.apply([r["x"], r["y"]])[0]
+        err = [p["x"] - q[0], p["y"] - q[1],
+               wrap_angle(p["heading"] - (r["heading"] - frame_tf.angle))]
+        pose_nees.append(nees(err, cov))
+    out["nees"] = {"frame": "map" if anchored else "first pose",
+                   "pose": nees_summary(pose_nees, 3)}
+
+    confirmed = [lm for lm in est_map if lm.get("confirmed", True)]
+    out["map"] = {"estimated": len(confirmed),
+                  "tentative": len(est_map) - len(confirmed),
+                  "true": len(true_map)}
+    if not true_map:
+        return out
+    seen = {m.get("id") for t in truth for m in t.get("landmarks", [])
+            if m.get("pixels", 0) >= min_pixels}
+    e_xy = [[lm["x"], lm["y"]] for lm in confirmed]
+    e_cls = [lm["class"] for lm in confirmed]
+    t_xy = np.array([[lm["x"], lm["y"]] for lm in true_map])
+    t_cls = [lm["class"] for lm in true_map]
+    match = associate_map(e_xy, e_cls, t_xy, t_cls, gate,
+                          initial=path_tf if rows else None)
+    aligned = match.transform.apply(e_xy) if e_xy else np.zeros((0, 2))
+    plain = None
+    if anchored:
+        plain = associate_map(e_xy, e_cls, t_xy, t_cls, gate, align=False)
+    plain_err = {i: float(np.hypot(*(np.asarray(e_xy[i]) - t_xy[j])))
+                 for i, j in (plain.pairs if plain else [])}
+    marks, lm_nees = [], []
+    for i, j in match.pairs:
+        lm = confirmed[i]
+        entry = {"id": lm["id"], "true_id": true_map[j]["id"],
+                 "class": lm["class"],
+                 "error_m": float(np.hypot(*(aligned[i] - t_xy[j])))}
+        if i in plain_err:
+            entry["error_unaligned_m"] = plain_err[i]
+        cov = lm.get("covariance")
+        if cov and len(cov) == 4:
+            q = to_est.apply(t_xy[j])[0]
+            entry["nees"] = nees([lm["x"] - q[0], lm["y"] - q[1]], cov)
+            lm_nees.append(entry["nees"])
+        marks.append(entry)
+
+    def ids(indices, source):
+        return [source[k]["id"] for k in indices]
+
+    out["map"].update({
+        "seen": len(seen & true_ids), "paired": len(match.pairs),
+        "duplicated": ids(match.duplicated, confirmed),
+        "spurious": ids(match.spurious, confirmed),
+        "missed": ids(match.missed, true_map),
+        "missed_seen": [true_map[j]["id"] for j in match.missed
+                        if true_map[j]["id"] in seen],
+        "aligned": dict(error_stats([m["error_m"] for m in marks]),
+                        transform=_transform_dict(match.transform)),
+        "landmarks": marks})
+    if plain is not None:
+        out["map"]["unaligned"] = error_stats(list(plain_err.values()))
+    out["nees"]["landmarks"] = nees_summary(lm_nees, 2)
+    return out
+
+
+def _cm(st: Dict[str, Any], key: str) -> str:
+    return f"{100 * st[key]:.2f}" if st.get("n") else "-"
+
+
+def format_slam(s: Dict[str, Any]) -> str:
+    tr = s["trajectory"]
+    lines = ["", f"SLAM ({'anchored map' if s['anchored'] else 'no anchor'})"
+             f": trajectory over {tr['frames']} frames with a pose, "
+             + ("after the best rigid alignment" if tr["aligned"]
+                else "as estimated (no alignment)")]
+    pm, hd = tr["position_m"], tr["heading_deg"]
+    if pm.get("n"):
+        lines.append(f"  ATE cm median {_cm(pm, 'median')} p95 "
+                     f"{_cm(pm, 'p95')} RMS {_cm(pm, 'rms')} max "
+                     f"{_cm(pm, 'max')}; heading deg median "
+                     f"{hd['median']:.3f} p95 {hd['p95']:.3f} max "
+                     f"{hd['max']:.3f}")
+    m = s["map"]
+    lines.append(f"  map: {m['estimated']} confirmed ({m['tentative']} "
+                 f"tentative), {m['true']} true")
+    if "paired" in m:
+        al = m["aligned"]
+        lines.append(
+            f"  paired {m['paired']}, duplicated {len(m['duplicated'])} "
+            f"{m['duplicated'] or ''}, spurious {len(m['spurious'])} "
+            f"{m['spurious'] or ''}, missed {len(m['missed'])} (of them "
+            f"seen {len(m['missed_seen'])} {m['missed_seen'] or ''})")
+        lines.append(f"  landmark error cm after alignment: RMS "
+                     f"{_cm(al, 'rms')} median {_cm(al, 'median')} max "
+                     f"{_cm(al, 'max')}")
+        if "unaligned" in m:
+            un = m["unaligned"]
+            lines.append(f"  landmark error cm without alignment: RMS "
+                         f"{_cm(un, 'rms')} median {_cm(un, 'median')} max "
+                         f"{_cm(un, 'max')}")
+        for lm in m["landmarks"]:
+            extra = "" if lm.get("nees") is None else \
+                f"  NEES {lm['nees']:.2f}"
+            lines.append(f"    {lm['id']:>6s} -> {lm['true_id']:<6s} "
+                         f"{lm['class']:8s} {100 * lm['error_m']:6.2f} cm"
+                         + extra)
+    for key, dof in (("pose", 3), ("landmarks", 2)):
+        n = s["nees"].get(key)
+        if not n or not n["n"]:
+            continue
+        lo, hi = CHI2_95[dof]
+        lines.append(
+            f"  NEES {key} ({dof} dof, {s['nees']['frame']} frame): "
+            f"{n['n']} values, mean {n['mean']:.2f}, "
+            f"{100 * n['inside']:.1f} % inside [{lo:g}, {hi:g}], "
+            f"{100 * n['below_one_sided']:.1f} % <= "
+            f"{n['one_sided_bound']:g}"
+            + (f" ({n['not_computed']} without a covariance)"
+               if n["not_computed"] else ""))
+    return "\n".join(lines)
+
+
 # -- trajectory plot ---------------------------------------------------------
 
 SOLVER_BGR = {"lsq": (200, 90, 20), "two": (0, 140, 255), "one": (40, 40, 220),
@@ -523,15 +739,32 @@ def add_evaluate_parser(subparsers):
                    help="write a top-down trajectory plot (truth vs "
                         "estimate, with the map's landmarks)")
     p.add_argument("--map", metavar="MAP.json",
-                   help="landmark map for the plot (default: map.json "
-                        "beside the truth file, when there is one)")
+                   help="the true landmark map, for the plot and the SLAM "
+                        "map error (default: map.json beside the truth "
+                        "file, when there is one)")
+    p.add_argument("--map-estimate", metavar="MAP.json",
+                   help="the map landmarkslam wrote (map-out), for a log "
+                        "without landmark_map")
+    p.add_argument("--map-gate", type=float, default=0.3, metavar="M",
+                   help="farthest an estimated landmark may lie from its "
+                        "true one after alignment to be paired (default "
+                        "0.3 m)")
+    anchor = p.add_mutually_exclusive_group()
+    anchor.add_argument("--anchored", action="store_true", default=None,
+                        help="the SLAM map was anchored (landmarkslam map=): "
+                             "errors without alignment (default: when an "
+                             "estimated landmark id is a true one)")
+    anchor.add_argument("--not-anchored", action="store_false",
+                        dest="anchored", help="the map frame is the first "
+                                              "pose's: align")
     p.set_defaults(handler=_handle, parser=p)
 
 
 def _handle(args) -> int:
     try:
         results = read_jsonl(args.result)
-        ev = evaluate(results, read_jsonl(args.truth),
+        truth = read_jsonl(args.truth)
+        ev = evaluate(results, truth,
                       args.match_px, args.min_pixels,
                       require_cut=args.require_cut,
                       visible_px=args.visible_px)
@@ -539,17 +772,27 @@ def _handle(args) -> int:
         print(f"gst-landmark: error: {err}", file=sys.stderr)
         return 2
     s = summary(ev)
-    print(format_report(s))
+    map_path = args.map
+    if map_path is None:
+        beside = os.path.join(os.path.dirname(args.truth), "map.json")
+        map_path = beside if os.path.exists(beside) else None
+    try:
+        landmarks = read_map(map_path) if map_path else []
+        slam = slam_evaluation(
+            results, truth, landmarks,
+            map_file_estimate(args.map_estimate) if args.map_estimate
+            else None, args.anchored, args.map_gate, args.min_pixels)
+    except (LogError, OSError, ValueError, KeyError, TypeError) as err:
+        print(f"gst-landmark: error: {err}", file=sys.stderr)
+        return 2
+    if slam is not None:
+        s["slam"] = slam
+    print(format_report(s) + (format_slam(slam) if slam else ""))
     if args.json:
         with open(args.json, "w") as f:
             json.dump(s, f, indent=2)
     if args.plot:
-        map_path = args.map
-        if map_path is None:
-            beside = os.path.join(os.path.dirname(args.truth), "map.json")
-            map_path = beside if os.path.exists(beside) else None
         try:
-            landmarks = read_map(map_path) if map_path else []
             plot_trajectory(ev, args.plot, landmarks,
                             class_colours(results))
         except (OSError, ValueError, KeyError, TypeError) as err:

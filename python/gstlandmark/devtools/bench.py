@@ -36,7 +36,8 @@ import numpy as np
 from .. import reference
 from ..commands.common import CliError, add_actions, size_type
 from ..palette import default_palette
-from .benchkit import (BenchError, OneCore, bench_environment, pin_prefix,
+from .benchkit import (BenchError, OneCore, add_build_dir_option,
+                       add_report_options, bench_environment, pin_prefix,
                        write_json)
 from .benchkit import find_build_dir as find_program_build_dir
 
@@ -715,9 +716,7 @@ def add_bench_parser(subparsers):
                     "frames) beside a plain frame copy and the Python "
                     "reference, on synthetic floor scenes; check the "
                     "targets and the agreement of the labels.")
-    lab.add_argument("--build-dir", metavar="DIR",
-                     help="meson build directory (default: ./build, or the "
-                          "source tree's build/)")
+    add_build_dir_option(lab)
     lab.add_argument("--iterations", type=int, default=DEFAULT_ITERATIONS,
                      metavar="N",
                      help=f"Python reference calls per size and format "
@@ -743,10 +742,7 @@ def add_bench_parser(subparsers):
                      help="video format (repeatable; default BGRx and YUY2)")
     lab.add_argument("--cpu", type=int, default=0, metavar="CORE",
                      help="core to pin to (default 0; -1: no pinning)")
-    lab.add_argument("--json", metavar="OUT",
-                     help="also write the numbers to this JSON file")
-    lab.add_argument("-q", "--quiet", action="store_true",
-                     help="no progress lines on stderr")
+    add_report_options(lab)
     lab.set_defaults(handler=_handle)
 
     quant = actions.add_parser(

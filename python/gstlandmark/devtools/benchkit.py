@@ -74,6 +74,22 @@ def bench_environment(build_dir):
     return env
 
 
+def add_build_dir_option(parser,
+                         default="the source tree's build/, or ./build"):
+    """--build-dir, the meson build directory a benchmark runs from."""
+    parser.add_argument("--build-dir", metavar="DIR",
+                        help=f"meson build directory with the plugin "
+                             f"(default: {default})")
+
+
+def add_report_options(parser):
+    """--json and -q/--quiet, as every benchmark takes them."""
+    parser.add_argument("--json", metavar="OUT",
+                        help="also write the numbers to this JSON file")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress lines on stderr")
+
+
 def write_json(path, report):
     """Writes a tool's report to ``path`` (--json) when one is given."""
     if path:

@@ -34,7 +34,8 @@ import cv2
 import numpy as np
 
 from .. import reference
-from ..commands.common import CliError, add_actions, size_type
+from ..commands.common import (CliError, add_actions, add_json_option,
+                               size_type)
 from ..palette import default_palette
 from .benchkit import (BenchError, OneCore, add_build_dir_option,
                        add_report_options, bench_environment, pin_prefix,
@@ -767,7 +768,7 @@ def add_bench_parser(subparsers):
     seg.add_argument("--frames", type=int, help="frames per scenario")
     seg.add_argument("--seed", type=int, default=0)
     seg.add_argument("--out", help="keep the renders in this folder")
-    seg.add_argument("--json", metavar="OUT", help="also write the numbers")
+    add_json_option(seg)
     seg.set_defaults(handler=_handle_segmentation, scenario=None)
 
     from .ranging_bench import add_ranging_bench_parser

@@ -9,6 +9,7 @@ import shutil
 import cv2
 
 from .. import plugin
+from ..commands.common import add_json_option
 
 
 class BenchError(Exception):
@@ -84,8 +85,7 @@ def add_build_dir_option(parser,
 
 def add_report_options(parser):
     """--json and -q/--quiet, as every benchmark takes them."""
-    parser.add_argument("--json", metavar="OUT",
-                        help="also write the numbers to this JSON file")
+    add_json_option(parser)
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress lines on stderr")
 

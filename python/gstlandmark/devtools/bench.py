@@ -758,10 +758,10 @@ def add_bench_parser(subparsers):
     seg = actions.add_parser(
         "segmentation", help="labsegment's per-class pixel precision and "
                              "recall on rendered scenes",
-        description="Render synthetic scenarios with a truth mask per "
-                    "frame and measure labsegment's per-class pixel "
-                    "precision and recall, with the dominant-colour rule "
-                    "and lightness on and off.")
+        description="""Render synthetic scenarios with a truth mask per
+            frame and measure labsegment's per-class pixel precision and
+            recall, with the dominant-colour rule and lightness on and
+            off.""")
     seg.add_argument("--scenario", action="append",
                      help="synth scenario (repeatable; default backgrounds "
                           "and distractors)")

@@ -113,13 +113,21 @@ member (JsonObject * o, const gchar * key)
   return n;
 }
 
-static gint64
-get_int (JsonObject * o, const gchar * key)
+/* The member key, a JSON value of the given type (what: its name). */
+static JsonNode *
+value_member (JsonObject * o, const gchar * key, GType type,
+    const gchar * what)
 {
   JsonNode *n = member (o, key);
   fail_unless (JSON_NODE_HOLDS_VALUE (n) &&
-      json_node_get_value_type (n) == G_TYPE_INT64,
-      "\"%s\" is not an integer", key);
+      json_node_get_value_type (n) == type, "\"%s\" is not %s", key, what);
+  return n;
+}
+
+static gint64
+get_int (JsonObject * o, const gchar * key)
+{
+  JsonNode *n = value_member (o, key, G_TYPE_INT64, "an integer");
   return json_node_get_int (n);
 }
 
@@ -127,10 +135,7 @@ get_int (JsonObject * o, const gchar * key)
 static void
 check_double (JsonObject * o, const gchar * key, gdouble expected)
 {
-  JsonNode *n = member (o, key);
-  fail_unless (JSON_NODE_HOLDS_VALUE (n) &&
-      json_node_get_value_type (n) == G_TYPE_DOUBLE,
-      "\"%s\" is not a floating-point number", key);
+  JsonNode *n = value_member (o, key, G_TYPE_DOUBLE, "a floating-point number");
   fail_unless (json_node_get_double (n) == expected,
       "\"%s\": %.17g, expected %.17g", key, json_node_get_double (n),
       expected);
@@ -139,20 +144,14 @@ check_double (JsonObject * o, const gchar * key, gdouble expected)
 static void
 check_bool (JsonObject * o, const gchar * key, gboolean expected)
 {
-  JsonNode *n = member (o, key);
-  fail_unless (JSON_NODE_HOLDS_VALUE (n) &&
-      json_node_get_value_type (n) == G_TYPE_BOOLEAN,
-      "\"%s\" is not a boolean", key);
+  JsonNode *n = value_member (o, key, G_TYPE_BOOLEAN, "a boolean");
   fail_unless_equals_int (json_node_get_boolean (n), expected);
 }
 
 static void
 check_string (JsonObject * o, const gchar * key, const gchar * expected)
 {
-  JsonNode *n = member (o, key);
-  fail_unless (JSON_NODE_HOLDS_VALUE (n) &&
-      json_node_get_value_type (n) == G_TYPE_STRING,
-      "\"%s\" is not a string", key);
+  JsonNode *n = value_member (o, key, G_TYPE_STRING, "a string");
   fail_unless_equals_string (json_node_get_string (n), expected);
 }
 
@@ -172,6 +171,34 @@ get_array (JsonObject * o, const gchar * key, guint length)
   a = json_node_get_array (n);
   fail_unless_equals_int (json_array_get_length (a), length);
   return a;
+}
+
+/* The member key, an array of exactly these n booleans (JSON true and
+ * false, not numbers). */
+static void
+check_bool_array (JsonObject * o, const gchar * key, const gboolean * want,
+    guint n)
+{
+  JsonArray *a = get_array (o, key, n);
+  guint i;
+  for (i = 0; i < n; i++) {
+    JsonNode *e = json_array_get_element (a, i);
+    fail_unless (JSON_NODE_HOLDS_VALUE (e) &&
+        json_node_get_value_type (e) == G_TYPE_BOOLEAN,
+        "%s[%u] is not a boolean", key, i);
+    fail_unless_equals_int (json_node_get_boolean (e), want[i]);
+  }
+}
+
+/* The member key, an array of exactly these n unsigned integers. */
+static void
+check_uint_array (JsonObject * o, const gchar * key, const guint * want,
+    guint n)
+{
+  JsonArray *a = get_array (o, key, n);
+  guint i;
+  for (i = 0; i < n; i++)
+    fail_unless_equals_int64 (json_array_get_int_element (a, i), want[i]);
 }
 
 static JsonObject *
@@ -509,24 +536,11 @@ LANDMARK_TEST ("format", test_labels_meta)
   for (i = 0; i < 3; i++)
     fail_unless_equals_string (json_array_get_string_element (a, i),
         names[i]);
-  a = get_array (labels, "markers", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int (json_array_get_boolean_element (a, i),
-        markers[i]);
-  a = get_array (labels, "rgb", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int64 (json_array_get_int_element (a, i), rgb[i]);
-  a = get_array (labels, "counts", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int64 (json_array_get_int_element (a, i), counts[i]);
-  a = get_array (labels, "active", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int (json_array_get_boolean_element (a, i),
-        active[i]);
-  a = get_array (labels, "labelled", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int64 (json_array_get_int_element (a, i),
-        labelled[i]);
+  check_bool_array (labels, "markers", markers, 3);
+  check_bool_array (labels, "active", active, 3);
+  check_uint_array (labels, "rgb", rgb, 3);
+  check_uint_array (labels, "counts", counts, 3);
+  check_uint_array (labels, "labelled", labelled, 3);
   fail_unless_equals_int (get_int (labels, "unclassified"), 3);
   fail_unless_equals_int (get_int (labels, "min-class-pixels"), 40);
   fail_unless_equals_int (get_int (labels, "width"), 8);

@@ -32,10 +32,30 @@
 /* Files                                                              */
 /* ------------------------------------------------------------------ */
 
-static gchar *
+/* the paths tmp_file gave out, freed when the test ends */
+static GPtrArray *tmp_paths;
+
+/* The path of a file in the test's folder, valid until the test ends. */
+static const gchar *
 tmp_file (const gchar * name)
 {
-  return g_build_filename (landmark_check_tmp_dir, name, NULL);
+  gchar *path = g_build_filename (landmark_check_tmp_dir, name, NULL);
+  g_ptr_array_add (tmp_paths, path);
+  return path;
+}
+
+static void
+setup (void)
+{
+  landmark_check_tmp_dir_setup ();
+  tmp_paths = g_ptr_array_new_with_free_func (g_free);
+}
+
+static void
+teardown (void)
+{
+  g_clear_pointer (&tmp_paths, g_ptr_array_unref);
+  landmark_check_tmp_dir_teardown ();
 }
 
 /* A log file read back: every line parsed (the test fails on the first
@@ -357,7 +377,7 @@ GST_END_TEST;
  * without timestamps have no pts/duration keys. */
 LANDMARK_TEST ("format", test_every_frame_in_order)
 {
-  gchar *path = tmp_file ("order.jsonl");
+  const gchar *path = tmp_file ("order.jsonl");
   GstHarness *h = log_harness (path, NULL);
   const guint n = 40;
   LogFile lf;
@@ -404,7 +424,6 @@ LANDMARK_TEST ("format", test_every_frame_in_order)
           "\"detections\": []}\n"));
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -428,7 +447,7 @@ static const struct
 LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
     G_N_ELEMENTS (any_caps))
 {
-  gchar *path = tmp_file ("pass.jsonl");
+  const gchar *path = tmp_file ("pass.jsonl");
   GstHarness *h = log_harness (path, any_caps[__i__].caps);
   LogFile lf;
   guint i;
@@ -471,14 +490,13 @@ LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
   }
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
 
 LANDMARK_TEST ("format", test_labels_meta)
 {
-  gchar *path = tmp_file ("labels.jsonl");
+  const gchar *path = tmp_file ("labels.jsonl");
   GstHarness *h = log_harness (path, NULL);
   static const gchar *names[] = { "red", "a \"quoted\"\\name", "grey" };
   static const gboolean markers[] = { TRUE, TRUE, FALSE };
@@ -563,14 +581,13 @@ LANDMARK_TEST ("format", test_labels_meta)
   fail_if (json_object_has_member (log_line (&lf, 2), "labels"));
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
 
 LANDMARK_TEST ("format", test_detections)
 {
-  gchar *path = tmp_file ("detections.jsonl");
+  const gchar *path = tmp_file ("detections.jsonl");
   GstHarness *h = log_harness (path, NULL);
   GstBuffer *buf = frame_new (0);
   GstVideoRegionOfInterestMeta *roi;
@@ -710,14 +727,13 @@ LANDMARK_TEST ("format", test_detections)
   fail_if (strstr (lf.text, "nan") || strstr (lf.text, "inf"));
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
 
 LANDMARK_TEST ("format", test_pose_meta)
 {
-  gchar *path = tmp_file ("pose.jsonl");
+  const gchar *path = tmp_file ("pose.jsonl");
   GstHarness *h = log_harness (path, NULL);
   static const gdouble cov[] = { 1e-4, 2e-6, 0.0, 2e-6, 3.5e-4, -1e-7, 0.0,
     -1e-7, 0.0025
@@ -765,7 +781,6 @@ LANDMARK_TEST ("format", test_pose_meta)
   fail_if (json_object_has_member (log_line (&lf, 1), "pose"));
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -806,7 +821,7 @@ check_uint_array_matches (JsonObject * o, const gchar * key,
 
 LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
 {
-  gchar *path = tmp_file ("segment.jsonl");
+  const gchar *path = tmp_file ("segment.jsonl");
   const guint n = 12, w = 160, h = 120;
   gchar *desc = g_strdup_printf ("videotestsrc num-buffers=%u "
       "pattern=smpte ! video/x-raw,format=BGRx,width=%u,height=%u ! "
@@ -869,7 +884,6 @@ LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
   gst_object_unref (pipe);
   g_ptr_array_unref (seen);
   g_free (desc);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -878,7 +892,7 @@ GST_END_TEST;
  * downstream, so the file is complete while the element still runs. */
 LANDMARK_TEST ("output", test_eos_completes_file)
 {
-  gchar *path = tmp_file ("eos.jsonl");
+  const gchar *path = tmp_file ("eos.jsonl");
   GstHarness *h = log_harness (path, NULL);
   GstEvent *ev;
   gboolean eos = FALSE;
@@ -903,7 +917,6 @@ LANDMARK_TEST ("output", test_eos_completes_file)
     fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i);
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -923,7 +936,7 @@ count_lines (const gchar * path)
  * seek and pausing also write the pending lines. */
 LANDMARK_TEST ("output", test_flush_every)
 {
-  gchar *path = tmp_file ("every.jsonl");
+  const gchar *path = tmp_file ("every.jsonl");
   GstHarness *h = log_harness (path, NULL);
   guint i, frame = 0;
 
@@ -962,7 +975,6 @@ LANDMARK_TEST ("output", test_flush_every)
   fail_unless_equals_int (count_lines (path), 12);
   gst_harness_teardown (h);
   fail_unless_equals_int (count_lines (path), 12);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -971,7 +983,7 @@ GST_END_TEST;
  * file is looked at, it holds only complete lines, frames 0..k-1. */
 LANDMARK_TEST ("output", test_whole_lines_mid_stream)
 {
-  gchar *path = tmp_file ("big.jsonl");
+  const gchar *path = tmp_file ("big.jsonl");
   GstHarness *h = log_harness (path, NULL);
   const guint n = 40, per_frame = 30;
   guint i, j;
@@ -1007,7 +1019,6 @@ LANDMARK_TEST ("output", test_whole_lines_mid_stream)
     get_array (log_line (&lf, i), "detections", per_frame);
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1022,7 +1033,7 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
   GstMessage *msg;
   GError *err = NULL;
   gchar *dbg = NULL;
-  gchar *good = tmp_file ("good.jsonl");
+  const gchar *good = tmp_file ("good.jsonl");
 
   if (location)
     g_object_set (e, "location", location, NULL);
@@ -1047,7 +1058,6 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
   /* a usable location is enough to start (and makes the file) */
   landmark_check_fixed_setting_starts (e, bus, "location", good);
   fail_unless (g_file_test (good, G_FILE_TEST_IS_REGULAR));
-  g_free (good);
 }
 
 LANDMARK_TEST ("errors", test_missing_directory)
@@ -1072,20 +1082,18 @@ GST_END_TEST;
 
 LANDMARK_TEST ("errors", test_no_permission)
 {
-  gchar *dir = tmp_file ("read-only");
+  const gchar *dir = tmp_file ("read-only");
   gchar *path = g_build_filename (dir, "x.jsonl", NULL);
 
   if (geteuid () == 0) {
     /* root writes anywhere: nothing to test */
     g_free (path);
-    g_free (dir);
     return;
   }
   fail_unless (g_mkdir (dir, 0500) == 0);
   expect_start_error (path, GST_RESOURCE_ERROR, GST_RESOURCE_ERROR_OPEN_WRITE,
       g_strerror (EACCES));
   g_free (path);
-  g_free (dir);
 }
 
 GST_END_TEST;
@@ -1144,7 +1152,7 @@ GST_END_TEST;
  * so the file still ends with the last complete line. */
 LANDMARK_TEST ("errors", test_partial_write_trimmed)
 {
-  gchar *path = tmp_file ("limited.jsonl");
+  const gchar *path = tmp_file ("limited.jsonl");
   const rlim_t limit = 100000;
   struct rlimit old_limit, rl;
   GstHarness *h;
@@ -1194,7 +1202,6 @@ LANDMARK_TEST ("errors", test_partial_write_trimmed)
   for (i = 0; i < lf.n; i++)
     fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i);
   log_clear (&lf);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1203,8 +1210,8 @@ GST_END_TEST;
  * write the same lines to their own files. */
 LANDMARK_TEST ("pipelines", test_two_loggers)
 {
-  gchar *a = tmp_file ("a.jsonl"), *b = tmp_file ("b.jsonl");
-  gchar *c = tmp_file ("c.jsonl"), *d = tmp_file ("d.jsonl");
+  const gchar *a = tmp_file ("a.jsonl"), *b = tmp_file ("b.jsonl");
+  const gchar *c = tmp_file ("c.jsonl"), *d = tmp_file ("d.jsonl");
   gchar *chain = g_strdup_printf ("videotestsrc num-buffers=15 ! "
       "video/x-raw,width=64,height=48 ! labsegment ! "
       "landmarklog location=\"%s\" ! queue ! landmarklog location=\"%s\" ! "
@@ -1238,10 +1245,6 @@ LANDMARK_TEST ("pipelines", test_two_loggers)
 
   g_free (chain);
   g_free (tee);
-  g_free (a);
-  g_free (b);
-  g_free (c);
-  g_free (d);
 }
 
 GST_END_TEST;
@@ -1249,7 +1252,7 @@ GST_END_TEST;
 /* append=true keeps what the file had; append=false starts it anew. */
 LANDMARK_TEST ("output", test_append)
 {
-  gchar *path = tmp_file ("append.jsonl");
+  const gchar *path = tmp_file ("append.jsonl");
   guint run, i;
   LogFile lf;
 
@@ -1267,7 +1270,6 @@ LANDMARK_TEST ("output", test_append)
       fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i % 4);
     log_clear (&lf);
   }
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1276,7 +1278,7 @@ GST_END_TEST;
  * count again and truncates the file, or appends with append=true. */
 LANDMARK_TEST ("output", test_restart)
 {
-  gchar *path = tmp_file ("restart.jsonl");
+  const gchar *path = tmp_file ("restart.jsonl");
   guint append, i;
   LogFile lf;
 
@@ -1307,7 +1309,6 @@ LANDMARK_TEST ("output", test_restart)
     gst_harness_teardown (h);
     g_remove (path);
   }
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1315,7 +1316,7 @@ GST_END_TEST;
 /* QoS events do not make the logger drop late frames. */
 LANDMARK_TEST ("output", test_no_frame_dropped)
 {
-  gchar *path = tmp_file ("qos.jsonl");
+  const gchar *path = tmp_file ("qos.jsonl");
   GstHarness *h = log_harness (path, NULL);
   const guint n = 30;
   guint i;
@@ -1329,7 +1330,6 @@ LANDMARK_TEST ("output", test_no_frame_dropped)
   push_eos (h);
   fail_unless_equals_int (count_lines (path), n);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1356,7 +1356,7 @@ fail_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
 
 LANDMARK_TEST ("errors", test_downstream_error)
 {
-  gchar *path = tmp_file ("error.jsonl");
+  const gchar *path = tmp_file ("error.jsonl");
   gchar *desc = g_strdup_printf ("appsrc name=src format=time "
       "caps=\"" CAPS_GRAY "\" ! landmarklog location=\"%s\" ! "
       "fakesink name=sink", path);
@@ -1406,7 +1406,6 @@ LANDMARK_TEST ("errors", test_downstream_error)
   gst_object_unref (sink);
   gst_object_unref (pipe);
   g_free (desc);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1424,7 +1423,7 @@ count_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
 
 LANDMARK_TEST ("errors", test_stop_mid_stream)
 {
-  gchar *path = tmp_file ("stop.jsonl");
+  const gchar *path = tmp_file ("stop.jsonl");
   gchar *desc = g_strdup_printf ("videotestsrc ! video/x-raw,width=64,"
       "height=48,framerate=100/1 ! labsegment ! "
       "landmarklog name=log location=\"%s\" ! fakesink sync=true", path);
@@ -1466,7 +1465,6 @@ LANDMARK_TEST ("errors", test_stop_mid_stream)
   log_clear (&lf);
   gst_object_unref (pipe);
   g_free (desc);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1475,7 +1473,7 @@ GST_END_TEST;
  * element stops (PAUSED to READY), the only flush on this path. */
 LANDMARK_TEST ("errors", test_stop_while_paused)
 {
-  gchar *path = tmp_file ("paused.jsonl");
+  const gchar *path = tmp_file ("paused.jsonl");
   gchar *desc = g_strdup_printf ("videotestsrc num-buffers=50 ! "
       "video/x-raw,width=64,height=48 ! landmarklog name=log "
       "location=\"%s\" ! fakesink", path);
@@ -1506,7 +1504,6 @@ LANDMARK_TEST ("errors", test_stop_while_paused)
   log_clear (&lf);
   gst_object_unref (pipe);
   g_free (desc);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1530,7 +1527,7 @@ push_many (GstHarness * h, GstBuffer * templ, guint n)
 
 LANDMARK_TEST ("output", test_many_frames)
 {
-  gchar *path = tmp_file ("many.jsonl");
+  const gchar *path = tmp_file ("many.jsonl");
   GstHarness *h = log_harness (path, NULL);
   GstHarness *ref = gst_harness_new ("identity");
   GstBuffer *templ = frame_new (0);
@@ -1557,12 +1554,10 @@ LANDMARK_TEST ("output", test_many_frames)
   gst_buffer_unref (templ);
   gst_harness_teardown (ref);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
 
 /* a fresh folder for every test's log files */
 LANDMARK_CHECK_MAIN (landmarklog,
-    .setup = landmark_check_tmp_dir_setup,
-    .teardown = landmark_check_tmp_dir_teardown, .checked = TRUE);
+    .setup = setup, .teardown = teardown, .checked = TRUE);

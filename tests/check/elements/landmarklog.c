@@ -34,6 +34,8 @@
 
 /* the paths tmp_file gave out, freed when the test ends */
 static GPtrArray *tmp_paths;
+/* the log file of the test (each test has its own folder) */
+static const gchar *log_path;
 
 /* The path of a file in the test's folder, valid until the test ends. */
 static const gchar *
@@ -49,6 +51,7 @@ setup (void)
 {
   landmark_check_tmp_dir_setup ();
   tmp_paths = g_ptr_array_new_with_free_func (g_free);
+  log_path = tmp_file ("log.jsonl");
 }
 
 static void
@@ -311,6 +314,15 @@ push_eos (GstHarness * h)
   fail_unless (gst_harness_push_event (h, gst_event_new_eos ()));
 }
 
+/* Pushes frames first .. first + n - 1, each accepted. */
+static void
+push_frames (GstHarness * h, guint first, guint n)
+{
+  guint i;
+  for (i = first; i < first + n; i++)
+    fail_unless_equals_int (gst_harness_push (h, frame_new (i)), GST_FLOW_OK);
+}
+
 /* Runs a launch line to EOS (or fails on ERROR or timeout). If `keep` is
  * set the pipeline is returned still PLAYING, otherwise it is freed. */
 static GstElement *
@@ -347,27 +359,31 @@ run_to_eos (const gchar * desc, gboolean keep)
 /* Tests                                                              */
 /* ------------------------------------------------------------------ */
 
+/* The element's location, append and flush-every are these. */
+static void
+check_properties (GstElement * e, const gchar * location, gboolean append,
+    guint every)
+{
+  gchar *loc = (gchar *) "x";
+  gboolean app = !append;
+  guint ev = every + 1;
+  g_object_get (e, "location", &loc, "append", &app, "flush-every", &ev,
+      NULL);
+  fail_unless_equals_string (loc, location);
+  fail_unless_equals_int (app, append);
+  fail_unless_equals_int (ev, every);
+  g_free (loc);
+}
+
 LANDMARK_TEST ("format", test_properties)
 {
   GstElement *e = gst_element_factory_make ("landmarklog", NULL);
-  gchar *loc = (gchar *) "x";
-  gboolean append = TRUE;
-  guint every = 99;
 
   fail_unless (e != NULL);
-  g_object_get (e, "location", &loc, "append", &append, "flush-every",
-      &every, NULL);
-  fail_unless (loc == NULL);
-  fail_unless_equals_int (append, FALSE);
-  fail_unless_equals_int (every, 0);
+  check_properties (e, NULL, FALSE, 0);
   g_object_set (e, "location", "/some/file.jsonl", "append", TRUE,
       "flush-every", 5, NULL);
-  g_object_get (e, "location", &loc, "append", &append, "flush-every",
-      &every, NULL);
-  fail_unless_equals_string (loc, "/some/file.jsonl");
-  fail_unless_equals_int (append, TRUE);
-  fail_unless_equals_int (every, 5);
-  g_free (loc);
+  check_properties (e, "/some/file.jsonl", TRUE, 5);
   gst_object_unref (e);
 }
 
@@ -377,8 +393,7 @@ GST_END_TEST;
  * without timestamps have no pts/duration keys. */
 LANDMARK_TEST ("format", test_every_frame_in_order)
 {
-  const gchar *path = tmp_file ("order.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   const guint n = 40;
   LogFile lf;
   guint i;
@@ -399,7 +414,7 @@ LANDMARK_TEST ("format", test_every_frame_in_order)
     gst_buffer_unref (out);
   }
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, n);
   for (i = 0; i < n; i++) {
     JsonObject *o = log_line (&lf, i);
@@ -447,8 +462,7 @@ static const struct
 LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
     G_N_ELEMENTS (any_caps))
 {
-  const gchar *path = tmp_file ("pass.jsonl");
-  GstHarness *h = log_harness (path, any_caps[__i__].caps);
+  GstHarness *h = log_harness (log_path, any_caps[__i__].caps);
   LogFile lf;
   guint i;
 
@@ -480,7 +494,7 @@ LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
   }
   push_eos (h);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 3);
   for (i = 0; i < 3; i++) {
     fail_unless_equals_int (get_int (log_line (&lf, i), "width"),
@@ -496,8 +510,7 @@ GST_END_TEST;
 
 LANDMARK_TEST ("format", test_labels_meta)
 {
-  const gchar *path = tmp_file ("labels.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   static const gchar *names[] = { "red", "a \"quoted\"\\name", "grey" };
   static const gboolean markers[] = { TRUE, TRUE, FALSE };
   static const guint rgb[] = { 0xaa3c28, 0x00ff00, 0x808080 };
@@ -543,7 +556,7 @@ LANDMARK_TEST ("format", test_labels_meta)
   fail_unless_equals_int (gst_harness_push (h, frame_new (2)), GST_FLOW_OK);
   push_eos (h);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 3);
   o = log_line (&lf, 0);
   labels = get_object (o, "labels");
@@ -587,8 +600,7 @@ GST_END_TEST;
 
 LANDMARK_TEST ("format", test_detections)
 {
-  const gchar *path = tmp_file ("detections.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   GstBuffer *buf = frame_new (0);
   GstVideoRegionOfInterestMeta *roi;
   JsonObject *o, *d, *p;
@@ -643,7 +655,7 @@ LANDMARK_TEST ("format", test_detections)
   fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
   push_eos (h);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 1);
   o = log_line (&lf, 0);
   dets = get_array (o, "detections", 3);
@@ -733,8 +745,7 @@ GST_END_TEST;
 
 LANDMARK_TEST ("format", test_pose_meta)
 {
-  const gchar *path = tmp_file ("pose.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   static const gdouble cov[] = { 1e-4, 2e-6, 0.0, 2e-6, 3.5e-4, -1e-7, 0.0,
     -1e-7, 0.0025
   };
@@ -756,7 +767,7 @@ LANDMARK_TEST ("format", test_pose_meta)
   fail_unless_equals_int (gst_harness_push (h, frame_new (1)), GST_FLOW_OK);
   push_eos (h);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 2);
   pose = get_object (log_line (&lf, 0), "pose");
   check_keys (pose, "converged,covariance,heading,landmarks,n-landmarks,"
@@ -821,12 +832,11 @@ check_uint_array_matches (JsonObject * o, const gchar * key,
 
 LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
 {
-  const gchar *path = tmp_file ("segment.jsonl");
   const guint n = 12, w = 160, h = 120;
   gchar *desc = g_strdup_printf ("videotestsrc num-buffers=%u "
       "pattern=smpte ! video/x-raw,format=BGRx,width=%u,height=%u ! "
       "labsegment ! landmarklog location=\"%s\" ! "
-      "fakesink name=sink signal-handoffs=true", n, w, h, path);
+      "fakesink name=sink signal-handoffs=true", n, w, h, log_path);
   GPtrArray *seen = g_ptr_array_new_with_free_func ((GDestroyNotify)
       gst_structure_free);
   GError *err = NULL;
@@ -849,7 +859,7 @@ LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
   gst_message_unref (msg);
 
   /* read at EOS, before the pipeline stops */
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, n);
   fail_unless_equals_int (seen->len, n);
   for (i = 0; i < n; i++) {
@@ -892,8 +902,7 @@ GST_END_TEST;
  * downstream, so the file is complete while the element still runs. */
 LANDMARK_TEST ("output", test_eos_completes_file)
 {
-  const gchar *path = tmp_file ("eos.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   GstEvent *ev;
   gboolean eos = FALSE;
   LogFile lf;
@@ -901,7 +910,7 @@ LANDMARK_TEST ("output", test_eos_completes_file)
 
   for (i = 0; i < 5; i++)
     fail_unless_equals_int (gst_harness_push (h, frame_new (i)), GST_FLOW_OK);
-  fail_unless_equals_int (file_size (path), 0);
+  fail_unless_equals_int (file_size (log_path), 0);
   push_eos (h);
   /* EOS went downstream after the lines were written */
   while ((ev = gst_harness_try_pull_event (h))) {
@@ -911,7 +920,7 @@ LANDMARK_TEST ("output", test_eos_completes_file)
       break;
   }
   fail_unless (eos, "EOS did not go downstream");
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 5);
   for (i = 0; i < 5; i++)
     fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i);
@@ -936,31 +945,30 @@ count_lines (const gchar * path)
  * seek and pausing also write the pending lines. */
 LANDMARK_TEST ("output", test_flush_every)
 {
-  const gchar *path = tmp_file ("every.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   guint i, frame = 0;
 
   g_object_set (h->element, "flush-every", 1, NULL);
   for (i = 0; i < 4; i++) {
     fail_unless_equals_int (gst_harness_push (h, frame_new (frame++)),
         GST_FLOW_OK);
-    fail_unless_equals_int (count_lines (path), frame);
+    fail_unless_equals_int (count_lines (log_path), frame);
   }
   /* changed while playing */
   g_object_set (h->element, "flush-every", 3, NULL);
   for (i = 0; i < 6; i++) {
     fail_unless_equals_int (gst_harness_push (h, frame_new (frame++)),
         GST_FLOW_OK);
-    fail_unless_equals_int (count_lines (path), 4 + (i + 1) / 3 * 3);
+    fail_unless_equals_int (count_lines (log_path), 4 + (i + 1) / 3 * 3);
   }
   g_object_set (h->element, "flush-every", 0, NULL);
   fail_unless_equals_int (gst_harness_push (h, frame_new (frame++)),
       GST_FLOW_OK);
-  fail_unless_equals_int (count_lines (path), 10);
+  fail_unless_equals_int (count_lines (log_path), 10);
   /* a flushing seek writes what is pending */
   fail_unless (gst_harness_push_event (h, gst_event_new_flush_start ()));
   fail_unless (gst_harness_push_event (h, gst_event_new_flush_stop (TRUE)));
-  fail_unless_equals_int (count_lines (path), 11);
+  fail_unless_equals_int (count_lines (log_path), 11);
   /* so does pausing */
   {
     GstSegment seg;
@@ -969,12 +977,12 @@ LANDMARK_TEST ("output", test_flush_every)
   }
   fail_unless_equals_int (gst_harness_push (h, frame_new (frame++)),
       GST_FLOW_OK);
-  fail_unless_equals_int (count_lines (path), 11);
+  fail_unless_equals_int (count_lines (log_path), 11);
   fail_unless_equals_int (gst_element_set_state (h->element,
           GST_STATE_PAUSED), GST_STATE_CHANGE_SUCCESS);
-  fail_unless_equals_int (count_lines (path), 12);
+  fail_unless_equals_int (count_lines (log_path), 12);
   gst_harness_teardown (h);
-  fail_unless_equals_int (count_lines (path), 12);
+  fail_unless_equals_int (count_lines (log_path), 12);
 }
 
 GST_END_TEST;
@@ -983,8 +991,7 @@ GST_END_TEST;
  * file is looked at, it holds only complete lines, frames 0..k-1. */
 LANDMARK_TEST ("output", test_whole_lines_mid_stream)
 {
-  const gchar *path = tmp_file ("big.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   const guint n = 40, per_frame = 30;
   guint i, j;
   gboolean spilled = FALSE, buffered = FALSE;
@@ -1002,7 +1009,7 @@ LANDMARK_TEST ("output", test_whole_lines_mid_stream)
               "a reason long enough to make the lines long", NULL));
     }
     fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
-    log_read (path, &lf);
+    log_read (log_path, &lf);
     for (j = 0; j < lf.n; j++)
       fail_unless_equals_int (get_int (log_line (&lf, j), "frame"), j);
     fail_unless (lf.n <= i + 1);
@@ -1013,7 +1020,7 @@ LANDMARK_TEST ("output", test_whole_lines_mid_stream)
   fail_unless (spilled, "nothing was written before EOS");
   fail_unless (buffered, "every line was written at once");
   push_eos (h);
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, n);
   for (i = 0; i < n; i++)
     get_array (log_line (&lf, i), "detections", per_frame);
@@ -1152,7 +1159,6 @@ GST_END_TEST;
  * so the file still ends with the last complete line. */
 LANDMARK_TEST ("errors", test_partial_write_trimmed)
 {
-  const gchar *path = tmp_file ("limited.jsonl");
   const rlim_t limit = 100000;
   struct rlimit old_limit, rl;
   GstHarness *h;
@@ -1170,7 +1176,7 @@ LANDMARK_TEST ("errors", test_partial_write_trimmed)
   old_handler = signal (SIGXFSZ, SIG_IGN);
   fail_unless (setrlimit (RLIMIT_FSIZE, &rl) == 0);
 
-  h = log_harness (path, NULL);
+  h = log_harness (log_path, NULL);
   gst_element_set_bus (h->element, bus);
   for (i = 0; i < 100 && ret == GST_FLOW_OK; i++) {
     GstBuffer *buf = frame_new (i);
@@ -1197,7 +1203,7 @@ LANDMARK_TEST ("errors", test_partial_write_trimmed)
   fail_unless (setrlimit (RLIMIT_FSIZE, &old_limit) == 0);
   signal (SIGXFSZ, old_handler);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless (lf.n > 0 && lf.size <= limit);
   for (i = 0; i < lf.n; i++)
     fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i);
@@ -1252,18 +1258,15 @@ GST_END_TEST;
 /* append=true keeps what the file had; append=false starts it anew. */
 LANDMARK_TEST ("output", test_append)
 {
-  const gchar *path = tmp_file ("append.jsonl");
   guint run, i;
   LogFile lf;
 
   for (run = 0; run < 3; run++) {
-    GstHarness *h = log_harness_full (path, NULL, run == 1);
-    for (i = 0; i < 4; i++)
-      fail_unless_equals_int (gst_harness_push (h, frame_new (i)),
-          GST_FLOW_OK);
+    GstHarness *h = log_harness_full (log_path, NULL, run == 1);
+    push_frames (h, 0, 4);
     push_eos (h);
     gst_harness_teardown (h);
-    log_read (path, &lf);
+    log_read (log_path, &lf);
     /* run 0: 4 lines; run 1 appends 4; run 2 truncates */
     fail_unless_equals_int (lf.n, run == 1 ? 8 : 4);
     for (i = 0; i < lf.n; i++)
@@ -1278,26 +1281,21 @@ GST_END_TEST;
  * count again and truncates the file, or appends with append=true. */
 LANDMARK_TEST ("output", test_restart)
 {
-  const gchar *path = tmp_file ("restart.jsonl");
   guint append, i;
   LogFile lf;
 
   for (append = 0; append < 2; append++) {
-    GstHarness *h = log_harness_full (path, NULL, append);
-    for (i = 0; i < 3; i++)
-      fail_unless_equals_int (gst_harness_push (h, frame_new (i)),
-          GST_FLOW_OK);
+    GstHarness *h = log_harness_full (log_path, NULL, append);
+    push_frames (h, 0, 3);
     fail_unless_equals_int (gst_element_set_state (h->element,
             GST_STATE_READY), GST_STATE_CHANGE_SUCCESS);
-    fail_unless_equals_int (count_lines (path), 3);
+    fail_unless_equals_int (count_lines (log_path), 3);
     fail_unless_equals_int (gst_element_set_state (h->element,
             GST_STATE_PLAYING), GST_STATE_CHANGE_SUCCESS);
     gst_harness_set_src_caps_str (h, CAPS_GRAY);
-    for (i = 0; i < 2; i++)
-      fail_unless_equals_int (gst_harness_push (h, frame_new (10 + i)),
-          GST_FLOW_OK);
+    push_frames (h, 10, 2);
     push_eos (h);
-    log_read (path, &lf);
+    log_read (log_path, &lf);
     fail_unless_equals_int (lf.n, append ? 5 : 2);
     for (i = 0; i < lf.n; i++) {
       const guint k = append && i < 3 ? i : i - (append ? 3 : 0);
@@ -1307,7 +1305,7 @@ LANDMARK_TEST ("output", test_restart)
     }
     log_clear (&lf);
     gst_harness_teardown (h);
-    g_remove (path);
+    g_remove (log_path);
   }
 }
 
@@ -1316,19 +1314,13 @@ GST_END_TEST;
 /* QoS events do not make the logger drop late frames. */
 LANDMARK_TEST ("output", test_no_frame_dropped)
 {
-  const gchar *path = tmp_file ("qos.jsonl");
-  GstHarness *h = log_harness (path, NULL);
-  const guint n = 30;
-  guint i;
+  GstHarness *h = log_harness (log_path, NULL);
+  GstBuffer *templ = frame_new (0);
 
-  fail_unless (gst_harness_push_upstream_event (h,
-          gst_event_new_qos (GST_QOS_TYPE_UNDERFLOW, 2.0, 60 * GST_SECOND,
-              0)));
-  for (i = 0; i < n; i++)
-    fail_unless_equals_int (gst_harness_push (h, frame_new (i)), GST_FLOW_OK);
-  fail_unless_equals_int (gst_harness_buffers_received (h), n);
+  landmark_check_no_frame_dropped (h, templ, 30, NULL);
   push_eos (h);
-  fail_unless_equals_int (count_lines (path), n);
+  fail_unless_equals_int (count_lines (log_path), 30);
+  gst_buffer_unref (templ);
   gst_harness_teardown (h);
 }
 
@@ -1356,10 +1348,9 @@ fail_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
 
 LANDMARK_TEST ("errors", test_downstream_error)
 {
-  const gchar *path = tmp_file ("error.jsonl");
   gchar *desc = g_strdup_printf ("appsrc name=src format=time "
       "caps=\"" CAPS_GRAY "\" ! landmarklog location=\"%s\" ! "
-      "fakesink name=sink", path);
+      "fakesink name=sink", log_path);
   GstElement *pipe = gst_parse_launch (desc, NULL), *src, *sink;
   FailProbe fp = { 0, 7 };
   GstPad *pad;
@@ -1392,7 +1383,7 @@ LANDMARK_TEST ("errors", test_downstream_error)
 
   /* buffers 0..fail_at went through the logger, the last one failing
    * downstream of it */
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, fp.fail_at + 1);
   for (i = 0; i < lf.n; i++) {
     fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i);
@@ -1423,10 +1414,9 @@ count_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
 
 LANDMARK_TEST ("errors", test_stop_mid_stream)
 {
-  const gchar *path = tmp_file ("stop.jsonl");
   gchar *desc = g_strdup_printf ("videotestsrc ! video/x-raw,width=64,"
       "height=48,framerate=100/1 ! labsegment ! "
-      "landmarklog name=log location=\"%s\" ! fakesink sync=true", path);
+      "landmarklog name=log location=\"%s\" ! fakesink sync=true", log_path);
   GstElement *pipe = gst_parse_launch (desc, NULL), *log;
   gint entered = 0, left = 0;
   GstPad *pad;
@@ -1454,7 +1444,7 @@ LANDMARK_TEST ("errors", test_stop_mid_stream)
   /* Every buffer that went out was logged, and nothing that did not come
    * in. (Stopping can catch a buffer between the pad's probe and the
    * element, or between the element and the next pad: hence a range.) */
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless (lf.n >= (guint) left && lf.n <= (guint) entered,
       "%u lines for %d buffers in, %d out", lf.n, entered, left);
   fail_unless (left >= 10);
@@ -1473,10 +1463,9 @@ GST_END_TEST;
  * element stops (PAUSED to READY), the only flush on this path. */
 LANDMARK_TEST ("errors", test_stop_while_paused)
 {
-  const gchar *path = tmp_file ("paused.jsonl");
   gchar *desc = g_strdup_printf ("videotestsrc num-buffers=50 ! "
       "video/x-raw,width=64,height=48 ! landmarklog name=log "
-      "location=\"%s\" ! fakesink", path);
+      "location=\"%s\" ! fakesink", log_path);
   GstElement *pipe = gst_parse_launch (desc, NULL), *log;
   gint entered = 0;
   GstPad *pad;
@@ -1494,10 +1483,10 @@ LANDMARK_TEST ("errors", test_stop_while_paused)
   fail_unless_equals_int (gst_element_get_state (pipe, NULL, NULL, WAIT),
       GST_STATE_CHANGE_SUCCESS);
   /* the sink holds the preroll buffer; nothing written yet */
-  fail_unless_equals_int (file_size (path), 0);
+  fail_unless_equals_int (file_size (log_path), 0);
   fail_unless_equals_int (gst_element_set_state (pipe, GST_STATE_NULL),
       GST_STATE_CHANGE_SUCCESS);
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless (lf.n >= 1);
   fail_unless_equals_int (lf.n, g_atomic_int_get (&entered));
   fail_unless_equals_int (get_int (log_line (&lf, 0), "frame"), 0);
@@ -1527,8 +1516,7 @@ push_many (GstHarness * h, GstBuffer * templ, guint n)
 
 LANDMARK_TEST ("output", test_many_frames)
 {
-  const gchar *path = tmp_file ("many.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   GstHarness *ref = gst_harness_new ("identity");
   GstBuffer *templ = frame_new (0);
   const guint n = 10000;
@@ -1543,7 +1531,7 @@ LANDMARK_TEST ("output", test_many_frames)
   GST_INFO ("landmarklog %.2f us/frame, identity %.2f us/frame", us_log,
       us_ref);
   push_eos (h);
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, n + 200);
   fail_unless_equals_int (get_int (log_line (&lf, n + 199), "frame"),
       n + 199);

@@ -1412,28 +1412,40 @@ count_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
   return GST_PAD_PROBE_OK;
 }
 
-LANDMARK_TEST ("errors", test_stop_mid_stream)
+/* A pipeline of `head ! landmarklog name=log location=log_path ! tail`. */
+static GstElement *
+log_pipeline (const gchar * head, const gchar * tail)
 {
-  gchar *desc = g_strdup_printf ("videotestsrc ! video/x-raw,width=64,"
-      "height=48,framerate=100/1 ! labsegment ! "
-      "landmarklog name=log location=\"%s\" ! fakesink sync=true", log_path);
-  GstElement *pipe = gst_parse_launch (desc, NULL), *log;
-  gint entered = 0, left = 0;
-  GstPad *pad;
-  LogFile lf;
-  guint i;
+  gchar *desc = g_strdup_printf ("%s ! landmarklog name=log "
+      "location=\"%s\" ! %s", head, log_path, tail);
+  GstElement *pipe = gst_parse_launch (desc, NULL);
+  fail_unless (pipe != NULL, "%s", desc);
+  g_free (desc);
+  return pipe;
+}
 
-  fail_unless (pipe != NULL);
-  log = gst_bin_get_by_name (GST_BIN (pipe), "log");
-  pad = gst_element_get_static_pad (log, "sink");
-  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, count_probe, &entered,
-      NULL);
-  gst_object_unref (pad);
-  pad = gst_element_get_static_pad (log, "src");
-  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, count_probe, &left,
+/* Counts the buffers through the logger's pad (sink or src) in *counter. */
+static void
+count_buffers (GstElement * pipe, const gchar * pad_name, gint * counter)
+{
+  GstElement *log = gst_bin_get_by_name (GST_BIN (pipe), "log");
+  GstPad *pad = gst_element_get_static_pad (log, pad_name);
+  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, count_probe, counter,
       NULL);
   gst_object_unref (pad);
   gst_object_unref (log);
+}
+
+LANDMARK_TEST ("errors", test_stop_mid_stream)
+{
+  GstElement *pipe = log_pipeline ("videotestsrc ! video/x-raw,width=64,"
+      "height=48,framerate=100/1 ! labsegment", "fakesink sync=true");
+  gint entered = 0, left = 0;
+  LogFile lf;
+  guint i;
+
+  count_buffers (pipe, "sink", &entered);
+  count_buffers (pipe, "src", &left);
   fail_if (gst_element_set_state (pipe, GST_STATE_PLAYING) ==
       GST_STATE_CHANGE_FAILURE);
   for (i = 0; i < 500 && g_atomic_int_get (&left) < 10; i++)
@@ -1454,7 +1466,6 @@ LANDMARK_TEST ("errors", test_stop_mid_stream)
   }
   log_clear (&lf);
   gst_object_unref (pipe);
-  g_free (desc);
 }
 
 GST_END_TEST;
@@ -1463,21 +1474,12 @@ GST_END_TEST;
  * element stops (PAUSED to READY), the only flush on this path. */
 LANDMARK_TEST ("errors", test_stop_while_paused)
 {
-  gchar *desc = g_strdup_printf ("videotestsrc num-buffers=50 ! "
-      "video/x-raw,width=64,height=48 ! landmarklog name=log "
-      "location=\"%s\" ! fakesink", log_path);
-  GstElement *pipe = gst_parse_launch (desc, NULL), *log;
+  GstElement *pipe = log_pipeline ("videotestsrc num-buffers=50 ! "
+      "video/x-raw,width=64,height=48", "fakesink");
   gint entered = 0;
-  GstPad *pad;
   LogFile lf;
 
-  fail_unless (pipe != NULL);
-  log = gst_bin_get_by_name (GST_BIN (pipe), "log");
-  pad = gst_element_get_static_pad (log, "sink");
-  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, count_probe, &entered,
-      NULL);
-  gst_object_unref (pad);
-  gst_object_unref (log);
+  count_buffers (pipe, "sink", &entered);
   fail_unless_equals_int (gst_element_set_state (pipe, GST_STATE_PAUSED),
       GST_STATE_CHANGE_ASYNC);
   fail_unless_equals_int (gst_element_get_state (pipe, NULL, NULL, WAIT),
@@ -1492,7 +1494,6 @@ LANDMARK_TEST ("errors", test_stop_while_paused)
   fail_unless_equals_int (get_int (log_line (&lf, 0), "frame"), 0);
   log_clear (&lf);
   gst_object_unref (pipe);
-  g_free (desc);
 }
 
 GST_END_TEST;

@@ -37,8 +37,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..landmarklog import LogError, read_jsonl
-from .common import add_json_option
 from ..landmarkmap import read_map
+from .common import add_json_option
 
 DEFAULT_BANDS = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0)
 

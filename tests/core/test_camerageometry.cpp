@@ -34,6 +34,21 @@ robot_to_camera (double tilt_deg, double roll_deg)
       zc[2]);
 }
 
+/* A pinhole camera of 60 degrees horizontal field of view, its
+ * intrinsics from intrinsics_from_hfov. */
+static CameraParams
+pinhole_params (int width, int height, double camera_height, double tilt_deg)
+{
+  CameraParams p;
+  p.width = width;
+  p.height = height;
+  p.camera_height = camera_height;
+  p.tilt_deg = tilt_deg;
+  CHECK (intrinsics_from_hfov (60, width, height, &p.fx, &p.fy, &p.cx,
+          &p.cy), "hfov 60 at %dx%d", width, height);
+  return p;
+}
+
 /* Random floor (or plane z0) points in view, projected with
  * cv::projectPoints, then back-projected by the geometry. */
 static void
@@ -88,13 +103,7 @@ test_projectpoints_roundtrip (const CameraParams & p, double z0,
 static void
 test_pinhole ()
 {
-  CameraParams p;
-  p.width = 640;
-  p.height = 480;
-  p.camera_height = 0.3;
-  p.tilt_deg = 25;
-  CHECK (intrinsics_from_hfov (60, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy),
-      "hfov");
+  CameraParams p = pinhole_params (640, 480, 0.3, 25);
   CHECK (std::fabs (p.fx - 554.256258) < 1e-5 && p.cx == 319.5 &&
       p.cy == 239.5, "intrinsics %g %g %g", p.fx, p.cx, p.cy);
   test_projectpoints_roundtrip (p, 0.0, "pinhole floor");
@@ -119,12 +128,7 @@ test_pinhole ()
   p.dist = {-0.28, 0.09, 0.001, -0.0015, -0.012};
 
   /* analytic: straight ahead, image centre row -> h / tan(tilt) */
-  CameraParams q;
-  q.width = 641;
-  q.height = 481;
-  q.camera_height = 0.5;
-  q.tilt_deg = 30;
-  intrinsics_from_hfov (60, 641, 481, &q.fx, &q.fy, &q.cx, &q.cy);
+  const CameraParams q = pinhole_params (641, 481, 0.5, 30);
   CameraGeometry g;
   std::string err;
   CHECK (g.configure (q, &err), "%s", err.c_str ());
@@ -212,12 +216,7 @@ test_estimate ()
 {
   /* a disc lying on the floor seen at a slant: the ellipse centre is not
    * the disc centre's image; the estimate recovers the true centre */
-  CameraParams p;
-  p.width = 640;
-  p.height = 480;
-  p.camera_height = 0.3;
-  p.tilt_deg = 25;
-  intrinsics_from_hfov (60, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy);
+  const CameraParams p = pinhole_params (640, 480, 0.3, 25);
   CameraGeometry g;
   std::string err;
   g.configure (p, &err);

@@ -582,6 +582,14 @@ def _add_output_option(parser, help="camera file to write"):
                         help=help)
 
 
+def _add_board_options(parser, pattern_help):
+    """--pattern and --square, the board both chessboard actions read."""
+    parser.add_argument("--pattern", type=_pattern_type, required=True,
+                        metavar="COLSxROWS", help=pattern_help)
+    parser.add_argument("--square", type=_positive_type, required=True,
+                        metavar="METRES", help="side of one square (m)")
+
+
 def add_calibrate_parser(subparsers):
     parser = subparsers.add_parser(
         "calibrate", help="write camera files for ipmrange",
@@ -616,19 +624,15 @@ def add_calibrate_parser(subparsers):
 
     board = actions.add_parser(
         "chessboard", help="intrinsics from chessboard images",
-        description="Intrinsic calibration (camera_matrix, "
-                    "distortion_coefficients) from images of a flat "
-                    "chessboard seen from several directions, with "
-                    "OpenCV.  Prints the RMS reprojection error.")
+        description="""Intrinsic calibration (camera_matrix,
+            distortion_coefficients) from images of a flat chessboard seen
+            from several directions, with OpenCV.  Prints the RMS
+            reprojection error.""")
     board.add_argument("images", nargs="+", metavar="IMAGE",
                        help=f"chessboard images (at least {MIN_IMAGES}; "
                             f"10-20 from varied directions work best)")
-    board.add_argument("--pattern", type=_pattern_type, required=True,
-                       metavar="COLSxROWS",
-                       help="inner corners per row and per column, e.g. "
-                            "9x6 for a board of 10x7 squares")
-    board.add_argument("--square", type=_positive_type, required=True,
-                       metavar="METRES", help="side of one square (m)")
+    _add_board_options(board, "inner corners per row and per column, e.g. "
+                              "9x6 for a board of 10x7 squares")
     board.add_argument("--skip-missing", action="store_true",
                        help="leave out images where the pattern is not "
                             "found instead of failing")
@@ -642,18 +646,13 @@ def add_calibrate_parser(subparsers):
 
     floor = actions.add_parser(
         "floor", help="camera height, tilt and roll from a floor board",
-        description="Camera height, tilt (below horizontal) and roll (per "
-                    "docs/conventions.md) from one image of a chessboard "
-                    "lying flat on the floor, with the intrinsics of "
-                    "--camera.  Writes the camera file with the mounting "
-                    "added.")
+        description="""Camera height, tilt (below horizontal) and roll (per
+            docs/conventions.md) from one image of a chessboard lying flat
+            on the floor, with the intrinsics of --camera.  Writes the
+            camera file with the mounting added.""")
     floor.add_argument("image", metavar="IMAGE",
                        help="image of the board on the floor")
-    floor.add_argument("--pattern", type=_pattern_type, required=True,
-                       metavar="COLSxROWS",
-                       help="inner corners per row and per column")
-    floor.add_argument("--square", type=_positive_type, required=True,
-                       metavar="METRES", help="side of one square (m)")
+    _add_board_options(floor, "inner corners per row and per column")
     floor.add_argument("--camera", required=True, metavar="CAMERA.yml",
                        help="camera file with the intrinsics")
     floor.add_argument("--thickness", type=float, default=0.0,

@@ -198,13 +198,14 @@ def add_palette_parser(subparsers):
                         type=_parse_rect,
                         help="pixels of class NAME (repeatable; rectangles "
                              "of one name are pooled)")
-    learn.add_argument("--names", metavar="N1,N2,...",
-                       help="with --mask: class names in index order "
-                            "(default class1..classK)")
-    learn.add_argument("--markers", metavar="N1,N2,...",
-                       help="with --mask: the marker classes (default all)")
-    learn.add_argument("--background", metavar="N1,N2,...",
-                       help="with --rect: the non-marker classes")
+    class_lists = {
+        "--names": "with --mask: class names in index order (default "
+                   "class1..classK)",
+        "--markers": "with --mask: the marker classes (default all)",
+        "--background": "with --rect: the non-marker classes",
+    }
+    for flag, text in class_lists.items():
+        learn.add_argument(flag, metavar="N1,N2,...", help=text)
     learn.add_argument("--references", metavar="N|auto",
                        type=_parse_references, default="auto",
                        help="reference colours per class: auto (default: "

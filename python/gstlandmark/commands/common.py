@@ -40,3 +40,9 @@ def add_token_option(parser, what="access token"):
                         help=f"{what} (at least 16 characters; default: "
                              f"none on loopback, a random one printed at "
                              f"start otherwise)")
+
+
+def add_json_option(parser, what="the numbers"):
+    """``--json OUT``: a command's results also written as JSON."""
+    parser.add_argument("--json", metavar="OUT",
+                        help=f"also write {what} to this JSON file")

@@ -110,14 +110,15 @@ def add_synth_parser(subparsers):
                        help="N boxes of random size and colour standing "
                             "in the field, off the camera's path; the "
                             "truth gains the free floor per bearing")
-    world.add_argument("--palette", metavar="FILE",
-                       help="landmark colours: the marker classes of this "
-                            "palette (default: the built-in palette)")
-    world.add_argument("--map", metavar="FILE",
-                       help="custom: the landmarks (map.json format)")
-    world.add_argument("--poses", metavar="FILE",
-                       help="custom: one pose per frame (JSON list or "
-                            "lines of {\"x\", \"y\", \"heading\"}, rad)")
+    files = {
+        "--palette": "landmark colours: the marker classes of this palette "
+                     "(default: the built-in palette)",
+        "--map": "custom: the landmarks (map.json format)",
+        "--poses": "custom: one pose per frame (JSON list or lines of "
+                   "{\"x\", \"y\", \"heading\"}, rad)",
+    }
+    for flag, text in files.items():
+        world.add_argument(flag, metavar="FILE", help=text)
     world.add_argument("--pose", type=_pose, metavar="X,Y,DEG",
                        help="custom: one static pose (heading in degrees)")
 

@@ -34,9 +34,11 @@ import cv2
 import numpy as np
 
 from .. import reference
-from ..commands.common import CliError, add_actions, size_type
+from ..commands.common import (CliError, add_actions, add_json_option,
+                               size_type)
 from ..palette import default_palette
-from .benchkit import (BenchError, OneCore, bench_environment, pin_prefix,
+from .benchkit import (BenchError, OneCore, add_build_dir_option,
+                       add_report_options, bench_environment, pin_prefix,
                        write_json)
 from .benchkit import find_build_dir as find_program_build_dir
 
@@ -715,9 +717,7 @@ def add_bench_parser(subparsers):
                     "frames) beside a plain frame copy and the Python "
                     "reference, on synthetic floor scenes; check the "
                     "targets and the agreement of the labels.")
-    lab.add_argument("--build-dir", metavar="DIR",
-                     help="meson build directory (default: ./build, or the "
-                          "source tree's build/)")
+    add_build_dir_option(lab)
     lab.add_argument("--iterations", type=int, default=DEFAULT_ITERATIONS,
                      metavar="N",
                      help=f"Python reference calls per size and format "
@@ -743,10 +743,7 @@ def add_bench_parser(subparsers):
                      help="video format (repeatable; default BGRx and YUY2)")
     lab.add_argument("--cpu", type=int, default=0, metavar="CORE",
                      help="core to pin to (default 0; -1: no pinning)")
-    lab.add_argument("--json", metavar="OUT",
-                     help="also write the numbers to this JSON file")
-    lab.add_argument("-q", "--quiet", action="store_true",
-                     help="no progress lines on stderr")
+    add_report_options(lab)
     lab.set_defaults(handler=_handle)
 
     quant = actions.add_parser(
@@ -761,17 +758,17 @@ def add_bench_parser(subparsers):
     seg = actions.add_parser(
         "segmentation", help="labsegment's per-class pixel precision and "
                              "recall on rendered scenes",
-        description="Render synthetic scenarios with a truth mask per "
-                    "frame and measure labsegment's per-class pixel "
-                    "precision and recall, with the dominant-colour rule "
-                    "and lightness on and off.")
+        description="""Render synthetic scenarios with a truth mask per
+            frame and measure labsegment's per-class pixel precision and
+            recall, with the dominant-colour rule and lightness on and
+            off.""")
     seg.add_argument("--scenario", action="append",
                      help="synth scenario (repeatable; default backgrounds "
                           "and distractors)")
     seg.add_argument("--frames", type=int, help="frames per scenario")
     seg.add_argument("--seed", type=int, default=0)
     seg.add_argument("--out", help="keep the renders in this folder")
-    seg.add_argument("--json", metavar="OUT", help="also write the numbers")
+    add_json_option(seg)
     seg.set_defaults(handler=_handle_segmentation, scenario=None)
 
     from .ranging_bench import add_ranging_bench_parser

@@ -9,6 +9,7 @@ import shutil
 import cv2
 
 from .. import plugin
+from ..commands.common import add_json_option
 
 
 class BenchError(Exception):
@@ -72,6 +73,21 @@ def bench_environment(build_dir):
     env["GST_REGISTRY_1_0"] = os.path.join(build_dir, "tests", "bench",
                                            "registry.dat")
     return env
+
+
+def add_build_dir_option(parser,
+                         default="the source tree's build/, or ./build"):
+    """--build-dir, the meson build directory a benchmark runs from."""
+    parser.add_argument("--build-dir", metavar="DIR",
+                        help=f"meson build directory with the plugin "
+                             f"(default: {default})")
+
+
+def add_report_options(parser):
+    """--json and -q/--quiet, as every benchmark takes them."""
+    add_json_option(parser)
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress lines on stderr")
 
 
 def write_json(path, report):

@@ -34,7 +34,8 @@ import numpy as np
 
 from .. import reference
 from ..commands.common import size_type
-from .benchkit import (BenchError, OneCore, bench_environment, pin_prefix,
+from .benchkit import (BenchError, OneCore, add_build_dir_option,
+                       add_report_options, bench_environment, pin_prefix,
                        write_json)
 from .benchkit import find_build_dir as find_program_build_dir
 
@@ -457,7 +458,7 @@ def add_chain_bench_parser(actions):
                     "chain on one core, on path-scenario frames, beside a "
                     "frame copy and the same chain in plain Python/OpenCV; "
                     "check the targets and the steady-state RSS.")
-    p.add_argument("--build-dir", metavar="DIR")
+    add_build_dir_option(p)
     p.add_argument("--frames", type=int, default=DEFAULT_FRAMES, metavar="N",
                    help=f"timed C frames per run (default {DEFAULT_FRAMES})")
     p.add_argument("--distinct", type=int, default=DEFAULT_DISTINCT,
@@ -476,7 +477,6 @@ def add_chain_bench_parser(actions):
                                        "640x480 and 1920x1080)")
     p.add_argument("--cpu", type=int, default=0, metavar="CORE",
                    help="core to pin to (default 0; -1: no pinning)")
-    p.add_argument("--json", metavar="OUT", help="also write the numbers")
-    p.add_argument("-q", "--quiet", action="store_true")
+    add_report_options(p)
     p.set_defaults(handler=_handle_chain)
     return p

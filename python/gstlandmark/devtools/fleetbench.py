@@ -44,7 +44,7 @@ import time
 from typing import Any, Callable, Dict, List, Optional
 
 from .. import plugin
-from .benchkit import BenchError
+from .benchkit import BenchError, add_build_dir_option, add_report_options
 from .sourcetree import ROOT
 
 DEFAULT_ROBOTS = 50
@@ -684,12 +684,8 @@ def add_fleet_bench_parser(actions):
                    metavar="N", help="the broker's max_queued_messages "
                                      "(default %(default)s; mosquitto's "
                                      "own default is 1000)")
-    p.add_argument("--build-dir", metavar="DIR",
-                   help="meson build directory with the plugin (default: "
-                        "the source tree's build/, or GST_PLUGIN_PATH)")
+    add_build_dir_option(p, "the source tree's build/, or GST_PLUGIN_PATH")
     p.add_argument("--keep", metavar="DIR",
                    help="keep fleet.json and the captured messages here")
-    p.add_argument("--json", metavar="OUT",
-                   help="also write the numbers to this JSON file")
-    p.add_argument("-q", "--quiet", action="store_true")
+    add_report_options(p)
     p.set_defaults(handler=_handle)

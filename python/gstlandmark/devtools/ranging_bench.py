@@ -285,11 +285,11 @@ def add_ranging_bench_parser(subparsers):
     parser = subparsers.add_parser(
         "ranging", help="ipmrange accuracy: seed vs exact model, "
                               "range error by distance (docs/ranging.md)",
-        description="Print the tables of docs/ranging.md: the seed model's "
-                    "error against the exact pinhole model across the "
-                    "image, and ipmrange's range error by distance on the "
-                    "synthetic range sweep (ground, size, fused; discs "
-                    "and balls). Needs the plugin (GST_PLUGIN_PATH).")
+        description="""Print the tables of docs/ranging.md: the seed
+            model's error against the exact pinhole model across the image,
+            and ipmrange's range error by distance on the synthetic range
+            sweep (ground, size, fused; discs and balls). Needs the plugin
+            (GST_PLUGIN_PATH).""")
     parser.add_argument("--plot", metavar="PNG",
                         help="also draw the range error by distance")
     parser.add_argument("--sweep-dir", metavar="DIR",

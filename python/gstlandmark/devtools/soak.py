@@ -32,6 +32,8 @@ import time
 from typing import Any, Dict, List, Optional
 
 from .. import pipeline
+from ..commands.common import add_json_option, size_type
+from .benchkit import write_json
 from .sourcetree import ROOT, missing
 
 Gst = pipeline.Gst
@@ -287,7 +289,7 @@ def add_soak_parser(subparsers):
         "documentation (gstlandmark/soak.py) for the pipeline and checks.")
     p.add_argument("--frames", type=int, default=DEFAULT_FRAMES,
                    help="frames to push (default %(default)s)")
-    p.add_argument("--size", default="%dx%d" % DEFAULT_SIZE,
+    p.add_argument("--size", type=size_type, default="%dx%d" % DEFAULT_SIZE,
                    help="WIDTHxHEIGHT (default %(default)s)")
     p.add_argument("--every", type=int, default=DEFAULT_EVERY,
                    help="sample the RSS every N frames (default "
@@ -301,19 +303,11 @@ def add_soak_parser(subparsers):
                         "(default %(default)s)")
     p.add_argument("--log", help="keep landmarklog's file here (default: a "
                                  "temporary file, removed)")
-    p.add_argument("--json", metavar="FILE",
-                   help="also write the report, with every RSS sample, "
-                        "to FILE")
+    add_json_option(p, "the report, with every RSS sample,")
     p.set_defaults(handler=_handle, parser=p)
 
 
 def _handle(args) -> int:
-    try:
-        size = tuple(int(v) for v in args.size.lower().split("x"))
-        if len(size) != 2 or min(size) <= 0:
-            raise ValueError
-    except ValueError:
-        args.parser.error(f"--size must be WIDTHxHEIGHT, got {args.size!r}")
     if args.frames <= 0 or args.every <= 0:
         args.parser.error("--frames and --every must be positive")
     if args.warmup is not None and not 0 <= args.warmup < args.frames:
@@ -325,16 +319,14 @@ def _handle(args) -> int:
             sys.stderr.flush()
 
     try:
-        report = run_soak(args.frames, size, args.every, args.warmup,
+        report = run_soak(args.frames, args.size, args.every, args.warmup,
                           args.max_growth_kb, args.log, progress)
     except pipeline.PipelineError as err:
         print(f"gst-landmark: error: {err}", file=sys.stderr)
         return 1
     if sys.stderr.isatty():
         sys.stderr.write("\n")
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as f:
-            json.dump(report, f, indent=2)
+    write_json(args.json, report)
     shown = {k: v for k, v in report.items() if k != "samples"}
     print(json.dumps(shown, indent=2))
     return 0 if report["ok"] else 1

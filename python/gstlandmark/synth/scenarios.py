@@ -231,6 +231,14 @@ DISC_D, BALL_D = 0.30, 0.20
 RANGE_CAMERA = {"hfov_deg": 80.0, "height_m": 0.5, "tilt_deg": 34.0}
 
 
+def _camera_and_notes(ctx, comfortable_camera, purpose):
+    """The scenario's camera (``comfortable_camera`` for the comfortable
+    robot, the seed's otherwise) and the start of its notes."""
+    camera = dict(comfortable_camera if ctx["robot"] == "comfortable"
+                  else SEED_CAMERA)
+    return camera, {"purpose": purpose, "camera_defaults": dict(camera)}
+
+
 def _range_sweep(ctx):
     """One landmark per frame: discs then balls at ranges 0.3..5 m and
     bearings -20..20 degrees; static camera."""
@@ -263,15 +271,10 @@ def _range_sweep(ctx):
             id=f"{kind}_{r:.2f}m_{b:+g}deg", cls=colours[i % len(colours)],
             x=x, y=y, diameter=disc_d if kind == "disc" else ball_d,
             kind=kind, frames=intervals.get(i, [])))
-    camera = dict(RANGE_CAMERA if ctx["robot"] == "comfortable"
-                  else SEED_CAMERA)
-    notes = {
-        "purpose": "ranging accuracy by distance: one disc or ball per "
-                   "frame",
-        "camera_defaults": dict(camera),
-        "disc_diameter_m": disc_d,
-        "ball_diameter_m": ball_d,
-    }
+    camera, notes = _camera_and_notes(
+        ctx, RANGE_CAMERA,
+        "ranging accuracy by distance: one disc or ball per frame")
+    notes.update(disc_diameter_m=disc_d, ball_diameter_m=ball_d)
     return dict(landmarks=landmarks, floor="grey", trajectory=Static(),
                 camera=camera, notes=notes), frames
 
@@ -353,12 +356,11 @@ def _path(ctx):
                  x=x, y=y, diameter=disc_d if kind == "disc"
                  else ball_d, kind=kind)
         for i, ((x, y), colour, kind) in enumerate(plan)]
-    camera = dict(PATH_CAMERA if ctx["robot"] == "comfortable"
-                  else SEED_CAMERA)
-    notes = {
-        "purpose": "benchmark of positioning from landmarks: most frames "
-                   "show three or more landmarks, the others one or two",
-        "camera_defaults": dict(camera),
+    camera, notes = _camera_and_notes(
+        ctx, PATH_CAMERA,
+        "benchmark of positioning from landmarks: most frames show three "
+        "or more landmarks, the others one or two")
+    notes.update({
         "camera_why": "a small robot's wide-angle camera, 0.5 m up and "
                       "tilted 20 degrees down, sees the floor from 0.4 m "
                       "to the far side of the field"
@@ -369,7 +371,7 @@ def _path(ctx):
         "ball_diameter_m": ball_d,
         "layout": "landmarks near the walls, the loop inside them; "
                   "colours used twice are far apart",
-    }
+    })
     if plan is not PATH_PLAN:
         notes["layout"] = ("landmarks near the walls, the loop inside "
                            "them; each colour three or four times")
@@ -626,12 +628,11 @@ def build_scenario(name, seed=0, frames=None, size=(640, 480),
     docstring); ``variant``: a dict from ``variants.draw_variant`` (its
     camera, sizes, floor, light, effects, layout and path; overrides
     still win)."""
-    if name not in SCENARIOS:
-        raise ValueError(f"unknown scenario {name!r}, expected one of "
-                         f"{', '.join(SCENARIOS)}")
-    if robot not in ROBOTS:
-        raise ValueError(f"unknown robot {robot!r}, expected one of "
-                         f"{', '.join(ROBOTS)}")
+    for what, value, known in (("scenario", name, SCENARIOS),
+                               ("robot", robot, ROBOTS)):
+        if value not in known:
+            raise ValueError(f"unknown {what} {value!r}, expected one of "
+                             f"{', '.join(known)}")
     unknown = set(overrides) - set(OVERRIDES)
     if unknown:
         raise ValueError(f"unknown override(s): {', '.join(sorted(unknown))}"

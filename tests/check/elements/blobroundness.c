@@ -137,6 +137,20 @@ plane_draw (Plane * p, InsideFunc inside, const gdouble * s, guint8 label)
   return d;
 }
 
+/* A plane of w x h (no padding) holding one disc of radius r at (cx, cy);
+ * what was drawn in *drawn when asked. */
+static Plane *
+disc_plane (guint w, guint h, gdouble cx, gdouble cy, gdouble r,
+    guint8 label, Drawn * drawn)
+{
+  Plane *p = plane_new (w, h, w);
+  const gdouble s[3] = { cx, cy, r };
+  const Drawn d = plane_draw (p, in_disc, s, label);
+  if (drawn)
+    *drawn = d;
+  return p;
+}
+
 /* The palette of the tests: label k + 1 is names[k]. */
 
 #define RED 1
@@ -280,6 +294,35 @@ run (GstHarness * hr, const Plane * p, Blobs * b)
   return out;
 }
 
+/* run () on a frame where exactly one blob must be found */
+static GstBuffer *
+run_one (GstHarness * hr, const Plane * p, Blobs * b)
+{
+  GstBuffer *out = run (hr, p, b);
+  fail_unless_equals_int (b->n, 1);
+  return out;
+}
+
+static void
+done (GstHarness * hr, Plane * p)
+{
+  plane_free (p);
+  gst_harness_teardown (hr);
+}
+
+/* Exactly one warning on the bus so far, of this domain and code, its
+ * message naming what. */
+static void
+check_one_warning (GstBus * bus, GQuark domain, gint code, const gchar * what)
+{
+  GError *err = NULL;
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING, &err), 1);
+  fail_unless (g_error_matches (err, domain, code), "%s", err->message);
+  fail_unless (strstr (err->message, what) != NULL, "%s", err->message);
+  g_clear_error (&err);
+}
+
 /* The detection whose centroid is nearest (cx, cy). */
 static const GstStructure *
 nearest (const Blobs * b, gdouble cx, gdouble cy, guint * index)
@@ -382,8 +425,7 @@ LANDMARK_TEST ("shapes", test_discs)
 
       plane_fill (p, GREY);
       d = plane_draw (p, in_disc, s, RED);
-      out = run (hr, p, &b);
-      fail_unless_equals_int (b.n, 1);
+      out = run_one (hr, p, &b);
       blob = b.blob[0];
       check_fields (blob, 101, 97);
       fail_unless (kept (blob));
@@ -443,8 +485,7 @@ LANDMARK_TEST ("shapes", test_disc_centroid_exact)
     Blobs b;
     GstBuffer *out;
     plane_draw (p, in_disc, s, BLUE);
-    out = run (hr, p, &b);
-    fail_unless_equals_int (b.n, 1);
+    out = run_one (hr, p, &b);
     fail_unless (fabs (dbl (b.blob[0], "centroid-x") - 40) < 1e-9);
     fail_unless (fabs (dbl (b.blob[0], "centroid-y") - 40) < 1e-9);
     gst_buffer_unref (out);
@@ -475,8 +516,7 @@ LANDMARK_TEST ("shapes", test_ellipses)
     const GstStructure *blob;
 
     plane_draw (p, in_ellipse, s, YELLOW);
-    out = run (he, p, &b);
-    fail_unless_equals_int (b.n, 1);
+    out = run_one (he, p, &b);
     blob = b.blob[0];
     fail_unless (fabs (dbl (blob, "ellipse-major") - a) <= 1.0,
         "major %.2f vs %.2f", dbl (blob, "ellipse-major"), a);
@@ -491,8 +531,7 @@ LANDMARK_TEST ("shapes", test_ellipses)
         dbl (blob, "ellipse-fit"));
     gst_buffer_unref (out);
 
-    out = run (hc, p, &b);
-    fail_unless_equals_int (b.n, 1);
+    out = run_one (hc, p, &b);
     /* aspect >= 1.6: roundness at most about 0.93 of a disc's */
     if (a / bb > 2.0) {
       fail_unless (!kept (b.blob[0]), "aspect %.2f kept as a circle",
@@ -527,8 +566,7 @@ check_rejected (InsideFunc inside, const gdouble * s, const gchar * what)
     GstBuffer *out;
     const gchar *why;
     plane_draw (p, inside, s, GREEN);
-    out = run (hr, p, &b);
-    fail_unless_equals_int (b.n, 1);
+    out = run_one (hr, p, &b);
     fail_unless (!kept (b.blob[0]), "%s kept by %s (roundness %.3f, "
         "ellipse-fit %.3f)", what, modes[mode], dbl (b.blob[0], "roundness"),
         dbl (b.blob[0], "ellipse-fit"));
@@ -538,8 +576,7 @@ check_rejected (InsideFunc inside, const gdouble * s, const gchar * what)
     fail_unless (g_str_equal (why, reasons[mode]) || g_str_equal (why,
             "aspect"), "%s: reject-reason %s", what, why);
     gst_buffer_unref (out);
-    plane_free (p);
-    gst_harness_teardown (hr);
+    done (hr, p);
     g_free (props);
   }
 }
@@ -589,14 +626,12 @@ LANDMARK_TEST ("shapes", test_rings)
     GstBuffer *out;
     plane_fill (p, WHITE);
     d = plane_draw (p, in_ring, s, PINK);
-    out = run (hr, p, &b);
-    fail_unless_equals_int (b.n, 1);
+    out = run_one (hr, p, &b);
     fail_unless_equals_float (dbl (b.blob[0], "area"), d.n);
     fail_unless (dbl (b.blob[0], "roundness") < 1 - frac * frac + 0.02,
         "ring %.1f: roundness %.3f", frac, dbl (b.blob[0], "roundness"));
     gst_buffer_unref (out);
-    out = run (he, p, &b);
-    fail_unless_equals_int (b.n, 1);
+    out = run_one (he, p, &b);
     fail_unless (!kept (b.blob[0]), "ring %.1f kept: ellipse-fit %.3f", frac,
         dbl (b.blob[0], "ellipse-fit"));
     gst_buffer_unref (out);
@@ -634,8 +669,7 @@ LANDMARK_TEST ("shapes", test_specks)
     p->data[(40 + i / 3) * 64 + 20 + i % 3] = BLUE;
   specks++;
 
-  out = run (hr, p, &b);
-  fail_unless_equals_int (b.n, 1);
+  out = run_one (hr, p, &b);
   fail_unless (dbl (b.blob[0], "area") > 100);
   gst_buffer_unref (out);
 
@@ -652,8 +686,7 @@ LANDMARK_TEST ("shapes", test_specks)
   }
   fail_unless_equals_int (kept_n, 1);
   gst_buffer_unref (out);
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
   gst_harness_teardown (hk);
 }
 
@@ -691,8 +724,7 @@ LANDMARK_TEST ("shapes", test_area_and_aspect_limits)
   out = run (hr, p, &b);
   fail_unless (kept (nearest (&b, 170, 50, NULL)));
   gst_buffer_unref (out);
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
 }
 
 GST_END_TEST;
@@ -760,8 +792,7 @@ LANDMARK_TEST ("shapes", test_classes)
   g_object_get (hr->element, "classes", &classes, NULL);
   fail_unless_equals_string (classes, " grey,blue ");
   g_free (classes);
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
 }
 
 GST_END_TEST;
@@ -783,8 +814,7 @@ LANDMARK_TEST ("shapes", test_many_blobs)
     }
     gst_buffer_unref (out);
   }
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
 }
 
 GST_END_TEST;
@@ -815,8 +845,7 @@ LANDMARK_TEST ("shapes", test_morphology)
   fail_unless_equals_int (b.n, 0);      /* one blob, not an ellipse */
   gst_buffer_unref (out);
   g_object_set (hr->element, "keep-rejected", TRUE, NULL);
-  out = run (hr, p, &b);
-  fail_unless_equals_int (b.n, 1);
+  out = run_one (hr, p, &b);
   fail_unless_equals_float (dbl (b.blob[0], "area"), dl.n + dr.n + 33 - 2 -
       1);
   gst_buffer_unref (out);
@@ -847,8 +876,7 @@ LANDMARK_TEST ("shapes", test_morphology)
     plane_fill (q, GREY);
     d = plane_draw (q, in_disc, s, 1 + x % 5);
     g_object_set (hr->element, "morphology", 1 + 2 * (x % 4), NULL);
-    out = run (hr, q, &b);
-    fail_unless_equals_int (b.n, 1);
+    out = run_one (hr, q, &b);
     fail_unless (fabs (dbl (b.blob[0], "area") - d.n) <= 0.03 * d.n + 2,
         "disc %u: area %.0f, drawn %u", x, dbl (b.blob[0], "area"), d.n);
     fail_unless (fabs (dbl (b.blob[0], "centroid-x") - s[0]) < 0.5,
@@ -880,8 +908,7 @@ LANDMARK_TEST ("frames", test_odd_sizes)
     GstBuffer *out;
     /* the whole frame one class */
     plane_fill (p, BLUE);
-    out = run (hr, p, &b);
-    fail_unless_equals_int (b.n, 1);
+    out = run_one (hr, p, &b);
     fail_unless_equals_float (dbl (b.blob[0], "area"), w * h);
     fail_unless_equals_int (b.roi[0]->x, 0);
     fail_unless_equals_int (b.roi[0]->y, 0);
@@ -900,15 +927,13 @@ LANDMARK_TEST ("frames", test_odd_sizes)
     if (w > 100 && h > 100) {
       const gdouble s[3] = { w - 9.6, h - 10.2, 15 };
       Drawn d = plane_draw (p, in_disc, s, RED);
-      out = run (hr, p, &b);
-      fail_unless_equals_int (b.n, 1);
+      out = run_one (hr, p, &b);
       fail_unless_equals_float (dbl (b.blob[0], "area"), d.n);
       fail_unless_equals_int (b.roi[0]->x + b.roi[0]->w, w);
       fail_unless_equals_int (b.roi[0]->y + b.roi[0]->h, h);
       gst_buffer_unref (out);
     }
-    plane_free (p);
-    gst_harness_teardown (hr);
+    done (hr, p);
   }
 }
 
@@ -926,14 +951,12 @@ LANDMARK_TEST ("frames", test_any_caps_video_untouched)
   guint i;
   for (i = 0; i < G_N_ELEMENTS (caps); i++) {
     GstHarness *hr = gst_harness_new ("blobroundness");
-    Plane *p = plane_new (64, 48, 64);
-    const gdouble s[3] = { 30, 20, 8 };
+    Plane *p = disc_plane (64, 48, 30, 20, 8, GREEN, NULL);
     GstBuffer *in, *out;
     GstMapInfo a, c;
     Blobs b;
     gst_harness_set_src_caps_str (hr, caps[i]);
     g_object_set (hr->element, "min-area", 20, NULL);
-    plane_draw (p, in_disc, s, GREEN);
     in = frame_with_labels (p);
     gst_buffer_ref (in);        /* keep a reference: the bytes must stay */
     gst_buffer_map (in, &a, GST_MAP_READ);
@@ -948,8 +971,7 @@ LANDMARK_TEST ("frames", test_any_caps_video_untouched)
     gst_buffer_unref (in);
     gst_buffer_unref (in);
     gst_buffer_unref (out);
-    plane_free (p);
-    gst_harness_teardown (hr);
+    done (hr, p);
   }
 }
 
@@ -960,21 +982,18 @@ GST_END_TEST;
 LANDMARK_TEST ("frames", test_plane_size_differs)
 {
   GstHarness *hr = harness_new ("min-area=20", 200, 100);
-  Plane *p = plane_new (100, 50, 100);
-  const gdouble s[3] = { 40, 20, 8 };
-  Drawn d = plane_draw (p, in_disc, s, RED);
+  Drawn d;
+  Plane *p = disc_plane (100, 50, 40, 20, 8, RED, &d);
   Blobs b;
-  GstBuffer *out = run (hr, p, &b);
+  GstBuffer *out = run_one (hr, p, &b);
   guint fw;
-  fail_unless_equals_int (b.n, 1);
   fail_unless_equals_int (b.roi[0]->x, 2 * d.x0);
   fail_unless_equals_int (b.roi[0]->w, 2 * (d.x1 - d.x0 + 1));
   fail_unless (gst_structure_get_uint (b.blob[0], "frame-width", &fw));
   fail_unless_equals_int (fw, 100);
   fail_unless (fabs (dbl (b.blob[0], "centroid-x") - d.sx / d.n) < 1e-9);
   gst_buffer_unref (out);
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
 }
 
 GST_END_TEST;
@@ -987,7 +1006,6 @@ LANDMARK_TEST ("errors", test_no_labels_meta)
 {
   GstHarness *hr = harness_new (NULL, 32, 24);
   GstBus *bus = gst_bus_new ();
-  GError *err = NULL;
   guint i;
   gst_element_set_bus (hr->element, bus);
   for (i = 0; i < 10; i++) {
@@ -1001,12 +1019,8 @@ LANDMARK_TEST ("errors", test_no_labels_meta)
     fail_unless (gst_buffer_get_video_region_of_interest_meta (out) == NULL);
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (landmark_check_count_messages (bus,
-          GST_MESSAGE_WARNING, &err), 1);
-  fail_unless (g_error_matches (err, GST_STREAM_ERROR,
-          GST_STREAM_ERROR_FORMAT));
-  fail_unless (strstr (err->message, "labsegment") != NULL);
-  g_clear_error (&err);
+  check_one_warning (bus, GST_STREAM_ERROR, GST_STREAM_ERROR_FORMAT,
+      "labsegment");
   fail_unless_equals_int (landmark_check_count_messages (bus,
           GST_MESSAGE_ERROR, NULL), 0);
   gst_element_set_bus (hr->element, NULL);
@@ -1051,8 +1065,7 @@ LANDMARK_TEST ("errors", test_unknown_class)
   g_clear_error (&err);
   gst_element_set_bus (hr->element, NULL);
   gst_object_unref (bus);
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
 }
 
 GST_END_TEST;
@@ -1065,7 +1078,6 @@ LANDMARK_TEST ("properties", test_change_while_playing)
   GstBus *bus = gst_bus_new ();
   Plane *p = plane_new (100, 60, 100);
   const gdouble a[3] = { 25, 30, 6 }, c[3] = { 70, 30, 12 };
-  GError *err = NULL;
   Blobs b;
   GstBuffer *out;
   guint i;
@@ -1078,22 +1090,16 @@ LANDMARK_TEST ("properties", test_change_while_playing)
   gst_buffer_unref (out);
 
   g_object_set (hr->element, "min-area", 200, NULL);
-  out = run (hr, p, &b);
-  fail_unless_equals_int (b.n, 1);
+  out = run_one (hr, p, &b);
   gst_buffer_unref (out);
 
   g_object_set (hr->element, "morphology", 4, NULL);
   for (i = 0; i < 3; i++) {
-    out = run (hr, p, &b);
-    fail_unless_equals_int (b.n, 1);    /* min-area=200 still in force */
+    out = run_one (hr, p, &b);    /* min-area=200 still in force */
     gst_buffer_unref (out);
   }
-  fail_unless_equals_int (landmark_check_count_messages (bus,
-          GST_MESSAGE_WARNING, &err), 1);
-  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
-          GST_RESOURCE_ERROR_SETTINGS));
-  fail_unless (strstr (err->message, "'morphology'") != NULL);
-  g_clear_error (&err);
+  check_one_warning (bus, GST_RESOURCE_ERROR, GST_RESOURCE_ERROR_SETTINGS,
+      "'morphology'");
 
   g_object_set (hr->element, "morphology", 0, "min-area", 20, NULL);
   out = run (hr, p, &b);
@@ -1102,8 +1108,7 @@ LANDMARK_TEST ("properties", test_change_while_playing)
 
   gst_element_set_bus (hr->element, NULL);
   gst_object_unref (bus);
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
 }
 
 GST_END_TEST;
@@ -1138,8 +1143,7 @@ LANDMARK_TEST ("properties", test_property_stress)
   gst_harness_stress_thread_stop (t1);
   gst_harness_stress_thread_stop (t2);
   gst_harness_stress_thread_stop (t3);
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
 }
 
 GST_END_TEST;
@@ -1148,15 +1152,11 @@ GST_END_TEST;
 LANDMARK_TEST ("frames", test_no_frame_dropped)
 {
   GstHarness *hr = harness_new ("min-area=20", 64, 48);
-  Plane *p = plane_new (64, 48, 64);
-  const gdouble s[3] = { 30, 20, 8 };
-  GstBuffer *templ;
-  plane_draw (p, in_disc, s, RED);
-  templ = frame_with_labels (p);
+  Plane *p = disc_plane (64, 48, 30, 20, 8, RED, NULL);
+  GstBuffer *templ = frame_with_labels (p);
   landmark_check_no_frame_dropped (hr, templ, 50, LABELS_META);
   gst_buffer_unref (templ);
-  plane_free (p);
-  gst_harness_teardown (hr);
+  done (hr, p);
 }
 
 GST_END_TEST;

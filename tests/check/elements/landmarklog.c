@@ -32,10 +32,33 @@
 /* Files                                                              */
 /* ------------------------------------------------------------------ */
 
-static gchar *
+/* the paths tmp_file gave out, freed when the test ends */
+static GPtrArray *tmp_paths;
+/* the log file of the test (each test has its own folder) */
+static const gchar *log_path;
+
+/* The path of a file in the test's folder, valid until the test ends. */
+static const gchar *
 tmp_file (const gchar * name)
 {
-  return g_build_filename (landmark_check_tmp_dir, name, NULL);
+  gchar *path = g_build_filename (landmark_check_tmp_dir, name, NULL);
+  g_ptr_array_add (tmp_paths, path);
+  return path;
+}
+
+static void
+setup (void)
+{
+  landmark_check_tmp_dir_setup ();
+  tmp_paths = g_ptr_array_new_with_free_func (g_free);
+  log_path = tmp_file ("log.jsonl");
+}
+
+static void
+teardown (void)
+{
+  g_clear_pointer (&tmp_paths, g_ptr_array_unref);
+  landmark_check_tmp_dir_teardown ();
 }
 
 /* A log file read back: every line parsed (the test fails on the first
@@ -113,13 +136,21 @@ member (JsonObject * o, const gchar * key)
   return n;
 }
 
-static gint64
-get_int (JsonObject * o, const gchar * key)
+/* The member key, a JSON value of the given type (what: its name). */
+static JsonNode *
+value_member (JsonObject * o, const gchar * key, GType type,
+    const gchar * what)
 {
   JsonNode *n = member (o, key);
   fail_unless (JSON_NODE_HOLDS_VALUE (n) &&
-      json_node_get_value_type (n) == G_TYPE_INT64,
-      "\"%s\" is not an integer", key);
+      json_node_get_value_type (n) == type, "\"%s\" is not %s", key, what);
+  return n;
+}
+
+static gint64
+get_int (JsonObject * o, const gchar * key)
+{
+  JsonNode *n = value_member (o, key, G_TYPE_INT64, "an integer");
   return json_node_get_int (n);
 }
 
@@ -127,10 +158,7 @@ get_int (JsonObject * o, const gchar * key)
 static void
 check_double (JsonObject * o, const gchar * key, gdouble expected)
 {
-  JsonNode *n = member (o, key);
-  fail_unless (JSON_NODE_HOLDS_VALUE (n) &&
-      json_node_get_value_type (n) == G_TYPE_DOUBLE,
-      "\"%s\" is not a floating-point number", key);
+  JsonNode *n = value_member (o, key, G_TYPE_DOUBLE, "a floating-point number");
   fail_unless (json_node_get_double (n) == expected,
       "\"%s\": %.17g, expected %.17g", key, json_node_get_double (n),
       expected);
@@ -139,20 +167,14 @@ check_double (JsonObject * o, const gchar * key, gdouble expected)
 static void
 check_bool (JsonObject * o, const gchar * key, gboolean expected)
 {
-  JsonNode *n = member (o, key);
-  fail_unless (JSON_NODE_HOLDS_VALUE (n) &&
-      json_node_get_value_type (n) == G_TYPE_BOOLEAN,
-      "\"%s\" is not a boolean", key);
+  JsonNode *n = value_member (o, key, G_TYPE_BOOLEAN, "a boolean");
   fail_unless_equals_int (json_node_get_boolean (n), expected);
 }
 
 static void
 check_string (JsonObject * o, const gchar * key, const gchar * expected)
 {
-  JsonNode *n = member (o, key);
-  fail_unless (JSON_NODE_HOLDS_VALUE (n) &&
-      json_node_get_value_type (n) == G_TYPE_STRING,
-      "\"%s\" is not a string", key);
+  JsonNode *n = value_member (o, key, G_TYPE_STRING, "a string");
   fail_unless_equals_string (json_node_get_string (n), expected);
 }
 
@@ -172,6 +194,34 @@ get_array (JsonObject * o, const gchar * key, guint length)
   a = json_node_get_array (n);
   fail_unless_equals_int (json_array_get_length (a), length);
   return a;
+}
+
+/* The member key, an array of exactly these n booleans (JSON true and
+ * false, not numbers). */
+static void
+check_bool_array (JsonObject * o, const gchar * key, const gboolean * want,
+    guint n)
+{
+  JsonArray *a = get_array (o, key, n);
+  guint i;
+  for (i = 0; i < n; i++) {
+    JsonNode *e = json_array_get_element (a, i);
+    fail_unless (JSON_NODE_HOLDS_VALUE (e) &&
+        json_node_get_value_type (e) == G_TYPE_BOOLEAN,
+        "%s[%u] is not a boolean", key, i);
+    fail_unless_equals_int (json_node_get_boolean (e), want[i]);
+  }
+}
+
+/* The member key, an array of exactly these n unsigned integers. */
+static void
+check_uint_array (JsonObject * o, const gchar * key, const guint * want,
+    guint n)
+{
+  JsonArray *a = get_array (o, key, n);
+  guint i;
+  for (i = 0; i < n; i++)
+    fail_unless_equals_int64 (json_array_get_int_element (a, i), want[i]);
 }
 
 static JsonObject *
@@ -264,6 +314,15 @@ push_eos (GstHarness * h)
   fail_unless (gst_harness_push_event (h, gst_event_new_eos ()));
 }
 
+/* Pushes frames first .. first + n - 1, each accepted. */
+static void
+push_frames (GstHarness * h, guint first, guint n)
+{
+  guint i;
+  for (i = first; i < first + n; i++)
+    fail_unless_equals_int (gst_harness_push (h, frame_new (i)), GST_FLOW_OK);
+}
+
 /* Runs a launch line to EOS (or fails on ERROR or timeout). If `keep` is
  * set the pipeline is returned still PLAYING, otherwise it is freed. */
 static GstElement *
@@ -300,27 +359,31 @@ run_to_eos (const gchar * desc, gboolean keep)
 /* Tests                                                              */
 /* ------------------------------------------------------------------ */
 
+/* The element's location, append and flush-every are these. */
+static void
+check_properties (GstElement * e, const gchar * location, gboolean append,
+    guint every)
+{
+  gchar *loc = (gchar *) "x";
+  gboolean app = !append;
+  guint ev = every + 1;
+  g_object_get (e, "location", &loc, "append", &app, "flush-every", &ev,
+      NULL);
+  fail_unless_equals_string (loc, location);
+  fail_unless_equals_int (app, append);
+  fail_unless_equals_int (ev, every);
+  g_free (loc);
+}
+
 LANDMARK_TEST ("format", test_properties)
 {
   GstElement *e = gst_element_factory_make ("landmarklog", NULL);
-  gchar *loc = (gchar *) "x";
-  gboolean append = TRUE;
-  guint every = 99;
 
   fail_unless (e != NULL);
-  g_object_get (e, "location", &loc, "append", &append, "flush-every",
-      &every, NULL);
-  fail_unless (loc == NULL);
-  fail_unless_equals_int (append, FALSE);
-  fail_unless_equals_int (every, 0);
+  check_properties (e, NULL, FALSE, 0);
   g_object_set (e, "location", "/some/file.jsonl", "append", TRUE,
       "flush-every", 5, NULL);
-  g_object_get (e, "location", &loc, "append", &append, "flush-every",
-      &every, NULL);
-  fail_unless_equals_string (loc, "/some/file.jsonl");
-  fail_unless_equals_int (append, TRUE);
-  fail_unless_equals_int (every, 5);
-  g_free (loc);
+  check_properties (e, "/some/file.jsonl", TRUE, 5);
   gst_object_unref (e);
 }
 
@@ -330,8 +393,7 @@ GST_END_TEST;
  * without timestamps have no pts/duration keys. */
 LANDMARK_TEST ("format", test_every_frame_in_order)
 {
-  gchar *path = tmp_file ("order.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   const guint n = 40;
   LogFile lf;
   guint i;
@@ -352,7 +414,7 @@ LANDMARK_TEST ("format", test_every_frame_in_order)
     gst_buffer_unref (out);
   }
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, n);
   for (i = 0; i < n; i++) {
     JsonObject *o = log_line (&lf, i);
@@ -377,7 +439,6 @@ LANDMARK_TEST ("format", test_every_frame_in_order)
           "\"detections\": []}\n"));
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -401,8 +462,7 @@ static const struct
 LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
     G_N_ELEMENTS (any_caps))
 {
-  gchar *path = tmp_file ("pass.jsonl");
-  GstHarness *h = log_harness (path, any_caps[__i__].caps);
+  GstHarness *h = log_harness (log_path, any_caps[__i__].caps);
   LogFile lf;
   guint i;
 
@@ -434,7 +494,7 @@ LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
   }
   push_eos (h);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 3);
   for (i = 0; i < 3; i++) {
     fail_unless_equals_int (get_int (log_line (&lf, i), "width"),
@@ -444,15 +504,13 @@ LANDMARK_TEST_LOOP ("format", test_passthrough_unchanged,
   }
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
 
 LANDMARK_TEST ("format", test_labels_meta)
 {
-  gchar *path = tmp_file ("labels.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   static const gchar *names[] = { "red", "a \"quoted\"\\name", "grey" };
   static const gboolean markers[] = { TRUE, TRUE, FALSE };
   static const guint rgb[] = { 0xaa3c28, 0x00ff00, 0x808080 };
@@ -498,7 +556,7 @@ LANDMARK_TEST ("format", test_labels_meta)
   fail_unless_equals_int (gst_harness_push (h, frame_new (2)), GST_FLOW_OK);
   push_eos (h);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 3);
   o = log_line (&lf, 0);
   labels = get_object (o, "labels");
@@ -509,24 +567,11 @@ LANDMARK_TEST ("format", test_labels_meta)
   for (i = 0; i < 3; i++)
     fail_unless_equals_string (json_array_get_string_element (a, i),
         names[i]);
-  a = get_array (labels, "markers", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int (json_array_get_boolean_element (a, i),
-        markers[i]);
-  a = get_array (labels, "rgb", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int64 (json_array_get_int_element (a, i), rgb[i]);
-  a = get_array (labels, "counts", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int64 (json_array_get_int_element (a, i), counts[i]);
-  a = get_array (labels, "active", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int (json_array_get_boolean_element (a, i),
-        active[i]);
-  a = get_array (labels, "labelled", 3);
-  for (i = 0; i < 3; i++)
-    fail_unless_equals_int64 (json_array_get_int_element (a, i),
-        labelled[i]);
+  check_bool_array (labels, "markers", markers, 3);
+  check_bool_array (labels, "active", active, 3);
+  check_uint_array (labels, "rgb", rgb, 3);
+  check_uint_array (labels, "counts", counts, 3);
+  check_uint_array (labels, "labelled", labelled, 3);
   fail_unless_equals_int (get_int (labels, "unclassified"), 3);
   fail_unless_equals_int (get_int (labels, "min-class-pixels"), 40);
   fail_unless_equals_int (get_int (labels, "width"), 8);
@@ -549,15 +594,13 @@ LANDMARK_TEST ("format", test_labels_meta)
   fail_if (json_object_has_member (log_line (&lf, 2), "labels"));
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
 
 LANDMARK_TEST ("format", test_detections)
 {
-  gchar *path = tmp_file ("detections.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   GstBuffer *buf = frame_new (0);
   GstVideoRegionOfInterestMeta *roi;
   JsonObject *o, *d, *p;
@@ -612,7 +655,7 @@ LANDMARK_TEST ("format", test_detections)
   fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
   push_eos (h);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 1);
   o = log_line (&lf, 0);
   dets = get_array (o, "detections", 3);
@@ -696,15 +739,13 @@ LANDMARK_TEST ("format", test_detections)
   fail_if (strstr (lf.text, "nan") || strstr (lf.text, "inf"));
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
 
 LANDMARK_TEST ("format", test_pose_meta)
 {
-  gchar *path = tmp_file ("pose.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   static const gdouble cov[] = { 1e-4, 2e-6, 0.0, 2e-6, 3.5e-4, -1e-7, 0.0,
     -1e-7, 0.0025
   };
@@ -726,7 +767,7 @@ LANDMARK_TEST ("format", test_pose_meta)
   fail_unless_equals_int (gst_harness_push (h, frame_new (1)), GST_FLOW_OK);
   push_eos (h);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 2);
   pose = get_object (log_line (&lf, 0), "pose");
   check_keys (pose, "converged,covariance,heading,landmarks,n-landmarks,"
@@ -751,7 +792,6 @@ LANDMARK_TEST ("format", test_pose_meta)
   fail_if (json_object_has_member (log_line (&lf, 1), "pose"));
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -792,12 +832,11 @@ check_uint_array_matches (JsonObject * o, const gchar * key,
 
 LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
 {
-  gchar *path = tmp_file ("segment.jsonl");
   const guint n = 12, w = 160, h = 120;
   gchar *desc = g_strdup_printf ("videotestsrc num-buffers=%u "
       "pattern=smpte ! video/x-raw,format=BGRx,width=%u,height=%u ! "
       "labsegment ! landmarklog location=\"%s\" ! "
-      "fakesink name=sink signal-handoffs=true", n, w, h, path);
+      "fakesink name=sink signal-handoffs=true", n, w, h, log_path);
   GPtrArray *seen = g_ptr_array_new_with_free_func ((GDestroyNotify)
       gst_structure_free);
   GError *err = NULL;
@@ -820,7 +859,7 @@ LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
   gst_message_unref (msg);
 
   /* read at EOS, before the pipeline stops */
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, n);
   fail_unless_equals_int (seen->len, n);
   for (i = 0; i < n; i++) {
@@ -855,7 +894,6 @@ LANDMARK_TEST ("pipelines", test_labsegment_pipeline)
   gst_object_unref (pipe);
   g_ptr_array_unref (seen);
   g_free (desc);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -864,8 +902,7 @@ GST_END_TEST;
  * downstream, so the file is complete while the element still runs. */
 LANDMARK_TEST ("output", test_eos_completes_file)
 {
-  gchar *path = tmp_file ("eos.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   GstEvent *ev;
   gboolean eos = FALSE;
   LogFile lf;
@@ -873,7 +910,7 @@ LANDMARK_TEST ("output", test_eos_completes_file)
 
   for (i = 0; i < 5; i++)
     fail_unless_equals_int (gst_harness_push (h, frame_new (i)), GST_FLOW_OK);
-  fail_unless_equals_int (file_size (path), 0);
+  fail_unless_equals_int (file_size (log_path), 0);
   push_eos (h);
   /* EOS went downstream after the lines were written */
   while ((ev = gst_harness_try_pull_event (h))) {
@@ -883,13 +920,12 @@ LANDMARK_TEST ("output", test_eos_completes_file)
       break;
   }
   fail_unless (eos, "EOS did not go downstream");
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, 5);
   for (i = 0; i < 5; i++)
     fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i);
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -909,31 +945,30 @@ count_lines (const gchar * path)
  * seek and pausing also write the pending lines. */
 LANDMARK_TEST ("output", test_flush_every)
 {
-  gchar *path = tmp_file ("every.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   guint i, frame = 0;
 
   g_object_set (h->element, "flush-every", 1, NULL);
   for (i = 0; i < 4; i++) {
     fail_unless_equals_int (gst_harness_push (h, frame_new (frame++)),
         GST_FLOW_OK);
-    fail_unless_equals_int (count_lines (path), frame);
+    fail_unless_equals_int (count_lines (log_path), frame);
   }
   /* changed while playing */
   g_object_set (h->element, "flush-every", 3, NULL);
   for (i = 0; i < 6; i++) {
     fail_unless_equals_int (gst_harness_push (h, frame_new (frame++)),
         GST_FLOW_OK);
-    fail_unless_equals_int (count_lines (path), 4 + (i + 1) / 3 * 3);
+    fail_unless_equals_int (count_lines (log_path), 4 + (i + 1) / 3 * 3);
   }
   g_object_set (h->element, "flush-every", 0, NULL);
   fail_unless_equals_int (gst_harness_push (h, frame_new (frame++)),
       GST_FLOW_OK);
-  fail_unless_equals_int (count_lines (path), 10);
+  fail_unless_equals_int (count_lines (log_path), 10);
   /* a flushing seek writes what is pending */
   fail_unless (gst_harness_push_event (h, gst_event_new_flush_start ()));
   fail_unless (gst_harness_push_event (h, gst_event_new_flush_stop (TRUE)));
-  fail_unless_equals_int (count_lines (path), 11);
+  fail_unless_equals_int (count_lines (log_path), 11);
   /* so does pausing */
   {
     GstSegment seg;
@@ -942,13 +977,12 @@ LANDMARK_TEST ("output", test_flush_every)
   }
   fail_unless_equals_int (gst_harness_push (h, frame_new (frame++)),
       GST_FLOW_OK);
-  fail_unless_equals_int (count_lines (path), 11);
+  fail_unless_equals_int (count_lines (log_path), 11);
   fail_unless_equals_int (gst_element_set_state (h->element,
           GST_STATE_PAUSED), GST_STATE_CHANGE_SUCCESS);
-  fail_unless_equals_int (count_lines (path), 12);
+  fail_unless_equals_int (count_lines (log_path), 12);
   gst_harness_teardown (h);
-  fail_unless_equals_int (count_lines (path), 12);
-  g_free (path);
+  fail_unless_equals_int (count_lines (log_path), 12);
 }
 
 GST_END_TEST;
@@ -957,8 +991,7 @@ GST_END_TEST;
  * file is looked at, it holds only complete lines, frames 0..k-1. */
 LANDMARK_TEST ("output", test_whole_lines_mid_stream)
 {
-  gchar *path = tmp_file ("big.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   const guint n = 40, per_frame = 30;
   guint i, j;
   gboolean spilled = FALSE, buffered = FALSE;
@@ -976,7 +1009,7 @@ LANDMARK_TEST ("output", test_whole_lines_mid_stream)
               "a reason long enough to make the lines long", NULL));
     }
     fail_unless_equals_int (gst_harness_push (h, buf), GST_FLOW_OK);
-    log_read (path, &lf);
+    log_read (log_path, &lf);
     for (j = 0; j < lf.n; j++)
       fail_unless_equals_int (get_int (log_line (&lf, j), "frame"), j);
     fail_unless (lf.n <= i + 1);
@@ -987,13 +1020,12 @@ LANDMARK_TEST ("output", test_whole_lines_mid_stream)
   fail_unless (spilled, "nothing was written before EOS");
   fail_unless (buffered, "every line was written at once");
   push_eos (h);
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, n);
   for (i = 0; i < n; i++)
     get_array (log_line (&lf, i), "detections", per_frame);
   log_clear (&lf);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1008,7 +1040,7 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
   GstMessage *msg;
   GError *err = NULL;
   gchar *dbg = NULL;
-  gchar *good = tmp_file ("good.jsonl");
+  const gchar *good = tmp_file ("good.jsonl");
 
   if (location)
     g_object_set (e, "location", location, NULL);
@@ -1033,7 +1065,6 @@ expect_start_error (const gchar * location, GQuark domain, gint code,
   /* a usable location is enough to start (and makes the file) */
   landmark_check_fixed_setting_starts (e, bus, "location", good);
   fail_unless (g_file_test (good, G_FILE_TEST_IS_REGULAR));
-  g_free (good);
 }
 
 LANDMARK_TEST ("errors", test_missing_directory)
@@ -1058,20 +1089,18 @@ GST_END_TEST;
 
 LANDMARK_TEST ("errors", test_no_permission)
 {
-  gchar *dir = tmp_file ("read-only");
+  const gchar *dir = tmp_file ("read-only");
   gchar *path = g_build_filename (dir, "x.jsonl", NULL);
 
   if (geteuid () == 0) {
     /* root writes anywhere: nothing to test */
     g_free (path);
-    g_free (dir);
     return;
   }
   fail_unless (g_mkdir (dir, 0500) == 0);
   expect_start_error (path, GST_RESOURCE_ERROR, GST_RESOURCE_ERROR_OPEN_WRITE,
       g_strerror (EACCES));
   g_free (path);
-  g_free (dir);
 }
 
 GST_END_TEST;
@@ -1130,7 +1159,6 @@ GST_END_TEST;
  * so the file still ends with the last complete line. */
 LANDMARK_TEST ("errors", test_partial_write_trimmed)
 {
-  gchar *path = tmp_file ("limited.jsonl");
   const rlim_t limit = 100000;
   struct rlimit old_limit, rl;
   GstHarness *h;
@@ -1148,7 +1176,7 @@ LANDMARK_TEST ("errors", test_partial_write_trimmed)
   old_handler = signal (SIGXFSZ, SIG_IGN);
   fail_unless (setrlimit (RLIMIT_FSIZE, &rl) == 0);
 
-  h = log_harness (path, NULL);
+  h = log_harness (log_path, NULL);
   gst_element_set_bus (h->element, bus);
   for (i = 0; i < 100 && ret == GST_FLOW_OK; i++) {
     GstBuffer *buf = frame_new (i);
@@ -1175,12 +1203,11 @@ LANDMARK_TEST ("errors", test_partial_write_trimmed)
   fail_unless (setrlimit (RLIMIT_FSIZE, &old_limit) == 0);
   signal (SIGXFSZ, old_handler);
 
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless (lf.n > 0 && lf.size <= limit);
   for (i = 0; i < lf.n; i++)
     fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i);
   log_clear (&lf);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1189,8 +1216,8 @@ GST_END_TEST;
  * write the same lines to their own files. */
 LANDMARK_TEST ("pipelines", test_two_loggers)
 {
-  gchar *a = tmp_file ("a.jsonl"), *b = tmp_file ("b.jsonl");
-  gchar *c = tmp_file ("c.jsonl"), *d = tmp_file ("d.jsonl");
+  const gchar *a = tmp_file ("a.jsonl"), *b = tmp_file ("b.jsonl");
+  const gchar *c = tmp_file ("c.jsonl"), *d = tmp_file ("d.jsonl");
   gchar *chain = g_strdup_printf ("videotestsrc num-buffers=15 ! "
       "video/x-raw,width=64,height=48 ! labsegment ! "
       "landmarklog location=\"%s\" ! queue ! landmarklog location=\"%s\" ! "
@@ -1224,10 +1251,6 @@ LANDMARK_TEST ("pipelines", test_two_loggers)
 
   g_free (chain);
   g_free (tee);
-  g_free (a);
-  g_free (b);
-  g_free (c);
-  g_free (d);
 }
 
 GST_END_TEST;
@@ -1235,25 +1258,21 @@ GST_END_TEST;
 /* append=true keeps what the file had; append=false starts it anew. */
 LANDMARK_TEST ("output", test_append)
 {
-  gchar *path = tmp_file ("append.jsonl");
   guint run, i;
   LogFile lf;
 
   for (run = 0; run < 3; run++) {
-    GstHarness *h = log_harness_full (path, NULL, run == 1);
-    for (i = 0; i < 4; i++)
-      fail_unless_equals_int (gst_harness_push (h, frame_new (i)),
-          GST_FLOW_OK);
+    GstHarness *h = log_harness_full (log_path, NULL, run == 1);
+    push_frames (h, 0, 4);
     push_eos (h);
     gst_harness_teardown (h);
-    log_read (path, &lf);
+    log_read (log_path, &lf);
     /* run 0: 4 lines; run 1 appends 4; run 2 truncates */
     fail_unless_equals_int (lf.n, run == 1 ? 8 : 4);
     for (i = 0; i < lf.n; i++)
       fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i % 4);
     log_clear (&lf);
   }
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1262,26 +1281,21 @@ GST_END_TEST;
  * count again and truncates the file, or appends with append=true. */
 LANDMARK_TEST ("output", test_restart)
 {
-  gchar *path = tmp_file ("restart.jsonl");
   guint append, i;
   LogFile lf;
 
   for (append = 0; append < 2; append++) {
-    GstHarness *h = log_harness_full (path, NULL, append);
-    for (i = 0; i < 3; i++)
-      fail_unless_equals_int (gst_harness_push (h, frame_new (i)),
-          GST_FLOW_OK);
+    GstHarness *h = log_harness_full (log_path, NULL, append);
+    push_frames (h, 0, 3);
     fail_unless_equals_int (gst_element_set_state (h->element,
             GST_STATE_READY), GST_STATE_CHANGE_SUCCESS);
-    fail_unless_equals_int (count_lines (path), 3);
+    fail_unless_equals_int (count_lines (log_path), 3);
     fail_unless_equals_int (gst_element_set_state (h->element,
             GST_STATE_PLAYING), GST_STATE_CHANGE_SUCCESS);
     gst_harness_set_src_caps_str (h, CAPS_GRAY);
-    for (i = 0; i < 2; i++)
-      fail_unless_equals_int (gst_harness_push (h, frame_new (10 + i)),
-          GST_FLOW_OK);
+    push_frames (h, 10, 2);
     push_eos (h);
-    log_read (path, &lf);
+    log_read (log_path, &lf);
     fail_unless_equals_int (lf.n, append ? 5 : 2);
     for (i = 0; i < lf.n; i++) {
       const guint k = append && i < 3 ? i : i - (append ? 3 : 0);
@@ -1291,9 +1305,8 @@ LANDMARK_TEST ("output", test_restart)
     }
     log_clear (&lf);
     gst_harness_teardown (h);
-    g_remove (path);
+    g_remove (log_path);
   }
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1301,21 +1314,14 @@ GST_END_TEST;
 /* QoS events do not make the logger drop late frames. */
 LANDMARK_TEST ("output", test_no_frame_dropped)
 {
-  gchar *path = tmp_file ("qos.jsonl");
-  GstHarness *h = log_harness (path, NULL);
-  const guint n = 30;
-  guint i;
+  GstHarness *h = log_harness (log_path, NULL);
+  GstBuffer *templ = frame_new (0);
 
-  fail_unless (gst_harness_push_upstream_event (h,
-          gst_event_new_qos (GST_QOS_TYPE_UNDERFLOW, 2.0, 60 * GST_SECOND,
-              0)));
-  for (i = 0; i < n; i++)
-    fail_unless_equals_int (gst_harness_push (h, frame_new (i)), GST_FLOW_OK);
-  fail_unless_equals_int (gst_harness_buffers_received (h), n);
+  landmark_check_no_frame_dropped (h, templ, 30, NULL);
   push_eos (h);
-  fail_unless_equals_int (count_lines (path), n);
+  fail_unless_equals_int (count_lines (log_path), 30);
+  gst_buffer_unref (templ);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1342,10 +1348,9 @@ fail_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
 
 LANDMARK_TEST ("errors", test_downstream_error)
 {
-  gchar *path = tmp_file ("error.jsonl");
   gchar *desc = g_strdup_printf ("appsrc name=src format=time "
       "caps=\"" CAPS_GRAY "\" ! landmarklog location=\"%s\" ! "
-      "fakesink name=sink", path);
+      "fakesink name=sink", log_path);
   GstElement *pipe = gst_parse_launch (desc, NULL), *src, *sink;
   FailProbe fp = { 0, 7 };
   GstPad *pad;
@@ -1378,7 +1383,7 @@ LANDMARK_TEST ("errors", test_downstream_error)
 
   /* buffers 0..fail_at went through the logger, the last one failing
    * downstream of it */
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, fp.fail_at + 1);
   for (i = 0; i < lf.n; i++) {
     fail_unless_equals_int (get_int (log_line (&lf, i), "frame"), i);
@@ -1392,7 +1397,6 @@ LANDMARK_TEST ("errors", test_downstream_error)
   gst_object_unref (sink);
   gst_object_unref (pipe);
   g_free (desc);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1408,29 +1412,40 @@ count_probe (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
   return GST_PAD_PROBE_OK;
 }
 
-LANDMARK_TEST ("errors", test_stop_mid_stream)
+/* A pipeline of `head ! landmarklog name=log location=log_path ! tail`. */
+static GstElement *
+log_pipeline (const gchar * head, const gchar * tail)
 {
-  gchar *path = tmp_file ("stop.jsonl");
-  gchar *desc = g_strdup_printf ("videotestsrc ! video/x-raw,width=64,"
-      "height=48,framerate=100/1 ! labsegment ! "
-      "landmarklog name=log location=\"%s\" ! fakesink sync=true", path);
-  GstElement *pipe = gst_parse_launch (desc, NULL), *log;
-  gint entered = 0, left = 0;
-  GstPad *pad;
-  LogFile lf;
-  guint i;
+  gchar *desc = g_strdup_printf ("%s ! landmarklog name=log "
+      "location=\"%s\" ! %s", head, log_path, tail);
+  GstElement *pipe = gst_parse_launch (desc, NULL);
+  fail_unless (pipe != NULL, "%s", desc);
+  g_free (desc);
+  return pipe;
+}
 
-  fail_unless (pipe != NULL);
-  log = gst_bin_get_by_name (GST_BIN (pipe), "log");
-  pad = gst_element_get_static_pad (log, "sink");
-  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, count_probe, &entered,
-      NULL);
-  gst_object_unref (pad);
-  pad = gst_element_get_static_pad (log, "src");
-  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, count_probe, &left,
+/* Counts the buffers through the logger's pad (sink or src) in *counter. */
+static void
+count_buffers (GstElement * pipe, const gchar * pad_name, gint * counter)
+{
+  GstElement *log = gst_bin_get_by_name (GST_BIN (pipe), "log");
+  GstPad *pad = gst_element_get_static_pad (log, pad_name);
+  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, count_probe, counter,
       NULL);
   gst_object_unref (pad);
   gst_object_unref (log);
+}
+
+LANDMARK_TEST ("errors", test_stop_mid_stream)
+{
+  GstElement *pipe = log_pipeline ("videotestsrc ! video/x-raw,width=64,"
+      "height=48,framerate=100/1 ! labsegment", "fakesink sync=true");
+  gint entered = 0, left = 0;
+  LogFile lf;
+  guint i;
+
+  count_buffers (pipe, "sink", &entered);
+  count_buffers (pipe, "src", &left);
   fail_if (gst_element_set_state (pipe, GST_STATE_PLAYING) ==
       GST_STATE_CHANGE_FAILURE);
   for (i = 0; i < 500 && g_atomic_int_get (&left) < 10; i++)
@@ -1441,7 +1456,7 @@ LANDMARK_TEST ("errors", test_stop_mid_stream)
   /* Every buffer that went out was logged, and nothing that did not come
    * in. (Stopping can catch a buffer between the pad's probe and the
    * element, or between the element and the next pad: hence a range.) */
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless (lf.n >= (guint) left && lf.n <= (guint) entered,
       "%u lines for %d buffers in, %d out", lf.n, entered, left);
   fail_unless (left >= 10);
@@ -1451,8 +1466,6 @@ LANDMARK_TEST ("errors", test_stop_mid_stream)
   }
   log_clear (&lf);
   gst_object_unref (pipe);
-  g_free (desc);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1461,38 +1474,26 @@ GST_END_TEST;
  * element stops (PAUSED to READY), the only flush on this path. */
 LANDMARK_TEST ("errors", test_stop_while_paused)
 {
-  gchar *path = tmp_file ("paused.jsonl");
-  gchar *desc = g_strdup_printf ("videotestsrc num-buffers=50 ! "
-      "video/x-raw,width=64,height=48 ! landmarklog name=log "
-      "location=\"%s\" ! fakesink", path);
-  GstElement *pipe = gst_parse_launch (desc, NULL), *log;
+  GstElement *pipe = log_pipeline ("videotestsrc num-buffers=50 ! "
+      "video/x-raw,width=64,height=48", "fakesink");
   gint entered = 0;
-  GstPad *pad;
   LogFile lf;
 
-  fail_unless (pipe != NULL);
-  log = gst_bin_get_by_name (GST_BIN (pipe), "log");
-  pad = gst_element_get_static_pad (log, "sink");
-  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, count_probe, &entered,
-      NULL);
-  gst_object_unref (pad);
-  gst_object_unref (log);
+  count_buffers (pipe, "sink", &entered);
   fail_unless_equals_int (gst_element_set_state (pipe, GST_STATE_PAUSED),
       GST_STATE_CHANGE_ASYNC);
   fail_unless_equals_int (gst_element_get_state (pipe, NULL, NULL, WAIT),
       GST_STATE_CHANGE_SUCCESS);
   /* the sink holds the preroll buffer; nothing written yet */
-  fail_unless_equals_int (file_size (path), 0);
+  fail_unless_equals_int (file_size (log_path), 0);
   fail_unless_equals_int (gst_element_set_state (pipe, GST_STATE_NULL),
       GST_STATE_CHANGE_SUCCESS);
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless (lf.n >= 1);
   fail_unless_equals_int (lf.n, g_atomic_int_get (&entered));
   fail_unless_equals_int (get_int (log_line (&lf, 0), "frame"), 0);
   log_clear (&lf);
   gst_object_unref (pipe);
-  g_free (desc);
-  g_free (path);
 }
 
 GST_END_TEST;
@@ -1516,8 +1517,7 @@ push_many (GstHarness * h, GstBuffer * templ, guint n)
 
 LANDMARK_TEST ("output", test_many_frames)
 {
-  gchar *path = tmp_file ("many.jsonl");
-  GstHarness *h = log_harness (path, NULL);
+  GstHarness *h = log_harness (log_path, NULL);
   GstHarness *ref = gst_harness_new ("identity");
   GstBuffer *templ = frame_new (0);
   const guint n = 10000;
@@ -1532,7 +1532,7 @@ LANDMARK_TEST ("output", test_many_frames)
   GST_INFO ("landmarklog %.2f us/frame, identity %.2f us/frame", us_log,
       us_ref);
   push_eos (h);
-  log_read (path, &lf);
+  log_read (log_path, &lf);
   fail_unless_equals_int (lf.n, n + 200);
   fail_unless_equals_int (get_int (log_line (&lf, n + 199), "frame"),
       n + 199);
@@ -1543,12 +1543,10 @@ LANDMARK_TEST ("output", test_many_frames)
   gst_buffer_unref (templ);
   gst_harness_teardown (ref);
   gst_harness_teardown (h);
-  g_free (path);
 }
 
 GST_END_TEST;
 
 /* a fresh folder for every test's log files */
 LANDMARK_CHECK_MAIN (landmarklog,
-    .setup = landmark_check_tmp_dir_setup,
-    .teardown = landmark_check_tmp_dir_teardown, .checked = TRUE);
+    .setup = setup, .teardown = teardown, .checked = TRUE);

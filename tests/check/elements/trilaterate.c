@@ -89,16 +89,24 @@ add_no_floor (GstBuffer * buf, gint id, const gchar * cls)
 }
 
 static GstHarness *
-harness (const gchar * props, GstBus ** bus)
+harness_with (const gchar * props, GstBus ** bus)
 {
-  /* messages on: the tests read the landmark-pose message */
-  gchar *launch = g_strdup_printf ("trilaterate map=%s post-messages=true %s",
-      map_path, props);
+  gchar *launch = g_strdup_printf ("trilaterate map=%s %s", map_path, props);
   GstHarness *h = gst_harness_new_parse (launch);
   g_free (launch);
   gst_harness_set_src_caps_str (h, "video/x-raw,format=GRAY8,width=64,"
       "height=48,framerate=30/1");
   *bus = landmark_check_bus_attach (h->element);
+  return h;
+}
+
+/* messages on: the tests read the landmark-pose message */
+static GstHarness *
+harness (const gchar * props, GstBus ** bus)
+{
+  gchar *all = g_strconcat ("post-messages=true ", props, NULL);
+  GstHarness *h = harness_with (all, bus);
+  g_free (all);
   return h;
 }
 
@@ -113,6 +121,19 @@ static GstBuffer *
 frame (guint n)
 {
   return landmark_check_frame_new (64 * 48, n);
+}
+
+/* one frame through trilaterate with props: no message may come of it */
+static void
+check_no_messages (const gchar * props)
+{
+  GstBus *bus;
+  GstHarness *h = harness_with (props, &bus);
+  GstBuffer *out = gst_harness_push_and_pull (h, frame (1));
+  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT) == NULL,
+      "a message with \"%s\"", props);
+  gst_buffer_unref (out);
+  harness_done (h, bus);
 }
 
 /* the trilaterate element's landmark-pose message for the last frame */
@@ -161,6 +182,18 @@ check_pose_structure (const GstStructure * s, double x, double y, double h,
   const GValue *ids = gst_structure_get_value (s, "landmarks");
   fail_unless (ids && GST_VALUE_HOLDS_ARRAY (ids));
   fail_unless_equals_int (gst_value_array_get_size (ids), n);
+}
+
+/* the pose meta of an output buffer: there, and as expected */
+static void
+check_pose (GstBuffer * out, double x, double y, double h, double tol,
+    const gchar * solver, guint n)
+{
+  GstCustomMeta *meta = gst_buffer_get_custom_meta (out,
+      "GstLandmarkPoseMeta");
+  fail_unless (meta != NULL, "no pose meta");
+  check_pose_structure (gst_custom_meta_get_structure (meta), x, y, h, tol,
+      solver, n);
 }
 
 static const GstStructure *
@@ -252,7 +285,6 @@ LANDMARK_TEST ("general", test_two_and_one)
   GstBus *bus;
   GstHarness *h = harness ("heading=30", &bus);
   GstBuffer *in, *out;
-  const GstStructure *pose;
   /* two landmarks, robot right of the G2-B1 line... either side */
   const double poses[][3] = { {6, 2, 0.5}, {6, -1.5, 1.2} };
   for (guint i = 0; i < G_N_ELEMENTS (poses); i++) {
@@ -260,10 +292,7 @@ LANDMARK_TEST ("general", test_two_and_one)
     add_seen (in, 0, 2, poses[i][0], poses[i][1], poses[i][2], 0);
     add_seen (in, 1, 5, poses[i][0], poses[i][1], poses[i][2], 0);
     out = gst_harness_push_and_pull (h, in);
-    pose = gst_custom_meta_get_structure (gst_buffer_get_custom_meta (out,
-            "GstLandmarkPoseMeta"));
-    check_pose_structure (pose, poses[i][0], poses[i][1], poses[i][2], 1e-9,
-        "two", 2);
+    check_pose (out, poses[i][0], poses[i][1], poses[i][2], 1e-9, "two", 2);
     check_matched (out, 0, "B1");
     check_matched (out, 1, "Y1");
     gst_buffer_unref (out);
@@ -272,9 +301,7 @@ LANDMARK_TEST ("general", test_two_and_one)
   in = frame (5);
   add_seen (in, 0, 2, 1.0, 1.5, M_PI / 6, 0);
   out = gst_harness_push_and_pull (h, in);
-  pose = gst_custom_meta_get_structure (gst_buffer_get_custom_meta (out,
-          "GstLandmarkPoseMeta"));
-  check_pose_structure (pose, 1.0, 1.5, M_PI / 6, 1e-9, "one", 1);
+  check_pose (out, 1.0, 1.5, M_PI / 6, 1e-9, "one", 1);
   gst_buffer_unref (out);
   harness_done (h, bus);
 }
@@ -303,26 +330,9 @@ LANDMARK_TEST ("general", test_no_pose)
 
   harness_done (h, bus);
 
-  /* messages off: nothing posted */
-  h = harness ("post-messages=false", &bus);
-  out = gst_harness_push_and_pull (h, frame (1));
-  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT) == NULL);
-  gst_buffer_unref (out);
-  harness_done (h, bus);
-
-  /* the default: off too */
-  {
-    gchar *launch = g_strdup_printf ("trilaterate map=%s", map_path);
-    h = gst_harness_new_parse (launch);
-    g_free (launch);
-    gst_harness_set_src_caps_str (h, "video/x-raw,format=GRAY8,width=64,"
-        "height=48,framerate=30/1");
-    bus = landmark_check_bus_attach (h->element);
-  }
-  out = gst_harness_push_and_pull (h, frame (1));
-  fail_unless (gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT) == NULL);
-  gst_buffer_unref (out);
-  harness_done (h, bus);
+  /* messages off, and off by default: nothing posted */
+  check_no_messages ("post-messages=false");
+  check_no_messages ("");
 }
 GST_END_TEST;
 
@@ -331,16 +341,13 @@ LANDMARK_TEST ("general", test_outlier_and_gate)
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
   GstBuffer *in = frame (0), *out;
-  const GstStructure *pose;
   /* four landmarks, Y1 ranged 0.7 m too far: rejected */
   add_seen (in, 0, 0, 3, 1, 2.0, 0);
   add_seen (in, 1, 1, 3, 1, 2.0, 0);
   add_seen (in, 2, 2, 3, 1, 2.0, 0);
   add_seen (in, 3, 5, 3, 1, 2.0, 0.7);
   out = gst_harness_push_and_pull (h, in);
-  pose = gst_custom_meta_get_structure (gst_buffer_get_custom_meta (out,
-          "GstLandmarkPoseMeta"));
-  check_pose_structure (pose, 3, 1, 2.0, 1e-9, "lsq", 3);
+  check_pose (out, 3, 1, 2.0, 1e-9, "lsq", 3);
   check_matched (out, 3, NULL);
   fail_unless_equals_string (gst_structure_get_string (match_of (out, 3),
           "reason"), "outlier");
@@ -352,9 +359,7 @@ LANDMARK_TEST ("general", test_outlier_and_gate)
   add_seen (in, 0, 0, 3.02, 1.01, 2.01, 0);
   add_seen (in, 1, 1, 3.02, 1.01, 2.01, 0);
   out = gst_harness_push_and_pull (h, in);
-  pose = gst_custom_meta_get_structure (gst_buffer_get_custom_meta (out,
-          "GstLandmarkPoseMeta"));
-  check_pose_structure (pose, 3.02, 1.01, 2.01, 1e-9, "two", 2);
+  check_pose (out, 3.02, 1.01, 2.01, 1e-9, "two", 2);
   check_matched (out, 0, "R1");
   check_matched (out, 1, "G1");
   gst_buffer_unref (out);

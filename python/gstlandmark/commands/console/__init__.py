@@ -97,13 +97,12 @@ def run(args) -> int:
 def add_console_parser(subparsers):
     p = subparsers.add_parser(
         "console", help="watch, tune and teach the chain from a browser",
-        description="Run the chain on a file, a camera or a test source "
-                    "and serve a web page with the live overlay video, "
-                    "the class histogram, lamps, ranges, pose and "
-                    "mini-map, controls to tune the elements while they "
-                    "run and to teach palette colours. Listens on "
-                    "127.0.0.1 unless --listen says otherwise (then a "
-                    "token is required).")
+        description="""Run the chain on a file, a camera or a test source
+            and serve a web page with the live overlay video, the class
+            histogram, lamps, ranges, pose and mini-map, controls to tune
+            the elements while they run and to teach palette colours.
+            Listens on 127.0.0.1 unless --listen says otherwise (then a
+            token is required).""")
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--input", "-i", metavar="FILE",
                      help="video file (played in a loop)")

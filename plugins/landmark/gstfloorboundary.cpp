@@ -421,27 +421,16 @@ gst_floor_boundary_attach (GstFloorBoundary * self, GstBuffer * buf)
   if (!st.applied.config.post_messages)
     return;
   GstBaseTransform *trans = GST_BASE_TRANSFORM_CAST (self);
-  const GstClockTime ts = GST_BUFFER_PTS (buf);
   GValue ranges = G_VALUE_INIT, states = G_VALUE_INIT;
   gst_value_array_init (&ranges, nb);
   gst_value_array_init (&states, nb);
   for (guint k = 0; k < nb; k++) {
-    GValue v = G_VALUE_INIT;
-    g_value_init (&v, G_TYPE_DOUBLE);
-    g_value_set_double (&v, bins[k].range);
-    gst_value_array_append_and_take_value (&ranges, &v);
-    GValue t = G_VALUE_INIT;
-    g_value_init (&t, G_TYPE_UINT);
-    g_value_set_uint (&t, (guint) bins[k].state);
-    gst_value_array_append_and_take_value (&states, &t);
+    landmark_value_array_append_double (&ranges, bins[k].range);
+    landmark_value_array_append_uint (&states, (guint) bins[k].state);
   }
-  GstStructure *m = gst_structure_new ("landmark-obstacles",
-      "timestamp", G_TYPE_UINT64, ts,
-      "stream-time", G_TYPE_UINT64,
-      gst_segment_to_stream_time (&trans->segment, GST_FORMAT_TIME, ts),
-      "running-time", G_TYPE_UINT64,
-      gst_segment_to_running_time (&trans->segment, GST_FORMAT_TIME, ts),
-      "bearing-bins", G_TYPE_UINT, nb,
+  GstStructure *m = landmark_frame_message_new ("landmark-obstacles", buf,
+      &trans->segment);
+  gst_structure_set (m, "bearing-bins", G_TYPE_UINT, nb,
       "bin-width", G_TYPE_DOUBLE, 2 * M_PI / nb,
       "max-range", G_TYPE_DOUBLE, prof.params ().max_range, nullptr);
   gst_structure_take_value (m, "ranges", &ranges);

@@ -20,6 +20,8 @@
 #include <utility>
 #include <vector>
 
+#include "landmarkmeta.h"
+
 namespace landmark {
 
 /* The GParamSpec and GValue access of the number types properties have. */
@@ -566,6 +568,26 @@ run_frame (GstElement *element, const char *what, Work work)
         ("%s", e.what ()));
     return GST_FLOW_ERROR;
   }
+}
+
+/* transform_ip of an element that measures labsegment's labels: its
+ * settings brought up to date (sync), then process (self, buf, labels)
+ * under run_frame; a buffer without labels passes unmeasured, with one
+ * warning. Self's priv->state has `bool warned_no_meta`. */
+template <typename Self, void (*sync) (Self *),
+    GstFlowReturn (*process) (Self *, GstBuffer *, const GstStructure *)>
+GstFlowReturn
+measure_labels_ip (GstBaseTransform *trans, GstBuffer *buf)
+{
+  Self *self = (Self *) trans;
+  sync (self);
+  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (trans),
+      buf, &self->priv->state.warned_no_meta);
+  if (!labels)
+    return GST_FLOW_OK;
+  return run_frame (GST_ELEMENT (trans),
+      "Could not measure the labels of a frame.",
+      [&] { return process (self, buf, labels); });
 }
 
 }  // namespace landmark

@@ -303,24 +303,20 @@ gst_birds_eye_transform_frame (GstVideoFilter * filter,
   State & st = self->priv->state;
   gst_birds_eye_sync_settings (self);
   const int type = CV_8UC (GST_VIDEO_FRAME_COMP_PSTRIDE (in, 0));
-  try {
-    /* views of the mapped frames with their strides: no copy */
-    const cv::Mat src (GST_VIDEO_FRAME_HEIGHT (in), GST_VIDEO_FRAME_WIDTH (in),
-        type, GST_VIDEO_FRAME_PLANE_DATA (in, 0),
-        GST_VIDEO_FRAME_PLANE_STRIDE (in, 0));
-    cv::Mat dst (GST_VIDEO_FRAME_HEIGHT (out), GST_VIDEO_FRAME_WIDTH (out),
-        type, GST_VIDEO_FRAME_PLANE_DATA (out, 0),
-        GST_VIDEO_FRAME_PLANE_STRIDE (out, 0));
-    const Config & cfg = st.applied.config;
-    cv::remap (src, dst, cfg.map1, cfg.map2, cv::INTER_LINEAR,
-        cv::BORDER_CONSTANT, cv::Scalar::all (0));
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (self, STREAM, FAILED, ("Bird's-eye remap failed."),
-        ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
-  return GST_FLOW_OK;
+  return landmark::run_frame (GST_ELEMENT (self), "Bird's-eye remap failed.",
+      [&] {
+        /* views of the mapped frames with their strides: no copy */
+        const cv::Mat src (GST_VIDEO_FRAME_HEIGHT (in),
+            GST_VIDEO_FRAME_WIDTH (in), type, GST_VIDEO_FRAME_PLANE_DATA (in, 0),
+            GST_VIDEO_FRAME_PLANE_STRIDE (in, 0));
+        cv::Mat dst (GST_VIDEO_FRAME_HEIGHT (out), GST_VIDEO_FRAME_WIDTH (out),
+            type, GST_VIDEO_FRAME_PLANE_DATA (out, 0),
+            GST_VIDEO_FRAME_PLANE_STRIDE (out, 0));
+        const Config & cfg = st.applied.config;
+        cv::remap (src, dst, cfg.map1, cfg.map2, cv::INTER_LINEAR,
+            cv::BORDER_CONSTANT, cv::Scalar::all (0));
+        return GST_FLOW_OK;
+      });
 }
 
 static void

@@ -503,7 +503,7 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
-  trans_class->transform_ip = landmark_measure_labels_ip<GstBlobRoundness,
+  trans_class->transform_ip = landmark::measure_labels_ip<GstBlobRoundness,
       gst_blob_roundness_sync_settings, gst_blob_roundness_process>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_BLOB_ROUNDNESS_SHAPE,

@@ -546,7 +546,7 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
   trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
-  trans_class->transform_ip = landmark_measure_labels_ip<GstFloorBoundary,
+  trans_class->transform_ip = landmark::measure_labels_ip<GstFloorBoundary,
       gst_floor_boundary_sync_settings, gst_floor_boundary_process>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_FLOOR_BOUNDARY_MARKERS,

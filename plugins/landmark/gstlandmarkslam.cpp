@@ -102,6 +102,7 @@ struct State {
   guint64 frames = 0;
   bool map_written = false;
   landmark::RangedDetections ranged;  /* reused */
+  std::vector<landmark::SlamObservation> obs;   /* reused */
 
   /* live odometry (landmark-odometry events), summed until the next frame;
    * out-of-band events come from the application's threads */
@@ -399,7 +400,8 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
    * whole one: an anchor can absorb that, a landmark being mapped cannot. */
   landmark::RangedDetections & ranged = st.ranged;
   landmark::ranged_detections_collect (buf, true, &ranged);
-  std::vector<landmark::SlamObservation> obs;
+  std::vector<landmark::SlamObservation> & obs = st.obs;
+  obs.clear ();
   for (const landmark::Detection & d : ranged.dets) {
     landmark::SlamObservation o;
     o.class_name = d.class_name;

@@ -179,9 +179,6 @@ void landmark_value_array_append_string (GValue * array, const gchar * x);
 G_END_DECLS
 
 #ifdef __cplusplus
-#include <gst/base/gstbasetransform.h>
-
-#include <exception>
 #include <string>
 #include <utility>
 #include <vector>
@@ -222,32 +219,6 @@ struct LandmarkLabelClasses
   /* "red, green, ..." */
   std::string list () const;
 };
-
-/* transform_ip of an element that measures labsegment's labels: its
- * settings brought up to date (sync), then process (self, buf, labels),
- * an exception becoming an element ERROR; a buffer without labels passes
- * unmeasured, with one warning. Self's priv->state has `bool
- * warned_no_meta`. */
-template < typename Self, void (*sync) (Self *),
-    GstFlowReturn (*process) (Self *, GstBuffer *, const GstStructure *) >
-GstFlowReturn
-landmark_measure_labels_ip (GstBaseTransform * trans, GstBuffer * buf)
-{
-  Self *self = (Self *) trans;
-  sync (self);
-  const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (trans),
-      buf, &self->priv->state.warned_no_meta);
-  if (!labels)
-    return GST_FLOW_OK;
-  try {
-    return process (self, buf, labels);
-  }
-  catch (const std::exception & e) {
-    GST_ELEMENT_ERROR (trans, STREAM, FAILED,
-        ("Could not measure the labels of a frame."), ("%s", e.what ()));
-    return GST_FLOW_ERROR;
-  }
-}
 
 /* The region-of-interest metas of buffer, in its order (out is cleared
  * first; its storage is kept, so a reused vector does not allocate). */

@@ -359,7 +359,8 @@ gst_blob_roundness_morphology (GstBlobRoundness * self, guint size)
 static void
 gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
     const landmark::BlobShape & b, const char *class_name,
-    const char *reject, double fit_threshold, guint plane_w, guint plane_h)
+    const char *reject, bool marginal, double fit_threshold, guint plane_w,
+    guint plane_h)
 {
   State & st = self->priv->state;
   /* the box in pixels of the current frame (the plane normally is) */
@@ -400,6 +401,8 @@ gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
       "frame-height", G_TYPE_UINT, plane_h, nullptr);
   if (reject)
     gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);
+  if (marginal)
+    gst_structure_set (s, "shape-marginal", G_TYPE_BOOLEAN, TRUE, nullptr);
   landmark_detection_add_param (buf, roi, s);
 }
 
@@ -466,23 +469,29 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
     const double fit_threshold = cfg.min_ellipse_fit >= 0 ?
         cfg.min_ellipse_fit : b.touches_border ? landmark::kShapeFitLarge :
         landmark::shape_fit_threshold (b.ellipse_major, b.ellipse_minor);
+    bool marginal = false;
     if (!reject) {
       if (cfg.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE) {
         if (b.roundness < cfg.min_roundness)
           reject = "roundness";
       } else if (b.ellipse_fit < fit_threshold) {
         reject = "ellipse-fit";
+        /* a near miss travels on as a candidate that only ipmrange's size
+         * test can confirm; a cut blob has no size to confirm it by */
+        marginal = cfg.min_ellipse_fit < 0 && !b.touches_border &&
+            b.ellipse_fit >= landmark::shape_marginal_threshold
+            (b.ellipse_major, b.ellipse_minor);
       }
     }
     if (reject)
       rejected++;
     else
       kept++;
-    if (reject && !cfg.keep_rejected)
+    if (reject && !marginal && !cfg.keep_rejected)
       continue;
     const std::string & name = st.classes.names[b.slot - 1];
     gst_blob_roundness_attach (self, buf, b, name.c_str (), reject,
-        fit_threshold, w, h);
+        marginal, fit_threshold, w, h);
   }
   GST_LOG_OBJECT (self, "%ux%u labels: %zu blobs, %u kept, %u rejected", w,
       h, a.count (), kept, rejected);

@@ -386,7 +386,8 @@ gst_ipm_range_size_agreement (GstIpmRange * self,
 static const char *
 gst_ipm_range_check_size (GstIpmRange * self,
     const landmark::BlobObservation & obs, const landmark::MarkerSpec & m,
-    const landmark::RangeEstimate & e, bool cut, GstStructure * s)
+    const landmark::RangeEstimate & e, bool cut, bool marginal,
+    GstStructure * s)
 {
   landmark::ImageEllipse predicted;
   const double agreement = gst_ipm_range_size_agreement (self, obs, m, e,
@@ -403,6 +404,11 @@ gst_ipm_range_check_size (GstIpmRange * self,
   const double threshold = landmark::size_agreement_threshold (predicted);
   gst_structure_set (s, "size-agreement", G_TYPE_DOUBLE, agreement,
       "size-threshold", G_TYPE_DOUBLE, threshold, nullptr);
+  /* blobroundness's near miss: only an image no rectangle could give
+   * makes it a marker */
+  if (marginal)
+    gst_structure_set (s, "shape-confirmed", G_TYPE_BOOLEAN,
+        agreement >= landmark::kSizeAgreementMarginal, nullptr);
   return agreement < threshold ? "size" : nullptr;
 }
 
@@ -418,7 +424,9 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   landmark::BlobObservation obs;
   guint fw = 0, fh = 0;
   bool have_centroid = false;
+  gboolean marginal = FALSE;
   if (blob) {
+    gst_structure_get_boolean (blob, "shape-marginal", &marginal);
     have_centroid = gst_structure_get_double (blob, "centroid-x", &obs.u)
         && gst_structure_get_double (blob, "centroid-y", &obs.v);
     obs.has_ellipse = gst_structure_get_double (blob, "ellipse-x", &obs.eu)
@@ -562,7 +570,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   const char *reject = nullptr;
   if (cfg.s.check_size)
     reject = gst_ipm_range_check_size (self, obs, chosen ? *chosen : marker,
-        e, cut, s);
+        e, cut, marginal, s);
   gst_structure_set (s, "kept", G_TYPE_BOOLEAN, reject == nullptr, nullptr);
   if (reject)
     gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);

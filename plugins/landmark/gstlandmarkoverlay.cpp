@@ -426,9 +426,8 @@ gst_landmark_overlay_read_detections (GstLandmarkOverlay * self,
     }
     /* rejected by any stage (shape, size, map) draws as rejected */
     const gchar *rejected_by;
-    if (landmark_detection_rejected (buf, roi, &rejected_by,
-            &d.reject_reason))
-      d.kept = false;
+    d.kept = !landmark_detection_rejected (buf, roi, &rejected_by,
+        &d.reject_reason);
     d.colour = gst_landmark_overlay_class_colour (st, n_classes,
         d.class_name);
     GST_LOG_OBJECT (self, "detection %d %s bbox %g,%g %gx%g blob:%d "

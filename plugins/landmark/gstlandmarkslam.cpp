@@ -399,7 +399,7 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
    * a biased centre, so a biased range and bearing with the sigmas of a
    * whole one: an anchor can absorb that, a landmark being mapped cannot. */
   landmark::RangedDetections & ranged = st.ranged;
-  landmark::ranged_detections_collect (buf, true, &ranged);
+  landmark::ranged_detections_collect (buf, true, false, &ranged);
   std::vector<landmark::SlamObservation> & obs = st.obs;
   obs.clear ();
   for (const landmark::Detection & d : ranged.dets) {

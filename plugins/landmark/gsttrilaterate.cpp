@@ -295,7 +295,7 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
 
   /* detections with a range */
   landmark::RangedDetections & ranged = st.ranged;
-  landmark::ranged_detections_collect (buf, false, &ranged);
+  landmark::ranged_detections_collect (buf, false, true, &ranged);
   const std::vector<landmark::Detection> & dets = ranged.dets;
 
   /* the prior: predicted (ekf) or previous (none) pose */

@@ -425,9 +425,21 @@ landmark_detection_rejected (GstBuffer * buffer,
     {LANDMARK_BLOB_PARAMS, "blobroundness"},
     {LANDMARK_RANGE_PARAMS, "ipmrange"},
   };
+  const auto flag = [](const GstStructure * p, const gchar * name) {
+    gboolean value = FALSE;
+    return p && gst_structure_get_boolean (p, name, &value) && value;
+  };
+  /* blobroundness's marginal shape stands when ipmrange's size against
+   * range and trilaterate's map both confirmed it (docs/detection.md) */
+  const bool shape_confirmed = flag (landmark_detection_get_param (buffer,
+          roi, LANDMARK_RANGE_PARAMS), "shape-confirmed")
+      && flag (landmark_detection_get_param (buffer, roi,
+          LANDMARK_MATCH_PARAMS), "matched");
   for (const auto & stage : stages) {
     const GstStructure *p = landmark_detection_get_param (buffer, roi,
         stage.param);
+    if (shape_confirmed && flag (p, "shape-marginal"))
+      continue;
     gboolean kept = TRUE;
     if (p && gst_structure_get_boolean (p, "kept", &kept) && !kept) {
       *element = stage.element;
@@ -449,6 +461,23 @@ landmark_detection_rejected (GstBuffer * buffer,
     return TRUE;
   }
   return FALSE;
+}
+
+gboolean
+landmark_detection_awaits_map (GstBuffer * buffer,
+    const GstVideoRegionOfInterestMeta * roi)
+{
+  const GstStructure *blob = landmark_detection_get_param (buffer, roi,
+      LANDMARK_BLOB_PARAMS);
+  const GstStructure *range = landmark_detection_get_param (buffer, roi,
+      LANDMARK_RANGE_PARAMS);
+  gboolean marginal = FALSE, confirmed = FALSE;
+  return blob && range
+      && gst_structure_get_boolean (blob, "shape-marginal", &marginal)
+      && marginal
+      && gst_structure_get_boolean (range, "shape-confirmed", &confirmed)
+      && confirmed
+      && !landmark_detection_get_param (buffer, roi, LANDMARK_MATCH_PARAMS);
 }
 
 GstVideoRegionOfInterestMeta *

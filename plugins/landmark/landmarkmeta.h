@@ -102,6 +102,12 @@ const GstStructure *landmark_detection_get_param (GstBuffer * buffer,
 gboolean landmark_detection_rejected (GstBuffer * buffer,
     const GstVideoRegionOfInterestMeta * roi, const gchar ** element,
     const gchar ** reason);
+/* Whether a detection waits for the map's word: a marginal shape
+ * (blobroundness) whose size against range ipmrange confirmed and that no
+ * trilaterate has matched yet. landmark_detection_rejected rejects it until
+ * a match in the map's consensus accepts it (docs/detection.md). */
+gboolean landmark_detection_awaits_map (GstBuffer * buffer,
+    const GstVideoRegionOfInterestMeta * roi);
 GstVideoRegionOfInterestMeta *landmark_detection_get (GstBuffer * buffer,
     gint id);
 guint landmark_detection_count (GstBuffer * buffer);

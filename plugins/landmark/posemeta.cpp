@@ -23,16 +23,18 @@ cut_by_border (GstBuffer * buf, const GstVideoRegionOfInterestMeta * roi)
 
 void
 ranged_detections_collect (GstBuffer * buf, bool skip_cut,
-    RangedDetections * out)
+    bool with_marginal, RangedDetections * out)
 {
   out->dets.clear ();
   out->rois.clear ();
   out->skipped.clear ();
   landmark_detections_collect (buf, &out->all);
   for (GstVideoRegionOfInterestMeta * roi : out->all) {
-    /* rejected upstream: by shape (blobroundness) or size (ipmrange) */
+    /* rejected upstream: by shape (blobroundness) or size (ipmrange);
+     * a marginal shape the size confirmed waits for the map's word */
     const gchar *by, *why;
-    if (landmark_detection_rejected (buf, roi, &by, &why)) {
+    if (landmark_detection_rejected (buf, roi, &by, &why) && !(with_marginal
+            && landmark_detection_awaits_map (buf, roi))) {
       out->skipped.push_back ({ roi, "not-kept" });
       continue;
     }

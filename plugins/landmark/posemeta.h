@@ -29,9 +29,10 @@ struct RangedDetections {
  * `cut-by-border` (with skip_cut: the blob touches the frame edge, so its
  * centre, range and bearing are biased), `no-range` (no ground position
  * from ipmrange); the others in dets with ipmrange's range, bearing,
- * sigmas and marker. */
+ * sigmas and marker. with_marginal: a marginal shape awaiting the map
+ * (landmark_detection_awaits_map) is a candidate too. */
 void ranged_detections_collect (GstBuffer * buf, bool skip_cut,
-    RangedDetections * out);
+    bool with_marginal, RangedDetections * out);
 
 /* Adds `landmark-match` {matched: false, reason} to every skipped
  * detection, through add (which may decline, e.g. when one is there). */

@@ -63,16 +63,21 @@ def rect(x, y, along, across):
                            & (np.abs(gy - y) <= across / 2))
 
 
-def verdicts(tmp_path, frame):
+def verdicts(tmp_path, frame, landmarks=((1.0, 0.0),)):
+    """The chain's verdicts on the red detections; with more than one
+    map landmark (robot at the origin) trilaterate gives the map's word."""
     map_file = tmp_path / "map.json"
     map_file.write_text(json.dumps({"landmarks": [
-        {"id": "L1", "class": "red", "x": 1.0, "y": 0.0, "z": 0.0,
-         "diameter": 0.1, "kind": "disc"}]}))
+        {"id": f"L{i + 1}", "class": "red", "x": x, "y": y, "z": 0.0,
+         "diameter": 0.1, "kind": "disc"}
+        for i, (x, y) in enumerate(landmarks)]}))
     log = tmp_path / "log.jsonl"
     caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    localise = (f"trilaterate map={map_file} ! " if len(landmarks) > 1
+                else "")
     pipeline.process_frames(
         f"labsegment ! blobroundness ! ipmrange camera-height={CAM_H} "
-        f"tilt={TILT} hfov={HFOV} map={map_file} ! "
+        f"tilt={TILT} hfov={HFOV} map={map_file} ! {localise}"
         f"landmarklog location={log}", [frame], caps)
     (line,) = log.read_text().splitlines()
     return [d for d in json.loads(line)["detections"] if d["class"] == "red"]
@@ -140,3 +145,68 @@ def test_size_check_can_be_turned_off(gst, tmp_path):
     dets = json.loads(log.read_text())["detections"]
     assert [d["accepted"] for d in dets] == [True]
     assert "size-agreement" not in dets[0]["range"]
+
+
+def chipped_disc(x, y, d, bites=6):
+    """A disc with `bites` bites of a fifth of its diameter out of its
+    rim: a worn or partly covered marker, its outline far from an
+    ellipse."""
+    whole = disc(x, y, d)
+    cuts = [disc(x + d / 2 * math.cos(a), y + d / 2 * math.sin(a), d / 5)
+            for a in np.linspace(0, 2 * math.pi, bites, endpoint=False)]
+    return lambda gx, gy: whole(gx, gy) & ~np.any(
+        [cut(gx, gy) for cut in cuts], axis=0)
+
+
+def test_marginal_shape_confirmed_by_size_and_map(gst, tmp_path):
+    # the shape misses its test by less than the marginal band; the size
+    # for its range agrees within 8 %, and the map has a red disc there
+    # that two sound discs place the robot to see: accepted
+    here = [(0.9, 0.1), (0.5, -0.2), (1.4, -0.3)]
+    frame = render([chipped_disc(*here[0], 0.1), disc(*here[1], 0.1),
+                    disc(*here[2], 0.1)])
+    d = nearest(verdicts(tmp_path, frame, here), *here[0])
+    blob, rng = d["blob"], d["range"]
+    assert blob["ellipse-fit"] < blob["ellipse-fit-threshold"], blob
+    assert blob["shape-marginal"] and not blob["kept"], blob
+    assert rng["size-agreement"] >= 0.85 and rng["shape-confirmed"], rng
+    assert d["match"]["matched"] and d["match"]["landmark-id"] == "L1", d
+    assert d["accepted"], d
+    assert abs(rng["range"] - math.hypot(*here[0])) < 0.03
+
+
+def test_marginal_shape_without_the_map_rejected(gst, tmp_path):
+    # size alone does not accept a marginal shape: a far square's moment
+    # ellipse can agree with a disc's as well as a disc's does
+    (d,) = verdicts(tmp_path, render([chipped_disc(0.9, 0.1, 0.1)]))
+    assert d["range"]["shape-confirmed"], d
+    assert "match" not in d
+    assert not d["accepted"], d
+    assert (d["rejected-by"], d["reject-reason"]) == ("blobroundness",
+                                                      "ellipse-fit")
+
+
+def test_marginal_shape_of_wrong_size_rejected(gst, tmp_path):
+    # the same outline 20 % too large: enough for a round blob's size test
+    # (size-threshold), not enough to confirm a marginal shape
+    (d,) = verdicts(tmp_path, render([chipped_disc(0.9, 0.1, 0.12)]))
+    blob, rng = d["blob"], d["range"]
+    assert blob["shape-marginal"], blob
+    assert rng["size-threshold"] <= rng["size-agreement"] < 0.85, rng
+    assert rng["shape-confirmed"] is False, rng
+    assert not d["accepted"], d
+    assert (d["rejected-by"], d["reject-reason"]) == ("blobroundness",
+                                                      "ellipse-fit")
+
+
+def test_marginal_shape_needs_the_size_test(gst, tmp_path):
+    # blobroundness alone keeps the near miss rejected, but attached
+    frame = render([chipped_disc(0.9, 0.1, 0.1)])
+    log = tmp_path / "blobs.jsonl"
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    pipeline.process_frames(f"labsegment ! blobroundness ! "
+                            f"landmarklog location={log}", [frame], caps)
+    dets = [d for d in json.loads(log.read_text())["detections"]
+            if d["class"] == "red"]
+    assert [(d["accepted"], d["blob"]["shape-marginal"]) for d in dets] == \
+        [(False, True)], dets

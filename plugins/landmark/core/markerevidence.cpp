@@ -62,6 +62,14 @@ shape_fit_threshold (double major, double minor)
 }
 
 double
+shape_marginal_threshold (double major, double minor)
+{
+  const double share = ellipse_boundary_share (major, minor);
+  return std::max (kShapeFitFloor,
+      kShapeFitLarge - kShapeMarginalOutlinePx * share);
+}
+
+double
 size_agreement_threshold (const ImageEllipse & predicted)
 {
   const double share = ellipse_boundary_share (predicted.major,

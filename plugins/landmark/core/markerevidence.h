@@ -35,6 +35,17 @@ constexpr double kShapeOutlinePx = 0.1;
 constexpr double kShapeFitFloor = 0.5;
 double shape_fit_threshold (double major, double minor);
 
+/* A blob that misses the shape test by less than kShapeMarginalOutlinePx
+ * of outline uncertainty (a colour edge after 4:2:0 chroma, JPEG and
+ * motion blur lies anywhere within a chroma sample) is a marginal shape:
+ * rejected unless its size against range confirms it at
+ * kSizeAgreementMarginal, above the 0.837 that the best ellipse reaches
+ * against a square (so against any parallelogram, IoU being invariant
+ * under affine maps). docs/detection.md. */
+constexpr double kShapeMarginalOutlinePx = 0.3;
+constexpr double kSizeAgreementMarginal = 0.85;
+double shape_marginal_threshold (double major, double minor);
+
 /* The size test's tolerance: the smallest IoU between the measured blob
  * ellipse and the predicted image of the marker. kSizeAgreementLarge
  * leaves room for the diameter and range errors of a large blob; each

@@ -298,7 +298,9 @@ def log_summary(results: List[Dict[str, Any]]) -> Dict[str, Any]:
     with_pose = 0
     for res in results:
         for det in res.get("detections") or []:
-            if det.get("blob", {}).get("kept", True):
+            # the chain's verdict where it gave one (a marginal shape
+            # confirmed by its size is accepted though its blob is not kept)
+            if det.get("accepted", det.get("blob", {}).get("kept", True)):
                 per_class[str(det.get("class"))] += 1
             else:
                 rejected += 1

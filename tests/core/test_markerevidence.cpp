@@ -54,6 +54,14 @@ test_boundary_share ()
   CHECK (shape_fit_threshold (12, 12) < shape_fit_threshold (40, 40),
       "smaller blob, looser shape test");
   CHECK (shape_fit_threshold (1, 0.2) == kShapeFitFloor, "floor");
+  /* the marginal band lies below the test and widens with the share */
+  CHECK (std::fabs (shape_marginal_threshold (40, 8) - (kShapeFitLarge -
+              kShapeMarginalOutlinePx * ellipse_boundary_share (40, 8))) <
+      1e-12, "%g", shape_marginal_threshold (40, 8));
+  CHECK (shape_fit_threshold (40, 8) - shape_marginal_threshold (40, 8) >
+      shape_fit_threshold (400, 400) - shape_marginal_threshold (400, 400),
+      "band");
+  CHECK (shape_marginal_threshold (1, 0.2) == kShapeFitFloor, "floor");
   ImageEllipse big {0, 0, 400, 400, 0}, small {0, 0, 12, 12, 0};
   CHECK (size_agreement_threshold (big) > 0.68, "%g",
       size_agreement_threshold (big));

@@ -42,6 +42,8 @@ def test_latency_is_after_capture_and_under_a_second(latency):
         # sink
         assert 0 <= r["source_ms"] <= r["trilaterate_ms"] <= r["max_ms"], r
         assert r["reported_ms"] > 0, r
+        # from where the camera's frame enters the pipeline: part of it
+        assert 0 < r["host_ms"] <= r["median_ms"], r
         if r["pipeline"] == "camera-mjpeg":
             assert 0 < r["standin_encode_ms"] <= r["trilaterate_ms"], r
         else:

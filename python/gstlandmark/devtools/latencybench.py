@@ -225,10 +225,13 @@ def measure_live(desc, warmup, timeout_s=120.0):
         raise BenchError(f"no frame reached the sink after {warmup} "
                          f"warm-up frames: {desc}")
 
-    def delays(stamps):
-        return np.array([stamps.times[c] - c for c in frames
-                         if c in stamps.times]) / Gst.SECOND
+    def delays(stamps, since=None):
+        start = since.times if since else {c: c for c in frames}
+        return np.array([stamps.times[c] - start[c] for c in frames
+                         if c in stamps.times and c in start]) / Gst.SECOND
 
+    # where the camera's frame enters: after the stand-in's encoder
+    entry = enc or (src[0] if src else None)
     first = min(sink.times)
     return {"frames": len(frames),
             "poses": sum(1 for c in frames if c in poses),
@@ -236,6 +239,7 @@ def measure_live(desc, warmup, timeout_s=120.0):
             "trilaterate": delays(tri[0]) if tri else None,
             "encode": delays(enc) if enc else None,
             "source": delays(src[0]) if src else None,
+            "host": delays(sink, entry) if entry else None,
             "first_frame": (sink.times[first] - first) / Gst.SECOND,
             "reported": reported}
 
@@ -262,6 +266,7 @@ def summarise_live(runs):
             "p95_ms": _ms(np.median(p95)),
             "max_ms": _ms(max(float(r["sink"].max()) for r in runs)),
             "source_ms": part("source"),
+            "host_ms": part("host"),
             "trilaterate_ms": part("trilaterate"),
             "standin_encode_ms": part("encode"),
             "first_frame_ms": _ms(np.median([r["first_frame"]
@@ -295,7 +300,7 @@ def bench_latency(sizes, sources, pipelines, frames, warmup, runs,
 
 LIVE_COLUMNS = (("median_ms", "median"), ("p95_ms", "p95"),
                 ("max_ms", "max"), ("source_ms", "at src"),
-                ("trilaterate_ms", "at tri"),
+                ("trilaterate_ms", "at tri"), ("host_ms", "in->sink"),
                 ("standin_encode_ms", "enc"), ("first_frame_ms", "first"),
                 ("reported_ms", "reported"))
 
@@ -316,7 +321,9 @@ def print_latency(rows, load):
               + f"   {r['poses']}/{r['frames']}")
     print("median/p95: medians over the runs; max: over all runs; at src, "
           "at tri, enc: medians on leaving the stand-in source, trilaterate, "
-          "the stand-in's jpegenc; first: the first frame; reported: the "
+          "the stand-in's jpegenc; in->sink: median from leaving the "
+          "stand-in (its jpegenc for MJPEG) to the sink; first: the first "
+          "frame; reported: the "
           "pipeline's minimum latency (GST_QUERY_LATENCY)")
 
 

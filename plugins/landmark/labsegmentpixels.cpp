@@ -192,7 +192,24 @@ void
 classify_packed4 (const guint8 * table, const guint8 * row, int shift,
     guint width, guint8 * labels)
 {
-  for (guint x = 0; x < width; x++)
+  guint x = 0;
+  /* four pixels a step: two 8-byte loads and one 4-byte store in place of
+   * four loads and four stores; the loop is bound by memory operations,
+   * not by cache misses (docs/performance.md) */
+  for (; x + 4 <= width; x += 4) {
+    guint64 a, b;
+    memcpy (&a, row + x * 4, 8);
+    memcpy (&b, row + x * 4 + 8, 8);
+    a = GUINT64_FROM_LE (a);
+    b = GUINT64_FROM_LE (b);
+    guint32 four = table[(a >> shift) & 0xffffff] |
+        (table[(a >> (32 + shift)) & 0xffffff] << 8) |
+        (table[(b >> shift) & 0xffffff] << 16) |
+        ((guint32) table[(b >> (32 + shift)) & 0xffffff] << 24);
+    four = GUINT32_TO_LE (four);
+    memcpy (labels + x, &four, 4);
+  }
+  for (; x < width; x++)
     labels[x] = table[(load32 (row + x * 4) >> shift) & 0xffffff];
 }
 

@@ -777,6 +777,8 @@ def add_bench_parser(subparsers):
     add_chain_bench_parser(actions)
     from .fleetbench import add_fleet_bench_parser
     add_fleet_bench_parser(actions)
+    from .latencybench import add_latency_bench_parsers
+    add_latency_bench_parsers(actions)
     return parser
 
 

@@ -62,6 +62,26 @@ def test_exact_log_integrates_to_the_true_path(path_scene):
         assert abs(math.remainder(h - t.heading, 2 * math.pi)) < 1e-9
 
 
+def test_own_rate_integrates_to_the_true_path(path_scene):
+    """At 100 Hz the steps fall between frames; each reading still
+    composes to the true pose at its own time."""
+    scene, n = path_scene
+    steps = scene_odometry(scene, n, no_errors(rate_hz=100.0))
+    end = (n - 1) / scene.fps
+    assert len(steps) == math.floor(end * 100)
+    times = [s["t"] for s in steps]
+    assert times == [k / 100 for k in range(1, len(steps) + 1)]
+    assert times[-1] <= end < times[-1] + 0.01
+    t0 = scene.trajectory.pose(0.0)
+    for (x, y, h), t in zip(integrate((t0.x, t0.y, t0.heading), steps),
+                            times):
+        p = scene.trajectory.pose(t)
+        assert abs(x - p.x) < 1e-9 and abs(y - p.y) < 1e-9
+        assert abs(math.remainder(h - p.heading, 2 * math.pi)) < 1e-9
+    with pytest.raises(ValueError, match="--odometry-rate"):
+        scene_odometry(scene, n, no_errors(rate_hz=0.0))
+
+
 def path_length(steps):
     return sum(math.hypot(s["dx"], s["dy"]) for s in steps)
 
@@ -144,7 +164,8 @@ def test_cli_writes_the_log_and_its_options(tmp_path, capsys):
     assert [s["t"] for s in exact] == [t["pts"] / 1e9 for t in truth[1:]]
     scene = json.loads((tmp_path / "a" / "scene.json").read_text())
     assert scene["odometry"] == {"file": "odometry.jsonl", "scale": 0.0,
-                                 "drift_deg_per_m": 0.0, "noise": 0.0}
+                                 "drift_deg_per_m": 0.0, "noise": 0.0,
+                                 "rate_hz": None}
     # the default: 2 % scale, 1 degree per metre, 1 % noise
     assert cli.main(args + [str(tmp_path / "b")]) == 0
     default = read_lines(tmp_path / "b" / "odometry.jsonl")

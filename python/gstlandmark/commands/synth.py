@@ -168,6 +168,9 @@ def add_synth_parser(subparsers):
                      help="per-step slip and noise: relative sigma of "
                           "each step's translation and turn, and radians "
                           "of heading per metre (default 0.01)")
+    odo.add_argument("--odometry-rate", type=float, metavar="HZ",
+                     help="steps at this rate, between frames as a real "
+                          "encoder's (default: one per frame)")
     odo.add_argument("--no-odometry", dest="odometry", action="store_false",
                      help="write no odometry log")
 
@@ -215,7 +218,8 @@ def _handle(args):
         args.parser.error("the custom scenario needs --map FILE")
     out = args.out or os.path.join("out", "synth", args.scenario)
     odometry = args.odometry and OdometryErrors(
-        args.odometry_scale, args.odometry_drift, args.odometry_noise)
+        args.odometry_scale, args.odometry_drift, args.odometry_noise,
+        args.odometry_rate)
     overrides = {k: getattr(args, k) for k in OVERRIDE_ARGS
                  if getattr(args, k) is not None}
     try:

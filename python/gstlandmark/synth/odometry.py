@@ -3,7 +3,9 @@ odometry has, in the JSON-lines format ``landmarkslam odometry=`` reads
 (docs/landmarkslam.md, "Odometry file").
 
 Each line is the robot-frame motion between two consecutive frames,
-stamped with the later frame's stream time: ``dx`` forward and ``dy``
+stamped with the later frame's stream time (or, at a ``rate_hz`` of its
+own, between two encoder readings, which then fall between frames as a
+real robot's do): ``dx`` forward and ``dy``
 left in metres, ``dheading`` counter-clockwise in radians, in the robot
 frame at the start of the step.  Errors, each optional:
 
@@ -20,6 +22,7 @@ frame at the start of the step.  Errors, each optional:
 import json
 import math
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -34,6 +37,7 @@ class OdometryErrors:
     scale: float = 0.02          # relative translation error
     drift_deg_per_m: float = 1.0  # heading drift, degrees per metre
     noise: float = 0.01          # per-step relative slip / noise
+    rate_hz: Optional[float] = None  # None: one step per frame
 
     def check(self):
         """ValueError naming the option when a value is out of range."""
@@ -49,10 +53,14 @@ class OdometryErrors:
         if self.noise < 0:
             raise ValueError(f"--odometry-noise must be >= 0, got "
                              f"{self.noise!r}")
+        if self.rate_hz is not None and not (
+                math.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise ValueError(f"--odometry-rate must be a positive number "
+                             f"of Hz, got {self.rate_hz!r}")
 
     def to_json(self):
         return {"scale": self.scale, "drift_deg_per_m": self.drift_deg_per_m,
-                "noise": self.noise}
+                "noise": self.noise, "rate_hz": self.rate_hz}
 
 
 def relative_motion(a, b):
@@ -93,11 +101,20 @@ def frame_time(frame, fps):
 
 def scene_odometry(scene, frames, errors=None):
     """The odometry steps of ``frames`` frames of ``scene``'s path (the
-    poses the renderer used), seeded by the scene's seed."""
+    poses the renderer used), seeded by the scene's seed: one per frame,
+    or at ``errors.rate_hz`` from 0 to the last frame's time."""
     from .scenarios import Static
     trajectory = scene.trajectory or Static()
-    poses = [trajectory.pose(i / scene.fps) for i in range(frames)]
-    times = [frame_time(i, scene.fps) for i in range(frames)]
+    if errors is not None:
+        errors.check()
+    rate = errors.rate_hz if errors is not None else None
+    if rate is None:
+        times = [frame_time(i, scene.fps) for i in range(frames)]
+        poses = [trajectory.pose(i / scene.fps) for i in range(frames)]
+    else:
+        end = (frames - 1) / scene.fps
+        times = [k / rate for k in range(int(math.floor(end * rate)) + 1)]
+        poses = [trajectory.pose(t) for t in times]
     return odometry_steps(poses, times, errors, seed=scene.seed)
 
 

@@ -30,8 +30,11 @@
  *   landmark map (`map`, a JSON file in the format of docs/conventions.md),
  *   the robot pose as a triangle, and for each detection with a range a
  *   ray from the robot along its bearing and, when it is matched to a map
- *   landmark, the range circle around that landmark. Drawn only when the
- *   frame has a pose meta and a map is set.
+ *   landmark, the range circle around that landmark. With a
+ *   `GstLandmarkMapMeta` (landmarkslam), its landmarks with their 95 %
+ *   uncertainty ellipses (solid and filled when confirmed, dashed rings
+ *   when tentative) and the pose's 95 % ellipse. Drawn only when the
+ *   frame has a pose meta and a map is set or a map meta is present.
  * - `show-boundary`: the floor boundary of a `GstLandmarkFloorMeta` across
  *   the image (red on obstacles, cyan where the floor reaches max-range).
  * - `show-free-space`: the floor meta's radial obstacle profile as a green
@@ -124,6 +127,7 @@ struct State {
   std::vector<ov::Detection> detections;
   std::array<ov::ClassInfo, kMaxClasses> classes;
   std::vector<ov::Rgb> map_colours;
+  std::vector<ov::EstimatedLandmark> estimated;
 };
 
 }  // namespace
@@ -508,6 +512,66 @@ read_floor (const GstStructure * s, FloorArrays * fa)
   }
 }
 
+/* The i-th double of an array field; false when absent or not a double. */
+static bool
+array_double (const GstStructure * s, const char *field, guint i, double *out)
+{
+  const GValue *a = gst_structure_get_value (s, field);
+  if (!a || !GST_VALUE_HOLDS_ARRAY (a) || i >= gst_value_array_get_size (a))
+    return false;
+  const GValue *v = gst_value_array_get_value (a, i);
+  if (!G_VALUE_HOLDS_DOUBLE (v))
+    return false;
+  *out = g_value_get_double (v);
+  return true;
+}
+
+static const GValue *
+array_value (const GstStructure * s, const char *field, guint i)
+{
+  const GValue *a = gst_structure_get_value (s, field);
+  return a && GST_VALUE_HOLDS_ARRAY (a) && i < gst_value_array_get_size (a) ?
+      gst_value_array_get_value (a, i) : nullptr;
+}
+
+/* landmarkslam's map meta into st.estimated (strings borrowed from the
+ * meta for the frame); a landmark whose fields are missing is skipped, a
+ * missing covariance draws no ellipse. The pose's x, y covariance block
+ * from the pose meta's 3x3 `covariance`. */
+static void
+gst_landmark_overlay_read_estimate (State & st, const GstStructure * map_s,
+    const GstStructure * pose_s, int n_classes, ov::Estimate * est)
+{
+  st.estimated.clear ();
+  const GValue *ids = map_s ? gst_structure_get_value (map_s, "ids") : nullptr;
+  const guint n = ids && GST_VALUE_HOLDS_ARRAY (ids) ?
+      gst_value_array_get_size (ids) : 0;
+  for (guint i = 0; i < n; i++) {
+    ov::EstimatedLandmark lm;
+    const GValue *id = gst_value_array_get_value (ids, i);
+    const GValue *cls = array_value (map_s, "classes", i);
+    const GValue *ok = array_value (map_s, "confirmed", i);
+    if (!G_VALUE_HOLDS_STRING (id) || !array_double (map_s, "x", i, &lm.x) ||
+        !array_double (map_s, "y", i, &lm.y))
+      continue;
+    lm.id = g_value_get_string (id);
+    lm.colour = gst_landmark_overlay_class_colour (st, n_classes,
+        cls && G_VALUE_HOLDS_STRING (cls) ? g_value_get_string (cls) : nullptr);
+    lm.confirmed = ok && G_VALUE_HOLDS_BOOLEAN (ok) && g_value_get_boolean (ok);
+    for (guint k = 0; k < 4; k++)
+      if (!array_double (map_s, "covariance", 4 * i + k, &lm.cov[k]))
+        lm.cov[0] = NAN;
+    st.estimated.push_back (lm);
+  }
+  est->landmarks = st.estimated.data ();
+  est->n = (int) st.estimated.size ();
+  /* rows and columns x, y of the 3x3 over x, y, heading */
+  est->has_pose_cov = pose_s != nullptr;
+  for (guint k = 0; k < 4 && est->has_pose_cov; k++)
+    est->has_pose_cov = array_double (pose_s, "covariance",
+        (k / 2) * 3 + k % 2, &est->pose_cov[k]);
+}
+
 static GstFlowReturn
 gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
@@ -548,9 +612,11 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         const bool free_space = s.show_minimap && s.show_free_space &&
             fa.floor.rop_range;
         const bool panel = labels && (s.show_histogram || s.show_indicators);
-        /* the map needs a pose to be placed; the free space is drawn
-         * robot-centred (forward up) without one */
-        const bool map_frame = has_pose && has_map;
+        /* the map (or landmarkslam's estimate) needs a pose to be placed;
+         * the free space is drawn robot-centred (forward up) without one */
+        const GstStructure *map_meta = s.show_minimap && has_pose ?
+            landmark_map_meta_get (buf) : nullptr;
+        const bool map_frame = has_pose && (has_map || map_meta);
         const bool minimap = s.show_minimap && (map_frame || free_space);
         const bool detections = s.show_detections && has_rois;
         const bool pose_text = s.show_pose && has_pose;
@@ -607,9 +673,14 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
             where = ov::Pose ();
             where.heading = M_PI / 2;
           }
+          ov::Estimate est;
+          if (map_meta)
+            gst_landmark_overlay_read_estimate (st, map_meta, pose_s,
+                n_classes, &est);
           r.draw_minimap (with_map ? st.map.contents : st.no_map,
               st.map_colours.data (), where, st.detections.data (),
-              (int) st.detections.size (), free_space ? &fa.floor : nullptr);
+              (int) st.detections.size (), free_space ? &fa.floor : nullptr,
+              map_meta ? &est : nullptr);
         }
         if (pose_text)
           r.draw_pose_text (pose);

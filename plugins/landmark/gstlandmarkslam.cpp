@@ -32,7 +32,12 @@
  * out-of-band) with the increment since the previous one, `dx`, `dy`,
  * `dheading` (landmark_odometry_event_new, docs/embedding.md): those
  * received before a frame are its motion. `map-out=PATH` writes the
- * anchors and the confirmed landmarks at EOS in trilaterate's map format;
+ * anchors and the confirmed landmarks at EOS in trilaterate's map format,
+ * and whenever the application emits the `write-map` action signal
+ * (`gboolean write_map (GstElement *, const gchar *path)`, path NULL:
+ * `map-out`), also while playing; the file is replaced atomically (a
+ * temporary file renamed), and a path that cannot be written is a warning
+ * naming it (the signal returns FALSE) while the estimate goes on;
  * `post-messages` posts the map of every frame as a `landmark-map` element
  * message.
  *
@@ -96,11 +101,14 @@ struct Config {
 
 struct State {
   landmark::AppliedSettings<Settings, Config> applied;
+  /* held while the streaming thread changes the estimate, and by
+   * write-map from the application's thread; recursive because a sync bus
+   * handler of a message posted mid-frame may emit write-map */
+  std::recursive_mutex slam_lock;
   landmark::Slam slam;
   GstClockTime last_time = GST_CLOCK_TIME_NONE;
   size_t odometry_next = 0;
   guint64 frames = 0;
-  bool map_written = false;
   landmark::RangedDetections ranged;  /* reused */
   std::vector<landmark::SlamObservation> obs;   /* reused */
 
@@ -243,33 +251,54 @@ static gboolean
 gst_landmark_slam_start (GstBaseTransform * trans)
 {
   State & st = GST_LANDMARK_SLAM (trans)->priv->state;
+  std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
   st.frames = 0;
-  st.map_written = false;
   slam_restart (st);
   slam_apply_options (st);
   return TRUE;
 }
 
-/* Writes map-out; an unwritable path is an error that names it (the
- * estimate stays in the metadata already sent). */
+/* Writes the map to path, or to map-out when path is empty (nothing to do
+ * without either at EOS). An unwritable path is an error that names it at
+ * EOS, a warning when asked while running (the estimate goes on); the
+ * estimate stays in the metadata already sent. */
 static gboolean
-gst_landmark_slam_write_map (GstLandmarkSlam * self)
+gst_landmark_slam_write_map (GstLandmarkSlam * self, const char *asked,
+    bool at_eos)
 {
   State & st = self->priv->state;
   /* as set now: map-out needs no parsing, so it is read where it is used */
-  const std::string path = self->priv->settings.copy ().map_out;
-  if (path.empty ())
-    return TRUE;
+  const std::string path = asked && *asked ? std::string (asked) :
+      self->priv->settings.copy ().map_out;
+  if (path.empty ()) {
+    if (!at_eos)
+      GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+          ("write-map: no path given and 'map-out' is not set."), (nullptr));
+    return at_eos;
+  }
+  std::unique_lock<std::recursive_mutex> lk (st.slam_lock);
+  const std::string text = landmark::slam_map_json (st.slam.landmarks ());
+  lk.unlock ();
   std::string why;
-  if (!landmark::slam_write_file (path,
-          landmark::slam_map_json (st.slam.landmarks ()), &why)) {
-    GST_ELEMENT_ERROR (self, RESOURCE, OPEN_WRITE,
-        ("Invalid 'map-out' value."), ("%s", why.c_str ()));
+  if (!landmark::slam_write_file (path, text, &why)) {
+    if (at_eos)
+      GST_ELEMENT_ERROR (self, RESOURCE, OPEN_WRITE,
+          ("Invalid 'map-out' value."), ("%s", why.c_str ()));
+    else
+      GST_ELEMENT_WARNING (self, RESOURCE, OPEN_WRITE,
+          ("write-map: cannot write the map to %s.", path.c_str ()),
+          ("%s", why.c_str ()));
     return FALSE;
   }
   GST_INFO_OBJECT (self, "map written to %s", path.c_str ());
-  st.map_written = true;
   return TRUE;
+}
+
+/* The write-map action signal. */
+static gboolean
+gst_landmark_slam_write_map_action (GstLandmarkSlam * self, const char *path)
+{
+  return gst_landmark_slam_write_map (self, path, false);
 }
 
 /* An increment from the application; a malformed one is refused with a
@@ -305,16 +334,18 @@ gst_landmark_slam_sink_event (GstBaseTransform * trans, GstEvent * event)
   State & st = self->priv->state;
   switch (GST_EVENT_TYPE (event)) {
     case GST_EVENT_EOS:
-      if (!gst_landmark_slam_write_map (self)) {
+      if (!gst_landmark_slam_write_map (self, nullptr, true)) {
         gst_event_unref (event);
         return FALSE;
       }
       break;
     case GST_EVENT_FLUSH_STOP:
-    case GST_EVENT_STREAM_START:
+    case GST_EVENT_STREAM_START:{
       /* a new stream or a seek: time restarts, so does the estimate */
+      std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
       slam_restart (st);
       break;
+    }
     case GST_EVENT_CUSTOM_DOWNSTREAM:
     case GST_EVENT_CUSTOM_DOWNSTREAM_OOB:
       if (gst_event_has_name (event, GST_LANDMARK_ODOMETRY_EVENT_NAME))
@@ -470,6 +501,7 @@ static GstFlowReturn
 gst_landmark_slam_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LANDMARK_SLAM (trans);
+  std::lock_guard<std::recursive_mutex> lk (self->priv->state.slam_lock);
   gst_landmark_slam_sync_settings (self);
   return landmark::run_frame (GST_ELEMENT (self), "SLAM failed.",
       [&] { return gst_landmark_slam_process (self, buf); });
@@ -490,4 +522,20 @@ gst_landmark_slam_class_init (GstLandmarkSlamClass * klass)
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_landmark_slam_sink_event);
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_slam_transform_ip);
+
+  /**
+   * GstLandmarkSlam::write-map:
+   * @slam: the element
+   * @path: (nullable): where to write; NULL or "": `map-out`
+   *
+   * Writes the map now (anchors and confirmed landmarks, the format of
+   * `map-out`), atomically, from any thread and in any state.
+   *
+   * Returns: TRUE when written; FALSE (with a warning naming the path)
+   * when it could not be, or when there is no path.
+   */
+  g_signal_new_class_handler ("write-map", G_TYPE_FROM_CLASS (klass),
+      (GSignalFlags) (G_SIGNAL_RUN_LAST | G_SIGNAL_ACTION),
+      G_CALLBACK (gst_landmark_slam_write_map_action), nullptr, nullptr,
+      nullptr, G_TYPE_BOOLEAN, 1, G_TYPE_STRING);
 }

@@ -264,6 +264,29 @@ def test_anchored_map_error_without_alignment_is_exact():
     assert tr["heading_deg"]["max"] == pytest.approx(5.0)
 
 
+def test_frames_bridged_on_few_landmarks():
+    """Poses paired with fewer than 3 landmarks are scored apart: on an
+    anchored map (no alignment), 10 of 40 frames with one landmark, each
+    1..10 cm off along x: their p95 is that of 1..10 cm, 9.55 cm; the
+    others, exact, do not dilute it."""
+    truth = circle_truth()
+    res = estimate_of(truth, TRUE_MAP, 0.0, (0, 0))
+    for k, line in enumerate(res):
+        line["pose"]["n-landmarks"] = 4
+        if k >= 30:
+            line["pose"]["n-landmarks"] = 1
+            line["pose"]["x"] += 0.01 * (k - 29)
+    s = E.slam_evaluation(res, truth, TRUE_MAP)
+    assert s["anchored"] is True
+    few = s["trajectory"]["few_landmarks"]
+    assert few["below"] == 3 and few["frames"] == 10
+    assert few["position_m"]["p95"] == pytest.approx(0.0955)
+    assert few["position_m"]["max"] == pytest.approx(0.10)
+    assert s["trajectory"]["position_m"]["median"] == pytest.approx(0.0)
+    assert "10 frames bridged on fewer than 3 landmarks" in \
+        E.format_slam(s)
+
+
 def test_duplicated_spurious_and_missed_landmarks():
     est = [dict(m, id=f"S{k}") for k, m in enumerate(TRUE_MAP[:6], 1)]
     est.append(dict(TRUE_MAP[0], id="copy", x=0.06))   # L1 twice

@@ -99,6 +99,42 @@ struct Floor {
   const uint8_t *rop_state = nullptr;
 };
 
+/* landmarkslam's estimate (GstLandmarkMapMeta, docs/landmarkslam.md):
+ * one landmark, strings borrowed for the frame. */
+struct EstimatedLandmark {
+  const char *id = nullptr;
+  Rgb colour;
+  double x = 0, y = 0;        /* metres, map frame */
+  double cov[4] = { 0, 0, 0, 0 };  /* 2x2, row-major over x, y */
+  bool confirmed = false;
+};
+
+/* What the mini-map draws of the estimate: its landmarks, and the pose's
+ * x, y covariance when the pose meta has one. */
+struct Estimate {
+  const EstimatedLandmark *landmarks = nullptr;
+  int n = 0;
+  bool has_pose_cov = false;
+  double pose_cov[4] = { 0, 0, 0, 0 };
+};
+
+/* chi-square with 2 degrees of freedom at 95 %: a 2-D Gaussian's 95 %
+ * region is the ellipse e^T P^-1 e <= this */
+inline constexpr double kChi2Dof2P95 = 5.991;
+
+/* The semi-axes (metres) of the ellipse e^T P^-1 e <= chi2 of a 2x2
+ * covariance P (row-major), and the angle of the major axis from +x
+ * (radians, counter-clockwise): a = sqrt(chi2 l1), b = sqrt(chi2 l2) for
+ * the eigenvalues l1 >= l2 of P, along their eigenvectors. ok is false
+ * (and nothing else set) for a P that is not finite, not symmetric or has
+ * a negative eigenvalue. */
+struct EllipseAxes {
+  bool ok = false;
+  double major = 0, minor = 0, angle = 0;
+};
+EllipseAxes covariance_ellipse (const double cov[4],
+    double chi2 = kChi2Dof2P95);
+
 /* colours of the floor drawings */
 inline constexpr Rgb kFloorObstacle { 255, 40, 40 };  /* on an obstacle */
 inline constexpr Rgb kFloorOpen { 0, 220, 255 };  /* max-range, top row */
@@ -160,9 +196,12 @@ public:
   /* colours: one per map landmark. free_space (may be null): the ROP as a
    * polygon around the robot, drawn under the map. Without landmarks the
    * inset still shows the robot and its free space. */
+  /* estimate (may be null): landmarkslam's landmarks with their 95 %
+   * ellipses, confirmed ones filled, tentative ones as rings with dashed
+   * ellipses, and the pose's 95 % ellipse around the robot. */
   void draw_minimap (const LandmarkMap & map, const Rgb * colours,
       const Pose & pose, const Detection * dets, int n_dets,
-      const Floor * free_space = nullptr);
+      const Floor * free_space = nullptr, const Estimate * estimate = nullptr);
   void draw_labels ();
 
   /* True when something was drawn since begin_frame(). */

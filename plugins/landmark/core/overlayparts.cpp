@@ -395,14 +395,59 @@ Renderer::draw_boundary (const Floor & f)
   }
 }
 
+EllipseAxes
+covariance_ellipse (const double cov[4], double chi2)
+{
+  EllipseAxes e;
+  for (int i = 0; i < 4; i++)
+    if (!std::isfinite (cov[i]))
+      return e;
+  const double scale = std::max (std::fabs (cov[0]), std::fabs (cov[3]));
+  if (!(chi2 > 0) || std::fabs (cov[1] - cov[2]) > 1e-9 * scale + 1e-300)
+    return e;
+  /* OpenCV's symmetric eigen-decomposition: values in descending order,
+   * vectors as rows */
+  const cv::Matx22d p (cov[0], cov[1], cov[2], cov[3]);
+  cv::Matx21d values;
+  cv::Matx22d vectors;
+  if (!cv::eigen (p, values, vectors) || values (1) < -1e-12 * scale)
+    return e;
+  e.ok = true;
+  e.major = std::sqrt (chi2 * std::max (values (0), 0.0));
+  e.minor = std::sqrt (chi2 * std::max (values (1), 0.0));
+  e.angle = std::atan2 (vectors (0, 1), vectors (0, 0));
+  return e;
+}
+
+/* The outline of a 95 % ellipse around (x, y) in world metres, mapped to
+ * panel pixels by to_px, into pts. */
+template <typename ToPx>
+static void
+ellipse_outline (double x, double y, const double cov[4], ToPx to_px,
+    std::vector<cv::Point2d> & pts)
+{
+  pts.clear ();
+  const EllipseAxes e = covariance_ellipse (cov);
+  if (!e.ok)
+    return;
+  const double ca = std::cos (e.angle), sa = std::sin (e.angle);
+  for (int i = 0; i < kEllipsePoints; i++) {
+    const double t = 2 * M_PI * i / kEllipsePoints;
+    const double along = e.major * std::cos (t), across = e.minor * std::sin (t);
+    pts.push_back (to_px (x + along * ca - across * sa,
+            y + along * sa + across * ca));
+  }
+}
+
 void
 Renderer::draw_minimap (const LandmarkMap & map, const Rgb * colours,
     const Pose & pose, const Detection * dets, int n_dets,
-    const Floor * free_space)
+    const Floor * free_space, const Estimate * estimate)
 {
   const bool floor = free_space && free_space->bins > 0 &&
       free_space->rop_range && free_space->rop_state;
-  if (canvas_.empty () || (map.landmarks.empty () && !floor))
+  const int n_est = estimate ? estimate->n : 0;
+  if (canvas_.empty () || (map.landmarks.empty () && !floor && n_est == 0))
     return;
   const double g = st_.g;
   const int p = st_.pad, m = st_.margin;
@@ -419,6 +464,13 @@ Renderer::draw_minimap (const LandmarkMap & map, const Rgb * colours,
    * free space's corners are bin edges at each bin's range (map frame) */
   double wx0 = pose.x, wx1 = pose.x, wy0 = pose.y, wy1 = pose.y;
   for (const auto & lm : map.landmarks) {
+    wx0 = std::min (wx0, lm.x);
+    wx1 = std::max (wx1, lm.x);
+    wy0 = std::min (wy0, lm.y);
+    wy1 = std::max (wy1, lm.y);
+  }
+  for (int i = 0; i < n_est; i++) {
+    const EstimatedLandmark & lm = estimate->landmarks[i];
     wx0 = std::min (wx0, lm.x);
     wx1 = std::max (wx1, lm.x);
     wy0 = std::min (wy0, lm.y);
@@ -553,6 +605,38 @@ Renderer::draw_minimap (const LandmarkMap & map, const Rgb * colours,
       if (tx + tw > x0 + side - 1)
         tx = iround (c.x - r - 2) - tw;
       text (lm.id.c_str (), tx, iround (c.y + st_.ascent / 2.0), kWhite, 200);
+    }
+  }
+
+  /* the estimate: each landmark's 95 % ellipse in its class colour over a
+   * dark halo, solid and with a filled dot when confirmed, dashed with a
+   * ring when tentative; the pose's ellipse in white */
+  for (int i = 0; i < n_est; i++) {
+    const EstimatedLandmark & lm = estimate->landmarks[i];
+    const cv::Point2d c = to_px (lm.x, lm.y);
+    const double r = std::max (1.5, 2 * g);
+    ellipse_outline (lm.x, lm.y, lm.cov, to_px, pts_);
+    if (!pts_.empty ()) {
+      polyline (pts_.data (), (int) pts_.size (), true, kBlack, 150, thin + 2,
+          !lm.confirmed);
+      polyline (pts_.data (), (int) pts_.size (), true, lm.colour, 255, thin,
+          !lm.confirmed);
+    }
+    if (lm.confirmed) {
+      fill_circle (c, r + 1, kBlack, 200);
+      fill_circle (c, r, lm.colour, 255);
+    } else {
+      circle (c, r, kBlack, 200, thin + 2);
+      circle (c, r, lm.colour, 255, thin);
+    }
+  }
+  if (estimate && estimate->has_pose_cov) {
+    ellipse_outline (pose.x, pose.y, estimate->pose_cov, to_px, pts_);
+    if (!pts_.empty ()) {
+      polyline (pts_.data (), (int) pts_.size (), true, kBlack, 150, thin + 2,
+          false);
+      polyline (pts_.data (), (int) pts_.size (), true, kWhite, 230, thin,
+          false);
     }
   }
 

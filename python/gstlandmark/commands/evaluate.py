@@ -30,7 +30,8 @@
   position error per landmark and RMS after the alignment, and without
   it when the map was anchored (an estimated id is a true id); the
   absolute trajectory error (positions after the best rigid alignment of
-  the path, none when anchored) and heading error; the NEES of the pose
+  the path, none when anchored) and heading error, also over the frames
+  bridged on fewer than 3 landmarks; the NEES of the pose
   (3 dof) and of the landmarks at the end (2 dof) against the two-sided
   95 % chi-square intervals, in the estimator's frame (the first pose
   placed on the true first pose, or the map's when anchored).
@@ -456,6 +457,10 @@ def _transform_dict(tf: Rigid2D) -> Dict[str, float]:
     return {"angle_deg": math.degrees(tf.angle), "x": tf.tx, "y": tf.ty}
 
 
+# A pose paired with fewer landmarks than this has no fix of its own.
+FIX_LANDMARKS = 3
+
+
 def slam_evaluation(results: Sequence[Dict[str, Any]],
                     truth: Sequence[Dict[str, Any]],
                     true_map: Sequence[Dict[str, Any]] = (),
@@ -482,13 +487,19 @@ def slam_evaluation(results: Sequence[Dict[str, Any]],
     true_xy = np.array([[r["x"], r["y"]] for _, r in rows]).reshape(-1, 2)
     path_tf = Rigid2D() if anchored else align_rigid(est_xy, true_xy)
     moved = path_tf.apply(est_xy)
+    pos_err = np.hypot(*(moved - true_xy).T) if len(rows) else np.zeros(0)
+    # frames the estimator bridged on fewer landmarks than a fix needs:
+    # its motion model or odometry carried the pose
+    few = [k for k, (p, _) in enumerate(rows)
+           if int(p.get("n-landmarks", 0)) < FIX_LANDMARKS]
     out["trajectory"] = {
         "frames": len(rows), "aligned": not anchored,
         "transform": _transform_dict(path_tf),
-        "position_m": error_stats(np.hypot(*(moved - true_xy).T)
-                                  if len(rows) else []),
+        "position_m": error_stats(pos_err),
         "heading_deg": error_stats([math.degrees(wrap_angle(
-            p["heading"] + path_tf.angle - r["heading"])) for p, r in rows])}
+            p["heading"] + path_tf.angle - r["heading"])) for p, r in rows]),
+        "few_landmarks": {"below": FIX_LANDMARKS, "frames": len(few),
+                          "position_m": error_stats(pos_err[few])}}
 
     # the estimator's frame: the map's when anchored, else its first pose
     # is its origin (docs/landmarkslam.md), so put it on the true first pose
@@ -579,6 +590,13 @@ def format_slam(s: Dict[str, Any]) -> str:
                      f"{_cm(pm, 'max')}; heading deg median "
                      f"{hd['median']:.3f} p95 {hd['p95']:.3f} max "
                      f"{hd['max']:.3f}")
+    few = tr.get("few_landmarks")
+    if few and few["frames"]:
+        fm = few["position_m"]
+        lines.append(f"  {few['frames']} frames bridged on fewer than "
+                     f"{few['below']} landmarks: ATE cm median "
+                     f"{_cm(fm, 'median')} p95 {_cm(fm, 'p95')} max "
+                     f"{_cm(fm, 'max')}")
     m = s["map"]
     lines.append(f"  map: {m['estimated']} confirmed ({m['tentative']} "
                  f"tentative), {m['true']} true")

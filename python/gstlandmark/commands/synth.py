@@ -6,6 +6,7 @@ import os
 
 from ..palette import PaletteError
 from ..synth.floors import FLOOR_NAMES
+from ..synth.odometry import OdometryErrors
 from ..synth.scenarios import DEFAULT_ROBOT, ROBOTS, SCENARIOS
 from .common import CliError, size_type
 
@@ -18,8 +19,10 @@ frame0.png and mask0.png (class mask of the first frame, values index
 the scene palette), chart.png and chart-mask.png (a colour chart of
 every palette class under frame 0's camera and lighting, for
 'gst-landmark palette learn --mask').  Prints, and writes in scene.json,
-the histogram of frames by landmarks visible with >= 150 pixels; and
-camera.yml, the true camera as a camera file for ipmrange calibration=.
+the histogram of frames by landmarks visible with >= 150 pixels;
+camera.yml, the true camera as a camera file for ipmrange calibration=;
+and odometry.jsonl, wheel odometry from the true path with a scale
+error, heading drift and per-step slip, for landmarkslam odometry=.
 
 The default robot is the seed's: a 54-degree 640x480 webcam 0.2 m above
 the floor, tilted 18 degrees down, with 10 cm discs and 8 cm balls.
@@ -152,6 +155,25 @@ def add_synth_parser(subparsers):
     fx.add_argument("--shutter", type=float, metavar="FRACTION",
                     help="exposure time / frame interval (default 0.5)")
 
+    odo = p.add_argument_group(
+        "odometry log (odometry.jsonl, for landmarkslam odometry=)")
+    odo.add_argument("--odometry-scale", type=float, default=0.02,
+                     metavar="FRACTION",
+                     help="translation scale error (default 0.02: 2 %%)")
+    odo.add_argument("--odometry-drift", type=float, default=1.0,
+                     metavar="DEG_PER_M",
+                     help="heading drift per metre travelled (default 1)")
+    odo.add_argument("--odometry-noise", type=float, default=0.01,
+                     metavar="FRACTION",
+                     help="per-step slip and noise: relative sigma of "
+                          "each step's translation and turn, and radians "
+                          "of heading per metre (default 0.01)")
+    odo.add_argument("--odometry-rate", type=float, metavar="HZ",
+                     help="steps at this rate, between frames as a real "
+                          "encoder's (default: one per frame)")
+    odo.add_argument("--no-odometry", dest="odometry", action="store_false",
+                     help="write no odometry log")
+
     out = p.add_argument_group("outputs")
     out.add_argument("--frames-png", metavar="DIR",
                      help="also write lossless frames DIR/000000.png ...")
@@ -195,13 +217,16 @@ def _handle(args):
     if args.scenario == "custom" and args.map is None:
         args.parser.error("the custom scenario needs --map FILE")
     out = args.out or os.path.join("out", "synth", args.scenario)
+    odometry = args.odometry and OdometryErrors(
+        args.odometry_scale, args.odometry_drift, args.odometry_noise,
+        args.odometry_rate)
     overrides = {k: getattr(args, k) for k in OVERRIDE_ARGS
                  if getattr(args, k) is not None}
     try:
         summary = render_scenario(
             args.scenario, out, seed=args.seed, frames=args.frames,
             size=args.size, progress=args.progress, robot=args.robot,
-            variant=args.variant,
+            variant=args.variant, odometry=odometry,
             frames_png=args.frames_png, raw=args.raw, masks=args.masks,
             **overrides)
     except (ValueError, OSError, PaletteError, PipelineError) as err:
@@ -216,5 +241,7 @@ def _handle(args):
                "camera.yml", "frame0.png", "mask0.png"]
     if "chart" in summary["files"]:
         written += ["chart.png", "chart-mask.png"]
+    if "odometry" in summary["files"]:
+        written.append("odometry.jsonl")
     print(f"wrote {out}/clip.avi, {', '.join(written)}")
     return 0

@@ -16,6 +16,9 @@ surface boundary may be) and writes, in DIR:
   camera);
 - ``scene.json`` (camera, palette, map, floor, effects, ...), ``map.json``
   (docs/conventions.md), ``palette.json`` (the scene palette);
+- ``odometry.jsonl``: wheel odometry from the true path with a scale
+  error, heading drift and per-step slip (``odometry``), in the format
+  ``landmarkslam odometry=`` reads;
 - ``frame0.png`` and ``mask0.png`` (value k = class k of the scene
   palette, 0 = none), or ``masks/NNNNNN.png`` for every frame;
 - ``chart.png`` and ``chart-mask.png``: a colour chart of every class of

@@ -12,6 +12,7 @@ import numpy as np
 from ..palette import save_palette
 
 from .chart import render_chart
+from .odometry import OdometryErrors, scene_odometry, write_odometry
 from .render import render_frame
 from .scenarios import Static, build_scenario
 from .world import palette_json
@@ -201,11 +202,17 @@ def scene_json(scene, frames):
 
 
 def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
-                  raw=None, masks="first", clip=True):
+                  raw=None, masks="first", clip=True, odometry=True):
     """Render ``frames`` frames of ``scene`` into ``out_dir``; return a
     summary dict.  ``frames_png``: folder for lossless PNG frames;
     ``raw``: file for raw RGB frames; ``masks``: "first" or "all";
-    ``progress``: None = only when stderr is a terminal."""
+    ``progress``: None = only when stderr is a terminal; ``odometry``:
+    the ``odometry.OdometryErrors`` of the odometry log, True for the
+    defaults, False for no log."""
+    if odometry is True:
+        odometry = OdometryErrors()
+    if odometry:
+        odometry.check()
     if masks not in ("first", "all"):
         raise ValueError(f"masks must be 'first' or 'all', got {masks!r}")
     os.makedirs(out_dir, exist_ok=True)
@@ -225,6 +232,8 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
              "chart_mask": os.path.join(out_dir, "chart-mask.png")}
     if clip:
         files["clip"] = os.path.join(out_dir, "clip.avi")
+    if odometry:
+        files["odometry"] = os.path.join(out_dir, "odometry.jsonl")
     if frames_png:
         os.makedirs(frames_png, exist_ok=True)
         files["frames_png"] = frames_png
@@ -307,12 +316,18 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
         description["frames_png"] = frames_png
     description["masks"] = "masks/%06d.png" if masks == "all" else None
     description["render_seconds"] = round(seconds, 3)
+    description["odometry"] = (
+        {"file": "odometry.jsonl", **odometry.to_json()} if odometry
+        else None)
     with open(files["scene"], "w", encoding="utf-8") as f:
         json.dump(description, f, indent=2)
         f.write("\n")
     with open(files["map"], "w", encoding="utf-8") as f:
         json.dump(scene.map_json(), f, indent=2)
         f.write("\n")
+    if odometry:
+        write_odometry(files["odometry"],
+                       scene_odometry(scene, frames, odometry))
     # the true camera as a camera file (docs/calibration.md), for
     # ipmrange calibration=...
     write_camera_yaml(scene.camera, files["camera"])
@@ -347,11 +362,12 @@ def write_camera_yaml(camera, path):
 def render_scenario(name, out_dir, seed=0, frames=None, size=(640, 480),
                     progress=None, frames_png=None, raw=None,
                     masks="first", clip=True, robot=None, variant=None,
-                    **overrides):
+                    odometry=True, **overrides):
     """Build the named scenario and write it to ``out_dir``; return the
     summary (see ``write_outputs``).  ``robot``: "seed" (default) or
     "comfortable"; ``variant``: a variant number (``variants``) or a
-    drawn variant dict; ``overrides``: see ``scenarios.OVERRIDES``."""
+    drawn variant dict; ``odometry``: see ``write_outputs``;
+    ``overrides``: see ``scenarios.OVERRIDES``."""
     from .scenarios import DEFAULT_ROBOT
     from .variants import draw_variant
     if variant is not None and not isinstance(variant, dict):
@@ -361,4 +377,4 @@ def render_scenario(name, out_dir, seed=0, frames=None, size=(640, 480),
                               **overrides)
     return write_outputs(scene, n, out_dir, progress=progress,
                          frames_png=frames_png, raw=raw, masks=masks,
-                         clip=clip)
+                         clip=clip, odometry=odometry)

@@ -1,0 +1,125 @@
+"""A wheel-odometry log from the true path, with the errors real wheel
+odometry has, in the JSON-lines format ``landmarkslam odometry=`` reads
+(docs/landmarkslam.md, "Odometry file").
+
+Each line is the robot-frame motion between two consecutive frames,
+stamped with the later frame's stream time (or, at a ``rate_hz`` of its
+own, between two encoder readings, which then fall between frames as a
+real robot's do): ``dx`` forward and ``dy``
+left in metres, ``dheading`` counter-clockwise in radians, in the robot
+frame at the start of the step.  Errors, each optional:
+
+- **scale**: every step's translation is ``1 + scale`` times the true one
+  (wheel radius or encoder resolution off);
+- **heading drift**: ``drift`` radians are added per metre travelled
+  (one wheel slightly larger than the other);
+- **slip and noise**: per step, the translation and the turn are each
+  multiplied by ``1 + N(0, noise)`` and the heading gains
+  ``N(0, noise)`` radians per metre of the step; drawn from a generator
+  seeded by the scenario's seed, so a clip and its log are reproducible.
+"""
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+# Added to the scenario seed so the odometry's random stream is its own
+# and does not shift when the scene draws more numbers.
+SEED_STREAM = 0x0D0
+
+
+@dataclass
+class OdometryErrors:
+    """The error model; the defaults are those of docs/synth.md."""
+    scale: float = 0.02          # relative translation error
+    drift_deg_per_m: float = 1.0  # heading drift, degrees per metre
+    noise: float = 0.01          # per-step relative slip / noise
+    rate_hz: Optional[float] = None  # None: one step per frame
+
+    def check(self):
+        """ValueError naming the option when a value is out of range."""
+        for name, value in (("scale", self.scale),
+                            ("drift", self.drift_deg_per_m),
+                            ("noise", self.noise)):
+            if not math.isfinite(value):
+                raise ValueError(f"--odometry-{name} must be finite, got "
+                                 f"{value!r}")
+        if self.scale <= -1:
+            raise ValueError(f"--odometry-scale must be > -1 (a fraction: "
+                             f"0.02 is 2 %), got {self.scale!r}")
+        if self.noise < 0:
+            raise ValueError(f"--odometry-noise must be >= 0, got "
+                             f"{self.noise!r}")
+        if self.rate_hz is not None and not (
+                math.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise ValueError(f"--odometry-rate must be a positive number "
+                             f"of Hz, got {self.rate_hz!r}")
+
+    def to_json(self):
+        return {"scale": self.scale, "drift_deg_per_m": self.drift_deg_per_m,
+                "noise": self.noise, "rate_hz": self.rate_hz}
+
+
+def relative_motion(a, b):
+    """The motion from pose ``a`` to pose ``b`` (``x, y, heading``) in
+    ``a``'s robot frame: (dx forward, dy left, dheading wrapped)."""
+    c, s = math.cos(a.heading), math.sin(a.heading)
+    wx, wy = b.x - a.x, b.y - a.y
+    return (c * wx + s * wy, -s * wx + c * wy,
+            math.remainder(b.heading - a.heading, 2 * math.pi))
+
+
+def odometry_steps(poses, times, errors=None, seed=0):
+    """One increment per pair of consecutive ``poses`` (objects with
+    ``x``, ``y``, ``heading``), stamped with the later of ``times``
+    (seconds), with ``errors`` (``OdometryErrors``; default: none)."""
+    errors = errors or OdometryErrors(0.0, 0.0, 0.0)
+    errors.check()
+    rng = np.random.default_rng((int(seed), SEED_STREAM))
+    drift = math.radians(errors.drift_deg_per_m)
+    steps = []
+    for a, b, t in zip(poses, poses[1:], times[1:]):
+        dx, dy, dh = relative_motion(a, b)
+        dist = math.hypot(dx, dy)
+        slip, turn, wobble = (rng.standard_normal(3) * errors.noise
+                              if errors.noise > 0 else (0.0, 0.0, 0.0))
+        k = (1.0 + errors.scale) * (1.0 + slip)
+        steps.append({"t": t, "dx": dx * k, "dy": dy * k,
+                      "dheading": dh * (1.0 + turn)
+                      + (drift + wobble) * dist})
+    return steps
+
+
+def frame_time(frame, fps):
+    """A frame's stream time in seconds, as its buffer's pts (truth.jsonl
+    ``pts``) gives it to the elements."""
+    return (int(frame) * 1_000_000_000 // int(fps)) / 1e9
+
+
+def scene_odometry(scene, frames, errors=None):
+    """The odometry steps of ``frames`` frames of ``scene``'s path (the
+    poses the renderer used), seeded by the scene's seed: one per frame,
+    or at ``errors.rate_hz`` from 0 to the last frame's time."""
+    from .scenarios import Static
+    trajectory = scene.trajectory or Static()
+    if errors is not None:
+        errors.check()
+    rate = errors.rate_hz if errors is not None else None
+    if rate is None:
+        times = [frame_time(i, scene.fps) for i in range(frames)]
+        poses = [trajectory.pose(i / scene.fps) for i in range(frames)]
+    else:
+        end = (frames - 1) / scene.fps
+        times = [k / rate for k in range(int(math.floor(end * rate)) + 1)]
+        poses = [trajectory.pose(t) for t in times]
+    return odometry_steps(poses, times, errors, seed=scene.seed)
+
+
+def write_odometry(path, steps):
+    """Write the steps as JSON lines (full float precision)."""
+    with open(path, "w", encoding="utf-8") as f:
+        for step in steps:
+            f.write(json.dumps(step) + "\n")

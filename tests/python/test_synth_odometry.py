@@ -1,0 +1,182 @@
+"""The odometry log gst-landmark synth writes beside the truth
+(synth/odometry.py, docs/synth.md): integrated here by composing the
+robot-frame steps independently of the module, it gives back the true
+path when every error is 0; a scale error s lengthens the path by
+exactly 1 + s; a heading drift of d degrees per metre turns it by d times
+the length; the noise has the stated spread and follows the seed."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from gstlandmark.commands import cli
+from gstlandmark.synth.odometry import (OdometryErrors, frame_time,
+                                        odometry_steps, scene_odometry)
+from gstlandmark.synth.scenarios import build_scenario
+
+FRAMES = 600  # two loops of the path scenario at 30 frames/s
+
+
+@pytest.fixture(scope="module")
+def path_scene():
+    scene, n = build_scenario("path", seed=3, frames=FRAMES)
+    return scene, n
+
+
+def integrate(start, steps):
+    """Compose robot-frame steps from a start pose: the poses after each."""
+    x, y, h = start
+    out = []
+    for s in steps:
+        c, sn = math.cos(h), math.sin(h)
+        x += c * s["dx"] - sn * s["dy"]
+        y += sn * s["dx"] + c * s["dy"]
+        h += s["dheading"]
+        out.append((x, y, h))
+    return out
+
+
+def true_poses(scene, n):
+    return [scene.trajectory.pose(i / scene.fps) for i in range(n)]
+
+
+def no_errors(**kw):
+    return OdometryErrors(**{"scale": 0.0, "drift_deg_per_m": 0.0,
+                             "noise": 0.0, **kw})
+
+
+def test_exact_log_integrates_to_the_true_path(path_scene):
+    scene, n = path_scene
+    steps = scene_odometry(scene, n, no_errors())
+    truth = true_poses(scene, n)
+    assert len(steps) == n - 1
+    # stamped with the later frame's stream time, as its buffer's pts
+    assert [s["t"] for s in steps] == [
+        (i * 1_000_000_000 // scene.fps) / 1e9 for i in range(1, n)]
+    t0 = truth[0]
+    for (x, y, h), t in zip(integrate((t0.x, t0.y, t0.heading), steps),
+                            truth[1:]):
+        assert abs(x - t.x) < 1e-9 and abs(y - t.y) < 1e-9
+        assert abs(math.remainder(h - t.heading, 2 * math.pi)) < 1e-9
+
+
+def test_own_rate_integrates_to_the_true_path(path_scene):
+    """At 100 Hz the steps fall between frames; each reading still
+    composes to the true pose at its own time."""
+    scene, n = path_scene
+    steps = scene_odometry(scene, n, no_errors(rate_hz=100.0))
+    end = (n - 1) / scene.fps
+    assert len(steps) == math.floor(end * 100)
+    times = [s["t"] for s in steps]
+    assert times == [k / 100 for k in range(1, len(steps) + 1)]
+    assert times[-1] <= end < times[-1] + 0.01
+    t0 = scene.trajectory.pose(0.0)
+    for (x, y, h), t in zip(integrate((t0.x, t0.y, t0.heading), steps),
+                            times):
+        p = scene.trajectory.pose(t)
+        assert abs(x - p.x) < 1e-9 and abs(y - p.y) < 1e-9
+        assert abs(math.remainder(h - p.heading, 2 * math.pi)) < 1e-9
+    with pytest.raises(ValueError, match="--odometry-rate"):
+        scene_odometry(scene, n, no_errors(rate_hz=0.0))
+
+
+def path_length(steps):
+    return sum(math.hypot(s["dx"], s["dy"]) for s in steps)
+
+
+def test_scale_error_lengthens_the_path(path_scene):
+    scene, n = path_scene
+    loop = scene.trajectory
+    # the loop's own arc length, times the laps driven (not the steps)
+    true_length = loop.length * ((n - 1) / scene.fps) / loop.period_s
+    assert path_length(scene_odometry(scene, n, no_errors())) == \
+        pytest.approx(true_length, rel=1e-4)
+    for s in (0.02, -0.05):
+        steps = scene_odometry(scene, n, no_errors(scale=s))
+        assert path_length(steps) == pytest.approx((1 + s) * true_length,
+                                                   rel=1e-4)
+
+
+def test_straight_line_scale_is_exact():
+    class Line:
+        def __init__(self, t):
+            self.x, self.y, self.heading = 0.3 * t, 0.0, 0.0
+    times = [i / 30 for i in range(31)]
+    steps = odometry_steps([Line(t) for t in times], times,
+                           no_errors(scale=0.02))
+    assert path_length(steps) == pytest.approx(1.02 * 0.3, abs=1e-12)
+    assert integrate((0, 0, 0), steps)[-1] == pytest.approx(
+        (1.02 * 0.3, 0.0, 0.0), abs=1e-12)
+
+
+def test_heading_drift_per_metre(path_scene):
+    scene, n = path_scene
+    exact = scene_odometry(scene, n, no_errors())
+    drifted = scene_odometry(scene, n, no_errors(drift_deg_per_m=1.0))
+    turned = sum(s["dheading"] for s in drifted) - \
+        sum(s["dheading"] for s in exact)
+    assert turned == pytest.approx(math.radians(1.0) * path_length(exact),
+                                   rel=1e-9)
+    # the translation is untouched
+    assert [s["dx"] for s in drifted] == [s["dx"] for s in exact]
+
+
+def test_noise_spread_and_seed(path_scene):
+    scene, n = path_scene
+    exact = scene_odometry(scene, n, no_errors())
+    noisy = scene_odometry(scene, n, no_errors(noise=0.05))
+    ratio = np.array([math.hypot(a["dx"], a["dy"]) /
+                      math.hypot(b["dx"], b["dy"])
+                      for a, b in zip(noisy, exact)])
+    # 599 draws of N(1, 0.05): the sample spread within 15 %
+    assert np.std(ratio) == pytest.approx(0.05, rel=0.15)
+    assert abs(np.mean(ratio) - 1) < 3 * 0.05 / math.sqrt(len(ratio))
+    # the scene's seed fixes the draws: the same again, another differs
+    assert scene_odometry(scene, n, no_errors(noise=0.05)) == noisy
+    scene.seed += 1
+    try:
+        other = scene_odometry(scene, n, no_errors(noise=0.05))
+    finally:
+        scene.seed -= 1
+    assert [s["dx"] for s in other] != [s["dx"] for s in noisy]
+
+
+def test_frame_time_matches_the_truth_pts():
+    assert frame_time(1, 30) == 33333333 / 1e9
+    assert frame_time(0, 25) == 0.0
+
+
+def read_lines(path):
+    return [json.loads(x) for x in path.read_text().splitlines()]
+
+
+def test_cli_writes_the_log_and_its_options(tmp_path, capsys):
+    args = ["synth", "path", "--frames", "4", "--size", "96x72",
+            "--no-progress", "--out"]
+    assert cli.main(args + [str(tmp_path / "a"),
+                            "--odometry-scale", "0", "--odometry-drift",
+                            "0", "--odometry-noise", "0"]) == 0
+    assert "odometry.jsonl" in capsys.readouterr().out
+    exact = read_lines(tmp_path / "a" / "odometry.jsonl")
+    truth = read_lines(tmp_path / "a" / "truth.jsonl")
+    assert [s["t"] for s in exact] == [t["pts"] / 1e9 for t in truth[1:]]
+    scene = json.loads((tmp_path / "a" / "scene.json").read_text())
+    assert scene["odometry"] == {"file": "odometry.jsonl", "scale": 0.0,
+                                 "drift_deg_per_m": 0.0, "noise": 0.0,
+                                 "rate_hz": None}
+    # the default: 2 % scale, 1 degree per metre, 1 % noise
+    assert cli.main(args + [str(tmp_path / "b")]) == 0
+    default = read_lines(tmp_path / "b" / "odometry.jsonl")
+    assert path_length(default) == pytest.approx(1.02 * path_length(exact),
+                                                 rel=0.01)
+    assert cli.main(args + [str(tmp_path / "c"), "--no-odometry"]) == 0
+    assert not (tmp_path / "c" / "odometry.jsonl").exists()
+    assert json.loads((tmp_path / "c" / "scene.json").read_text())[
+        "odometry"] is None
+    capsys.readouterr()
+    assert cli.main(args + [str(tmp_path / "d"), "--odometry-scale",
+                            "-1.5"]) == 1
+    assert "--odometry-scale" in capsys.readouterr().err
+    assert not (tmp_path / "d" / "truth.jsonl").exists()

@@ -3,15 +3,18 @@
 A palette file is JSON::
 
     {"classes": [{"name": "red", "lab": [41.25, 43.0, 32.0],
-                  "marker": true}, ...]}
+                  "role": "marker"}, ...]}
 
-with CIE L*a*b* values (L* 0..100).  A class may list several reference
+with CIE L*a*b* values (L* 0..100).  A class's role is "marker" (a landmark
+colour), "floor" or "background" (anything else: walls, furniture); the
+older "marker": true / false means marker / background.  A class may list several reference
 colours in "references" (a ball's lit and shaded sides); a pixel takes the
 class of its nearest reference.  The C++ labsegment element applies
 exactly the same validation rules as ``parse_palette``; keep them in step.
 """
 
 from dataclasses import dataclass
+from typing import Optional
 import importlib.resources
 import json
 import math
@@ -27,7 +30,9 @@ MAX_CLASSES = 64
 MAX_NAME_LENGTH = 32
 # Reference colours a class may list (the element's kMaxReferencesPerClass).
 MAX_REFERENCES = 8
-CLASS_KEYS = ("name", "lab", "references", "marker")
+CLASS_KEYS = ("name", "lab", "references", "marker", "role")
+# What a class is for, in the file's spelling (docs/palette.md, "Roles").
+ROLES = ("marker", "floor", "background")
 _NAME_RE = re.compile(r"[A-Za-z0-9_.-]+")
 # Decimals written for L*a*b* values: far below any visible difference.
 LAB_DECIMALS = 4
@@ -64,14 +69,38 @@ class PaletteError(ValueError):
     """A palette that cannot be read, is invalid or cannot be learned."""
 
 
+def _role_of(marker, role, where):
+    """The role from "role" and the older "marker" flag (either may be
+    None); both given must agree."""
+    if role is None:
+        return "background" if marker is False else "marker"
+    if role not in ROLES:
+        raise PaletteError(f"{where}: \"role\" must be \"marker\", "
+                           f"\"floor\" or \"background\", got "
+                           f"{_show(role)}")
+    if marker is not None and marker != (role == "marker"):
+        raise PaletteError(f"{where}: \"marker\": "
+                           f"{'true' if marker else 'false'} contradicts "
+                           f"\"role\": {json.dumps(role)}")
+    return role
+
+
 @dataclass(frozen=True)
 class PaletteClass:
     """One class.  ``lab`` is its colour (false-colour output, reported
-    sRGB) and its only reference when ``references`` is empty."""
+    sRGB) and its only reference when ``references`` is empty.  ``role``:
+    "marker", "floor" or "background"; ``marker`` is ``role ==
+    "marker"``.  Give either (unset: a marker) or both in agreement."""
     name: str
     lab: tuple[float, float, float]
-    marker: bool = True
+    marker: Optional[bool] = None
     references: tuple[tuple[float, float, float], ...] = ()
+    role: Optional[str] = None
+
+    def __post_init__(self):
+        role = _role_of(self.marker, self.role, f"class {self.name!r}")
+        object.__setattr__(self, "role", role)
+        object.__setattr__(self, "marker", role == "marker")
 
     @property
     def reference_labs(self):
@@ -98,8 +127,13 @@ class Palette:
 
     @property
     def background(self):
-        """Names of the non-marker (background) classes."""
+        """Names of the non-marker classes (floor and background)."""
         return [c.name for c in self.classes if not c.marker]
+
+    @property
+    def floor(self):
+        """Names of the classes whose role is floor."""
+        return [c.name for c in self.classes if c.role == "floor"]
 
     def marker_mask(self):
         """bool (K,): True where the class is a marker."""
@@ -210,7 +244,7 @@ def _parse_class(entry, index, source):
         if key not in CLASS_KEYS:
             raise PaletteError(f"{where}: unknown key {json.dumps(key)} "
                                f"(allowed: \"name\", \"lab\", "
-                               f"\"references\", \"marker\")")
+                               f"\"references\", \"marker\", \"role\")")
 
     if "name" not in entry:
         raise PaletteError(f"{where}: missing \"name\"")
@@ -244,12 +278,13 @@ def _parse_class(entry, index, source):
             _parse_lab(ref, f"{where}: \"references\"[{i}]")
             for i, ref in enumerate(refs))
 
-    marker = entry.get("marker", True)
-    if not isinstance(marker, bool):
+    marker = entry.get("marker")
+    if marker is not None and not isinstance(marker, bool):
         raise PaletteError(f"{where}: \"marker\" must be true or false, "
                            f"got {_show(marker)}")
+    role = _role_of(marker, entry.get("role"), where)
 
-    return PaletteClass(name=name, lab=lab, marker=marker,
+    return PaletteClass(name=name, lab=lab, role=role,
                         references=references)
 
 
@@ -351,7 +386,9 @@ def _class_to_json(cls):
     if cls.references:
         entry["references"] = [[round(float(v), LAB_DECIMALS) for v in ref]
                                for ref in cls.references]
+    # the flag too, for readers of the older form
     entry["marker"] = bool(cls.marker)
+    entry["role"] = cls.role
     return entry
 
 
@@ -396,21 +433,33 @@ def _image_lab(image_bgr):
     return reference.rgb_to_lab(rgb)
 
 
-def _marker_flags(names, markers, background):
-    """Marker flag per name, from a list of markers or of backgrounds."""
+def _class_roles(names, markers, background, floor=None):
+    """Role per name, from a list of markers or of backgrounds and a list
+    of floor classes: the floor classes are floor; then the markers are
+    markers and the rest background, or the backgrounds background and
+    the rest markers (neither list: every other class a marker)."""
     if markers is not None and background is not None:
         raise PaletteError("give either markers or background, not both")
-    listed = markers if markers is not None else background
-    if listed is None:
-        return [True] * len(names)
-    listed = list(listed)
-    for name in listed:
+    floor = list(floor or ())
+    for name in [*floor, *(markers or ()), *(background or ())]:
         if name not in names:
             raise PaletteError(f"{json.dumps(name)} is not one of the "
                                f"classes ({', '.join(names)})")
-    if markers is not None:
-        return [name in listed for name in names]
-    return [name not in listed for name in names]
+    for listed, what in ((markers, "a marker"), (background, "background")):
+        both = [n for n in floor if n in (listed or ())]
+        if both:
+            raise PaletteError(f"{json.dumps(both[0])} is given as floor "
+                               f"and as {what}")
+    roles = []
+    for name in names:
+        if name in floor:
+            roles.append("floor")
+        elif markers is not None:
+            roles.append("marker" if name in markers else "background")
+        else:
+            roles.append("background" if name in (background or ())
+                         else "marker")
+    return roles
 
 
 def _check_references(references):
@@ -559,7 +608,7 @@ def cluster_references(pixels_lab, references="auto", seed=0):
     return best
 
 
-def _palette_from_masks(lab, names, masks, flags, allow_missing=False,
+def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
                         references=1, seed=0):
     """Mean Lab of each class's pixels (and its reference colours, see
     ``cluster_references``) -> validated Palette.  Classes with no pixels
@@ -569,7 +618,7 @@ def _palette_from_masks(lab, names, masks, flags, allow_missing=False,
     entries = []
     missing = []
     taught = []
-    for name, mask, marker in zip(names, masks, flags):
+    for name, mask, role in zip(names, masks, roles):
         if not mask.any():
             if not allow_missing:
                 raise PaletteError(f"class {json.dumps(name)} has no "
@@ -582,7 +631,7 @@ def _palette_from_masks(lab, names, masks, flags, allow_missing=False,
         mean = pixels.mean(axis=0)
         mean[0] = min(max(mean[0], 0.0), 100.0)
         entries.append({"name": name, "lab": [float(v) for v in mean],
-                        "marker": marker})
+                        "role": role})
         try:
             refs = cluster_references(pixels, references, seed)
         except PaletteError as err:
@@ -609,13 +658,14 @@ def _palette_from_masks(lab, names, masks, flags, allow_missing=False,
 
 
 def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
-                    allow_missing=False, references=1):
+                    allow_missing=False, references=1, floor=None):
     """Learn a palette from an image and a mask of class indices.
 
     Mask value 0 is ignored, value k (1..K) marks pixels of class k.  Names
     default to "class1".."classK" (K = largest mask value) or are given;
-    ``markers`` lists the names of the marker classes (default: all).
-    Each class gets the mean L*a*b* of its pixels.  A class with no pixels
+    ``markers`` lists the names of the marker classes (default: all but
+    the floor), ``floor`` those of the floor classes (role floor; the
+    classes in neither list are background).  Each class gets the mean L*a*b* of its pixels.  A class with no pixels
     is an error unless ``allow_missing`` is true: then it is left out of
     the palette (the others keep their order) and a warning on stderr
     names it.  ``references``: reference colours per class, a count or
@@ -648,21 +698,21 @@ def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
     if len(names) > MAX_CLASSES:
         raise PaletteError(f"{len(names)} classes, at most {MAX_CLASSES} "
                            f"are allowed")
-    flags = _marker_flags(names, markers, None)
+    roles = _class_roles(names, markers, None, floor)
     masks = [mask == k for k in range(1, len(names) + 1)]
-    return _palette_from_masks(_image_lab(image), names, masks, flags,
+    return _palette_from_masks(_image_lab(image), names, masks, roles,
                                allow_missing=allow_missing,
                                references=references)
 
 
 def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None,
-                     references=1):
+                     references=1, floor=None):
     """Learn a palette from rectangles ``[(name, x, y, w, h), ...]``.
 
     Several rectangles may share a name; their pixels are pooled.  Classes
     are in order of first appearance.  ``markers`` or ``background`` lists
-    which names are markers or background (default: all markers).
-    ``references`` as for ``learn_from_mask``.
+    which names are markers or background (default: all markers), and
+    ``floor`` the floor classes (role floor).  ``references`` as for ``learn_from_mask``.
     """
     image = _check_image(image_bgr_uint8)
     height, width = image.shape[:2]
@@ -693,7 +743,7 @@ def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None,
     if len(names) > MAX_CLASSES:
         raise PaletteError(f"{len(names)} classes, at most {MAX_CLASSES} "
                            f"are allowed")
-    flags = _marker_flags(names, markers, background)
+    roles = _class_roles(names, markers, background, floor)
     masks = [class_masks[name] for name in names]
-    return _palette_from_masks(_image_lab(image), names, masks, flags,
+    return _palette_from_masks(_image_lab(image), names, masks, roles,
                                references=references)

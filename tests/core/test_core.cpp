@@ -334,7 +334,9 @@ test_palette_parsing ()
     CHECK (def.classes[i].name == markers[i] && def.classes[i].marker,
         "class %d is %s", i, def.classes[i].name.c_str ());
   CHECK (!def.classes[5].marker && !def.classes[6].marker,
-      "white and grey are background");
+      "white and grey are not markers");
+  CHECK (def.classes[5].role == PaletteRole::Floor &&
+      def.classes[6].role == PaletteRole::Floor, "white and grey are floor");
 
   Palette p;
   std::string err;
@@ -343,6 +345,40 @@ test_palette_parsing ()
           " \"description\": \"x\"}", "t", &p, &err), "%s", err.c_str ());
   CHECK (p.classes.size () == 2 && p.classes[0].marker && !p.classes[1].marker
       && p.classes[1].lab.b == 4.5, "parsed values");
+
+  /* roles: "role" as written, the old flag read as before (true: marker,
+   * false: background), both given only when they agree */
+  CHECK (palette_parse ("{\"classes\": ["
+          "{\"name\": \"m\", \"lab\": [50, 1, 2], \"role\": \"marker\"},"
+          "{\"name\": \"f\", \"lab\": [50, 1, 2], \"role\": \"floor\"},"
+          "{\"name\": \"w\", \"lab\": [50, 1, 2], \"role\": \"background\"},"
+          "{\"name\": \"f2\", \"lab\": [50, 1, 2], \"role\": \"floor\","
+          " \"marker\": false},"
+          "{\"name\": \"old\", \"lab\": [50, 1, 2], \"marker\": false},"
+          "{\"name\": \"old2\", \"lab\": [50, 1, 2], \"marker\": true},"
+          "{\"name\": \"none\", \"lab\": [50, 1, 2]}]}", "t", &p, &err),
+      "%s", err.c_str ());
+  {
+    const PaletteRole want[] = { PaletteRole::Marker, PaletteRole::Floor,
+      PaletteRole::Background, PaletteRole::Floor, PaletteRole::Background,
+      PaletteRole::Marker, PaletteRole::Marker };
+    const bool want_marker[] = { true, false, false, false, false, true, true };
+    for (int i = 0; i < 7; i++)
+      CHECK (p.classes[i].role == want[i] &&
+          p.classes[i].marker == want_marker[i], "class %s: role %s",
+          p.classes[i].name.c_str (), palette_role_name (p.classes[i].role));
+  }
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 0, 0],"
+      " \"role\": \"floor\", \"marker\": true}]}",
+      "classes[0] (\"a\"): \"marker\": true contradicts \"role\": \"floor\"");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 0, 0],"
+      " \"role\": \"marker\", \"marker\": false}]}",
+      "classes[0] (\"a\"): \"marker\": false contradicts \"role\": \"marker\"");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 0, 0],"
+      " \"role\": \"wall\"}]}",
+      "\"role\" must be \"marker\", \"floor\" or \"background\"");
+  expect_palette_error ("{\"classes\": [{\"name\": \"a\", \"lab\": [50, 0, 0],"
+      " \"role\": true}]}", "\"role\" must be");
 
   expect_palette_error ("{\"classes\": [", "not valid JSON");
   expect_palette_error ("[1, 2]", "top level");

@@ -47,6 +47,7 @@ def test_default_palette_classes():
                              "white", "grey"]
     assert palette.markers == ["red", "green", "yellow", "pink", "blue"]
     assert palette.background == ["white", "grey"]
+    assert palette.floor == ["white", "grey"]
     assert palette.marker_mask().tolist() == [True] * 5 + [False] * 2
     lab = palette.lab_array()
     assert lab.dtype == np.float64 and lab.shape == (7, 3)
@@ -263,7 +264,7 @@ def test_save_and_load_round_trip(tmp_path):
     assert obj["learned-from"] == "img.png"
     assert obj["classes"][1] == {"name": "floor",
                                  "lab": [60.1235, -1.5, 2.0],
-                                 "marker": False}
+                                 "marker": False, "role": "background"}
     loaded = load_palette(path)
     assert loaded.names == palette.names
     assert loaded.markers == ["red"]
@@ -295,7 +296,7 @@ def test_references_load_and_round_trip(tmp_path):
     assert saved[0] == {"name": "yellow", "lab": [75.0, -5.0, 70.0],
                         "references": [[90.0, -15.0, 80.0],
                                        [55.1235, 4.0, 55.0]],
-                        "marker": True}
+                        "marker": True, "role": "marker"}
     assert "references" not in saved[1]
     assert load_palette(path).classes[0].references[1] == (55.1235, 4.0,
                                                            55.0)
@@ -309,7 +310,8 @@ def test_palette_without_references_is_unchanged():
     np.testing.assert_array_equal(refs, palette.lab_array())
     assert owner.tolist() == list(range(len(palette)))
     saved = palette_to_json(palette)["classes"]
-    assert all(list(entry) == ["name", "lab", "marker"] for entry in saved)
+    assert all(list(entry) == ["name", "lab", "marker", "role"]
+               for entry in saved)
 
 
 def test_palette_to_json_keeps_extra_keys():
@@ -517,11 +519,11 @@ def test_cli_learn_mask_check_load(tmp_path, scene_files, capsys):
     assert "3 classes" in table
     red_row = next(line for line in table.splitlines()
                    if line.startswith("red "))
-    assert red_row.split() == ["red", "53.24", "80.09", "67.20", "yes",
+    assert red_row.split() == ["red", "53.24", "80.09", "67.20", "marker",
                                "#FF0000"]
     grey_row = next(line for line in table.splitlines()
                     if line.startswith("grey "))
-    assert grey_row.split()[4:] == ["no", "#808080"]
+    assert grey_row.split()[4:] == ["background", "#808080"]
 
     palette = load_palette(out)
     assert palette.names == ["red", "mix", "grey"]
@@ -560,6 +562,100 @@ def test_cli_learn_rects(tmp_path, scene_files):
     assert palette.markers == ["red", "green"]
     np.testing.assert_allclose(palette.lab_array()[1], KNOWN_LAB[GREY],
                                atol=0.1)
+
+
+ROLE_CASES = [
+    # (class entry keys beyond name and lab, role read)
+    ({"role": "marker"}, "marker"),
+    ({"role": "floor"}, "floor"),
+    ({"role": "background"}, "background"),
+    ({"role": "floor", "marker": False}, "floor"),
+    ({"role": "marker", "marker": True}, "marker"),
+    ({"marker": True}, "marker"),          # the older form, as before
+    ({"marker": False}, "background"),
+    ({}, "marker"),
+]
+
+
+@pytest.mark.parametrize("extra,role", ROLE_CASES)
+def test_roles_read_and_round_trip(tmp_path, extra, role):
+    obj = {"classes": [good_class("c", (50, 1, 2), **extra)]}
+    cls = load_palette(write_json(tmp_path / "p.json", obj)).classes[0]
+    assert cls.role == role and cls.marker == (role == "marker")
+    save_palette(Palette([cls]), tmp_path / "out.json")
+    saved = json.loads((tmp_path / "out.json").read_text())["classes"][0]
+    assert saved["role"] == role and saved["marker"] == (role == "marker")
+    assert load_palette(tmp_path / "out.json").classes[0] == cls
+
+
+@pytest.mark.parametrize("extra,fragment", [
+    ({"role": "floor", "marker": True},
+     'classes[0] ("c"): "marker": true contradicts "role": "floor"'),
+    ({"role": "background", "marker": True},
+     'classes[0] ("c"): "marker": true contradicts "role": "background"'),
+    ({"role": "marker", "marker": False},
+     'classes[0] ("c"): "marker": false contradicts "role": "marker"'),
+    ({"role": "wall"}, 'classes[0] ("c"): "role" must be "marker", "floor" '
+                       'or "background", got "wall"'),
+    ({"role": 1}, 'classes[0] ("c"): "role" must be "marker", "floor" or '
+                  '"background"'),
+])
+def test_roles_that_contradict_or_are_unknown_fail(gst, tmp_path, extra,
+                                                  fragment):
+    """The loader and the element refuse the same files, naming the
+    class."""
+    from gstlandmark import pipeline
+    path = write_json(tmp_path / "p.json",
+                      {"classes": [good_class("c", (50, 1, 2), **extra)]})
+    with pytest.raises(PaletteError) as err:
+        load_palette(path)
+    assert f"{path}: {fragment}" in str(err.value)
+    with pytest.raises(pipeline.PipelineError) as err:
+        pipeline.run_to_eos(f"videotestsrc num-buffers=1 ! labsegment "
+                            f"palette={path} ! fakesink")
+    # the element says the same, without the value
+    assert f"{path}: {fragment.split(', got')[0]}" in str(err.value)
+
+
+def test_palette_class_role_and_flag_agree():
+    assert PaletteClass("a", (50, 0, 0)).role == "marker"
+    assert PaletteClass("a", (50, 0, 0), False).role == "background"
+    assert PaletteClass("a", (50, 0, 0), role="floor").marker is False
+    with pytest.raises(PaletteError, match="contradicts"):
+        PaletteClass("a", (50, 0, 0), True, role="floor")
+
+
+def test_learn_floor_classes(tmp_path, scene_files):
+    """--floor names the floor classes: with --markers the rest are
+    background, with --background or neither list the rest markers."""
+    image_path, mask_path = scene_files
+    image, mask = synthetic_scene()
+    pal = learn_from_mask(image, mask, names=["red", "mix", "grey"],
+                          markers=["red"], floor=["grey"])
+    assert [c.role for c in pal.classes] == ["marker", "background", "floor"]
+    pal = learn_from_mask(image, mask, names=["red", "mix", "grey"],
+                          floor=["grey"])
+    assert [c.role for c in pal.classes] == ["marker", "marker", "floor"]
+    with pytest.raises(PaletteError, match='"grey" is given as floor and '
+                                           'as a marker'):
+        learn_from_mask(image, mask, names=["red", "mix", "grey"],
+                        markers=["red", "grey"], floor=["grey"])
+    with pytest.raises(PaletteError, match='"wood" is not one of'):
+        learn_from_mask(image, mask, names=["red", "mix", "grey"],
+                        floor=["wood"])
+    out = tmp_path / "rects.json"
+    assert cli.main(["palette", "learn", str(image_path),
+                     "--rect", "red:60,0,20,10", "--rect", "grey:40,5,15,10",
+                     "--rect", "green:0,55,50,5", "--floor", "grey",
+                     "-o", str(out)]) == 0
+    pal = load_palette(out)
+    assert pal.floor == ["grey"] and pal.markers == ["red", "green"]
+    out = tmp_path / "mask.json"
+    assert cli.main(["palette", "learn", str(image_path), "--mask",
+                     str(mask_path), "--names", "red,mix,grey", "--markers",
+                     "red", "--floor", "grey", "-o", str(out)]) == 0
+    assert [c.role for c in load_palette(out).classes] == \
+        ["marker", "background", "floor"]
 
 
 def test_cli_show_default(capsys):

@@ -20,6 +20,7 @@ import socket
 import subprocess
 import time
 
+import numpy as np
 import pytest
 
 from gstlandmark import pipeline
@@ -163,6 +164,49 @@ def camera_from_clip(desc):
     return desc
 
 
+def rgb_frames(desc):
+    """The frames a launch line gives, as RGB arrays."""
+    frames = []
+    for r in pipeline.iterate(desc + " ! videoconvert ! "
+                              "video/x-raw,format=RGB", keep_buffers=True):
+        ok, info = r.buffer.map(Gst.MapFlags.READ)
+        assert ok
+        rows = np.frombuffer(info.data, np.uint8).reshape(r.height, -1)
+        frames.append(rows[:, :3 * r.width].reshape(r.height, r.width, 3)
+                      .copy())
+        r.buffer.unmap(info)
+    return frames
+
+
+# The dashboard's bird's-eye tile against birdseye run alone on the same
+# frames: mean absolute difference per frame (MJPEG at quality 85 costs
+# 0.53 levels at most on the shipped clip; the check allows three times).
+BIRDSEYE_TILE_MAX_MEAN_DIFF = 3 * 0.53
+
+
+def check_birdseye_tile(variables):
+    """The top right tile of the dashboard is the floor seen from above:
+    birdseye of the same 640x480 frames, and black below it."""
+    tiles = rgb_frames(f"filesrc location={variables['OUTPUT']} ! "
+                       "decodebin")
+    alone = rgb_frames(
+        f"filesrc location={variables['INPUT']} ! decodebin ! videoconvert "
+        "! videoscale ! video/x-raw,width=640,height=480 ! videoconvert ! "
+        f"birdseye calibration={variables['CAMERA']} pixels-per-metre=120 "
+        "forward=4 side=2")
+    assert len(tiles) == len(alone) == CHAIN_CLIP_FRAMES
+    assert alone[0].shape == (480, 480, 3)
+    worst = 0.0
+    for dash, want in zip(tiles, alone):
+        # the floor fills much of the view: a blank tile would pass else
+        assert (want.max(axis=2) > 16).mean() > 0.3
+        diff = np.abs(dash[:480, 1280:].astype(int) - want.astype(int))
+        worst = max(worst, float(diff.mean()))
+        assert dash[480:, 1280:].max() < 24     # nothing below it
+    print(f"bird's-eye tile: worst mean difference {worst:.2f}")
+    assert worst <= BIRDSEYE_TILE_MAX_MEAN_DIFF
+
+
 @pytest.mark.parametrize("name", SINGLE)
 def test_pipeline_runs(gst, name, tmp_path, monkeypatch, chain_vars):
     monkeypatch.chdir(tmp_path)
@@ -187,7 +231,8 @@ def test_pipeline_runs(gst, name, tmp_path, monkeypatch, chain_vars):
         frames, width, height = video_info(str(variables["OUTPUT"]))
         assert frames == CHAIN_CLIP_FRAMES
         if name == "dashboard.pipeline":
-            assert (width, height) == (1280, 960)
+            assert (width, height) == (1760, 960)
+            check_birdseye_tile(variables)
         else:
             assert (width, height) == (320, 240)
     if "landmarkslam" in desc:

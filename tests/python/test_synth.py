@@ -880,3 +880,42 @@ def test_every_variant_has_a_chart_the_palette_learns_from(name):
                                   names=palette.names,
                                   markers=palette.markers)
         assert learned.names == palette.names
+
+
+def test_obstacles_and_walls_are_not_the_floors_colour():
+    """100 variants of the walled field with 15 boxes: every box and the
+    walls keep CIE76 Delta E >= 25 from every texel colour of the floor
+    and from the floor class (the texture's mean), as docs/synth.md
+    says; the test converts the colours to L*a*b* itself."""
+    from gstlandmark.synth import scenarios
+    from gstlandmark.synth.variants import draw_variant
+
+    def lab(srgb8):
+        rgb = np.asarray(srgb8, np.float32).reshape(-1, 1, 3) / 255
+        return cv2.cvtColor(rgb, cv2.COLOR_RGB2Lab).reshape(-1, 3) \
+            .astype(np.float64)
+
+    assert scenarios.OBSTACLE_MIN_DELTA_E == 25.0
+    floors, repainted, closest = set(), 0, math.inf
+    for v in range(100):
+        scene, _ = scenarios.build_scenario(
+            "path", seed=v, frames=2, size=(64, 48),
+            variant=draw_variant("path", v), obstacles=15)
+        tex = scene.floor_texture(scene.floor)
+        floor_lab = np.concatenate([
+            lab(np.unique(tex.srgb8.reshape(-1, 3), axis=0)),
+            np.asarray(scene.scene_palette().classes[
+                scene.scene_palette().index("floor")].lab).reshape(1, 3)])
+        colours = [ob.colour for ob in scene.obstacles] + [scene.walls.colour]
+        for c in colours:
+            de = np.min(np.linalg.norm(floor_lab - lab(c), axis=1))
+            assert de >= 25.0, (v, scene.floor, c, de)
+            closest = min(closest, de)
+        assert len(scene.obstacles) >= 5
+        floors.add(scene.floor)
+        repainted += scene.walls.colour != (192, 186, 172)
+    # every texture drawn, the walls repainted where they were the floor's
+    assert floors == {"grey", "white", "dark", "wood", "carpet", "tiles",
+                      "red", "orange"}
+    assert 0 < repainted < 100
+    assert closest < 30      # the rule binds: some colours come close

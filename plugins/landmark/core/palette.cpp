@@ -65,6 +65,19 @@ parse_lab (JsonNode * node, const std::string & what, Lab * out,
 }
 
 bool
+parse_role (const char *text, PaletteRole * out)
+{
+  for (PaletteRole r : {PaletteRole::Marker, PaletteRole::Floor,
+          PaletteRole::Background}) {
+    if (text && strcmp (text, palette_role_name (r)) == 0) {
+      *out = r;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool
 parse_class (JsonNode * node, guint index, PaletteClass * out,
     std::string * why)
 {
@@ -90,9 +103,9 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
   for (GList * l = members; l; l = l->next) {
     const char *key = (const char *) l->data;
     if (strcmp (key, "name") && strcmp (key, "lab") && strcmp (key, "marker")
-        && strcmp (key, "references")) {
+        && strcmp (key, "references") && strcmp (key, "role")) {
       *why = where + ": unknown key \"" + key +
-          "\" (allowed: name, lab, references, marker)";
+          "\" (allowed: name, lab, references, marker, role)";
       g_list_free (members);
       return false;
     }
@@ -140,14 +153,40 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
     marker = json_node_get_boolean (marker_node);
   }
 
+  /* "role" wins the old flag's place; given both, they must agree */
+  PaletteRole role = marker ? PaletteRole::Marker : PaletteRole::Background;
+  JsonNode *role_node = json_object_get_member (obj, "role");
+  if (role_node) {
+    const char *text = json_string (role_node);
+    if (!parse_role (text, &role)) {
+      *why = where + ": \"role\" must be \"marker\", \"floor\" or "
+          "\"background\"";
+      return false;
+    }
+    if (marker_node && marker != (role == PaletteRole::Marker)) {
+      *why = where + ": \"marker\": " + (marker ? "true" : "false") +
+          " contradicts \"role\": \"" + text + "\"";
+      return false;
+    }
+  }
+
   out->name = name;
   out->lab = lab;
   out->references = std::move (references);
-  out->marker = marker;
+  out->role = role;
+  out->marker = role == PaletteRole::Marker;
   return true;
 }
 
 }  // namespace
+
+const char *
+palette_role_name (PaletteRole role)
+{
+  /* in the enum's order */
+  static const char *const names[] = { "marker", "floor", "background" };
+  return names[(int) role];
+}
 
 bool
 palette_parse (const std::string & json, const std::string & source,

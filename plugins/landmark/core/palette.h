@@ -18,6 +18,13 @@ constexpr int kMaxClasses = 64;
 /* At most this many reference colours per class. */
 constexpr size_t kMaxReferencesPerClass = 8;
 
+/* What a class is for (docs/palette.md, "Roles"): landmark colours,
+ * the floor the robot drives on, or anything else (walls, furniture). */
+enum class PaletteRole { Marker, Floor, Background };
+
+/* "marker", "floor", "background": the palette file's spelling. */
+const char *palette_role_name (PaletteRole role);
+
 struct PaletteClass {
   std::string name;
   /* The class's colour (false-colour output, reported rgb); its only
@@ -26,6 +33,8 @@ struct PaletteClass {
   /* The class's reference colours when it has its own list (1 to
    * kMaxReferencesPerClass), e.g. a ball's lit and shaded sides. */
   std::vector<Lab> references;
+  PaletteRole role = PaletteRole::Marker;
+  /* role == PaletteRole::Marker, kept for the readers of the flag */
   bool marker = true;
 };
 

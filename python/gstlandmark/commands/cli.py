@@ -73,17 +73,17 @@ def _read_mask(path):
 
 
 def format_palette_table(palette):
-    """The classes as a text table: name, L*, a*, b*, marker, sRGB hex."""
+    """The classes as a text table: name, L*, a*, b*, role, sRGB hex."""
     srgb = reference.lab_to_srgb8(palette.lab_array())
     width = max([4] + [len(name) for name in palette.names])
     lines = [f"{'name':<{width}}  {'L*':>7}  {'a*':>7}  {'b*':>7}  "
-             f"marker  sRGB"]
+             f"{'role':<10}  sRGB"]
     for cls, rgb in zip(palette.classes, srgb):
         lightness, a_star, b_star = cls.lab
         hex_colour = "#{:02X}{:02X}{:02X}".format(*rgb)
         lines.append(f"{cls.name:<{width}}  {lightness:7.2f}  "
                      f"{a_star:7.2f}  {b_star:7.2f}  "
-                     f"{'yes' if cls.marker else 'no':<6}  {hex_colour}")
+                     f"{cls.role:<10}  {hex_colour}")
         for ref in cls.references:
             lines.append(f"{'':<{width}}  {ref[0]:7.2f}  {ref[1]:7.2f}  "
                          f"{ref[2]:7.2f}  reference")
@@ -135,7 +135,8 @@ def _palette_learn(args):
         palette = learn_from_mask(image, mask, names=_split_list(args.names),
                                   markers=_split_list(args.markers),
                                   allow_missing=args.allow_missing,
-                                  references=args.references)
+                                  references=args.references,
+                                  floor=_split_list(args.floor))
         description = (f"Learned by '{PROG} palette learn' from the class "
                        f"mask {args.mask}.")
     else:
@@ -146,7 +147,8 @@ def _palette_learn(args):
         image = _read_image(args.image)
         palette = learn_from_rects(image, args.rect,
                                    background=_split_list(args.background),
-                                   references=args.references)
+                                   references=args.references,
+                                   floor=_split_list(args.floor))
         description = (f"Learned by '{PROG} palette learn' from "
                        f"{len(args.rect)} rectangle(s).")
     try:
@@ -203,6 +205,8 @@ def add_palette_parser(subparsers):
                    "class1..classK)",
         "--markers": "with --mask: the marker classes (default all)",
         "--background": "with --rect: the non-marker classes",
+        "--floor": "the floor classes (role floor: what floorboundary "
+                   "takes as floor); not markers",
     }
     for flag, text in class_lists.items():
         learn.add_argument(flag, metavar="N1,N2,...", help=text)

@@ -12,6 +12,7 @@ regression clips and the demo were made with).  ``variant`` (a dict from
 floor, light, photometry, layout and path.
 """
 
+import dataclasses
 import json
 import math
 
@@ -568,12 +569,76 @@ class Offset:
         return {**self.inner.to_json(), "camera_forward_m": self.forward}
 
 
+# Boxes and walls keep at least this Delta E (CIE76: the Euclidean
+# L*a*b* distance labsegment classifies by) from every colour of the floor
+# and from every marker colour: the free floor is told from what stands on
+# it by colour alone, so an obstacle of the floor's colour is not one.
+OBSTACLE_MIN_DELTA_E = 25.0
+
+
+def floor_colours_lab(scene):
+    """(N, 3) L*a*b* of every colour the scene's floors are made of: each
+    distinct texel colour of every floor texture (grout, plank joints,
+    carpet fibres...) and each floor class's colour (the texture's
+    mean)."""
+    labs = []
+    for name in scene.floor_names():
+        tex = scene.floor_texture(name)
+        texels = np.unique(tex.srgb8.reshape(-1, 3), axis=0)
+        labs.append(reference.rgb_to_lab(texels.reshape(-1, 1, 3))
+                    .reshape(-1, 3).astype(np.float64))
+        labs.append(tex.mean_lab().reshape(1, 3))
+    return np.concatenate(labs)
+
+
+def _obstacle_colours_to_avoid(scene):
+    """L*a*b* colours no box or wall may come within
+    OBSTACLE_MIN_DELTA_E of: the floor's and every marker's."""
+    markers = [reference.rgb_to_lab(np.array(
+        scene.marker_srgb8()[n], np.uint8).reshape(1, 1, 3)).reshape(1, 3)
+        for n in scene.palette.names]
+    return np.concatenate([floor_colours_lab(scene)] + markers)
+
+
+def _clear_colour(rng, avoid):
+    """A random sRGB colour at least OBSTACLE_MIN_DELTA_E from every
+    colour of ``avoid``, or None when 1000 draws found none."""
+    for _ in range(1000):
+        colour = tuple(int(c) for c in rng.integers(0, 256, 3))
+        lab = reference.rgb_to_lab(np.array(colour, np.uint8)
+                                   .reshape(1, 1, 3)).reshape(3)
+        if np.min(np.linalg.norm(avoid - lab, axis=1)) >= \
+                OBSTACLE_MIN_DELTA_E:
+            return colour
+    return None
+
+
+def clear_walls(scene, seed=0):
+    """The scene's walls repainted, when their colour is within
+    OBSTACLE_MIN_DELTA_E of the floor's or a marker's, in a random colour
+    that is not (fixed seed); unchanged otherwise."""
+    walls = scene.walls
+    if walls is None:
+        return None
+    avoid = _obstacle_colours_to_avoid(scene)
+    lab = reference.rgb_to_lab(np.array(walls.colour, np.uint8)
+                               .reshape(1, 1, 3)).reshape(3)
+    if np.min(np.linalg.norm(avoid - lab, axis=1)) >= OBSTACLE_MIN_DELTA_E:
+        return walls
+    colour = _clear_colour(np.random.default_rng([int(seed), 7178]), avoid)
+    if colour is None:
+        raise ValueError("no wall colour is Delta E "
+                         f"{OBSTACLE_MIN_DELTA_E:g} from the floor's")
+    return dataclasses.replace(walls, colour=colour)
+
+
 def place_obstacles(scene, count, frames, seed=0):
     """``count`` boxes at random in the walled field (or around the
     landmarks): footprints 0.1-0.4 m, 0.1-0.4 m tall, any angle, any
-    colour at least Delta E 25 from the floor's and every marker's; none
-    within 0.25 m of the camera's path (every frame's pose) or of a
-    landmark, nor overlapping another."""
+    colour at least OBSTACLE_MIN_DELTA_E (CIE76) from every colour of the
+    floor texture and every marker's; none within 0.25 m of the camera's
+    path (every frame's pose) or of a landmark, nor overlapping
+    another."""
     rng = np.random.default_rng([int(seed), 7177])
     if scene.walls is not None:
         w = scene.walls
@@ -586,10 +651,7 @@ def place_obstacles(scene, count, frames, seed=0):
         scene.trajectory.pose(f / scene.fps) for f in range(frames))]) \
         if scene.trajectory is not None else np.zeros((0, 2))
     keep = [np.array([lm.x, lm.y, lm.radius]) for lm in scene.landmarks]
-    avoid = [reference.rgb_to_lab(np.array(
-        scene.marker_srgb8()[n], np.uint8).reshape(1, 1, 3)).reshape(3)
-        for n in scene.palette.names]
-    avoid += [scene.floor_texture(n).mean_lab() for n in scene.floor_names()]
+    avoid = _obstacle_colours_to_avoid(scene)
     out = []
     for _ in range(count * 200):
         if len(out) == count:
@@ -607,10 +669,8 @@ def place_obstacles(scene, count, frames, seed=0):
         if any(math.hypot(o.x - x, o.y - y) < half + math.hypot(
                 o.size_x, o.size_y) / 2 for o in out):
             continue
-        colour = tuple(int(c) for c in rng.integers(0, 256, 3))
-        lab = reference.rgb_to_lab(np.array(colour, np.uint8)
-                                   .reshape(1, 1, 3)).reshape(3)
-        if min(np.linalg.norm(lab - np.asarray(a)) for a in avoid) < 25:
+        colour = _clear_colour(rng, avoid)
+        if colour is None:
             continue
         out.append(Obstacle(round(float(x), 4), round(float(y), 4),
                             round(float(sx), 4), round(float(sy), 4),
@@ -707,6 +767,10 @@ def build_scenario(name, seed=0, frames=None, size=(640, 480),
         else:
             scene = scene.with_(walls=_field_walls(scene, walls_spec))
     if n_obstacles:
+        # walls the floor's colour would be floor: repainted in the
+        # free-floor scenes only, so that scenes without boxes stay as
+        # they were rendered
+        scene = scene.with_(walls=clear_walls(scene, seed))
         scene = scene.with_(obstacles=place_obstacles(
             scene, n_obstacles, n_frames, seed))
     return scene, n_frames

@@ -816,8 +816,10 @@ class Engine:
         names = [c.name for c in classes]
         if name in names:
             i = names.index(name)
-            keep = classes[i].marker if marker is None else marker
-            classes[i] = pal.PaletteClass(name, lab, keep)
+            # re-taught, a class keeps its role (a floor class stays floor)
+            role = classes[i].role if marker is None else \
+                ("marker" if marker else "background")
+            classes[i] = pal.PaletteClass(name, lab, role=role)
         else:
             classes.append(pal.PaletteClass(
                 name, lab, True if marker is None else marker))

@@ -11,8 +11,9 @@
  * model: the same properties); and the Radial Obstacle Profile (ROP): per
  * bearing bin, the free range (docs/floorboundary.md).
  *
- * The floor is the classes named in `floor-classes` (unset: every class the
- * palette does not mark as a marker). Marker classes are walked over as
+ * The floor is the classes named in `floor-classes` (unset: the classes
+ * whose palette role is floor, or, when the palette names none, every class
+ * it does not mark as a marker). Marker classes are walked over as
  * floor (a landmark disc on the floor is not an obstacle); the nearest
  * marker pixel per bin is reported in `rop-marker-range`.
  * `markers=detections` walks over marker pixels only inside the boxes of
@@ -189,8 +190,9 @@ floor_boundary_properties ()
       .part (&Settings::camera, camera_properties ())
       /* the floor */
       .string ("floor-classes", "Floor classes",
-          "Comma-separated class names that are floor (unset: every class "
-          "the palette does not mark as a marker)", &Settings::floor_classes)
+          "Comma-separated class names that are floor (unset: the classes "
+          "whose palette role is floor, or every non-marker class when it "
+          "names none)", &Settings::floor_classes)
       .enumeration ("markers", "Markers",
           "What pixels of marker classes are for the walk: floor (landmark "
           "discs lie on it), floor only inside accepted detections (put "
@@ -321,11 +323,17 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
   const landmark::LabelRole marker_role =
       cfg.markers == GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES ?
       landmark::LabelRole::Obstacle : landmark::LabelRole::Marker;
+  /* unset floor-classes: the palette's floor classes; a palette without
+   * roles (or with no floor class) makes every non-marker class floor */
+  bool palette_names_floor = false;
+  for (guint k = 0; k < n; k++)
+    palette_names_floor |= st.classes.roles[k] == "floor";
   guint floors = 0;
   for (guint k = 0; k < n; k++) {
     if (st.classes.markers[k]) {
       st.role[k + 1] = marker_role;
-    } else if (cfg.floor_classes.empty ()) {
+    } else if (cfg.floor_classes.empty () && (!palette_names_floor
+            || st.classes.roles[k] == "floor")) {
       st.role[k + 1] = landmark::LabelRole::Floor;
       floors++;
     }

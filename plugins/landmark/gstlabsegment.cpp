@@ -103,7 +103,8 @@ struct State {
   std::vector<std::array<uint8_t, 3>> display;
   std::array<uint8_t, 3> black {};
   /* constant meta fields, rebuilt with the palette */
-  GValue names = G_VALUE_INIT, markers = G_VALUE_INIT, rgb = G_VALUE_INIT;
+  GValue names = G_VALUE_INIT, markers = G_VALUE_INIT, roles = G_VALUE_INIT,
+      rgb = G_VALUE_INIT;
   bool warned_no_class = false;
 
   ~State () {
@@ -113,6 +114,7 @@ struct State {
     }
     g_value_unset (&names);
     g_value_unset (&markers);
+    g_value_unset (&roles);
     g_value_unset (&rgb);
   }
 };
@@ -208,10 +210,13 @@ gst_lab_segment_palette_changed (GstLabSegment * self)
   const guint n = palette.classes.size ();
   value_array_init (&st.names, n);
   value_array_init (&st.markers, n);
+  value_array_init (&st.roles, n);
   value_array_init (&st.rgb, n);
   for (const auto & c : palette.classes) {
     landmark_value_array_append_string (&st.names, c.name.c_str ());
     landmark_value_array_append_boolean (&st.markers, c.marker);
+    landmark_value_array_append_string (&st.roles,
+        landmark::palette_role_name (c.role));
     double rgb[3];
     landmark::lab_to_srgb (c.lab, rgb);
     landmark_value_array_append_uint (&st.rgb,
@@ -389,6 +394,7 @@ gst_lab_segment_attach_labels (GstLabSegment * self, GstBuffer * buf,
       LANDMARK_LABELS_USE_LIGHTNESS, G_TYPE_BOOLEAN, s.use_lightness, nullptr);
   gst_structure_set_value (meta, LANDMARK_LABELS_CLASS_NAMES, &st.names);
   gst_structure_set_value (meta, LANDMARK_LABELS_CLASS_MARKERS, &st.markers);
+  gst_structure_set_value (meta, LANDMARK_LABELS_CLASS_ROLES, &st.roles);
   gst_structure_set_value (meta, LANDMARK_LABELS_CLASS_RGB, &st.rgb);
   gst_structure_take_value (meta, LANDMARK_LABELS_CLASS_COUNTS, &cv);
   gst_structure_take_value (meta, LANDMARK_LABELS_CLASS_ACTIVE, &av);

@@ -30,6 +30,7 @@ struct LabelsKey {
 LabelsKey labels_keys[] = {
   {LANDMARK_LABELS_CLASS_NAMES, "\"classes\": ", 0},
   {LANDMARK_LABELS_CLASS_MARKERS, "\"markers\": ", 0},
+  {LANDMARK_LABELS_CLASS_ROLES, "\"roles\": ", 0},
   {LANDMARK_LABELS_CLASS_COUNTS, "\"counts\": ", 0},
   {LANDMARK_LABELS_CLASS_ACTIVE, "\"active\": ", 0},
   {LANDMARK_LABELS_LABEL_COUNTS, "\"labelled\": ", 0},

@@ -336,6 +336,14 @@ landmark_labels_class_is_marker (const GstStructure * labels, guint index)
   return v && G_VALUE_HOLDS_BOOLEAN (v) && g_value_get_boolean (v);
 }
 
+const gchar *
+landmark_labels_class_role (const GstStructure * labels, guint index)
+{
+  const GValue *v = array_element (labels, LANDMARK_LABELS_CLASS_ROLES,
+      index);
+  return v && G_VALUE_HOLDS_STRING (v) ? g_value_get_string (v) : nullptr;
+}
+
 guint
 landmark_labels_class_count (const GstStructure * labels, guint index)
 {
@@ -682,17 +690,22 @@ LandmarkLabelClasses::changed (const GstStructure * labels)
   bool same = valid && names.size () == n;
   for (guint k = 0; same && k < n; k++) {
     const gchar *name = landmark_labels_class_name (labels, k);
+    const gchar *role = landmark_labels_class_role (labels, k);
     same = name && names[k] == name &&
-        markers[k] == (bool) landmark_labels_class_is_marker (labels, k);
+        markers[k] == (bool) landmark_labels_class_is_marker (labels, k) &&
+        roles[k] == (role ? role : "");
   }
   if (same)
     return false;
   names.clear ();
   markers.clear ();
+  roles.clear ();
   for (guint k = 0; k < n; k++) {
     const gchar *name = landmark_labels_class_name (labels, k);
+    const gchar *role = landmark_labels_class_role (labels, k);
     names.emplace_back (name ? name : "");
     markers.push_back (landmark_labels_class_is_marker (labels, k));
+    roles.emplace_back (role ? role : "");
   }
   valid = false;
   return true;
@@ -703,6 +716,7 @@ LandmarkLabelClasses::reset ()
 {
   names.clear ();
   markers.clear ();
+  roles.clear ();
   valid = false;
 }
 

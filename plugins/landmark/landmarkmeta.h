@@ -32,6 +32,7 @@ G_BEGIN_DECLS
 #define LANDMARK_LABELS_ANALYSIS_HEIGHT "analysis-height"
 #define LANDMARK_LABELS_CLASS_NAMES "class-names"      /* array of strings */
 #define LANDMARK_LABELS_CLASS_MARKERS "class-markers"  /* array of booleans */
+#define LANDMARK_LABELS_CLASS_ROLES "class-roles"  /* array of strings: marker, floor, background */
 #define LANDMARK_LABELS_CLASS_RGB "class-rgb"          /* array of 0xRRGGBB */
 #define LANDMARK_LABELS_CLASS_COUNTS "class-counts"    /* array of guint */
 #define LANDMARK_LABELS_CLASS_ACTIVE "class-active"    /* array of booleans */
@@ -67,6 +68,10 @@ guint landmark_labels_n_classes (const GstStructure * labels);
 const gchar *landmark_labels_class_name (const GstStructure * labels,
     guint index);
 gboolean landmark_labels_class_is_marker (const GstStructure * labels,
+    guint index);
+/* The class's palette role ("marker", "floor", "background"), or NULL when
+ * the labels do not carry roles (older producers). */
+const gchar *landmark_labels_class_role (const GstStructure * labels,
     guint index);
 guint landmark_labels_class_count (const GstStructure * labels, guint index);
 /* Element index of a per-class array field (class-rgb, class-active, ...),
@@ -211,6 +216,7 @@ struct LandmarkLabelClasses
 {
   std::vector < std::string > names;
   std::vector < bool > markers;
+  std::vector < std::string > roles;   /* empty strings: no role given */
   bool valid = false;           /* what the element derived is current */
 
   /* Reads the labels' classes: true when they differ from the kept ones

@@ -89,6 +89,7 @@ class ClassInfo:
     count: int          # first-pass histogram (the dominant-colour rule)
     active: bool        # took part in the final labelling
     labelled: int       # pixels with this label in the plane
+    role: str = ""      # palette role: marker, floor, background ("" unknown)
 
 
 @dataclass
@@ -165,6 +166,7 @@ def labels(buf: Gst.Buffer) -> Optional[LabelsMeta]:
     plane = _plane_array(s.get_value("labels"), width, height, stride)
     names = _values(s, "class-names")
     markers = _values(s, "class-markers")
+    roles = _values(s, "class-roles")
     rgb = _values(s, "class-rgb")
     counts = _values(s, "class-counts")
     active = _values(s, "class-active")
@@ -174,7 +176,8 @@ def labels(buf: Gst.Buffer) -> Optional[LabelsMeta]:
                   rgb=((rgb[i] >> 16) & 255, (rgb[i] >> 8) & 255,
                        rgb[i] & 255),
                   count=counts[i], active=bool(active[i]),
-                  labelled=labelled[i])
+                  labelled=labelled[i],
+                  role=roles[i] if i < len(roles) else "")
         for i in range(len(names))
     ]
     return LabelsMeta(

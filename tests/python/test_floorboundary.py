@@ -291,3 +291,39 @@ def test_synthetic_boxes_against_the_truth(gst, tmp_path):
     assert s["bins"] > 300
     assert s["within_3pct_or_3cm"] >= 0.95
     assert s["false_obstacles"] == 0
+
+
+def test_palette_roles_name_the_floor(gst, tmp_path):
+    """floor-classes unset: the palette's floor classes are the floor, so
+    a background class (the white box) ends it; a palette without roles
+    makes every non-marker class floor and walks over the box."""
+    rgb, _ = render(np.random.default_rng(3))
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    lab = {"grey": [53.59, 0, 0], "white": [93.1, 0, 0],
+           "red": [53.24, 80.09, 67.2]}
+    bearing = math.atan2((BOX["y0"] + BOX["y1"]) / 2, BOX["x0"])
+    ranges = {}
+    for form, roles in (("roles", {"grey": "floor", "white": "background",
+                                   "red": "marker"}),
+                        ("flags", {"grey": False, "white": False,
+                                   "red": True})):
+        key = "role" if form == "roles" else "marker"
+        palette = tmp_path / f"{form}.json"
+        palette.write_text(json.dumps({"classes": [
+            {"name": n, "lab": lab[n], key: roles[n]} for n in lab]}))
+        out = pipeline.process_frames(
+            f"labsegment palette={palette} min-class-pixels=0 ! "
+            "floorboundary camera-height=0.3 tilt=25 hfov=60 max-range=4",
+            [rgb], caps)
+        labels = meta.labels(out[0])
+        assert [c.role for c in labels.classes] == (
+            ["floor", "background", "marker"] if form == "roles"
+            else ["background", "background", "marker"])
+        fm = meta.floor(out[0])
+        k = fm.bin_of(bearing)
+        ranges[form] = (fm.state_name(k), float(fm.rop_range[k]))
+    state, rng = ranges["roles"]
+    assert state == "obstacle" and abs(rng - BOX["x0"] / math.cos(bearing)) \
+        < 0.01 * BOX["x0"], ranges
+    # without roles the white box is floor: the walk goes past its face
+    assert ranges["flags"][1] > BOX["x0"] + 0.1, ranges

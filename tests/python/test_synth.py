@@ -10,7 +10,7 @@ import pytest
 
 from gstlandmark import reference
 from gstlandmark.commands import cli
-from gstlandmark.palette import (learn_from_mask, load_palette,
+from gstlandmark.palette import (learn_from_mask, load_palette, parse_palette,
                                  palette_to_json)
 from gstlandmark.synth import (Camera, Distractor, Effects, Landmark, Pose,
                                Scene, Walls, render_frame, render_scenario)
@@ -374,7 +374,7 @@ def test_scenario_writes_outputs(tmp_path, name):
                            "kind"}
     palette = load_palette(str(tmp_path / "palette.json"))
     assert palette_to_json(palette)["classes"] == \
-        scene["palette"]["classes"]
+        palette_to_json(parse_palette(scene["palette"]))["classes"]
     lines = (tmp_path / "truth.jsonl").read_text().splitlines()
     assert [json.loads(x)["frame"] for x in lines] == [0, 1, 2]
     assert json.loads(lines[1])["pts"] == 33333333

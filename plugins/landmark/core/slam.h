@@ -2,7 +2,8 @@
  * robot's pose and velocity and the positions of the landmarks it has
  * seen, with range-bearing measurements.
  *
- * - Motion: constant velocity, or robot-frame odometry increments.
+ * - Motion: constant velocity, or robot-frame odometry increments whose
+ *   scale error and heading drift are part of the state.
  * - A landmark starts from one range and bearing, with the covariance that
  *   the pose's and the measurement's uncertainties give it. It is
  *   confirmed once it exists (paired in `confirm_views` frames, from poses
@@ -57,7 +58,13 @@ struct SlamOptions {
   double confirm_sigma = 0.03;
   int tentative_frames = 30;      /* updates a new one may go unseen */
   unsigned max_landmarks = 128;
-  /* odometry noise: one sigma per metre travelled / per radian turned */
+  /* odometry: its scale error and heading drift are estimated (state),
+   * these are their prior sigmas (a wheel radius 5 % off, wheels unequal
+   * by about 3 degrees of turn per metre)... */
+  double odo_scale_sigma = 0.05;
+  double odo_drift_sigma = 0.05;  /* rad per m */
+  /* ...and the white noise of each step (slip): one sigma per metre
+   * travelled / per radian turned */
   double odo_trans_sigma = 0.05;  /* m per m */
   double odo_rot_sigma = 0.05;    /* rad per rad */
   double odo_rot_per_m = 0.02;    /* rad per m */
@@ -134,7 +141,7 @@ public:
 private:
   bool init_ = false;
   bool anchored_ = false;
-  std::vector<double> s_;         /* x y th vx vy w, then free landmarks */
+  std::vector<double> s_;         /* x y th vx vy w k g, then landmarks */
   std::vector<double> p_;         /* covariance, n x n row-major */
   std::vector<SlamLandmark> lm_;
   std::vector<int> slot_;         /* per landmark: state index, -1 anchor */

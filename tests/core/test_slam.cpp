@@ -48,6 +48,7 @@ struct SimOptions {
   bool odometry = false;
   double odo_scale = 1.02, odo_drift = M_PI / 180;   /* rad per metre */
   Pose2 start;
+  int blind_after = -1;           /* frames from which nothing is seen */
   SlamOptions slam;
 };
 
@@ -117,7 +118,8 @@ run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
       const double dx = truth[i].x - p.x, dy = truth[i].y - p.y;
       const double r = std::hypot (dx, dy);
       const double b = wrap_angle (std::atan2 (dy, dx) - p.heading);
-      if (r > o.max_range || r < 0.3 || std::fabs (b) > o.fov)
+      if (r > o.max_range || r < 0.3 || std::fabs (b) > o.fov
+          || (o.blind_after >= 0 && k >= o.blind_after))
         continue;
       const double sr = 0.01 + 0.01 * r, sb = 0.01;
       const double rn = r + sr * g (rng), bn = b + sb * g (rng);
@@ -449,7 +451,9 @@ test_partial_map ()
       percentile (r.pose_err, 0.5));
 }
 
-/* odometry with 2 % scale error and 1 degree per metre heading drift */
+/* odometry with 2 % scale error and 1 degree per metre heading drift, no
+ * slip: the filter learns both, and its pose covariance covers the error
+ * (NEES inside the one-sided 95 % bound on 90 % of the frames or more) */
 static void
 test_odometry ()
 {
@@ -460,8 +464,49 @@ test_odometry ()
   run (o, truth, &r);
   const double rms = check_map (r, truth, "odometry");
   const double med = percentile (r.pose_err, 0.5);
-  std::printf ("odometry: map rms %.4f m, path median %.4f m\n", rms, med);
-  CHECK (rms < 0.05 && med < 0.03, "rms %f median %f", rms, med);
+  const double inside = std::count_if (r.nees.begin (), r.nees.end (),
+      [](double v) { return v <= chi2_quantile (0.95, 3); })
+      / (double) r.nees.size ();
+  std::printf ("odometry: map rms %.4f m, path median %.4f m, NEES inside "
+      "%.1f %%\n", rms, med, 100 * inside);
+  CHECK (rms < 0.05 && med < 0.015, "rms %f median %f", rms, med);
+  CHECK (inside >= 0.9, "NEES inside on %f", inside);
+}
+
+/* The same odometry, the landmarks seen on the first loop only: the second
+ * loop (7.5 m) is bridged on the odometry alone. Its scale error and drift
+ * learnt on the first loop, the path holds and the covariance covers it;
+ * the same drift taken as white noise per step (the control) is
+ * over-confident. */
+static void
+test_odometry_bridged ()
+{
+  const auto truth = field ();
+  for (bool control : { false, true }) {
+    SimOptions o;
+    o.odometry = true;
+    o.blind_after = 630;
+    if (control) {
+      o.slam.odo_scale_sigma = o.slam.odo_drift_sigma = 1e-9;
+      o.slam.odo_trans_sigma = o.slam.odo_rot_sigma = 0.05;
+      o.slam.odo_rot_per_m = 0.02;
+    }
+    SimResult r;
+    run (o, truth, &r);
+    std::vector<double> nees (r.nees.begin () + 630, r.nees.end ());
+    const double inside = std::count_if (nees.begin (), nees.end (),
+        [](double v) { return v <= chi2_quantile (0.95, 3); })
+        / (double) nees.size ();
+    const double end = r.pose_err.back ();
+    std::printf ("odometry bridging a loop%s: NEES inside %.1f %% of its "
+        "frames, error at the end %.3f m\n", control ? " (drift as white "
+        "noise)" : "", 100 * inside, end);
+    if (control)
+      CHECK (inside < 0.5, "control: NEES inside on %f", inside);
+    else
+      CHECK (inside >= 0.9 && end < 0.05, "NEES inside on %f, end error %f",
+          inside, end);
+  }
 }
 
 /* a stationary robot: the pose stays at the origin and no copies appear.
@@ -527,6 +572,19 @@ test_confirm_on_knowledge ()
       "expected %d", first, expect);
 }
 
+/* A red detection at range r, bearing b with those sigmas. */
+static SlamObservation
+red_obs (double r, double b, double sr, double sb)
+{
+  SlamObservation a;
+  a.class_name = "red";
+  a.obs.gx = r * std::cos (b);
+  a.obs.gy = r * std::sin (b);
+  a.obs.range_sigma = sr;
+  a.obs.bearing_sigma = sb;
+  return a;
+}
+
 /* A robot driving straight at 0.9 m/s past a landmark that is in view for
  * 15 frames (0.45 m of travel), then out of view: confirmed while in view,
  * kept. A rule of three views 0.25 m apart never confirms it (the rendered
@@ -548,14 +606,7 @@ test_confirm_short_pass ()
       if (k < 15) {
         const double r = std::hypot (lx - x, ly), b = std::atan2 (ly, lx - x);
         const double sr = 0.005 + 0.005 * r, sb = 0.001;
-        const double rn = r + sr * g (rng), bn = b + sb * g (rng);
-        SlamObservation a;
-        a.class_name = "red";
-        a.obs.gx = rn * std::cos (bn);
-        a.obs.gy = rn * std::sin (bn);
-        a.obs.range_sigma = sr;
-        a.obs.bearing_sigma = sb;
-        obs.push_back (a);
+        obs.push_back (red_obs (r + sr * g (rng), b + sb * g (rng), sr, sb));
       }
       slam.update (obs);
     }
@@ -597,13 +648,8 @@ test_biased_ranges_widened ()
     for (int k = 0; k < 100; k++) {
       const double r = std::hypot (lx, ly), b = std::atan2 (ly, lx);
       const double sr = 0.005, sb = 0.001;
-      const double rn = r + bias + sr * g (rng), bn = b + sb * g (rng);
-      SlamObservation a;
-      a.class_name = "red";
-      a.obs.gx = rn * std::cos (bn);
-      a.obs.gy = rn * std::sin (bn);
-      a.obs.range_sigma = sr;
-      a.obs.bearing_sigma = sb;
+      SlamObservation a = red_obs (r + bias + sr * g (rng), b + sb * g (rng),
+          sr, sb);
       a.range_disagreement = told ? -bias : 0;
       slam.update ({ a });
     }
@@ -653,6 +699,7 @@ main ()
   test_bearing_wrap ();
   test_partial_map ();
   test_odometry ();
+  test_odometry_bridged ();
   test_stationary ();
   test_confirm_on_knowledge ();
   test_confirm_short_pass ();

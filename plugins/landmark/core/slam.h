@@ -63,11 +63,12 @@ struct SlamOptions {
    * by about 3 degrees of turn per metre)... */
   double odo_scale_sigma = 0.05;
   double odo_drift_sigma = 0.05;  /* rad per m */
-  /* ...and the white noise of each step (slip): one sigma per metre
-   * travelled / per radian turned */
-  double odo_trans_sigma = 0.05;  /* m per m */
-  double odo_rot_sigma = 0.05;    /* rad per rad */
-  double odo_rot_per_m = 0.02;    /* rad per m */
+  /* ...and the white noise of each step, slip only now that the
+   * systematic errors are states: 1 % of the distance and of the turn,
+   * 0.01 rad per metre (synth's default slip; docs/landmarkslam.md) */
+  double odo_trans_sigma = 0.01;  /* m per m */
+  double odo_rot_sigma = 0.01;    /* rad per rad */
+  double odo_rot_per_m = 0.01;    /* rad per m */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
 };
 

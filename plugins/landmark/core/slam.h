@@ -76,7 +76,7 @@ struct SlamOptions {
  * written back by map-out) with what the estimate knows of it. */
 struct SlamLandmark : MapLandmark {
   double cov[4] = { 0 };          /* row-major, x y */
-  int views = 0;                  /* counted views (distinct poses) */
+  int views = 0;                  /* frames paired in, confirm_baseline apart */
   bool confirmed = false;
   bool anchor = false;            /* from the given map: fixed */
 };

@@ -87,7 +87,8 @@ namespace {
 struct Settings {
   std::string map, map_out, odometry;
   guint confirm_views = 3;
-  gdouble confirm_baseline = 0.25;
+  gdouble confirm_baseline = 0;
+  gdouble confirm_sigma = 0.03;
   gdouble gate = 13.82;
   gboolean post_messages = FALSE;
 };
@@ -166,11 +167,17 @@ slam_properties ()
           "\"dheading\"} (seconds of stream time, metres, radians); none: "
           "constant-velocity model", &Settings::odometry)
       .number ("confirm-views", "Confirm views",
-          "Views from distinct poses before a landmark is confirmed",
+          "Frames a landmark must be paired in (views, counted from poses "
+          "confirm-baseline apart) before it is confirmed: that it exists",
           &Settings::confirm_views, 1u, 1000u)
       .number ("confirm-baseline", "Confirm baseline",
-          "Metres the robot must move between two counted views",
+          "Metres the robot must move between two counted views (0: every "
+          "frame the landmark is paired in counts)",
           &Settings::confirm_baseline, 0.0, 100.0)
+      .number ("confirm-sigma", "Confirm sigma",
+          "Metres: a landmark is confirmed once the largest standard "
+          "deviation of its position is at most this (and it has its "
+          "views): that it is known", &Settings::confirm_sigma, 0.0001, 100.0)
       .number ("gate", "Gate",
           "Association gate: squared Mahalanobis distance of a range and "
           "bearing to a landmark (chi-square, 2 degrees of freedom; 13.82 "
@@ -179,6 +186,33 @@ slam_properties ()
           "Post a landmark-map element message per frame (the fields of "
           "the map meta)", &Settings::post_messages);
   return table;
+}
+
+/* The part of the disagreement of ipmrange's floor and size ranges that
+ * its pixel noise does not explain (docs/landmarkslam.md, "Measurement
+ * noise"), signed; 0 without both ranges. The size range's sigma is that
+ * of the ellipse's major axis, ipmrange's default pixel-sigma (0.5 px)
+ * over the axis, relative; their sum of variances times 6.63 (chi-square,
+ * 1 degree of freedom, 99 %) is what whole blobs may disagree by. */
+static double
+range_disagreement (GstBuffer * buf, GstVideoRegionOfInterestMeta * roi)
+{
+  const GstStructure *rs = landmark_detection_get_param (buf, roi,
+      LANDMARK_RANGE_PARAMS);
+  const GstStructure *bs = landmark_detection_get_param (buf, roi,
+      LANDMARK_BLOB_PARAMS);
+  double r_size, r_ground, sigma, major;
+  if (!rs || !bs || !gst_structure_get_double (rs, "range-size", &r_size)
+      || !gst_structure_get_double (rs, "range-ground", &r_ground)
+      || !gst_structure_get_double (rs, "range-sigma", &sigma)
+      || !gst_structure_get_double (bs, "ellipse-major", &major)
+      || !(major > 0) || !std::isfinite (r_size - r_ground))
+    return 0;
+  const double size_sigma = r_size * 0.5 / major;
+  const double d = r_size - r_ground;
+  const double excess = d * d - 6.63 * (sigma * sigma
+      + size_sigma * size_sigma);
+  return excess > 0 ? std::copysign (std::sqrt (excess), d) : 0;
 }
 
 /* The estimate starts again on the configured anchors. */
@@ -198,6 +232,7 @@ slam_apply_options (State & st)
   const Settings & s = st.applied.config.s;
   st.slam.opt.confirm_views = (int) s.confirm_views;
   st.slam.opt.confirm_baseline = s.confirm_baseline;
+  st.slam.opt.confirm_sigma = s.confirm_sigma;
   st.slam.opt.gate_chi2 = s.gate;
 }
 
@@ -433,7 +468,8 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
   landmark::ranged_detections_collect (buf, true, false, &ranged);
   std::vector<landmark::SlamObservation> & obs = st.obs;
   obs.clear ();
-  for (const landmark::Detection & d : ranged.dets) {
+  for (size_t k = 0; k < ranged.dets.size (); k++) {
+    const landmark::Detection & d = ranged.dets[k];
     landmark::SlamObservation o;
     o.class_name = d.class_name;
     o.obs = d.obs;
@@ -441,6 +477,7 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     o.marker_z = d.marker_z;
     o.marker_diameter = d.marker_diameter;
     o.marker_ball = d.marker_ball;
+    o.range_disagreement = range_disagreement (buf, ranged.rois[k]);
     obs.push_back (o);
   }
 

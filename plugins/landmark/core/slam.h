@@ -2,12 +2,20 @@
  * robot's pose and velocity and the positions of the landmarks it has
  * seen, with range-bearing measurements.
  *
- * - Motion: constant velocity, or robot-frame odometry increments.
+ * - Motion: constant velocity, or robot-frame odometry increments whose
+ *   scale error and heading drift are part of the state.
  * - A landmark starts from one range and bearing, with the covariance that
- *   the pose's and the measurement's uncertainties give it; it stays
- *   tentative until seen `confirm_views` times from poses at least
- *   `confirm_baseline` apart, and a tentative landmark unseen for
- *   `tentative_frames` updates is dropped.
+ *   the pose's and the measurement's uncertainties give it. It is
+ *   confirmed once it exists (paired in `confirm_views` frames, from poses
+ *   `confirm_baseline` apart) and is known (the largest standard deviation
+ *   of its position relative to the robot, its covariance given the pose,
+ *   at most `confirm_sigma`); one that
+ *   never reached `confirm_views` and is unseen for `tentative_frames`
+ *   updates is dropped.
+ * - Measurement noise: ipmrange's sigmas, widened by the disagreement of
+ *   its floor and size ranges when it gives both (a blob segmented in part
+ *   moves its centre by about as much as its size range moves), the more
+ *   the more views the landmark has (that error repeats).
  * - Association: by class, each detection gated against each landmark by
  *   Mahalanobis distance, then joint compatibility branch and bound (JCBB):
  *   the largest one-to-one set of pairings whose joint innovation passes
@@ -42,14 +50,25 @@ struct SlamOptions {
    * biased beyond their sigmas (a disc cut by the image border) must not
    * add copies; two same-coloured markers closer than this are one */
   double min_separation = 0.2;
+  /* existence: frames a landmark is paired in before it counts as real
+   * (a spurious blob rarely recurs where the filter predicts it) */
   int confirm_views = 3;
-  double confirm_baseline = 0.25; /* metres between counted views */
-  int tentative_frames = 30;      /* updates a tentative one may go unseen */
+  double confirm_baseline = 0;    /* metres between counted views */
+  /* knowledge: largest position sigma (metres) given the pose, to confirm */
+  double confirm_sigma = 0.03;
+  int tentative_frames = 30;      /* updates a new one may go unseen */
   unsigned max_landmarks = 128;
-  /* odometry noise: one sigma per metre travelled / per radian turned */
-  double odo_trans_sigma = 0.05;  /* m per m */
-  double odo_rot_sigma = 0.05;    /* rad per rad */
-  double odo_rot_per_m = 0.02;    /* rad per m */
+  /* odometry: its scale error and heading drift are estimated (state),
+   * these are their prior sigmas (a wheel radius 5 % off, wheels unequal
+   * by about 3 degrees of turn per metre)... */
+  double odo_scale_sigma = 0.05;
+  double odo_drift_sigma = 0.05;  /* rad per m */
+  /* ...and the white noise of each step, slip only now that the
+   * systematic errors are states: 1 % of the distance and of the turn,
+   * 0.01 rad per metre (synth's default slip; docs/landmarkslam.md) */
+  double odo_trans_sigma = 0.01;  /* m per m */
+  double odo_rot_sigma = 0.01;    /* rad per rad */
+  double odo_rot_per_m = 0.01;    /* rad per m */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
 };
 
@@ -57,7 +76,7 @@ struct SlamOptions {
  * written back by map-out) with what the estimate knows of it. */
 struct SlamLandmark : MapLandmark {
   double cov[4] = { 0 };          /* row-major, x y */
-  int views = 0;                  /* counted views (distinct poses) */
+  int views = 0;                  /* frames paired in, confirm_baseline apart */
   bool confirmed = false;
   bool anchor = false;            /* from the given map: fixed */
 };
@@ -68,7 +87,19 @@ struct SlamObservation {
   /* the marker the range assumed (ipmrange), kept by a new landmark */
   double marker_z = 0, marker_diameter = 0;
   bool marker_ball = false;
+  /* ipmrange's size range minus its floor range, beyond what their pixel
+   * noise explains (0 when within, or when it gave one range): evidence of
+   * an error of the blob's centre that its sigmas omit */
+  double range_disagreement = 0;
 };
+
+/* The range and bearing sigmas the filter uses for an observation that
+ * would be its landmark's `repeat`-th view (1: a new landmark). */
+void slam_observation_sigmas (const SlamObservation & o, int repeat,
+    double *range_sigma, double *bearing_sigma);
+
+/* Largest standard deviation of a 2x2 covariance (row-major). */
+double max_sigma_2x2 (const double cov[4]);
 
 struct SlamFrame {
   bool ok = false;                /* a pose exists */
@@ -111,7 +142,7 @@ public:
 private:
   bool init_ = false;
   bool anchored_ = false;
-  std::vector<double> s_;         /* x y th vx vy w, then free landmarks */
+  std::vector<double> s_;         /* x y th vx vy w k g, then landmarks */
   std::vector<double> p_;         /* covariance, n x n row-major */
   std::vector<SlamLandmark> lm_;
   std::vector<int> slot_;         /* per landmark: state index, -1 anchor */
@@ -124,6 +155,7 @@ private:
   void add_landmark (const SlamObservation & o, SlamLandmark lm);
   void remove_landmark (size_t k);
   void sync_landmarks ();
+  void confirm_known ();
 };
 
 }  // namespace landmark

@@ -136,6 +136,25 @@ class Detection:
     def match(self) -> Dict[str, Any]:
         return self.params.get("landmark-match", {})
 
+    def rejected(self) -> Optional[Tuple[str, Optional[str]]]:
+        """(element, reason) of the first stage that rejected it, or None:
+        the chain's verdict as landmark_detection_rejected gives it in C
+        (docs/detection.md): a blob or range not kept, or a match the map
+        disagrees with; a marginal shape whose size and match confirmed
+        it stands."""
+        confirmed = (self.range.get("shape-confirmed") is True
+                     and self.match.get("matched") is True)
+        for params, element in ((self.blob, "blobroundness"),
+                                (self.range, "ipmrange")):
+            if confirmed and params.get("shape-marginal") is True:
+                continue
+            if params.get("kept") is False:
+                return element, params.get("reject-reason")
+        if self.match.get("reason") in ("outside-gate", "outlier",
+                                        "duplicate"):
+            return "trilaterate", self.match["reason"]
+        return None
+
 
 @dataclass
 class Pose:

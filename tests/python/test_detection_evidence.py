@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import pipeline
+from gstlandmark import meta, pipeline
 
 W, H, HFOV, CAM_H, TILT = 640, 480, 54.0, 0.2, 18.0
 RED, FLOOR = (200, 30, 30), (128, 128, 128)
@@ -75,12 +75,17 @@ def verdicts(tmp_path, frame, landmarks=((1.0, 0.0),)):
     caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
     localise = (f"trilaterate map={map_file} ! " if len(landmarks) > 1
                 else "")
-    pipeline.process_frames(
+    (buf,) = pipeline.process_frames(
         f"labsegment ! blobroundness ! ipmrange camera-height={CAM_H} "
         f"tilt={TILT} hfov={HFOV} map={map_file} ! {localise}"
         f"landmarklog location={log}", [frame], caps)
     (line,) = log.read_text().splitlines()
-    return [d for d in json.loads(line)["detections"] if d["class"] == "red"]
+    dets = json.loads(line)["detections"]
+    # the Python reader's verdict is the C one landmarklog wrote
+    for d, det in zip(dets, meta.detections(buf)):
+        assert det.rejected() == (None if d["accepted"] else
+                                  (d["rejected-by"], d["reject-reason"]))
+    return [d for d in dets if d["class"] == "red"]
 
 
 def nearest(dets, gx, gy):

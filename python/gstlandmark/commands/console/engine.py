@@ -615,7 +615,7 @@ class Engine:
             blob, rng, match = det.blob, det.range, det.match
             entry: Dict[str, Any] = {
                 "id": det.id, "class": det.class_name,
-                "bbox": list(det.bbox), "kept": bool(blob.get("kept", True)),
+                "bbox": list(det.bbox), "kept": det.rejected() is None,
                 "roundness": _plain(blob.get("roundness")),
                 "ellipse_fit": _plain(blob.get("ellipse-fit"))}
             if "range" in rng:

@@ -738,9 +738,10 @@ def test_chart_holds_a_ball_of_every_ball_class(ball_d):
         inner = (uu - u) ** 2 + (vv - v) ** 2 <= (0.7 * radius) ** 2
         assert inner.sum() >= 200, b
         assert (mask[inner] == names.index(b["class"]) + 1).all(), b
-        # lit and shaded sides (ball_shading 0.5): L* spreads (a flat
-        # disc without noise: under 1)
-        lightness = lab[inner][:, 0]
+        # lit and shaded sides (ball_shading 0.5): L* spreads over the
+        # ball's pure pixels (a flat disc without noise: under 1)
+        outline = (uu - u) ** 2 + (vv - v) ** 2 <= radius ** 2
+        lightness = lab[outline & (mask == names.index(b["class"]) + 1)][:, 0]
         spread = np.percentile(lightness, 95) - np.percentile(lightness, 5)
         assert spread > 4.0, (b, spread)
     for i, (u1, v1, r1) in enumerate(circles):

@@ -158,33 +158,30 @@ def ball_classes(scene):
 
 
 def _ball_at(camera, u, v, radius):
-    """Centre (x, y) of a ball of ``radius`` on the floor seen at pixel
-    (u, v), and its image diameter in pixels (None: not in view)."""
-    rot, centre = camera.world_to_camera(CHART_POSE)
-    cam_dir = camera.pixel_directions([u], [v])[0]
-    d = cam_dir @ rot
-    if d[2] >= -1e-9 or centre[2] <= radius:
+    """Centre (x, y) of a ball of ``radius`` standing on the floor point
+    seen at pixel (u, v), and its image diameter in pixels (infinite when
+    it is too near to fit in view).  None above the horizon."""
+    hit = _back_project(camera, u, v)
+    if hit is None:
         return None
-    t = (radius - centre[2]) / d[2]
-    depth = t * cam_dir[2]
-    if depth <= 2.0 * radius:
-        return None
-    size = 2.0 * camera.fx * radius / depth
-    return centre[0] + t * d[0], centre[1] + t * d[1], size
+    x, y = hit[0], hit[1]
+    _, depth = camera.project(np.array([[x, y, radius]]), CHART_POSE)
+    depth = float(depth[0])
+    size = 2.0 * camera.fx * radius / depth if depth > 2.0 * radius \
+        else math.inf
+    return x, y, size
 
 
-def _push_back(camera, x, y, radius, target, wall_x):
+def _push_back(camera, x, y, radius, target):
     """Move a ball at (x, y) straight away from the camera until its image
-    is ``target`` pixels wide (its top nearer the horizon, over the far
-    floor), but not into the back wall."""
+    is about ``target`` pixels wide (its top nearer the horizon, over the
+    far floor)."""
     _, centre = camera.world_to_camera(CHART_POSE)
-    for _ in range(4):
+    for _ in range(6):
         _, depth = camera.project(np.array([[x, y, radius]]), CHART_POSE)
-        scale = 2.0 * camera.fx * radius / float(depth[0]) / target
-        x = centre[0] + (x - centre[0]) * scale
-        y = centre[1] + (y - centre[1]) * scale
-    if wall_x is not None and x > wall_x - 1.5 * radius:
-        scale = (wall_x - 1.5 * radius - centre[0]) / (x - centre[0])
+        # a ball nearer than its own diameter: at least double the way
+        scale = (2.0 * camera.fx * radius / float(depth[0]) / target
+                 if depth[0] > 2.0 * radius else 2.0)
         x = centre[0] + (x - centre[0]) * scale
         y = centre[1] + (y - centre[1]) * scale
     return x, y
@@ -215,7 +212,7 @@ def place_balls(camera, cells, cell_size, balls):
     return placed, free
 
 
-def ball_row(camera, v, cell_h, balls, wall_x):
+def ball_row(camera, v, cell_h, balls):
     """Balls side by side across the free top row of a grid (``grid(...,
     ball_row=True)``, centred on image row ``v``), each one standing as
     far back as it must for its image to fill at most FILL of its share of
@@ -229,7 +226,7 @@ def ball_row(camera, v, cell_h, balls, wall_x):
             raise ValueError("colour chart: no room for a ball")
         x, y, size = hit
         if size > target:
-            x, y = _push_back(camera, x, y, diameter / 2.0, target, wall_x)
+            x, y = _push_back(camera, x, y, diameter / 2.0, target)
         placed.append((float(x), float(y), float(diameter)))
     return placed
 
@@ -262,8 +259,11 @@ def render_chart(scene, frames_total=None):
         centres, cell_size, wall_x = grid(scene.camera, flat, has_walls,
                                           ball_row=True)
         fitted = (ball_row(scene.camera, centres[0][1] - cell_size[1],
-                           cell_size[1], balls, wall_x), range(flat))
+                           cell_size[1], balls), range(flat))
     placed, free = fitted
+    if wall_x is not None and placed:
+        # the back wall stands behind the balls
+        wall_x = max([wall_x] + [x + d for x, _, d in placed])
     cells = [fit_disc(scene.camera, *centres[k], cell_size) for k in free]
     discs = [Landmark(f"chart-{name}", name, x, y, 2.0 * r)
              for name, (x, y, r) in zip(markers, cells)]

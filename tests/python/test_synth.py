@@ -1,6 +1,7 @@
 """gst-landmark synth: geometry self-test against cv2.projectPoints, the
 ground truth's formulas, determinism, masks and the written outputs."""
 
+import dataclasses
 import json
 import math
 
@@ -635,7 +636,10 @@ def test_chart_learns_every_class_by_the_cli(tmp_path, capsys):
     want["floor"] = _srgb_lab((128, 128, 128))
     want["wall"] = _srgb_lab(scene["walls"]["colour_srgb"])
     for cls in learned.classes:
-        delta = np.linalg.norm(np.subtract(cls.lab, want[cls.name]))
+        # a ball's lit and shaded sides may be references of their own;
+        # the flat colour painted is one of them
+        delta = min(np.linalg.norm(np.subtract(ref, want[cls.name]))
+                    for ref in cls.reference_labs)
         assert delta < 2.0, (cls.name, delta)
 
 
@@ -645,6 +649,10 @@ def test_chart_of_a_scene_with_many_floors():
     scene, n = build_scenario("backgrounds", size=(320, 240),
                               noise_sigma=0.0, auto_exposure=0.0,
                               auto_wb=0.0, robot="comfortable")
+    # flat markers only: a ball adds shaded tones (tested below)
+    scene = scene.with_(landmarks=[
+        dataclasses.replace(lm, kind="disc", z=None)
+        for lm in scene.landmarks])
     palette = scene.scene_palette()
     rgb, mask, info = render_chart(scene, n)
     assert len(palette.background) == 8          # one class per floor
@@ -690,6 +698,55 @@ def test_chart_has_frame0_lighting(tmp_path):
     rgb_plain, mask_plain, _ = render_chart(plain, n)
     c = rgb_plain[inside(mask_plain)].reshape(-1, 3)
     assert np.abs(np.median(a, axis=0) - np.median(c, axis=0)).max() > 5
+
+
+@pytest.mark.parametrize("ball_d", [None, 0.45])
+def test_chart_holds_a_ball_of_every_ball_class(ball_d):
+    """A ball per class the scene has balls of, at the scene's diameter,
+    its pixels in the mask of its class, lit on one side and shaded on
+    the other; balls too big for a grid cell stand in a row at the back
+    (0.45 m on the comfortable camera), never on one another."""
+    from gstlandmark.synth import build_scenario
+    from gstlandmark.synth.chart import CHART_POSE, render_chart
+    scene, n = build_scenario("path", size=(320, 240), noise_sigma=0.0,
+                              robot="comfortable")
+    if ball_d is not None:
+        scene = scene.with_(landmarks=[
+            dataclasses.replace(lm, diameter=ball_d, z=None)
+            if lm.kind == "ball" else lm for lm in scene.landmarks])
+    sizes = {}
+    for lm in scene.landmarks:
+        if lm.kind == "ball":
+            sizes.setdefault(lm.cls, set()).add(lm.diameter)
+    assert len(sizes) >= 2 and all(len(d) == 1 for d in sizes.values())
+    rgb, mask, info = render_chart(scene, n)
+    balls = [i for i in info["items"] if i["shape"] == "ball"]
+    assert sorted(b["class"] for b in balls) == sorted(sizes)
+    names = scene.scene_palette().names
+    cam = scene.camera
+    lab = reference.rgb_to_lab(rgb[:, :, ::-1].copy())
+    vv, uu = np.mgrid[0:cam.height, 0:cam.width]
+    circles = []
+    for b in balls:
+        assert b["size"] == pytest.approx(sizes[b["class"]].pop(), abs=1e-4)
+        r = b["size"] / 2.0
+        uv, depth = cam.project(np.array([[b["x"], b["y"], r]]),
+                                CHART_POSE)
+        (u, v), radius = uv[0], cam.fx * r / depth[0]
+        circles.append((u, v, radius))
+        # well inside the silhouette: the ball, nothing else
+        inner = (uu - u) ** 2 + (vv - v) ** 2 <= (0.7 * radius) ** 2
+        assert inner.sum() >= 200, b
+        assert (mask[inner] == names.index(b["class"]) + 1).all(), b
+        # lit and shaded sides (ball_shading 0.5): L* spreads over the
+        # ball's pure pixels (a flat disc without noise: under 1)
+        outline = (uu - u) ** 2 + (vv - v) ** 2 <= radius ** 2
+        lightness = lab[outline & (mask == names.index(b["class"]) + 1)][:, 0]
+        spread = np.percentile(lightness, 95) - np.percentile(lightness, 5)
+        assert spread > 4.0, (b, spread)
+    for i, (u1, v1, r1) in enumerate(circles):
+        for u2, v2, r2 in circles[i + 1:]:
+            assert math.hypot(u1 - u2, v1 - v2) >= r1 + r2
 
 
 # -- the seed's robot and random variants ------------------------------------

@@ -3,15 +3,18 @@
 Frame 0 rarely shows every landmark colour, and a scene that changes
 floors shows one floor at a time, so a palette learned from frame 0 alone
 misses classes.  ``render_chart`` lays one disc of every marker colour on
-the floor in front of the camera, with a square swatch of every other
-floor texture among them and, when the scene has walls, a wall behind
-them; it renders that with the scene's camera, frame 0's floor, exposure,
-white balance, vignetting and noise, and returns a class mask (values as
-``mask0.png``: k = class k of the scene palette) that marks only pixels
-wholly of one class, for ``gst-landmark palette learn --mask``.
+the floor in front of the camera, one ball of every class the scene has
+balls of (the scene's ball diameter, lit by the scene's light: a flat disc
+cannot teach a ball's lit and shaded sides), a square swatch of every
+other floor texture among them and, when the scene has walls, a wall
+behind them; it renders that with the scene's camera, frame 0's floor,
+exposure, white balance, vignetting and noise, and returns a class mask
+(values as ``mask0.png``: k = class k of the scene palette) that marks only
+pixels wholly of one class, for ``gst-landmark palette learn --mask``.
 """
 
 import math
+import statistics
 
 import numpy as np
 
@@ -83,10 +86,12 @@ def _projected_size(camera, x, y, r):
     return np.ptp(uv[:, 0]), np.ptp(uv[:, 1])
 
 
-def layout(camera, count, walls):
-    """Grid cells for ``count`` items on the floor in view: a list of
-    (x, y, radius) world discs, and the forward distance of the chart's
-    back wall (None without walls)."""
+def grid(camera, count, walls, ball_row=False):
+    """Grid cells for ``count`` items on the floor in view: their centre
+    pixels (u, v), the cell width and height in pixels, and the forward
+    distance of the chart's back wall (None without walls).  With
+    ``ball_row`` the top row of cells is left free (for balls) and the
+    cells start one row lower."""
     top, bottom = _floor_rows(camera)
     wall_x = None
     if walls:
@@ -99,29 +104,131 @@ def layout(camera, count, walls):
     cols = max(1, int(math.ceil(math.sqrt(count * width / height))))
     rows = int(math.ceil(count / cols))
     cols = int(math.ceil(count / rows))
-    cell_w, cell_h = width / cols, height / rows
-    items = []
+    cell_w, cell_h = width / cols, height / (rows + ball_row)
+    centres = []
     for k in range(count):
         row, col = divmod(k, cols)
-        u = (col + 0.5) * cell_w - 0.5
-        v = top + (row + 0.5) * cell_h
-        hit = _back_project(camera, u, v)
+        row += ball_row
+        centres.append(((col + 0.5) * cell_w - 0.5,
+                        top + (row + 0.5) * cell_h))
+    return centres, (cell_w, cell_h), wall_x
+
+
+def fit_disc(camera, u, v, cell_size):
+    """The floor disc (x, y, radius) seen at pixel (u, v) whose image
+    fills FILL of a cell of ``cell_size`` (width, height) pixels."""
+    cell_w, cell_h = cell_size
+    hit = _back_project(camera, u, v)
+    if hit is None:
+        raise ValueError("colour chart: a cell above the horizon")
+    x, y, depth, sin_elev = hit
+    # first guess: the projected disc is about 2 r f / depth wide and
+    # that times sin(elevation) high; then fit its real outline
+    r = 0.5 * FILL * min(cell_w * depth / camera.fx,
+                         cell_h * depth / (camera.fy
+                                           * max(sin_elev, 1e-3)))
+    for _ in range(3):
+        w, h = _projected_size(camera, x, y, r)
+        if not (np.isfinite(w) and np.isfinite(h) and w > 0 < h):
+            r *= 0.5          # part of it behind the camera
+            continue
+        r *= min(FILL * cell_w / w, FILL * cell_h / h)
+    return float(x), float(y), float(r)
+
+
+def layout(camera, count, walls):
+    """Grid cells for ``count`` items on the floor in view: a list of
+    (x, y, radius) world discs, and the forward distance of the chart's
+    back wall (None without walls)."""
+    centres, cell_size, wall_x = grid(camera, count, walls)
+    return [fit_disc(camera, u, v, cell_size) for u, v in centres], wall_x
+
+
+def ball_classes(scene):
+    """(class, diameter) of one chart ball per marker class the scene has
+    balls of, in palette order; the diameter is one the class's balls
+    have (the median one)."""
+    out = []
+    for name in scene.palette.names:
+        sizes = sorted(lm.diameter for lm in scene.landmarks
+                       if lm.kind == "ball" and lm.cls == name)
+        if sizes:
+            out.append((name, statistics.median_low(sizes)))
+    return out
+
+
+def _ball_at(camera, u, v, radius):
+    """Centre (x, y) of a ball of ``radius`` standing on the floor point
+    seen at pixel (u, v), and its image diameter in pixels (infinite when
+    it is too near to fit in view).  None above the horizon."""
+    hit = _back_project(camera, u, v)
+    if hit is None:
+        return None
+    x, y = hit[0], hit[1]
+    _, depth = camera.project(np.array([[x, y, radius]]), CHART_POSE)
+    depth = float(depth[0])
+    size = 2.0 * camera.fx * radius / depth if depth > 2.0 * radius \
+        else math.inf
+    return x, y, size
+
+
+def _push_back(camera, x, y, radius, target):
+    """Move a ball at (x, y) straight away from the camera until its image
+    is about ``target`` pixels wide (its top nearer the horizon, over the
+    far floor)."""
+    _, centre = camera.world_to_camera(CHART_POSE)
+    for _ in range(6):
+        _, depth = camera.project(np.array([[x, y, radius]]), CHART_POSE)
+        # a ball nearer than its own diameter: at least double the way
+        scale = (2.0 * camera.fx * radius / float(depth[0]) / target
+                 if depth[0] > 2.0 * radius else 2.0)
+        x = centre[0] + (x - centre[0]) * scale
+        y = centre[1] + (y - centre[1]) * scale
+    return x, y
+
+
+def place_balls(camera, cells, cell_size, balls):
+    """Give every (class, diameter) of ``balls`` the grid cell its ball
+    fills most while fitting FILL of it.  ``cells`` are centre pixels (u,
+    v).  Returns the balls' (x, y, diameter) in order and the indices of
+    the cells left for the discs and swatches, or None when a ball fits no
+    cell."""
+    cell_w, cell_h = cell_size
+    target = FILL * min(cell_w, cell_h)
+    free = list(range(len(cells)))
+    placed = []
+    for _, diameter in balls:
+        best = None
+        for k in free:
+            hit = _ball_at(camera, *cells[k], diameter / 2.0)
+            if hit is not None and hit[2] <= target and (
+                    best is None or hit[2] > best[0]):
+                best = (hit[2], k, hit[0], hit[1])
+        if best is None:
+            return None
+        _, k, x, y = best
+        free.remove(k)
+        placed.append((float(x), float(y), float(diameter)))
+    return placed, free
+
+
+def ball_row(camera, v, cell_h, balls):
+    """Balls side by side across the free top row of a grid (``grid(...,
+    ball_row=True)``, centred on image row ``v``), each one standing as
+    far back as it must for its image to fill at most FILL of its share of
+    the row.  Returns their (x, y, diameter)."""
+    share = camera.width / len(balls)
+    target = FILL * min(share, cell_h)
+    placed = []
+    for j, (_, diameter) in enumerate(balls):
+        hit = _ball_at(camera, (j + 0.5) * share - 0.5, v, diameter / 2.0)
         if hit is None:
-            raise ValueError("colour chart: a cell above the horizon")
-        x, y, depth, sin_elev = hit
-        # first guess: the projected disc is about 2 r f / depth wide and
-        # that times sin(elevation) high; then fit its real outline
-        r = 0.5 * FILL * min(cell_w * depth / camera.fx,
-                             cell_h * depth / (camera.fy
-                                               * max(sin_elev, 1e-3)))
-        for _ in range(3):
-            w, h = _projected_size(camera, x, y, r)
-            if not (np.isfinite(w) and np.isfinite(h) and w > 0 < h):
-                r *= 0.5          # part of it behind the camera
-                continue
-            r *= min(FILL * cell_w / w, FILL * cell_h / h)
-        items.append((float(x), float(y), float(r)))
-    return items, wall_x
+            raise ValueError("colour chart: no room for a ball")
+        x, y, size = hit
+        if size > target:
+            x, y = _push_back(camera, x, y, diameter / 2.0, target)
+        placed.append((float(x), float(y), float(diameter)))
+    return placed
 
 
 def render_chart(scene, frames_total=None):
@@ -141,11 +248,27 @@ def render_chart(scene, frames_total=None):
     swatches = [f for f in scene.floor_names() if f != floor0]
     # a square of each obstacle colour too, flat on the floor
     boxes = scene.obstacle_colours()
-    cells, wall_x = layout(scene.camera,
-                           len(markers) + len(swatches) + len(boxes),
-                           scene.walls is not None)
+    balls = ball_classes(scene)
+    flat = len(markers) + len(swatches) + len(boxes)
+    has_walls = scene.walls is not None
+    centres, cell_size, wall_x = grid(scene.camera, flat + len(balls),
+                                      has_walls)
+    fitted = place_balls(scene.camera, centres, cell_size, balls)
+    if fitted is None:
+        # balls too big for a cell: a row of their own at the back
+        centres, cell_size, wall_x = grid(scene.camera, flat, has_walls,
+                                          ball_row=True)
+        fitted = (ball_row(scene.camera, centres[0][1] - cell_size[1],
+                           cell_size[1], balls), range(flat))
+    placed, free = fitted
+    if wall_x is not None and placed:
+        # the back wall stands behind the balls
+        wall_x = max([wall_x] + [x + d for x, _, d in placed])
+    cells = [fit_disc(scene.camera, *centres[k], cell_size) for k in free]
     discs = [Landmark(f"chart-{name}", name, x, y, 2.0 * r)
              for name, (x, y, r) in zip(markers, cells)]
+    discs += [Landmark(f"chart-{name}-ball", name, x, y, d, kind="ball")
+              for (name, _), (x, y, d) in zip(balls, placed)]
     walls = None
     if scene.walls is not None:
         walls = Walls(-100.0, -100.0, wall_x, 100.0, scene.walls.height,
@@ -154,7 +277,7 @@ def render_chart(scene, frames_total=None):
                   walls=walls, effects=scene.effects, palette=scene.palette,
                   fps=scene.fps, seed=scene.seed,
                   supersample=scene.supersample, sky_colour=scene.sky_colour,
-                  scenario=f"{scene.scenario} chart")
+                  light=scene.light, scenario=f"{scene.scenario} chart")
     # the scene's own floor textures (same seed, already built)
     chart._cache[("floor", floor0)] = scene.floor_texture(floor0)
     tracer = Renderer(chart)
@@ -206,7 +329,10 @@ def render_chart(scene, frames_total=None):
                           markers + [scene.floor_class_name(f)
                                      for f in swatches]
                           + [scene.obstacle_class_name(c) for c in boxes],
-                          cells)],
+                          cells)]
+            + [{"class": name, "x": round(x, 4), "y": round(y, 4),
+                "size": round(d, 4), "shape": "ball"}
+               for (name, _), (x, y, d) in zip(balls, placed)],
             "pixels": {name: int(counts[k])
                        for k, name in enumerate(names, start=1)}}
     missing = [name for name, n in info["pixels"].items() if n == 0]

@@ -41,6 +41,9 @@
  * when not kept: `area`, `max-area`, `aspect`, `roundness`, `ellipse-fit`),
  * `frame-width`, `frame-height` (docs/metadata.md). With
  * `keep-rejected=true` rejected blobs are attached too (`kept` false).
+ * With the automatic shape test a near miss is attached even without it,
+ * rejected and marked `shape-marginal`: ipmrange's size and trilaterate's
+ * match may still accept it (docs/detection.md).
  *
  * Video passes unchanged and is never mapped: any `video/x-raw` caps are
  * accepted. Without a labels meta, buffers pass untouched and one warning
@@ -203,7 +206,8 @@ blob_roundness_properties ()
           GST_TYPE_BLOB_ROUNDNESS_SHAPE)
       .boolean ("keep-rejected", "Keep rejected",
           "Also attach rejected blobs (kept=false, with reject-reason), for "
-          "tuning", &Settings::keep_rejected)
+          "tuning (near misses of the automatic shape test are always "
+          "attached, as shape-marginal)", &Settings::keep_rejected)
       .number ("n-threads", "Threads",
           "Threads that search the label plane for runs in horizontal "
           "slices, with results identical to one thread (0: every core for "

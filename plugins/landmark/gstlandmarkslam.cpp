@@ -106,6 +106,13 @@ struct State {
    * write-map from the application's thread; recursive because a sync bus
    * handler of a message posted mid-frame may emit write-map */
   std::recursive_mutex slam_lock;
+  /* one map write at a time, taken after the snapshot (never while
+   * slam_lock is held: a sync handler may write mid-frame), and the frame
+   * count of the newest snapshot written: an older one is not written
+   * over it */
+  std::mutex write_lock;
+  guint64 written_frames = 0;
+  std::string written_path;
   landmark::Slam slam;
   GstClockTime last_time = GST_CLOCK_TIME_NONE;
   size_t odometry_next = 0;
@@ -288,6 +295,11 @@ gst_landmark_slam_start (GstBaseTransform * trans)
   State & st = GST_LANDMARK_SLAM (trans)->priv->state;
   std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
   st.frames = 0;
+  {
+    std::lock_guard<std::mutex> writing (st.write_lock);
+    st.written_frames = 0;
+    st.written_path.clear ();
+  }
   slam_restart (st);
   slam_apply_options (st);
   return TRUE;
@@ -313,7 +325,11 @@ gst_landmark_slam_write_map (GstLandmarkSlam * self, const char *asked,
   }
   std::unique_lock<std::recursive_mutex> lk (st.slam_lock);
   const std::string text = landmark::slam_map_json (st.slam.landmarks ());
+  const guint64 frames = st.frames;
   lk.unlock ();
+  std::lock_guard<std::mutex> writing (st.write_lock);
+  if (frames < st.written_frames && path == st.written_path)
+    return TRUE;                /* a newer estimate is already there */
   std::string why;
   if (!landmark::slam_write_file (path, text, &why)) {
     if (at_eos)
@@ -325,6 +341,8 @@ gst_landmark_slam_write_map (GstLandmarkSlam * self, const char *asked,
           ("%s", why.c_str ()));
     return FALSE;
   }
+  st.written_frames = frames;
+  st.written_path = path;
   GST_INFO_OBJECT (self, "map written to %s", path.c_str ());
   return TRUE;
 }

@@ -479,8 +479,11 @@ landmark_detection_awaits_map (GstBuffer * buffer,
       LANDMARK_BLOB_PARAMS);
   const GstStructure *range = landmark_detection_get_param (buffer, roi,
       LANDMARK_RANGE_PARAMS);
-  gboolean marginal = FALSE, confirmed = FALSE;
-  return blob && range
+  gboolean marginal = FALSE, confirmed = FALSE, kept = TRUE;
+  if (!blob || !range)
+    return FALSE;
+  gst_structure_get_boolean (range, "kept", &kept);
+  return kept
       && gst_structure_get_boolean (blob, "shape-marginal", &marginal)
       && marginal
       && gst_structure_get_boolean (range, "shape-confirmed", &confirmed)

@@ -278,11 +278,16 @@ def _parse_class(entry, index, source):
             _parse_lab(ref, f"{where}: \"references\"[{i}]")
             for i, ref in enumerate(refs))
 
+    # given as null is wrong, as the C reader says (absent is fine)
     marker = entry.get("marker")
-    if marker is not None and not isinstance(marker, bool):
+    if "marker" in entry and not isinstance(marker, bool):
         raise PaletteError(f"{where}: \"marker\" must be true or false, "
                            f"got {_show(marker)}")
-    role = _role_of(marker, entry.get("role"), where)
+    role = entry.get("role")
+    if "role" in entry and not isinstance(role, str):
+        raise PaletteError(f"{where}: \"role\" must be \"marker\", "
+                           f"\"floor\" or \"background\", got {_show(role)}")
+    role = _role_of(marker, role, where)
 
     return PaletteClass(name=name, lab=lab, role=role,
                         references=references)

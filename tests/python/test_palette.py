@@ -599,6 +599,9 @@ def test_roles_read_and_round_trip(tmp_path, extra, role):
                        'or "background", got "wall"'),
     ({"role": 1}, 'classes[0] ("c"): "role" must be "marker", "floor" or '
                   '"background"'),
+    ({"role": None}, 'classes[0] ("c"): "role" must be "marker", "floor" '
+                     'or "background"'),
+    ({"marker": None}, 'classes[0] ("c"): "marker" must be true or false'),
 ])
 def test_roles_that_contradict_or_are_unknown_fail(gst, tmp_path, extra,
                                                   fragment):

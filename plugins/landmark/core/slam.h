@@ -148,6 +148,7 @@ private:
   std::vector<int> slot_;         /* per landmark: state index, -1 anchor */
   std::vector<Pose2> last_view_;  /* per landmark: pose of counted view */
   std::vector<int> unseen_;       /* per landmark: updates since seen */
+  std::vector<int> pass_views_;   /* per landmark: views in this pass */
   int next_id_ = 1;
 
   size_t n () const { return s_.size (); }

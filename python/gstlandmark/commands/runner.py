@@ -299,7 +299,8 @@ def log_summary(results: List[Dict[str, Any]]) -> Dict[str, Any]:
     for res in results:
         for det in res.get("detections") or []:
             # the chain's verdict where it gave one (a marginal shape
-            # confirmed by its size is accepted though its blob is not kept)
+            # confirmed by its size and the map is accepted though its blob
+            # is not kept)
             if det.get("accepted", det.get("blob", {}).get("kept", True)):
                 per_class[str(det.get("class"))] += 1
             else:

@@ -215,3 +215,24 @@ def test_marginal_shape_needs_the_size_test(gst, tmp_path):
             if d["class"] == "red"]
     assert [(d["accepted"], d["blob"]["shape-marginal"]) for d in dets] == \
         [(False, True)], dets
+
+
+def test_marginal_shape_stays_out_of_slam(gst, tmp_path):
+    # landmarkslam builds its map from what it accepts: a marginal shape,
+    # even confirmed by its size, is not one of its candidates
+    here = [(0.9, 0.1), (0.5, -0.2), (1.4, -0.3)]
+    frame = render([chipped_disc(*here[0], 0.1), disc(*here[1], 0.1),
+                    disc(*here[2], 0.1)])
+    log = tmp_path / "slam.jsonl"
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    pipeline.process_frames(
+        f"labsegment ! blobroundness ! ipmrange camera-height={CAM_H} "
+        f"tilt={TILT} hfov={HFOV} marker-diameter=0.1 ! landmarkslam ! "
+        f"landmarklog location={log}", [frame], caps)
+    dets = json.loads(log.read_text())["detections"]
+    d = nearest(dets, *here[0])
+    assert d["range"]["shape-confirmed"], d
+    assert d["match"] == {"matched": False, "reason": "not-kept"}, d
+    assert not d["accepted"], d
+    others = [x for x in dets if x is not d]
+    assert len(others) == 2 and all(x["match"]["matched"] for x in others)

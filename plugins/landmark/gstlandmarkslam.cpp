@@ -65,6 +65,7 @@
 #include <cmath>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "elementsettings.h"
@@ -111,6 +112,8 @@ struct State {
    * count of the newest snapshot written: an older one is not written
    * over it */
   std::mutex write_lock;
+  /* the frame's landmark-map message, posted after slam_lock is released */
+  GstMessage *pending_message = nullptr;
   guint64 written_frames = 0;
   std::string written_path;
   landmark::Slam slam;
@@ -544,8 +547,9 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     gst_structure_set (m, "has-pose", G_TYPE_BOOLEAN, (gboolean) f.ok,
         nullptr);
     set_map_fields (m, slam.landmarks ());
-    gst_element_post_message (GST_ELEMENT_CAST (self),
-        gst_message_new_element (GST_OBJECT_CAST (self), m));
+    /* posted once slam_lock is released (transform_ip): a sync handler
+     * may hand work to a thread that emits write-map and wait for it */
+    st.pending_message = gst_message_new_element (GST_OBJECT_CAST (self), m);
   }
   GST_LOG_OBJECT (self, "%zu detections, %d matched, %d new, %zu landmarks",
       obs.size (), f.n_matched, f.n_new, slam.landmarks ().size ());
@@ -556,10 +560,19 @@ static GstFlowReturn
 gst_landmark_slam_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LANDMARK_SLAM (trans);
-  std::lock_guard<std::recursive_mutex> lk (self->priv->state.slam_lock);
-  gst_landmark_slam_sync_settings (self);
-  return landmark::run_frame (GST_ELEMENT (self), "SLAM failed.",
-      [&] { return gst_landmark_slam_process (self, buf); });
+  State & st = self->priv->state;
+  GstFlowReturn ret;
+  GstMessage *message;
+  {
+    std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
+    gst_landmark_slam_sync_settings (self);
+    ret = landmark::run_frame (GST_ELEMENT (self), "SLAM failed.",
+        [&] { return gst_landmark_slam_process (self, buf); });
+    message = std::exchange (st.pending_message, nullptr);
+  }
+  if (message)
+    gst_element_post_message (GST_ELEMENT_CAST (self), message);
+  return ret;
 }
 
 static void

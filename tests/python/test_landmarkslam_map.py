@@ -220,3 +220,45 @@ def test_overlay_draws_the_estimate_without_a_map_file(gst, camera):
     assert np.array_equal(
         last_frame(chain(camera, tri, OVERLAY.format(""))),
         last_frame(chain(camera, tri, OVERLAY.format("show-minimap=false"))))
+
+
+def test_write_map_from_another_thread_while_frames_flow(gst, camera,
+                                                         tmp_path):
+    """Free running: a thread asks for the map to map-out as fast as it
+    can while the stream goes to EOS. Nothing blocks, and the file left is
+    the last frame's map, not an older snapshot written after it."""
+    at_eos = tmp_path / "eos.json"
+    pipeline.init()
+    Gst = pipeline.Gst
+    pipe = Gst.parse_launch(chain(
+        camera, f"landmarkslam name=slam map-out={at_eos} "
+        "post-messages=true", "fakesink name=sink sync=false"))
+    slam = pipe.get_by_name("slam")
+    maps = []
+    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
+        Gst.PadProbeType.BUFFER,
+        lambda pad, info: maps.append(meta.landmark_map(info.get_buffer()))
+        or Gst.PadProbeReturn.OK)
+    stop, asked = threading.Event(), [0]
+
+    def ask():
+        while not stop.is_set():
+            slam.emit("write-map", None)
+            asked[0] += 1
+    t = threading.Thread(target=ask)
+    pipe.set_state(Gst.State.PLAYING)
+    t.start()
+    try:
+        msg = pipe.get_bus().timed_pop_filtered(
+            TIMEOUT_S * Gst.SECOND, Gst.MessageType.EOS |
+            Gst.MessageType.ERROR)
+        assert msg is not None, "blocked: no EOS"
+        assert msg.type == Gst.MessageType.EOS, msg.parse_error()
+    finally:
+        stop.set()
+        t.join(TIMEOUT_S)
+        pipe.set_state(Gst.State.NULL)
+    assert not t.is_alive() and asked[0] > 10, asked
+    assert len(maps) == FRAMES
+    # the writes raced the stream; the file is the newest estimate
+    assert written(at_eos).keys() == confirmed(maps[-1]).keys()

@@ -1,6 +1,7 @@
 """Tests of gstlandmark.palette and the ``gst-landmark palette`` command."""
 
 import json
+import math
 import os
 
 import cv2
@@ -881,6 +882,19 @@ def test_learn_two_tone_ball_gives_two_references(gst, tmp_path):
     assert labels_of(paths["auto"], colours) == [1, 1, 1, 2]
     single = labels_of(paths["1"], colours)
     assert single[2] == 2 and single[3] == 2
+
+    # the chain keeps the whole shaded ball as one round yellow blob
+    from gstlandmark import meta, pipeline
+    import frames as F
+    h, w = image.shape[:2]
+    out = pipeline.process_frames(
+        f"labsegment palette={paths['auto']} ! blobroundness",
+        [np.ascontiguousarray(image[..., ::-1])], F.caps_string("RGB", w, h))
+    (ball,) = [d for d in meta.detections(out[0])
+               if d.class_name == "yellow" and d.blob["kept"]]
+    disc_area = math.pi * 40 ** 2
+    assert abs(ball.blob["area"] - disc_area) < 0.03 * disc_area
+    assert abs(ball.blob["centroid-y"] - 60) < 1, ball.blob
 
 
 def test_learn_uniform_region_gives_one_reference():

@@ -481,7 +481,8 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
       } else if (b.ellipse_fit < fit_threshold) {
         reject = "ellipse-fit";
         /* a near miss travels on as a candidate that only ipmrange's size
-         * test can confirm; a cut blob has no size to confirm it by */
+         * test and trilaterate's match together can accept; a cut blob has
+         * no size to confirm it by */
         marginal = cfg.min_ellipse_fit < 0 && !b.touches_border &&
             b.ellipse_fit >= landmark::shape_marginal_threshold
             (b.ellipse_major, b.ellipse_minor);

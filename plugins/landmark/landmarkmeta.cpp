@@ -421,42 +421,56 @@ landmark_detection_get_param (GstBuffer * buffer,
       : nullptr;
 }
 
+namespace {
+
+bool
+param_flag (const GstStructure * p, const gchar * name)
+{
+  gboolean value = FALSE;
+  return p && gst_structure_get_boolean (p, name, &value) && value;
+}
+
+bool
+param_not_kept (const GstStructure * p)
+{
+  gboolean kept = TRUE;
+  return p && gst_structure_get_boolean (p, "kept", &kept) && !kept;
+}
+
+}  // namespace
+
 gboolean
 landmark_detection_rejected (GstBuffer * buffer,
     const GstVideoRegionOfInterestMeta * roi, const gchar ** element,
     const gchar ** reason)
 {
-  static const struct
-  {
-    const gchar *param, *element;
-  } stages[] = {
-    {LANDMARK_BLOB_PARAMS, "blobroundness"},
-    {LANDMARK_RANGE_PARAMS, "ipmrange"},
-  };
-  const auto flag = [](const GstStructure * p, const gchar * name) {
-    gboolean value = FALSE;
-    return p && gst_structure_get_boolean (p, name, &value) && value;
-  };
+  const GstStructure *blob = landmark_detection_get_param (buffer, roi,
+      LANDMARK_BLOB_PARAMS);
+  const GstStructure *range = landmark_detection_get_param (buffer, roi,
+      LANDMARK_RANGE_PARAMS);
+  const GstStructure *match = landmark_detection_get_param (buffer, roi,
+      LANDMARK_MATCH_PARAMS);
   /* blobroundness's marginal shape stands when ipmrange's size against
    * range and trilaterate's map both confirmed it (docs/detection.md) */
-  const bool shape_confirmed = flag (landmark_detection_get_param (buffer,
-          roi, LANDMARK_RANGE_PARAMS), "shape-confirmed")
-      && flag (landmark_detection_get_param (buffer, roi,
-          LANDMARK_MATCH_PARAMS), "matched");
+  const bool shape_confirmed = param_flag (range, "shape-confirmed")
+      && param_flag (match, "matched");
+  const struct
+  {
+    const GstStructure *params;
+    const gchar *element;
+  } stages[] = {
+    {blob, "blobroundness"},
+    {range, "ipmrange"},
+  };
   for (const auto & stage : stages) {
-    const GstStructure *p = landmark_detection_get_param (buffer, roi,
-        stage.param);
-    if (shape_confirmed && flag (p, "shape-marginal"))
+    if (shape_confirmed && param_flag (stage.params, "shape-marginal"))
       continue;
-    gboolean kept = TRUE;
-    if (p && gst_structure_get_boolean (p, "kept", &kept) && !kept) {
+    if (param_not_kept (stage.params)) {
       *element = stage.element;
-      *reason = gst_structure_get_string (p, "reject-reason");
+      *reason = gst_structure_get_string (stage.params, "reject-reason");
       return TRUE;
     }
   }
-  const GstStructure *match = landmark_detection_get_param (buffer, roi,
-      LANDMARK_MATCH_PARAMS);
   const gchar *why = match ? gst_structure_get_string (match, "reason") :
       nullptr;
   /* the map disagrees: no landmark of its class where it was seen, not
@@ -475,19 +489,12 @@ gboolean
 landmark_detection_awaits_map (GstBuffer * buffer,
     const GstVideoRegionOfInterestMeta * roi)
 {
-  const GstStructure *blob = landmark_detection_get_param (buffer, roi,
-      LANDMARK_BLOB_PARAMS);
   const GstStructure *range = landmark_detection_get_param (buffer, roi,
       LANDMARK_RANGE_PARAMS);
-  gboolean marginal = FALSE, confirmed = FALSE, kept = TRUE;
-  if (!blob || !range)
-    return FALSE;
-  gst_structure_get_boolean (range, "kept", &kept);
-  return kept
-      && gst_structure_get_boolean (blob, "shape-marginal", &marginal)
-      && marginal
-      && gst_structure_get_boolean (range, "shape-confirmed", &confirmed)
-      && confirmed
+  return range && !param_not_kept (range)
+      && param_flag (range, "shape-confirmed")
+      && param_flag (landmark_detection_get_param (buffer, roi,
+          LANDMARK_BLOB_PARAMS), "shape-marginal")
       && !landmark_detection_get_param (buffer, roi, LANDMARK_MATCH_PARAMS);
 }
 

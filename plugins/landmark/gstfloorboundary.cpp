@@ -289,10 +289,15 @@ gst_floor_boundary_sync_settings (GstFloorBoundary * self)
   State & st = self->priv->state;
   landmark::CameraGeometry geometry;
   landmark::FloorProfile profile;
+  /* before the first frame the caps' size stands in for the label plane's
+   * (labsegment labels every pixel), so a camera set then that sees no floor
+   * is refused here too instead of failing the first frame */
+  const guint check_w = st.built_w > 0 ? st.built_w : st.video_width;
+  const guint check_h = st.built_w > 0 ? st.built_h : st.video_height;
   auto parse_and_build = [&](const Settings & s, Config * cfg,
       landmark::SettingsError * err) {
-    return floor_boundary_parse (s, cfg, err) && (st.built_w == 0 ||
-        floor_boundary_build (*cfg, st.built_w, st.built_h, &geometry,
+    return floor_boundary_parse (s, cfg, err) && (check_w < 2 || check_h < 2
+        || floor_boundary_build (*cfg, check_w, check_h, &geometry,
             &profile, err));
   };
   if (!st.applied.sync (GST_ELEMENT (self), self->priv->settings,

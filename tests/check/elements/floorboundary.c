@@ -347,6 +347,42 @@ LANDMARK_TEST ("general", test_change_while_playing)
 
 GST_END_TEST;
 
+/* A camera set before the first frame that sees floor at the nominal
+ * 640x480 but not at the stream's size (fx in pixels, looking up: the
+ * bottom edge is 50 degrees below the axis at 480 rows, 17 at 120): refused
+ * with one warning, the first frame measured with the previous camera */
+LANDMARK_TEST ("general", test_camera_refused_before_first_frame)
+{
+  GstHarness *hr = landmark_check_harness_new ("floorboundary "
+      "camera-height=0.3 tilt=25 hfov=60 floor-classes=grey max-range=3",
+      "video/x-raw,format=GRAY8,width=160,height=120,framerate=30/1");
+  GstBus *bus = gst_bus_new ();
+  guint8 *p = g_malloc ((gsize) 160 * 120);
+  GError *err = NULL;
+  GstBuffer *out;
+  gst_element_set_bus (hr->element, bus);
+  memset (p, GREY, (gsize) 160 * 120);
+  g_object_set (hr->element, "fx", 200.0, "tilt", -30.0, NULL);
+  out = gst_harness_push_and_pull (hr, frame_with_labels (p, 160, 120,
+          landmark_check_names7, landmark_check_markers7, 7));
+  fail_unless (out != NULL);
+  fail_unless (gst_buffer_get_custom_meta (out, FLOOR_META) != NULL);
+  gst_buffer_unref (out);
+  /* popping one type discards the others: warnings first */
+  fail_unless_equals_int (landmark_check_count_messages (bus,
+          GST_MESSAGE_WARNING | GST_MESSAGE_ERROR, &err), 1);
+  fail_unless (strstr (err->message, "'tilt'") != NULL, "%s", err->message);
+  fail_unless (g_error_matches (err, GST_RESOURCE_ERROR,
+          GST_RESOURCE_ERROR_SETTINGS));
+  g_clear_error (&err);
+  gst_element_set_bus (hr->element, NULL);
+  gst_object_unref (bus);
+  g_free (p);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
 /* Video untouched; no labels meta: one warning, buffers pass */
 LANDMARK_TEST ("general", test_no_labels_meta)
 {

@@ -63,6 +63,10 @@ MIN_REFERENCE_SEPARATION = 4.6
 # backgrounds fill most of a frame, so a shaded-red reference that reaches
 # into the dark planks of a wooden floor costs more than it gains
 MAX_STOLEN_SHARE = 0.005
+# pixels this close (Chebyshev, px) to a taught region are left out of the
+# untaught scene: a region's edge pixels mix its colour with its
+# neighbour's
+UNTAUGHT_MARGIN = 2
 
 
 class PaletteError(ValueError):
@@ -498,8 +502,9 @@ def _sample(pixels, seed):
     return pixels[rng.choice(len(pixels), KMEANS_SAMPLE, replace=False)]
 
 
-def prune_stealing_references(class_refs, class_pixels, seed=0):
-    """Drop extra references that take taught pixels of other classes.
+def prune_stealing_references(class_refs, class_pixels, seed=0,
+                              untaught=_untaught_pixels(lab, masks), markers=None):
+    """Drop extra references that take pixels their class was not taught.
 
     ``class_refs``: per class, (k, 3) references (k = 1: its mean);
     ``class_pixels``: per class, its taught (N, 3) L*a*b* pixels (a class
@@ -507,22 +512,40 @@ def prune_stealing_references(class_refs, class_pixels, seed=0):
     an extra reference (one of k > 1) is the nearest reference of more
     than MAX_STOLEN_SHARE of some other class's pixels whose next nearest
     reference is of their own class, the worst such reference is dropped.
+    ``untaught``: (M, 3) pixels of the teaching image in no class (the
+    rest of the scene) and ``markers``: per class, whether it is a marker;
+    an extra reference of a marker class that is the nearest reference of
+    more than MAX_STOLEN_SHARE of them, where the next nearest reference
+    is of another class, counts the same: a marker is a small thing in the
+    scene, so a tone of it that claims part of what surrounds it (the dark
+    sky beside a ball's shaded side) is the scene's colour, not the
+    marker's.
     """
     refs = [np.asarray(r, dtype=np.float64).reshape(-1, 3).copy()
             for r in class_refs]
     pixels_all = [np.asarray(p, dtype=np.float64).reshape(-1, 3)
                   for p in class_pixels]
     means = [p.mean(axis=0, keepdims=True) for p in pixels_all]
-    samples = [_sample(p, seed) for p in pixels_all]
+    samples = [(k, _sample(p, seed)) for k, p in enumerate(pixels_all)]
+    if untaught is not None and len(untaught) and markers is not None \
+            and any(markers):
+        samples.append((-1, _sample(np.asarray(untaught, dtype=np.float64)
+                                    .reshape(-1, 3), seed)))
+    is_marker = np.array([bool(m) for m in markers]) \
+        if markers is not None else np.zeros(len(refs), dtype=bool)
     while any(len(r) > 1 for r in refs):
         flat = np.vstack(refs)
         owner = np.repeat(np.arange(len(refs)), [len(r) for r in refs])
         slot = np.concatenate([np.arange(len(r)) for r in refs])
         stolen = np.zeros(len(flat))
-        for k, pixels in enumerate(samples):
+        for k, pixels in samples:
             d2 = ((pixels[:, None, :] - flat[None, :, :]) ** 2).sum(axis=2)
             two = np.argsort(d2, axis=1, kind="stable")[:, :2]
-            taken = (owner[two[:, 0]] != k) & (owner[two[:, 1]] == k)
+            if k >= 0:
+                taken = (owner[two[:, 0]] != k) & (owner[two[:, 1]] == k)
+            else:
+                taken = is_marker[owner[two[:, 0]]] & \
+                    (owner[two[:, 0]] != owner[two[:, 1]])
             share = np.bincount(two[taken, 0], minlength=len(flat)) \
                 / len(pixels)
             stolen = np.maximum(stolen, share)
@@ -613,6 +636,17 @@ def cluster_references(pixels_lab, references="auto", seed=0):
     return best
 
 
+def _untaught_pixels(lab, masks):
+    """The L*a*b* pixels in no class's region, at least UNTAUGHT_MARGIN
+    pixels away from every region."""
+    taught = np.zeros(lab.shape[:2], dtype=np.uint8)
+    for mask in masks:
+        taught |= mask.astype(np.uint8)
+    size = 2 * UNTAUGHT_MARGIN + 1
+    near = cv2.dilate(taught, np.ones((size, size), np.uint8))
+    return lab[near == 0].astype(np.float64)
+
+
 def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
                         references=1, seed=0):
     """Mean Lab of each class's pixels (and its reference colours, see
@@ -646,7 +680,9 @@ def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
         kept = prune_stealing_references(
             prune_shared_references([r for _, r in taught],
                                     [p.mean(axis=0) for p, _ in taught]),
-            [p for p, _ in taught], seed)
+            [p for p, _ in taught], seed,
+            untaught=_untaught_pixels(lab, masks),
+            markers=[entry["role"] == "marker" for entry in entries])
     else:
         kept = [r for _, r in taught]
     for entry, refs in zip(entries, kept):

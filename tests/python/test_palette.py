@@ -1050,6 +1050,39 @@ def test_learn_drops_references_that_take_another_class():
     assert 140 / 2000 > MAX_STOLEN_SHARE
 
 
+def test_learn_drops_marker_references_that_take_the_untaught_scene():
+    """A red ball lit on 60 % and shaded on 40 %, a floor, and above them a
+    dark sky nobody taught (30 % of the image): the shaded-red reference
+    would take the sky, which the palette without it gives the floor, so
+    red keeps one reference. The same image with a white wall in place of
+    the sky (nearest the floor, whatever red holds) keeps both tones."""
+    from gstlandmark.palette import MAX_STOLEN_SHARE, UNTAUGHT_MARGIN
+    rng = np.random.default_rng(11)
+    shaded_red, floor, sky = (24.0, 26.0, 20.0), (50.0, 5.0, 10.0), \
+        (22.0, 6.0, 3.0)
+    # nearest reference of the sky: shaded red; next: the floor
+    assert np.linalg.norm(np.subtract(sky, shaded_red)) < \
+        np.linalg.norm(np.subtract(sky, floor)) < \
+        np.linalg.norm(np.subtract(sky, RED_LAB))
+
+    def learn(above):
+        rows = [(above, 0, 30), (RED_LAB, 1, 18), (shaded_red, 1, 12),
+                (floor, 2, 40)]
+        image = np.vstack([np.tile(lab_to_bgr(lab), (n, 100, 1))
+                           for lab, _, n in rows]).astype(np.float64)
+        image = np.clip(np.rint(image + rng.normal(0, 1.0, image.shape)), 0,
+                        255).astype(np.uint8)
+        mask = np.vstack([np.full((n, 100), k, np.uint8)
+                          for _, k, n in rows])
+        return learn_from_mask(image, mask, names=["red", "floor"],
+                               markers=["red"], references="auto")
+
+    assert learn(sky).classes[0].references == ()
+    assert len(learn((95.0, 0.0, 2.0)).classes[0].references) == 2
+    # the sky left after the margin is far above the share
+    assert (30 - UNTAUGHT_MARGIN) / 100 > MAX_STOLEN_SHARE
+
+
 def test_cli_check_lists_references(tmp_path, capsys):
     path = write_json(tmp_path / "p.json", {"classes": [
         good_class("yellow", (75, -5, 70),

@@ -503,7 +503,7 @@ def _sample(pixels, seed):
 
 
 def prune_stealing_references(class_refs, class_pixels, seed=0,
-                              untaught=_untaught_pixels(lab, masks), markers=None):
+                              untaught=None, markers=None):
     """Drop extra references that take pixels their class was not taught.
 
     ``class_refs``: per class, (k, 3) references (k = 1: its mean);

@@ -377,6 +377,44 @@ gst_ipm_range_size_agreement (GstIpmRange * self,
   return landmark::ellipse_shape_iou (measured, *predicted);
 }
 
+/* A blob cut by the frame's edge may be smaller than its marker's image,
+ * never larger. Its size cannot tell which marker of its class it is (the
+ * visible part's centroid biases the range each kind gives, and the test
+ * is one-sided), so it is ranged as the properties' marker, as a class the
+ * map lacks; but when it is larger than every marker's image it is none of
+ * them (a line of mixed pixels along the horizon from the frame's edge).
+ * Then: the first marker whose image could be predicted, with its range in
+ * e, for the size test to reject the blob; otherwise nullptr. */
+static const landmark::MarkerSpec *
+gst_ipm_range_cut_blob_fits_no_marker (GstIpmRange * self,
+    const landmark::BlobObservation & obs,
+    const std::vector<landmark::MarkerSpec> & hypotheses,
+    landmark::RangeEstimate * e)
+{
+  const Config & cfg = self->priv->state.applied.config;
+  const landmark::MarkerSpec *first = nullptr;
+  landmark::RangeEstimate first_range;
+  const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
+    obs.minor, obs.angle};
+  for (const landmark::MarkerSpec & h : hypotheses) {
+    const landmark::RangeEstimate t = landmark::estimate_range
+        (self->priv->state.geometry, obs, h, cfg.s.pixel_sigma);
+    landmark::ImageEllipse predicted;
+    if (t.no_floor || gst_ipm_range_size_agreement (self, obs, h, t,
+            &predicted) < 0)
+      continue;
+    if (landmark::cut_blob_fits (measured, predicted))
+      return nullptr;
+    if (!first) {
+      first = &h;
+      first_range = t;
+    }
+  }
+  if (first)
+    *e = first_range;
+  return first;
+}
+
 /* The size evidence: a marker of known diameter at the floor position the
  * blob was ranged to images at a known size and aspect; a blob that
  * disagrees (a speck near by, a large patch far away, a stripe) is not
@@ -520,6 +558,9 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
       }
     }
   }
+  if (hypotheses && cut)
+    chosen = gst_ipm_range_cut_blob_fits_no_marker (self, obs, *hypotheses,
+        &e);
   if (!chosen)
     e = landmark::estimate_range (st.geometry, obs, marker,
         cfg.s.pixel_sigma);

@@ -67,6 +67,14 @@ MAX_STOLEN_SHARE = 0.005
 # untaught scene: a region's edge pixels mix its colour with its
 # neighbour's
 UNTAUGHT_MARGIN = 2
+# untaught pixels farther than this from every taught reference are a
+# colour of the scene that no class has: about four just-noticeable
+# differences (Delta E 2.3), more than twice the separation at which rule 5
+# calls two references one colour
+UNTAUGHT_MIN_DISTANCE = 10.0
+# ... and make a class of their own when they cover at least this share of
+# the teaching image; fewer are specks, highlights and mixed edge pixels
+UNTAUGHT_MIN_SHARE = 0.01
 
 
 class PaletteError(ValueError):
@@ -647,12 +655,30 @@ def _untaught_pixels(lab, masks):
     return lab[near == 0].astype(np.float64)
 
 
+def _split_untaught(lab, masks, taught):
+    """The untaught pixels (``_untaught_pixels``) split into those within
+    UNTAUGHT_MIN_DISTANCE of a reference of ``taught`` (pairs of pixels
+    and references) and those farther from all of them."""
+    pixels = _untaught_pixels(lab, masks)
+    refs = np.vstack([r for _, r in taught])
+    near = np.zeros(len(pixels), dtype=bool)
+    for start in range(0, len(pixels), 65536):
+        chunk = pixels[start:start + 65536]
+        d2 = ((chunk[:, None, :] - refs[None, :, :]) ** 2).sum(axis=2)
+        near[start:start + 65536] = \
+            d2.min(axis=1) <= UNTAUGHT_MIN_DISTANCE ** 2
+    return pixels[near], pixels[~near]
+
+
 def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
-                        references=1, seed=0):
+                        references=1, seed=0, untaught_class=None):
     """Mean Lab of each class's pixels (and its reference colours, see
     ``cluster_references``) -> validated Palette.  Classes with no pixels
     are an error, or with ``allow_missing`` are left out (with a warning
-    on stderr naming them)."""
+    on stderr naming them).  ``untaught_class``: the name of a background
+    class learned from the untaught pixels far from every taught colour,
+    when they cover UNTAUGHT_MIN_SHARE of the image (None: no such
+    class)."""
     references = _check_references(references)
     entries = []
     missing = []
@@ -676,12 +702,30 @@ def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
         except PaletteError as err:
             raise PaletteError(f"class {json.dumps(name)}: {err}") from None
         taught.append((pixels, mean[None, :] if len(refs) == 1 else refs))
+    untaught = None
+    if untaught_class is not None and taught:
+        if untaught_class in names:
+            raise PaletteError(
+                f"the class for untaught colours, "
+                f"{json.dumps(untaught_class)}, is also a taught class: "
+                f"name it otherwise")
+        untaught, far = _split_untaught(lab, masks, taught)
+        if len(far) >= UNTAUGHT_MIN_SHARE * lab.shape[0] * lab.shape[1] \
+                and len(entries) < MAX_CLASSES:
+            mean = far.mean(axis=0)
+            mean[0] = min(max(mean[0], 0.0), 100.0)
+            entries.append({"name": untaught_class,
+                            "lab": [float(v) for v in mean],
+                            "role": "background"})
+            refs = cluster_references(far, references, seed)
+            taught.append((far, mean[None, :] if len(refs) == 1 else refs))
     if references == "auto" and len(taught) > 1:
+        if untaught is None:
+            untaught = _untaught_pixels(lab, masks)
         kept = prune_stealing_references(
             prune_shared_references([r for _, r in taught],
                                     [p.mean(axis=0) for p, _ in taught]),
-            [p for p, _ in taught], seed,
-            untaught=_untaught_pixels(lab, masks),
+            [p for p, _ in taught], seed, untaught=untaught,
             markers=[entry["role"] == "marker" for entry in entries])
     else:
         kept = [r for _, r in taught]
@@ -699,7 +743,8 @@ def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
 
 
 def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
-                    allow_missing=False, references=1, floor=None):
+                    allow_missing=False, references=1, floor=None,
+                    untaught_class=None):
     """Learn a palette from an image and a mask of class indices.
 
     Mask value 0 is ignored, value k (1..K) marks pixels of class k.  Names
@@ -711,6 +756,11 @@ def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
     the palette (the others keep their order) and a warning on stderr
     names it.  ``references``: reference colours per class, a count or
     "auto" (``cluster_references``); 1 keeps the mean alone.
+    ``untaught_class``: name of a background class learned from the
+    pixels of no class (mask 0) farther than UNTAUGHT_MIN_DISTANCE from
+    every taught colour, when they are at least UNTAUGHT_MIN_SHARE of the
+    image: the sky or walls the mask left out, which would otherwise go
+    to whichever class is least far (None: no such class).
     """
     image = _check_image(image_bgr_uint8)
     mask = np.asarray(mask_uint8)
@@ -743,7 +793,8 @@ def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
     masks = [mask == k for k in range(1, len(names) + 1)]
     return _palette_from_masks(_image_lab(image), names, masks, roles,
                                allow_missing=allow_missing,
-                               references=references)
+                               references=references,
+                               untaught_class=untaught_class)
 
 
 def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None,

@@ -517,7 +517,9 @@ def test_cli_learn_mask_check_load(tmp_path, scene_files, capsys):
     capsys.readouterr()
     assert cli.main(["palette", "check", str(out)]) == 0
     table = capsys.readouterr().out
-    assert "3 classes" in table
+    # the untaught green (the image's left part) is a class of its own;
+    # the untaught red (its right part) is red's
+    assert "4 classes" in table
     red_row = next(line for line in table.splitlines()
                    if line.startswith("red "))
     assert red_row.split() == ["red", "53.24", "80.09", "67.20", "marker",
@@ -527,10 +529,17 @@ def test_cli_learn_mask_check_load(tmp_path, scene_files, capsys):
     assert grey_row.split()[4:] == ["background", "#808080"]
 
     palette = load_palette(out)
-    assert palette.names == ["red", "mix", "grey"]
+    assert palette.names == ["red", "mix", "grey", "untaught"]
     assert palette.markers == ["red"]
     np.testing.assert_allclose(palette.lab_array()[2], KNOWN_LAB[GREY],
                                atol=0.1)
+    np.testing.assert_allclose(palette.lab_array()[3], KNOWN_LAB[GREEN],
+                               atol=0.1)
+    assert palette.classes[3].role == "background"
+    assert cli.main(["palette", "learn", str(image_path), "--mask",
+                     str(mask_path), "--names", "red,mix,grey", "--markers",
+                     "red", "--untaught", "none", "-o", str(out)]) == 0
+    assert load_palette(out).names == ["red", "mix", "grey"]
 
 
 def test_cli_learn_mask_allow_missing(tmp_path, scene_files, capsys):
@@ -538,6 +547,7 @@ def test_cli_learn_mask_allow_missing(tmp_path, scene_files, capsys):
     out = tmp_path / "learned.json"
     args = ["palette", "learn", str(image_path), "--mask", str(mask_path),
             "--names", "red,mix,grey,absent", "--markers", "red,absent",
+            "--untaught", "none",
             "-o", str(out)]
     # by default a class without pixels fails
     assert cli.main(args) == 1
@@ -657,7 +667,8 @@ def test_learn_floor_classes(tmp_path, scene_files):
     out = tmp_path / "mask.json"
     assert cli.main(["palette", "learn", str(image_path), "--mask",
                      str(mask_path), "--names", "red,mix,grey", "--markers",
-                     "red", "--floor", "grey", "-o", str(out)]) == 0
+                     "red", "--floor", "grey", "--untaught", "none", "-o",
+                     str(out)]) == 0
     assert [c.role for c in load_palette(out).classes] == \
         ["marker", "background", "floor"]
 
@@ -1081,6 +1092,67 @@ def test_learn_drops_marker_references_that_take_the_untaught_scene():
     assert len(learn((95.0, 0.0, 2.0)).classes[0].references) == 2
     # the sky left after the margin is far above the share
     assert (30 - UNTAUGHT_MARGIN) / 100 > MAX_STOLEN_SHARE
+
+
+def test_learn_untaught_class_takes_the_sky():
+    """A red ball and a floor taught; the dark sky above them (30 % of the
+    image) left out of the mask. With an untaught class the sky is a
+    background class of its own and labelsegment's nearest-reference rule
+    gives it that class, not red (its least far taught colour); the
+    ball's two tones stay. Untaught pixels near a taught colour (more
+    floor) or fewer than the share make no class; a taught class of the
+    same name is an error."""
+    from gstlandmark.palette import UNTAUGHT_MIN_DISTANCE, \
+        UNTAUGHT_MIN_SHARE
+    rng = np.random.default_rng(12)
+    shaded_red, floor, sky = (24.0, 26.0, 20.0), (60.0, 5.0, 10.0), \
+        (22.0, 0.0, -4.0)
+
+    def scene(above, rows_above=30):
+        rows = [(above, 0, rows_above), (RED_LAB, 1, 18), (shaded_red, 1, 12),
+                (floor, 2, 90)]
+        image = np.vstack([np.tile(lab_to_bgr(lab), (n, 100, 1))
+                           for lab, _, n in rows]).astype(np.float64)
+        image = np.clip(np.rint(image + rng.normal(0, 1.0, image.shape)), 0,
+                        255).astype(np.uint8)
+        mask = np.vstack([np.full((n, 100), k, np.uint8)
+                          for _, k, n in rows])
+        return image, mask
+
+    def learn(image, mask, **kw):
+        return learn_from_mask(image, mask, names=["red", "floor"],
+                               markers=["red"], references="auto", **kw)
+
+    image, mask = scene(sky)
+    # without: rule 7 drops red's shaded tone, and the sky is floor
+    without = learn(image, mask)
+    assert without.names == ["red", "floor"]
+    assert without.classes[0].references == ()
+    learned = learn(image, mask, untaught_class="untaught")
+    assert learned.names == ["red", "floor", "untaught"]
+    assert learned.classes[2].role == "background"
+    np.testing.assert_allclose(learned.lab_array()[2], sky, atol=1.5)
+    assert len(learned.classes[0].references) == 2
+    lab = reference.rgb_to_lab(image[:, :, ::-1])
+    for palette, sky_class in ((without, 2), (learned, 3)):
+        refs, owner = palette.reference_arrays()
+        labels = reference.classify(lab, refs, min_class_pixels=0,
+                                    ref_class=owner).labels
+        assert (labels[:28] == sky_class).mean() > 0.99
+        assert (labels[mask == 1] == 1).mean() > 0.99
+    # the sky is far from every taught colour; more floor is not
+    assert np.linalg.norm(np.subtract(sky, shaded_red)) > \
+        UNTAUGHT_MIN_DISTANCE
+    image, mask = scene((61.0, 5.0, 10.0))
+    assert learn(image, mask, untaught_class="untaught").names == \
+        ["red", "floor"]
+    # under the share: 1 row of 100 left after the margin
+    image, mask = scene(sky, rows_above=3)
+    assert 100 / image.shape[0] / image.shape[1] < UNTAUGHT_MIN_SHARE
+    assert learn(image, mask, untaught_class="untaught").names == \
+        ["red", "floor"]
+    with pytest.raises(PaletteError, match='"floor", is also a taught'):
+        learn(image, mask, untaught_class="floor")
 
 
 def test_cli_check_lists_references(tmp_path, capsys):

@@ -627,7 +627,11 @@ def test_chart_learns_every_class_by_the_cli(tmp_path, capsys):
                        ",".join(markers), "-o", str(learned_path)])
     assert status == 0, capsys.readouterr().err
     learned = load_palette(str(learned_path))
-    assert learned.names == names and learned.markers == markers
+    # and what the chart shows of no class (the sky above the walls) is a
+    # background class of its own, last
+    assert learned.names == names + ["untaught"]
+    assert learned.markers == markers
+    assert learned.classes[-1].role == "background"
     # each class comes back within 2 Delta E of the colour painted
     from gstlandmark.synth import build_scenario
     built, _ = build_scenario("path", robot="comfortable")
@@ -635,7 +639,7 @@ def test_chart_learns_every_class_by_the_cli(tmp_path, capsys):
     want = {name: _srgb_lab(rgb) for name, rgb in srgb.items()}
     want["floor"] = _srgb_lab((128, 128, 128))
     want["wall"] = _srgb_lab(scene["walls"]["colour_srgb"])
-    for cls in learned.classes:
+    for cls in learned.classes[:-1]:
         # a ball's lit and shaded sides may be references of their own;
         # the flat colour painted is one of them
         delta = min(np.linalg.norm(np.subtract(ref, want[cls.name]))

@@ -136,7 +136,10 @@ def _palette_learn(args):
                                   markers=_split_list(args.markers),
                                   allow_missing=args.allow_missing,
                                   references=args.references,
-                                  floor=_split_list(args.floor))
+                                  floor=_split_list(args.floor),
+                                  untaught_class=None
+                                  if args.untaught == "none"
+                                  else args.untaught)
         description = (f"Learned by '{PROG} palette learn' from the class "
                        f"mask {args.mask}.")
     else:
@@ -215,6 +218,12 @@ def add_palette_parser(subparsers):
                        help="reference colours per class: auto (default: "
                             "k-means in L*a*b*, adding one while it halves "
                             "the spread, up to 4; docs/palette.md) or N")
+    learn.add_argument("--untaught", metavar="NAME|none", default="untaught",
+                       help="with --mask: a background class of this name "
+                            "learned from the pixels of no class that are "
+                            "far from every taught colour (the sky, walls), "
+                            "when they cover 1 %% of the image (default: "
+                            "untaught); none: no such class")
     learn.add_argument("-o", "--output", metavar="OUT.json", required=True,
                        help="palette file to write")
     learn.set_defaults(handler=_palette_learn, parser=learn)

@@ -540,6 +540,18 @@ def test_cli_learn_mask_check_load(tmp_path, scene_files, capsys):
                      str(mask_path), "--names", "red,mix,grey", "--markers",
                      "red", "--untaught", "none", "-o", str(out)]) == 0
     assert load_palette(out).names == ["red", "mix", "grey"]
+    # without --floor, floorboundary would take the untaught class as
+    # floor: said once
+    capsys.readouterr()
+    assert cli.main(["palette", "learn", str(image_path), "--mask",
+                     str(mask_path), "--names", "red,mix,grey", "--markers",
+                     "red", "-o", str(out)]) == 0
+    assert "'untaught' (what the mask left out) included" in \
+        capsys.readouterr().err
+    assert cli.main(["palette", "learn", str(image_path), "--mask",
+                     str(mask_path), "--names", "red,mix,grey", "--markers",
+                     "red", "--floor", "grey", "-o", str(out)]) == 0
+    assert "note:" not in capsys.readouterr().err
 
 
 def test_cli_learn_mask_allow_missing(tmp_path, scene_files, capsys):

@@ -162,6 +162,12 @@ def _palette_learn(args):
                        f"{err.strerror or err}") from None
     print(format_palette_table(palette))
     print(f"wrote {args.output}")
+    if args.mask is not None and args.untaught != "none" \
+            and args.untaught in palette.names and not palette.floor:
+        print(f"note: no --floor class: floorboundary takes every class "
+              f"that is not a marker as floor, {args.untaught!r} (what the "
+              f"mask left out) included; name the floor with --floor",
+              file=sys.stderr)
     return 0
 
 

@@ -130,6 +130,7 @@ GType
 gst_birds_eye_draw_get_type (void)
 {
   static const GFlagsValue values[] = {
+    {GST_BIRDS_EYE_DRAW_NONE, "Nothing: the plain remap", "none"},
     {GST_BIRDS_EYE_DRAW_BOUNDARY, "The floor meta's boundary points and "
           "its free space (the radial obstacle profile) outlined",
         "boundary"},

@@ -13,6 +13,7 @@ GST_ELEMENT_REGISTER_DECLARE (birdseye);
 /* What birdseye draws on its view (property `draw`, docs/birdseye.md). */
 typedef enum
 {
+  GST_BIRDS_EYE_DRAW_NONE = 0,
   GST_BIRDS_EYE_DRAW_BOUNDARY = (1 << 0),
   GST_BIRDS_EYE_DRAW_LANDMARKS = (1 << 1),
   GST_BIRDS_EYE_DRAW_ROBOT = (1 << 2),

@@ -1,7 +1,9 @@
 /* Unit tests of birdseye: output size and scale, a line on the floor at a
  * known distance (its image row from the pinhole model written out here),
  * strides of odd widths, the frame's metadata kept and image metadata
- * dropped, bad settings (the cost of a remap: tests/bench/element-cost.c). */
+ * dropped, bad settings; what `draw` draws, at the positions the view's
+ * formula gives (docs/birdseye.md), in every format (the cost of a remap
+ * and of the drawings: tests/bench/element-cost.c). */
 
 #include "landmarkcheck.h"
 
@@ -169,6 +171,403 @@ LANDMARK_TEST ("general", test_metadata)
       NULL);
   gst_buffer_unref (out);
   gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+/* ---- draw ---------------------------------------------------------- */
+
+/* The drawings' view: 3 m wide (side 1.5) and 3.8 m high (3.5 ahead, 0.3
+ * behind) at 100 px/m, 300 x 380; the camera's floor point at output
+ * pixel (149.5, 349.5), and x forward, y left at
+ * (149.5 - 100 y, 349.5 - 100 x) (docs/birdseye.md). */
+#define VIEW "pixels-per-metre=100 side=1.5 forward=3.5 behind=0.3 "
+#define VIEW_W 300
+#define VIEW_H 380
+#define PPM 100.0
+static gdouble
+view_u (gdouble y)
+{
+  return VIEW_W / 2.0 - 0.5 - y * PPM;
+}
+
+static gdouble
+view_v (gdouble x)
+{
+  return VIEW_H - 0.5 - 0.3 * PPM - x * PPM;
+}
+
+/* A harness of birdseye (the drawings' view) for frames of format fmt. */
+static GstHarness *
+draw_harness_new (const gchar * draw, GstVideoFormat fmt)
+{
+  gchar *desc = g_strdup_printf ("birdseye camera-height=0.3 tilt=25 "
+      "hfov=60 " VIEW "draw=%s", draw);
+  gchar *caps = g_strdup_printf ("video/x-raw,format=%s,width=640,"
+      "height=480,framerate=30/1", gst_video_format_to_string (fmt));
+  GstHarness *hr = landmark_check_harness_new (desc, caps);
+  g_free (caps);
+  g_free (desc);
+  return hr;
+}
+
+/* A 640x480 frame of format fmt whose every byte is `level`. */
+static GstBuffer *
+flat_frame (GstVideoFormat fmt, guint8 level)
+{
+  GstVideoInfo info;
+  GstBuffer *buf;
+  GstMapInfo map;
+  gst_video_info_set_format (&info, fmt, 640, 480);
+  buf = gst_buffer_new_allocate (NULL, info.size, NULL);
+  gst_buffer_map (buf, &map, GST_MAP_WRITE);
+  memset (map.data, level, map.size);
+  gst_buffer_unmap (buf, &map);
+  return buf;
+}
+
+/* Output pixel (i, j) as R, G, B (grey: the grey level three times). */
+static void
+view_rgb (GstBuffer * out, GstVideoFormat fmt, guint i, guint j, guint8 c[3])
+{
+  GstVideoInfo info;
+  GstMapInfo map;
+  const guint8 *px;
+  guint k;
+  gst_video_info_set_format (&info, fmt, VIEW_W, VIEW_H);
+  gst_buffer_map (out, &map, GST_MAP_READ);
+  px = map.data + (gsize) j * GST_VIDEO_INFO_PLANE_STRIDE (&info, 0) +
+      (gsize) i * GST_VIDEO_INFO_COMP_PSTRIDE (&info, 0);
+  for (k = 0; k < 3; k++)
+    c[k] = GST_VIDEO_INFO_IS_GRAY (&info) ? px[0] :
+        px[GST_VIDEO_INFO_COMP_POFFSET (&info, k)];
+  gst_buffer_unmap (out, &map);
+}
+
+static gboolean
+buffers_equal (GstBuffer * a, GstBuffer * b)
+{
+  GstMapInfo ma, mb;
+  gboolean same;
+  gst_buffer_map (a, &ma, GST_MAP_READ);
+  gst_buffer_map (b, &mb, GST_MAP_READ);
+  same = ma.size == mb.size && memcmp (ma.data, mb.data, ma.size) == 0;
+  gst_buffer_unmap (a, &ma);
+  gst_buffer_unmap (b, &mb);
+  return same;
+}
+
+/* A floor-meta array field holding a copy of n bytes. */
+static void
+floor_field (GstStructure * s, const gchar * field, gconstpointer data,
+    gsize n)
+{
+  GstBuffer *copy = gst_buffer_new_memdup (data, n);
+  gst_structure_set (s, field, GST_TYPE_BUFFER, copy, NULL);
+  gst_buffer_unref (copy);
+}
+
+#define WALL_COLUMNS 81
+#define WALL_BINS 360
+
+/* A floor meta whose boundary is a wall across the view at x = wall
+ * metres (81 columns from y = 1 to -1, obstacle), and its ROP: the bins
+ * within 30 degrees of ahead end at the wall, the others unseen. */
+static void
+add_wall (GstBuffer * buf, gdouble wall)
+{
+  GstStructure *s = landmark_check_meta_add (buf, LANDMARK_FLOOR_META);
+  gfloat row[WALL_COLUMNS], bx[WALL_COLUMNS], by[WALL_COLUMNS];
+  gfloat range[WALL_BINS];
+  guint8 cstate[WALL_COLUMNS], bstate[WALL_BINS];
+  guint k;
+  for (k = 0; k < WALL_COLUMNS; k++) {
+    row[k] = 200;
+    bx[k] = wall;
+    by[k] = 1.0 - 2.0 * k / (WALL_COLUMNS - 1);
+    cstate[k] = 2;
+  }
+  for (k = 0; k < WALL_BINS; k++) {
+    /* bin k is centred on k degrees to the left */
+    const gdouble phi = (k <= 180 ? k : k - 360.0) * G_PI / 180;
+    const gboolean seen = fabs (phi) <= 30 * G_PI / 180;
+    range[k] = seen ? wall / cos (phi) : 0;
+    bstate[k] = seen ? 2 : 0;
+  }
+  gst_structure_set (s, "width", G_TYPE_UINT, WALL_COLUMNS, "height",
+      G_TYPE_UINT, 480, "bearing-bins", G_TYPE_UINT, WALL_BINS, "bin-width",
+      G_TYPE_DOUBLE, 2 * G_PI / WALL_BINS, "max-range", G_TYPE_DOUBLE, 4.0,
+      NULL);
+  floor_field (s, "boundary-row", row, sizeof (row));
+  floor_field (s, "boundary-x", bx, sizeof (bx));
+  floor_field (s, "boundary-y", by, sizeof (by));
+  floor_field (s, "boundary-state", cstate, sizeof (cstate));
+  floor_field (s, "rop-range", range, sizeof (range));
+  floor_field (s, "rop-state", bstate, sizeof (bstate));
+}
+
+static gboolean
+is_obstacle_red (const guint8 c[3])
+{
+  return c[0] > 180 && c[1] < 90 && c[2] < 90;
+}
+
+/* The wall at 1.5 m is drawn along output row 349.5 - 150 = 199.5: in
+ * every column of the middle metre, the red pixels' mean row is within 1
+ * px of it and none is 4 px away; draw=none draws nothing. */
+LANDMARK_TEST ("draw", test_wall_on_its_row)
+{
+  const gchar *draws[] = { "boundary", "none" };
+  const gdouble want = view_v (1.5);
+  guint d, i, j;
+  fail_unless (fabs (want - 199.5) < 1e-9);
+  for (d = 0; d < G_N_ELEMENTS (draws); d++) {
+    GstHarness *hr = draw_harness_new (draws[d], GST_VIDEO_FORMAT_RGB);
+    GstBuffer *in = flat_frame (GST_VIDEO_FORMAT_RGB, 100), *out;
+    guint reds = 0;
+    add_wall (in, 1.5);
+    out = gst_harness_push_and_pull (hr, in);
+    for (i = (guint) view_u (0.5); i <= (guint) view_u (-0.5); i++) {
+      gdouble sum = 0;
+      guint n = 0;
+      for (j = 0; j < VIEW_H; j++) {
+        guint8 c[3];
+        view_rgb (out, GST_VIDEO_FORMAT_RGB, i, j, c);
+        if (!is_obstacle_red (c))
+          continue;
+        fail_unless (fabs (j - want) < 4, "red at column %u row %u", i, j);
+        sum += j;
+        n++;
+      }
+      reds += n;
+      if (d == 0) {
+        fail_unless (n > 0, "no line in column %u", i);
+        fail_unless (fabs (sum / n - want) <= 1, "column %u: row %.2f, "
+            "want %.2f", i, sum / n, want);
+      }
+    }
+    if (d == 1)
+      fail_unless_equals_int (reds, 0);
+    gst_buffer_unref (out);
+    gst_harness_teardown (hr);
+  }
+}
+
+GST_END_TEST;
+
+/* A labels meta naming one class, `cls`, drawn in colour rgb (0xRRGGBB). */
+static void
+add_class (GstBuffer * buf, const gchar * cls, guint rgb)
+{
+  GstStructure *s = landmark_check_meta_add (buf, LANDMARK_LABELS_META);
+  const gboolean yes = TRUE;
+  landmark_check_set_array (s, "class-names", G_TYPE_STRING, &cls, 1);
+  landmark_check_set_array (s, "class-rgb", G_TYPE_UINT, &rgb, 1);
+  landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN, &yes, 1);
+}
+
+/* A detection of class cls that ipmrange placed at (x, y) metres with the
+ * map's diameter (0: none given); blobroundness kept it or not;
+ * trilaterate matched it to id (NULL: not matched). */
+static void
+add_ranged (GstBuffer * buf, const gchar * cls, gdouble x, gdouble y,
+    gdouble diameter, gboolean kept, const gchar * id)
+{
+  GstVideoRegionOfInterestMeta *roi =
+      gst_buffer_add_video_region_of_interest_meta (buf, cls, 300, 200, 20,
+      12);
+  GstStructure *range = gst_structure_new ("landmark-range", "range",
+      G_TYPE_DOUBLE, hypot (x, y), "bearing", G_TYPE_DOUBLE, atan2 (y, x),
+      "ground-x", G_TYPE_DOUBLE, x, "ground-y", G_TYPE_DOUBLE, y,
+      "no-floor", G_TYPE_BOOLEAN, FALSE, "kept", G_TYPE_BOOLEAN, TRUE, NULL);
+  if (diameter > 0)
+    gst_structure_set (range, "marker-diameter", G_TYPE_DOUBLE, diameter,
+        "marker-height", G_TYPE_DOUBLE, 0.0, "marker-kind", G_TYPE_STRING,
+        "disc", NULL);
+  gst_video_region_of_interest_meta_add_param (roi,
+      gst_structure_new ("landmark-blob", "class", G_TYPE_STRING, cls,
+          "kept", G_TYPE_BOOLEAN, kept, NULL));
+  gst_video_region_of_interest_meta_add_param (roi, range);
+  gst_video_region_of_interest_meta_add_param (roi,
+      gst_structure_new ("landmark-match", "matched", G_TYPE_BOOLEAN,
+          id != NULL, "landmark-id", G_TYPE_STRING, id, NULL));
+}
+
+/* The pixels of colour want (within 2 levels) in the box of half-size
+ * `reach` around (cu, cv): how many, and their centroid. */
+static guint
+count_colour (GstBuffer * out, GstVideoFormat fmt, const guint8 want[3],
+    gdouble cu, gdouble cv, gint reach, gdouble * mu, gdouble * mv)
+{
+  guint n = 0;
+  gdouble su = 0, sv = 0;
+  gint i, j;
+  for (j = (gint) cv - reach; j <= (gint) cv + reach; j++)
+    for (i = (gint) cu - reach; i <= (gint) cu + reach; i++) {
+      guint8 c[3];
+      if (i < 0 || j < 0 || i >= VIEW_W || j >= VIEW_H)
+        continue;
+      view_rgb (out, fmt, i, j, c);
+      if (abs (c[0] - want[0]) <= 2 && abs (c[1] - want[1]) <= 2 &&
+          abs (c[2] - want[2]) <= 2) {
+        n++;
+        su += i;
+        sv += j;
+      }
+    }
+  *mu = n ? su / n : -1;
+  *mv = n ? sv / n : -1;
+  return n;
+}
+
+static const GstVideoFormat draw_formats[] = {
+  GST_VIDEO_FORMAT_RGB, GST_VIDEO_FORMAT_BGR, GST_VIDEO_FORMAT_BGRx,
+  GST_VIDEO_FORMAT_xRGB, GST_VIDEO_FORMAT_ABGR, GST_VIDEO_FORMAT_GRAY8
+};
+
+/* A 10 cm landmark at (2.0, 0.5) is a disc centred on output pixel
+ * (149.5 - 50, 349.5 - 200) = (99.5, 149.5) in its class colour (grey:
+ * its luma, 0.299 R + 0.587 G + 0.114 B), of radius 0.05 x 100 = 5 px:
+ * the pixels wholly inside it (centres within r - 1/2, the Renderer's
+ * anti-aliasing) cover pi (r - 1/2)^2. Its id is written beside it; a
+ * rejected detection at (1.0, -0.5) is not drawn. In every format. */
+LANDMARK_TEST_LOOP ("draw", test_landmark_disc, G_N_ELEMENTS (draw_formats))
+{
+  const GstVideoFormat fmt = draw_formats[__i__];
+  const gboolean grey = fmt == GST_VIDEO_FORMAT_GRAY8;
+  const gdouble cu = view_u (0.5), cv = view_v (2.0), r = 0.05 * PPM;
+  guint8 want[3] = { 255, 128, 0 };
+  GstHarness *hr = draw_harness_new ("landmarks", fmt);
+  GstBuffer *in = flat_frame (fmt, 100), *out;
+  gdouble mu, mv;
+  guint n, text = 0, i, j;
+  fail_unless (fabs (cu - 99.5) < 1e-9 && fabs (cv - 149.5) < 1e-9);
+  if (grey)
+    want[0] = want[1] = want[2] =
+        (guint8) lround (0.299 * 255 + 0.587 * 128 + 0.114 * 0);
+  add_class (in, "orange", 0xff8000);
+  add_ranged (in, "orange", 2.0, 0.5, 0.1, TRUE, "L7");
+  add_ranged (in, "orange", 1.0, -0.5, 0.1, FALSE, NULL);
+  out = gst_harness_push_and_pull (hr, in);
+  n = count_colour (out, fmt, want, cu, cv, 12, &mu, &mv);
+  fail_unless (fabs (mu - cu) <= 1 && fabs (mv - cv) <= 1,
+      "%s: centre (%.2f, %.2f), want (%.1f, %.1f)",
+      gst_video_format_to_string (fmt), mu, mv, cu, cv);
+  fail_unless (fabs (sqrt (n / G_PI) + 0.5 - r) <= 1,
+      "%s: %u pixels, radius %.2f, want %.1f",
+      gst_video_format_to_string (fmt), n, sqrt (n / G_PI) + 0.5, r);
+  /* the id, white, right of the disc */
+  for (j = (guint) cv - 8; j <= (guint) cv + 8; j++)
+    for (i = (guint) (cu + r + 2); i < (guint) (cu + r + 30); i++) {
+      guint8 c[3];
+      view_rgb (out, fmt, i, j, c);
+      text += c[0] > 200 && c[1] > 200 && c[2] > 200;
+    }
+  fail_unless (text > 5, "no id beside the landmark");
+  /* the rejected one: nothing at (1.0, -0.5) */
+  fail_unless_equals_int (count_colour (out, fmt, want, view_u (-0.5),
+          view_v (1.0), 12, &mu, &mv), 0);
+  gst_buffer_unref (out);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+static gboolean
+is_white (GstBuffer * out, GstVideoFormat fmt, gdouble i, gdouble j)
+{
+  guint8 c[3];
+  view_rgb (out, fmt, (guint) i, (guint) j, c);
+  return c[0] > 240 && c[1] > 240 && c[2] > 240;
+}
+
+/* The robot: a white triangle standing on the camera's floor point
+ * (149.5, 349.5), 0.3 m above the bottom, pointing up: white 4 px above
+ * the point, not 5 px below it. The property changes while playing:
+ * none, robot, none again, the plain remap each time it is off. */
+LANDMARK_TEST ("draw", test_robot_and_change_while_playing)
+{
+  GstHarness *hr = draw_harness_new ("none", GST_VIDEO_FORMAT_RGB);
+  GstHarness *plain = draw_harness_new ("none", GST_VIDEO_FORMAT_RGB);
+  const gchar *steps[] = { "none", "robot", "none" };
+  const gdouble ou = view_u (0), ov = view_v (0);
+  GstBuffer *want = gst_harness_push_and_pull (plain,
+      flat_frame (GST_VIDEO_FORMAT_RGB, 100));
+  guint k;
+  fail_unless (fabs (ou - 149.5) < 1e-9 && fabs (ov - 349.5) < 1e-9);
+  for (k = 0; k < G_N_ELEMENTS (steps); k++) {
+    GstBuffer *out;
+    gst_util_set_object_arg (G_OBJECT (hr->element), "draw", steps[k]);
+    out = gst_harness_push_and_pull (hr, flat_frame (GST_VIDEO_FORMAT_RGB,
+            100));
+    if (k == 1) {
+      fail_unless (is_white (out, GST_VIDEO_FORMAT_RGB, ou, ov - 4));
+      fail_unless (!is_white (out, GST_VIDEO_FORMAT_RGB, ou, ov + 5));
+      fail_unless (!buffers_equal (out, want));
+    } else {
+      fail_unless (buffers_equal (out, want), "step %u: not the remap", k);
+    }
+    gst_buffer_unref (out);
+  }
+  gst_buffer_unref (want);
+  gst_harness_teardown (plain);
+  gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+/* With draw=none, a frame with a floor meta and detections is exactly the
+ * remap of the frame without them; bad metadata (fields missing, NaN,
+ * infinite) draws nothing with draw=boundary+landmarks. */
+LANDMARK_TEST ("draw", test_none_and_bad_meta_draw_nothing)
+{
+  GstHarness *plain = draw_harness_new ("none", GST_VIDEO_FORMAT_RGB);
+  GstHarness *none = draw_harness_new ("none", GST_VIDEO_FORMAT_RGB);
+  GstHarness *bad = draw_harness_new ("boundary+landmarks",
+      GST_VIDEO_FORMAT_RGB);
+  GstBuffer *want = gst_harness_push_and_pull (plain,
+      flat_frame (GST_VIDEO_FORMAT_RGB, 100));
+  GstBuffer *in = flat_frame (GST_VIDEO_FORMAT_RGB, 100), *out;
+  GstStructure *s;
+  GstVideoRegionOfInterestMeta *roi;
+  const gfloat nan_x[2] = { NAN, INFINITY }, row[2] = { 10, 20 };
+  const guint8 state[2] = { 2, 2 };
+  add_wall (in, 1.5);
+  add_class (in, "orange", 0xff8000);
+  add_ranged (in, "orange", 2.0, 0.5, 0.1, TRUE, "L7");
+  out = gst_harness_push_and_pull (none, in);
+  fail_unless (buffers_equal (out, want));
+  gst_buffer_unref (out);
+
+  /* a floor meta with NaN floor points, an infinite range and no
+   * bin-width; detections without a floor position or with a NaN one */
+  in = flat_frame (GST_VIDEO_FORMAT_RGB, 100);
+  s = landmark_check_meta_add (in, LANDMARK_FLOOR_META);
+  gst_structure_set (s, "width", G_TYPE_UINT, 2, "height", G_TYPE_UINT, 480,
+      "bearing-bins", G_TYPE_UINT, 2, NULL);
+  floor_field (s, "boundary-row", row, sizeof (row));
+  floor_field (s, "boundary-state", state, sizeof (state));
+  floor_field (s, "boundary-x", nan_x, sizeof (nan_x));
+  floor_field (s, "boundary-y", row, sizeof (row));
+  floor_field (s, "rop-range", nan_x, sizeof (nan_x));
+  floor_field (s, "rop-state", state, sizeof (state));
+  roi = gst_buffer_add_video_region_of_interest_meta (in, "orange", 1, 1, 4,
+      4);
+  gst_video_region_of_interest_meta_add_param (roi,
+      gst_structure_new ("landmark-range", "range", G_TYPE_DOUBLE, 1.0,
+          NULL));
+  roi = gst_buffer_add_video_region_of_interest_meta (in, "orange", 1, 1, 4,
+      4);
+  gst_video_region_of_interest_meta_add_param (roi,
+      gst_structure_new ("landmark-range", "ground-x", G_TYPE_DOUBLE, NAN,
+          "ground-y", G_TYPE_DOUBLE, 0.0, NULL));
+  out = gst_harness_push_and_pull (bad, in);
+  fail_unless (buffers_equal (out, want), "bad metadata drew something");
+  gst_buffer_unref (out);
+  gst_buffer_unref (want);
+  gst_harness_teardown (bad);
+  gst_harness_teardown (none);
+  gst_harness_teardown (plain);
 }
 
 GST_END_TEST;

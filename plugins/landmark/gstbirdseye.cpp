@@ -160,7 +160,8 @@ birds_eye_params (const Settings & s)
 }
 
 /* The image's left, bottom and right edges on the floor, in output
- * pixels: runs of the points that see the floor within reach. */
+ * pixels: runs of the points that see the floor within reach, one edge at
+ * most each (a run round a corner would be painted as one wide shape). */
 static void
 birds_eye_fov (Config & cfg, int in_w, int in_h, double reach)
 {
@@ -186,9 +187,10 @@ birds_eye_fov (Config & cfg, int in_w, int in_h, double reach)
         run = 0;
       }
     }
+    if (run > 0)
+      cfg.fov_runs.push_back (run);
+    run = 0;
   }
-  if (run > 0)
-    cfg.fov_runs.push_back (run);
 }
 
 /* Builds the remap table for an input frame. */
@@ -220,9 +222,10 @@ birds_eye_build (Config & cfg, int in_w, int in_h,
   cfg.view.pixels_per_metre = b.pixels_per_metre;
   cfg.view.origin_u = b.origin_u;
   cfg.view.origin_v = b.origin_v;
-  /* beyond the view's corners, so the edges cross the whole view */
-  const double s = cfg.s.side, f = cfg.s.forward + cfg.s.behind;
-  birds_eye_fov (cfg, in_w, in_h, 2 * std::hypot (f, s) + 1);
+  /* a little beyond the view's farthest corner, so the edges cross the
+   * whole view and no farther */
+  birds_eye_fov (cfg, in_w, in_h, 1.2 * std::hypot (std::max (cfg.s.forward,
+              cfg.s.behind), cfg.s.side) + 0.1);
   return true;
 }
 

@@ -27,16 +27,30 @@ bin_seen (const Floor & f, int b)
 }  // namespace
 
 void
+Renderer::push_point (cv::Point2d p, double min_step)
+{
+  const size_t n = pts_.size ();
+  if (n >= 2 && std::hypot (pts_[n - 1].x - pts_[n - 2].x,
+          pts_[n - 1].y - pts_[n - 2].y) < min_step)
+    pts_[n - 1] = p;
+  else
+    pts_.push_back (p);
+}
+
+void
 Renderer::draw_floor_boundary (const Floor & f, const FloorView & v)
 {
   if (canvas_.empty ())
     return;
   const int thick = st_.line;
+  constexpr double kMinStep = 3;  /* pixels */
   if (f.bins > 0 && f.rop_range && f.rop_state && f.bin_width > 0 &&
       std::isfinite (f.bin_width)) {
     /* the free space: from an unseen bin round the circle, each run of
-     * seen bins from the robot out to its bins' edges at their ranges and
-     * back; all seen: one closed line */
+     * seen bins as a line from the robot out to its first bin, the bins'
+     * edges at their ranges, and back; all seen: one closed line. Drawn
+     * in pieces, each painted on its own, so that a wedge's paint does not
+     * sweep its whole inside. */
     int first = 0;
     while (first < f.bins && bin_seen (f, first))
       first++;
@@ -47,25 +61,35 @@ Renderer::draw_floor_boundary (const Floor & f, const FloorView & v)
       const double r = f.rop_range[b];
       return v.to_px (r * std::cos (phi), r * std::sin (phi));
     };
+    auto piece = [&](bool closed) {
+      if (pts_.size () >= 2) {
+        polyline (pts_.data (), (int) pts_.size (), closed, kBlack, 150,
+            thick + 2, false);
+        polyline (pts_.data (), (int) pts_.size (), closed, kFreeSpace, 255,
+            thick, false);
+      }
+      pts_.clear ();
+    };
     pts_.clear ();
     for (int k = 0; k < f.bins; k++) {
       const int b = (first + k) % f.bins;
       if (!bin_seen (f, b))
         continue;
-      const int prev = (b + f.bins - 1) % f.bins;
-      if (!all && !bin_seen (f, prev))
+      if (!all && !bin_seen (f, (b + f.bins - 1) % f.bins)) {
         pts_.push_back (robot);
-      pts_.push_back (edge (b, -1));
-      pts_.push_back (edge (b, 1));
-      if (!all && !bin_seen (f, (b + 1) % f.bins))
+        pts_.push_back (edge (b, -1));
+        piece (false);
+      }
+      push_point (edge (b, -1), kMinStep);
+      push_point (edge (b, 1), kMinStep);
+      if (!all && !bin_seen (f, (b + 1) % f.bins)) {
+        piece (false);
+        pts_.push_back (edge (b, 1));
         pts_.push_back (robot);
+        piece (false);
+      }
     }
-    if (pts_.size () >= 2) {
-      polyline (pts_.data (), (int) pts_.size (), true, kBlack, 150,
-          thick + 2, false);
-      polyline (pts_.data (), (int) pts_.size (), true, kFreeSpace, 255,
-          thick, false);
-    }
+    piece (all);
     /* where an obstacle ends a bin, its arc in red */
     for (int b = 0; b < f.bins; b++)
       if (bin_seen (f, b) && f.rop_state[b] == 2)
@@ -102,8 +126,14 @@ Renderer::draw_floor_robot (const FloorView & v, const cv::Point2d * fov,
     return;
   const cv::Point2d *p = fov;
   for (int i = 0; i < n_runs; p += run_lengths[i], i++) {
-    polyline (p, run_lengths[i], false, kBlack, 150, st_.line + 2, true);
-    polyline (p, run_lengths[i], false, kWhite, 220, st_.line, true);
+    /* near the robot an edge's points crowd */
+    pts_.clear ();
+    for (int k = 0; k < run_lengths[i]; k++)
+      push_point (p[k], 4);
+    polyline (pts_.data (), (int) pts_.size (), false, kBlack, 150,
+        st_.line + 2, true);
+    polyline (pts_.data (), (int) pts_.size (), false, kWhite, 220, st_.line,
+        true);
   }
   /* the camera's floor point, and a triangle standing on it, pointing
    * forward (up) */

@@ -67,7 +67,7 @@ Renderer::configure (int width, int height)
   cover_y1_ = INT32_MIN;
   reset_clip ();
   rects_.clear ();
-  rects_.reserve (128);
+  rects_.reserve (512);
   spans_.reserve (128);
   reserved_.reserve (64);
   labels_.reserve (64);
@@ -338,8 +338,21 @@ Renderer::paint (Rgb c, int alpha)
 {
   if (cover_y0_ >= cover_y1_)
     return;
-  int bx0 = INT32_MAX, bx1 = INT32_MIN;
+  /* the area is marked in bands of rows, each as wide as its rows' cover:
+   * a long slanted line marks a thin staircase, not its whole bounding
+   * box, so blending and clearing follow the line's length */
+  constexpr int kBand = 16;
+  const cv::Rect saved = clip_;
+  clip_ = cv::Rect (0, 0, width_, height_);
+  int bx0 = INT32_MAX, bx1 = INT32_MIN, by0 = cover_y0_;
   for (int y = cover_y0_; y < cover_y1_; y++) {
+    if (y > by0 && y % kBand == 0) {
+      if (bx0 < bx1)
+        mark (bx0, by0, bx1, y);
+      bx0 = INT32_MAX;
+      bx1 = INT32_MIN;
+      by0 = y;
+    }
     const int x0 = row_x0_[y], x1 = row_x1_[y];
     if (x0 >= x1)
       continue;
@@ -356,13 +369,10 @@ Renderer::paint (Rgb c, int alpha)
     row_x0_[y] = INT32_MAX;
     row_x1_[y] = INT32_MIN;
   }
-  if (bx0 < bx1) {
-    /* the mark is not cut to the clip: the coverage already is */
-    const cv::Rect saved = clip_;
-    clip_ = cv::Rect (0, 0, width_, height_);
-    mark (bx0, cover_y0_, bx1, cover_y1_);
-    clip_ = saved;
-  }
+  /* the marks are not cut to the clip: the coverage already is */
+  if (bx0 < bx1)
+    mark (bx0, by0, bx1, cover_y1_);
+  clip_ = saved;
   cover_y0_ = INT32_MAX;
   cover_y1_ = INT32_MIN;
 }

@@ -309,6 +309,9 @@ private:
   /* the boundary's runs of seen columns, at their image rows (view null)
    * or at their floor points */
   void boundary_runs (const Floor & f, const FloorView * view);
+  /* appends p to pts_, or moves the last point there while it is within
+   * min_step of the one before (dense points cost strokes, not detail) */
+  void push_point (cv::Point2d p, double min_step);
 
   int width_ = 0, height_ = 0;
   cv::Mat canvas_;

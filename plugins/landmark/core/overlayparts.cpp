@@ -390,7 +390,10 @@ Renderer::boundary_runs (const Floor & f, const FloorView * view)
       for (; e < f.width; e++) {
         if (!seen (e) || (f.boundary_state[e] == 2) != obstacle)
           break;
-        pts_.push_back (at (e));
+        if (view)
+          push_point (at (e), 3);  /* columns are denser than pixels */
+        else
+          pts_.push_back (at (e));
       }
       /* a lone column: a short horizontal dash across its width (on the
        * floor: a dot) */

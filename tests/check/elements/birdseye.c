@@ -257,55 +257,6 @@ buffers_equal (GstBuffer * a, GstBuffer * b)
   return same;
 }
 
-/* A floor-meta array field holding a copy of n bytes. */
-static void
-floor_field (GstStructure * s, const gchar * field, gconstpointer data,
-    gsize n)
-{
-  GstBuffer *copy = gst_buffer_new_memdup (data, n);
-  gst_structure_set (s, field, GST_TYPE_BUFFER, copy, NULL);
-  gst_buffer_unref (copy);
-}
-
-#define WALL_COLUMNS 81
-#define WALL_BINS 360
-
-/* A floor meta whose boundary is a wall across the view at x = wall
- * metres (81 columns from y = 1 to -1, obstacle), and its ROP: the bins
- * within 30 degrees of ahead end at the wall, the others unseen. */
-static void
-add_wall (GstBuffer * buf, gdouble wall)
-{
-  GstStructure *s = landmark_check_meta_add (buf, LANDMARK_FLOOR_META);
-  gfloat row[WALL_COLUMNS], bx[WALL_COLUMNS], by[WALL_COLUMNS];
-  gfloat range[WALL_BINS];
-  guint8 cstate[WALL_COLUMNS], bstate[WALL_BINS];
-  guint k;
-  for (k = 0; k < WALL_COLUMNS; k++) {
-    row[k] = 200;
-    bx[k] = wall;
-    by[k] = 1.0 - 2.0 * k / (WALL_COLUMNS - 1);
-    cstate[k] = 2;
-  }
-  for (k = 0; k < WALL_BINS; k++) {
-    /* bin k is centred on k degrees to the left */
-    const gdouble phi = (k <= 180 ? k : k - 360.0) * G_PI / 180;
-    const gboolean seen = fabs (phi) <= 30 * G_PI / 180;
-    range[k] = seen ? wall / cos (phi) : 0;
-    bstate[k] = seen ? 2 : 0;
-  }
-  gst_structure_set (s, "width", G_TYPE_UINT, WALL_COLUMNS, "height",
-      G_TYPE_UINT, 480, "bearing-bins", G_TYPE_UINT, WALL_BINS, "bin-width",
-      G_TYPE_DOUBLE, 2 * G_PI / WALL_BINS, "max-range", G_TYPE_DOUBLE, 4.0,
-      NULL);
-  floor_field (s, "boundary-row", row, sizeof (row));
-  floor_field (s, "boundary-x", bx, sizeof (bx));
-  floor_field (s, "boundary-y", by, sizeof (by));
-  floor_field (s, "boundary-state", cstate, sizeof (cstate));
-  floor_field (s, "rop-range", range, sizeof (range));
-  floor_field (s, "rop-state", bstate, sizeof (bstate));
-}
-
 static gboolean
 is_obstacle_red (const guint8 c[3])
 {
@@ -325,7 +276,7 @@ LANDMARK_TEST ("draw", test_wall_on_its_row)
     GstHarness *hr = draw_harness_new (draws[d], GST_VIDEO_FORMAT_RGB);
     GstBuffer *in = flat_frame (GST_VIDEO_FORMAT_RGB, 100), *out;
     guint reds = 0;
-    add_wall (in, 1.5);
+    landmark_check_floor_wall_attach (in, 1.5);
     out = gst_harness_push_and_pull (hr, in);
     for (i = (guint) view_u (0.5); i <= (guint) view_u (-0.5); i++) {
       gdouble sum = 0;
@@ -364,33 +315,6 @@ add_class (GstBuffer * buf, const gchar * cls, guint rgb)
   landmark_check_set_array (s, "class-names", G_TYPE_STRING, &cls, 1);
   landmark_check_set_array (s, "class-rgb", G_TYPE_UINT, &rgb, 1);
   landmark_check_set_array (s, "class-markers", G_TYPE_BOOLEAN, &yes, 1);
-}
-
-/* A detection of class cls that ipmrange placed at (x, y) metres with the
- * map's diameter (0: none given); blobroundness kept it or not;
- * trilaterate matched it to id (NULL: not matched). */
-static void
-add_ranged (GstBuffer * buf, const gchar * cls, gdouble x, gdouble y,
-    gdouble diameter, gboolean kept, const gchar * id)
-{
-  GstVideoRegionOfInterestMeta *roi =
-      gst_buffer_add_video_region_of_interest_meta (buf, cls, 300, 200, 20,
-      12);
-  GstStructure *range = gst_structure_new ("landmark-range", "range",
-      G_TYPE_DOUBLE, hypot (x, y), "bearing", G_TYPE_DOUBLE, atan2 (y, x),
-      "ground-x", G_TYPE_DOUBLE, x, "ground-y", G_TYPE_DOUBLE, y,
-      "no-floor", G_TYPE_BOOLEAN, FALSE, "kept", G_TYPE_BOOLEAN, TRUE, NULL);
-  if (diameter > 0)
-    gst_structure_set (range, "marker-diameter", G_TYPE_DOUBLE, diameter,
-        "marker-height", G_TYPE_DOUBLE, 0.0, "marker-kind", G_TYPE_STRING,
-        "disc", NULL);
-  gst_video_region_of_interest_meta_add_param (roi,
-      gst_structure_new ("landmark-blob", "class", G_TYPE_STRING, cls,
-          "kept", G_TYPE_BOOLEAN, kept, NULL));
-  gst_video_region_of_interest_meta_add_param (roi, range);
-  gst_video_region_of_interest_meta_add_param (roi,
-      gst_structure_new ("landmark-match", "matched", G_TYPE_BOOLEAN,
-          id != NULL, "landmark-id", G_TYPE_STRING, id, NULL));
 }
 
 /* The pixels of colour want (within 2 levels) in the box of half-size
@@ -446,8 +370,8 @@ LANDMARK_TEST_LOOP ("draw", test_landmark_disc, G_N_ELEMENTS (draw_formats))
     want[0] = want[1] = want[2] =
         (guint8) lround (0.299 * 255 + 0.587 * 128 + 0.114 * 0);
   add_class (in, "orange", 0xff8000);
-  add_ranged (in, "orange", 2.0, 0.5, 0.1, TRUE, "L7");
-  add_ranged (in, "orange", 1.0, -0.5, 0.1, FALSE, NULL);
+  landmark_check_ranged_attach (in, "orange", 2.0, 0.5, 0.1, TRUE, "L7");
+  landmark_check_ranged_attach (in, "orange", 1.0, -0.5, 0.1, FALSE, NULL);
   out = gst_harness_push_and_pull (hr, in);
   n = count_colour (out, fmt, want, cu, cv, 12, &mu, &mv);
   fail_unless (fabs (mu - cu) <= 1 && fabs (mv - cv) <= 1,
@@ -532,9 +456,9 @@ LANDMARK_TEST ("draw", test_none_and_bad_meta_draw_nothing)
   GstVideoRegionOfInterestMeta *roi;
   const gfloat nan_x[2] = { NAN, INFINITY }, row[2] = { 10, 20 };
   const guint8 state[2] = { 2, 2 };
-  add_wall (in, 1.5);
+  landmark_check_floor_wall_attach (in, 1.5);
   add_class (in, "orange", 0xff8000);
-  add_ranged (in, "orange", 2.0, 0.5, 0.1, TRUE, "L7");
+  landmark_check_ranged_attach (in, "orange", 2.0, 0.5, 0.1, TRUE, "L7");
   out = gst_harness_push_and_pull (none, in);
   fail_unless (buffers_equal (out, want));
   gst_buffer_unref (out);
@@ -545,12 +469,12 @@ LANDMARK_TEST ("draw", test_none_and_bad_meta_draw_nothing)
   s = landmark_check_meta_add (in, LANDMARK_FLOOR_META);
   gst_structure_set (s, "width", G_TYPE_UINT, 2, "height", G_TYPE_UINT, 480,
       "bearing-bins", G_TYPE_UINT, 2, NULL);
-  floor_field (s, "boundary-row", row, sizeof (row));
-  floor_field (s, "boundary-state", state, sizeof (state));
-  floor_field (s, "boundary-x", nan_x, sizeof (nan_x));
-  floor_field (s, "boundary-y", row, sizeof (row));
-  floor_field (s, "rop-range", nan_x, sizeof (nan_x));
-  floor_field (s, "rop-state", state, sizeof (state));
+  landmark_check_floor_array (s, "boundary-row", row, sizeof (row));
+  landmark_check_floor_array (s, "boundary-state", state, sizeof (state));
+  landmark_check_floor_array (s, "boundary-x", nan_x, sizeof (nan_x));
+  landmark_check_floor_array (s, "boundary-y", row, sizeof (row));
+  landmark_check_floor_array (s, "rop-range", nan_x, sizeof (nan_x));
+  landmark_check_floor_array (s, "rop-state", state, sizeof (state));
   roi = gst_buffer_add_video_region_of_interest_meta (in, "orange", 1, 1, 4,
       4);
   gst_video_region_of_interest_meta_add_param (roi,

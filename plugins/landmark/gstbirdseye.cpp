@@ -93,6 +93,8 @@ struct Settings {
   gdouble forward = 4.0, behind = 0.0;
   gdouble side = 2.0;
   guint draw = 0;               /* GstBirdsEyeDraw */
+  std::string map;              /* landmark map: diameters; "": none */
+  guint map_generation = 0;     /* sets of `map` */
 };
 
 /* Settings checked, the camera file read, and the remap table for the
@@ -112,6 +114,7 @@ struct Config {
 
 struct State {
   landmark::AppliedSettings<Settings, Config> applied;
+  landmark::SettingsFile<landmark::LandmarkMap> map;  /* path "": none */
   ov::Renderer renderer;        /* canvas of the output size */
   ov::Target target;            /* the output's format */
   ov::ClassColours colours;
@@ -287,7 +290,12 @@ birds_eye_properties ()
                 "plain remap", GST_TYPE_BIRDS_EYE_DRAW, 0, f);
           },
           [](Settings & s, const GValue * v) { s.draw = g_value_get_flags (v); },
-          [](const Settings & s, GValue * v) { g_value_set_flags (v, s.draw); });
+          [](const Settings & s, GValue * v) { g_value_set_flags (v, s.draw); })
+      .file ("map", "Map file",
+          "JSON landmark map (docs/conventions.md): the diameters of the "
+          "landmarks drawn (the matched landmark's, or its class's when all "
+          "of the class share one); unset: ipmrange's, else measured",
+          &Settings::map, &Settings::map_generation);
   return table;
 }
 
@@ -303,6 +311,14 @@ gst_birds_eye_init (GstBirdsEye * self)
 
 /* ---- states and caps ------------------------------------------------ */
 
+/* The map file; the empty path is no map. */
+static bool
+birds_eye_load_map (const std::string & path, landmark::LandmarkMap * map,
+    std::string * why)
+{
+  return path.empty () || landmark::map_load_file (path, map, why);
+}
+
 static GstStateChangeReturn
 gst_birds_eye_change_state (GstElement * element, GstStateChange transition)
 {
@@ -311,10 +327,15 @@ gst_birds_eye_change_state (GstElement * element, GstStateChange transition)
       landmark::SettingsError * err) {
     return birds_eye_configure (s, 0, 0, 0, 0, cfg, err);
   };
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY &&
-      !self->priv->state.applied.start (element, self->priv->settings,
-          check))
-    return GST_STATE_CHANGE_FAILURE;
+  State & st = self->priv->state;
+  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
+    if (!st.applied.start (element, self->priv->settings, check))
+      return GST_STATE_CHANGE_FAILURE;
+    const Settings & s = st.applied.config.s;
+    if (!st.map.start (element, "map", s.map, s.map_generation,
+            birds_eye_load_map))
+      return GST_STATE_CHANGE_FAILURE;
+  }
   return GST_ELEMENT_CLASS (gst_birds_eye_parent_class)->change_state
       (element, transition);
 }
@@ -418,27 +439,53 @@ gst_birds_eye_sync_settings (GstBirdsEye * self)
         GST_VIDEO_INFO_WIDTH (&filter->out_info),
         GST_VIDEO_INFO_HEIGHT (&filter->out_info), cfg, err);
   };
-  self->priv->state.applied.sync (GST_ELEMENT (self), self->priv->settings,
-      configure);
+  State & st = self->priv->state;
+  if (st.applied.sync (GST_ELEMENT (self), self->priv->settings, configure)) {
+    const Settings & s = st.applied.config.s;
+    st.map.sync (GST_ELEMENT (self), "map", s.map, s.map_generation,
+        birds_eye_load_map);
+  }
 }
 
-/* A detection's diameter on the floor, metres: the map's, else its
- * ellipse's major axis measured on the plane of its centre; 0: neither. */
+/* A detection's diameter from the map: its matched landmark's, else the
+ * one every landmark of its class shares; 0: none. */
 static double
-birds_eye_diameter (const ov::Detection & d,
-    const landmark::CameraGeometry & g)
+birds_eye_map_diameter (const landmark::LandmarkMap & map,
+    const ov::Detection & d)
+{
+  double shared = -1;
+  for (const auto & lm : map.landmarks) {
+    if (d.matched && d.landmark_id && lm.id == d.landmark_id)
+      return lm.diameter;
+    if (d.class_name && lm.class_name == d.class_name)
+      shared = shared < 0 || shared == lm.diameter ? lm.diameter : 0;
+  }
+  return std::max (shared, 0.0);
+}
+
+/* A detection's diameter on the floor, metres: ipmrange's (from the map's
+ * marker specs), the map's, else measured: the width of its ellipse across
+ * the image (a disc's or ball's diameter across the line of sight) on the
+ * plane of its centre, unless the frame's edge cuts its box; 0: none. */
+static double
+birds_eye_diameter (const ov::Detection & d, const landmark::LandmarkMap & map,
+    const landmark::CameraGeometry & g, int width, int height)
 {
   if (d.marker_diameter > 0)
     return d.marker_diameter;
-  if (!d.has_ellipse || !(d.ellipse_major > 0))
+  const double from_map = birds_eye_map_diameter (map, d);
+  if (from_map > 0)
+    return from_map;
+  if (!d.has_ellipse || !(d.ellipse_major > 0) || d.x <= 0 || d.y <= 0 ||
+      d.x + d.w >= width || d.y + d.h >= height)
     return 0;
-  const double a = d.ellipse_major / 2;
-  const double ca = std::cos (d.ellipse_angle), sa = std::sin (d.ellipse_angle);
+  const double a = d.ellipse_major / 2, b = d.ellipse_minor / 2;
+  const double half = std::hypot (a * std::cos (d.ellipse_angle),
+      b * std::sin (d.ellipse_angle));
+  const double v = (d.ellipse_y + 0.5) * d.sy - 0.5;
   double x[2], y[2];
   for (int e = 0; e < 2; e++) {
-    const double k = e ? a : -a;
-    const double u = (d.ellipse_x + k * ca + 0.5) * d.sx - 0.5;
-    const double v = (d.ellipse_y + k * sa + 0.5) * d.sy - 0.5;
+    const double u = (d.ellipse_x + (e ? half : -half) + 0.5) * d.sx - 0.5;
     if (!g.pixel_to_plane (u, v, d.marker_height, &x[e], &y[e]))
       return 0;
   }
@@ -474,8 +521,8 @@ gst_birds_eye_draw (GstBirdsEye * self, GstBuffer * buf, int in_w, int in_h,
         GST_CAT_DEFAULT, G_OBJECT (self));
     for (const auto & d : st.detections)
       if (d.kept && !d.no_floor && d.has_ground)
-        r.draw_floor_landmark (d, birds_eye_diameter (d, cfg.geometry),
-            cfg.view);
+        r.draw_floor_landmark (d, birds_eye_diameter (d, st.map.contents,
+                cfg.geometry, in_w, in_h), cfg.view);
   }
   if (!r.dirty ())
     return;

@@ -10,6 +10,7 @@
 #include <gst/check/gstcheck.h>
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
+#include <glib/gstdio.h>
 
 #include <math.h>
 #include <string.h>
@@ -393,6 +394,78 @@ LANDMARK_TEST_LOOP ("draw", test_landmark_disc, G_N_ELEMENTS (draw_formats))
           view_v (1.0), 12, &mu, &mv), 0);
   gst_buffer_unref (out);
   gst_harness_teardown (hr);
+}
+
+GST_END_TEST;
+
+/* Image pixel (u, v) of floor point (x, y) for the 640x480 pinhole camera
+ * of these tests (0.3 m up, tilted 25 degrees down, hfov 60, no roll):
+ * camera axes forward (cos t, 0, -sin t), right (0, -1, 0), down
+ * (-sin t, 0, -cos t). */
+static void
+floor_to_image (gdouble x, gdouble y, gdouble * u, gdouble * v)
+{
+  const gdouble t = TILT * G_PI / 180;
+  const gdouble f = 320 / tan (HFOV / 2 * G_PI / 180);
+  const gdouble depth = x * cos (t) + CAM_H * sin (t);
+  *u = 319.5 + f * -y / depth;
+  *v = 239.5 + f * (CAM_H * cos (t) - x * sin (t)) / depth;
+}
+
+/* The landmark's size without ipmrange's diameter: from the map (the
+ * matched landmark's, 0.2 m: radius 10 px), and measured (no map): a blob
+ * whose ellipse spans the image points of (2.0, 0.45) and (2.0, 0.55), so
+ * 0.1 m across: radius 5 px. */
+LANDMARK_TEST ("draw", test_landmark_size_from_map_or_measured)
+{
+  const guint8 want[3] = { 255, 128, 0 };
+  const gdouble cu = view_u (0.5), cv = view_v (2.0);
+  gchar *map = landmark_check_write_tmp ("map", ".json", "{\"landmarks\": "
+      "[{\"id\": \"L7\", \"class\": \"orange\", \"x\": 0, \"y\": 0, "
+      "\"diameter\": 0.2, \"kind\": \"disc\"}]}");
+  gchar *draw = g_strdup_printf ("landmarks map=%s", map);
+  GstHarness *hr = draw_harness_new (draw, GST_VIDEO_FORMAT_RGB);
+  GstBuffer *in = flat_frame (GST_VIDEO_FORMAT_RGB, 100), *out;
+  GstVideoRegionOfInterestMeta *roi;
+  gdouble mu, mv, u0, u1, v0;
+  guint n;
+  add_class (in, "orange", 0xff8000);
+  landmark_check_ranged_attach (in, "orange", 2.0, 0.5, 0, TRUE, "L7");
+  out = gst_harness_push_and_pull (hr, in);
+  n = count_colour (out, GST_VIDEO_FORMAT_RGB, want, cu, cv, 16, &mu, &mv);
+  fail_unless (fabs (sqrt (n / G_PI) + 0.5 - 10) <= 1, "map: radius %.2f",
+      sqrt (n / G_PI) + 0.5);
+  fail_unless (fabs (mu - cu) <= 1 && fabs (mv - cv) <= 1);
+  gst_buffer_unref (out);
+  gst_harness_teardown (hr);
+
+  hr = draw_harness_new ("landmarks", GST_VIDEO_FORMAT_RGB);
+  in = flat_frame (GST_VIDEO_FORMAT_RGB, 100);
+  add_class (in, "orange", 0xff8000);
+  floor_to_image (2.0, 0.55, &u0, &v0);
+  floor_to_image (2.0, 0.45, &u1, &v0);
+  roi = gst_buffer_add_video_region_of_interest_meta (in, "orange",
+      (guint) u0 - 1, (guint) v0 - 3, (guint) (u1 - u0) + 3, 7);
+  gst_video_region_of_interest_meta_add_param (roi,
+      gst_structure_new ("landmark-blob", "class", G_TYPE_STRING, "orange",
+          "kept", G_TYPE_BOOLEAN, TRUE, "frame-width", G_TYPE_UINT, 640,
+          "frame-height", G_TYPE_UINT, 480, "ellipse-x", G_TYPE_DOUBLE,
+          (u0 + u1) / 2, "ellipse-y", G_TYPE_DOUBLE, v0, "ellipse-major",
+          G_TYPE_DOUBLE, u1 - u0, "ellipse-minor", G_TYPE_DOUBLE, 4.0,
+          "ellipse-angle", G_TYPE_DOUBLE, 0.0, NULL));
+  gst_video_region_of_interest_meta_add_param (roi,
+      gst_structure_new ("landmark-range", "ground-x", G_TYPE_DOUBLE, 2.0,
+          "ground-y", G_TYPE_DOUBLE, 0.5, "kept", G_TYPE_BOOLEAN, TRUE,
+          NULL));
+  out = gst_harness_push_and_pull (hr, in);
+  n = count_colour (out, GST_VIDEO_FORMAT_RGB, want, cu, cv, 16, &mu, &mv);
+  fail_unless (fabs (sqrt (n / G_PI) + 0.5 - 5) <= 1, "measured: radius "
+      "%.2f (ellipse %.1f px wide)", sqrt (n / G_PI) + 0.5, u1 - u0);
+  gst_buffer_unref (out);
+  gst_harness_teardown (hr);
+  g_unlink (map);
+  g_free (map);
+  g_free (draw);
 }
 
 GST_END_TEST;

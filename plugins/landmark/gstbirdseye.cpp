@@ -20,9 +20,9 @@
  * radial obstacle profile at their ranges, outlined in green around the
  * robot (red arcs at obstacles); `landmarks`, each detection that no stage
  * rejected and `ipmrange` placed on the floor (`ground-x`, `ground-y`), as
- * a disc of its diameter (the map's `marker-diameter`, else its ellipse
- * measured on the floor) in its class colour, with its landmark id when
- * `trilaterate` matched it; `robot`, the camera's field of view on the
+ * a disc of its diameter (ipmrange's `marker-diameter`, else the `map`
+ * file's, else its ellipse's width measured on the floor) in its class
+ * colour, with its landmark id when `trilaterate` matched it; `robot`, the camera's field of view on the
  * floor (dashed) and a triangle on the camera's floor point pointing
  * forward.
  *

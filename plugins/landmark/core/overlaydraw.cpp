@@ -169,6 +169,8 @@ Renderer::cover_segment (cv::Point2d a, cv::Point2d b, double hw)
   const double bx0 = std::min (a.x, b.x) - reach,
       bx1 = std::max (a.x, b.x) + reach;
   const double len = std::sqrt (len2);
+  const double reach2 = reach * reach;
+  const double inner2 = reach > 1 ? (reach - 1) * (reach - 1) : -1;
   for (int y = y0; y < y1; y++) {
     /* the row's part of the band around the infinite line, within the
      * segment's box */
@@ -196,7 +198,11 @@ Renderer::cover_segment (cv::Point2d a, cv::Point2d b, double hw)
         px -= t * dx;
         py -= t * dy;
       }
-      const double cov = reach - std::sqrt (px * px + py * py);
+      /* the square root only at the anti-aliased rim */
+      const double d2 = px * px + py * py;
+      if (d2 >= reach2)
+        continue;
+      const double cov = d2 <= inner2 ? 1 : reach - std::sqrt (d2);
       any |= raise_coverage (m[x], cov);
     }
     if (any)

@@ -479,10 +479,39 @@ is_white (GstBuffer * out, GstVideoFormat fmt, gdouble i, gdouble j)
   return c[0] > 240 && c[1] > 240 && c[2] > 240;
 }
 
+/* Of the floor points 1.0 to 2.5 m ahead on the image's left (side 1) or
+ * right (side -1) edge, u = -0.5 or 639.5, i.e. y = +-320 depth / f, the
+ * share that have a bright pixel within 1 px of their output pixel. */
+static gdouble
+edge_share (GstBuffer * out, gint side)
+{
+  const gdouble t = TILT * G_PI / 180;
+  const gdouble f = 320 / tan (HFOV / 2 * G_PI / 180);
+  guint hits = 0, n = 0;
+  gdouble x;
+  for (x = 1.0; x <= 2.5; x += 0.02, n++) {
+    const gdouble y = side * 320 * (x * cos (t) + CAM_H * sin (t)) / f;
+    gboolean hit = FALSE;
+    gint di, dj;
+    for (dj = -1; dj <= 1; dj++)
+      for (di = -1; di <= 1; di++) {
+        guint8 c[3];
+        view_rgb (out, GST_VIDEO_FORMAT_RGB, (guint) (view_u (y) + 0.5) + di,
+            (guint) (view_v (x) + 0.5) + dj, c);
+        hit |= c[0] > 180 && c[1] > 180 && c[2] > 180;
+      }
+    hits += hit;
+  }
+  return (gdouble) hits / n;
+}
+
 /* The robot: a white triangle standing on the camera's floor point
  * (149.5, 349.5), 0.3 m above the bottom, pointing up: white 4 px above
- * the point, not 5 px below it. The property changes while playing:
- * none, robot, none again, the plain remap each time it is off. */
+ * the point, not 5 px below it; the field of view's edges dashed along
+ * the image's left and right edges on the floor (a dash is 6 px, a gap
+ * 8.5: at least a third of the points). The property changes while
+ * playing: none, robot, none again, the plain remap each time it is
+ * off. */
 LANDMARK_TEST ("draw", test_robot_and_change_while_playing)
 {
   GstHarness *hr = draw_harness_new ("none", GST_VIDEO_FORMAT_RGB);
@@ -502,7 +531,12 @@ LANDMARK_TEST ("draw", test_robot_and_change_while_playing)
       fail_unless (is_white (out, GST_VIDEO_FORMAT_RGB, ou, ov - 4));
       fail_unless (!is_white (out, GST_VIDEO_FORMAT_RGB, ou, ov + 5));
       fail_unless (!buffers_equal (out, want));
+      fail_unless (edge_share (out, 1) > 0.33, "left edge: %.2f",
+          edge_share (out, 1));
+      fail_unless (edge_share (out, -1) > 0.33, "right edge: %.2f",
+          edge_share (out, -1));
     } else {
+      fail_unless (edge_share (out, 1) == 0 && edge_share (out, -1) == 0);
       fail_unless (buffers_equal (out, want), "step %u: not the remap", k);
     }
     gst_buffer_unref (out);

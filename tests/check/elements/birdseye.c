@@ -265,12 +265,57 @@ is_obstacle_red (const guint8 c[3])
   return c[0] > 180 && c[1] < 90 && c[2] < 90;
 }
 
+static gboolean
+is_free_green (const guint8 c[3])
+{
+  return c[1] > 180 && c[0] < 120 && c[2] < 120;
+}
+
+/* The free space's outline: the share of the points 0.4 to 1.4 m out from
+ * the robot along bearing phi (radians, to the left) within 1 px of a
+ * green pixel; and how many green pixels lie more than 40 degrees off
+ * ahead (or behind the robot), where the wall's bins are not seen. */
+static gdouble
+outline_share (GstBuffer * out, gdouble phi, guint * stray)
+{
+  guint hits = 0, n = 0, i, j;
+  gdouble r;
+  for (r = 0.4; r <= 1.4; r += 0.02, n++) {
+    gboolean hit = FALSE;
+    gint di, dj;
+    for (dj = -1; dj <= 1; dj++)
+      for (di = -1; di <= 1; di++) {
+        guint8 c[3];
+        view_rgb (out, GST_VIDEO_FORMAT_RGB,
+            (guint) (view_u (r * sin (phi)) + 0.5) + di,
+            (guint) (view_v (r * cos (phi)) + 0.5) + dj, c);
+        hit |= is_free_green (c);
+      }
+    hits += hit;
+  }
+  *stray = 0;
+  for (j = 0; j < VIEW_H; j++)
+    for (i = 0; i < VIEW_W; i++) {
+      const gdouble x = (view_v (0) - j) / PPM, y = (view_u (0) - i) / PPM;
+      guint8 c[3];
+      if (hypot (x, y) < 0.1 || atan2 (fabs (y), x) < 40 * G_PI / 180)
+        continue;
+      view_rgb (out, GST_VIDEO_FORMAT_RGB, i, j, c);
+      *stray += is_free_green (c);
+    }
+  return (gdouble) hits / n;
+}
+
 /* The wall at 1.5 m is drawn along output row 349.5 - 150 = 199.5: in
  * every column of the middle metre, the red pixels' mean row is within 1
- * px of it and none is 4 px away; draw=none draws nothing. */
+ * px of it and none is 4 px away; the free space is outlined in green
+ * along the seen bins' outer edges, bearings +-30.5 degrees, and nowhere
+ * more than 40 degrees off ahead; with the bins to the left unseen, only
+ * the right edge (bearings are positive to the left); draw=none draws
+ * nothing. */
 LANDMARK_TEST ("draw", test_wall_on_its_row)
 {
-  const gchar *draws[] = { "boundary", "none" };
+  const gchar *draws[] = { "boundary", "none", "boundary" };
   const gdouble want = view_v (1.5);
   guint d, i, j;
   fail_unless (fabs (want - 199.5) < 1e-9);
@@ -279,6 +324,15 @@ LANDMARK_TEST ("draw", test_wall_on_its_row)
     GstBuffer *in = flat_frame (GST_VIDEO_FORMAT_RGB, 100), *out;
     guint reds = 0;
     landmark_check_floor_wall_attach (in, 1.5);
+    if (d == 2) {
+      /* the right half of the view only: bins 330..359 and 0 */
+      guint8 state[360];
+      for (i = 0; i < 360; i++)
+        state[i] = i == 0 || i >= 330 ? 2 : 0;
+      landmark_check_floor_array (gst_custom_meta_get_structure
+          (gst_buffer_get_custom_meta (in, LANDMARK_FLOOR_META)), "rop-state",
+          state, sizeof (state));
+    }
     out = gst_harness_push_and_pull (hr, in);
     for (i = (guint) view_u (0.5); i <= (guint) view_u (-0.5); i++) {
       gdouble sum = 0;
@@ -293,7 +347,7 @@ LANDMARK_TEST ("draw", test_wall_on_its_row)
         n++;
       }
       reds += n;
-      if (d == 0) {
+      if (d != 1) {
         fail_unless (n > 0, "no line in column %u", i);
         fail_unless (fabs (sum / n - want) <= 1, "column %u: row %.2f, "
             "want %.2f", i, sum / n, want);
@@ -301,6 +355,15 @@ LANDMARK_TEST ("draw", test_wall_on_its_row)
     }
     if (d == 1)
       fail_unless_equals_int (reds, 0);
+    for (i = 0; i < 2; i++) {
+      const gdouble phi = (i ? -30.5 : 30.5) * G_PI / 180;
+      guint stray;
+      const gdouble share = outline_share (out, phi, &stray);
+      const gboolean drawn = d == 0 || (d == 2 && phi < 0);
+      fail_unless (drawn ? share > 0.9 : share == 0, "case %u: outline at "
+          "%.1f deg: %.2f", d, phi * 180 / G_PI, share);
+      fail_unless_equals_int (stray, 0);
+    }
     gst_buffer_unref (out);
     gst_harness_teardown (hr);
   }

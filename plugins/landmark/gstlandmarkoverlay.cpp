@@ -77,6 +77,7 @@
 #include "frameformat.h"
 #include "landmarkmeta.h"
 #include "overlaydraw.h"
+#include "overlaymeta.h"
 #include "palette.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_landmark_overlay_debug);
@@ -86,8 +87,6 @@ GST_DEBUG_CATEGORY_STATIC (gst_landmark_overlay_debug);
 namespace {
 
 namespace ov = landmark::overlay;
-
-using landmark::kMaxClasses;
 
 /* What the user sets (the initial values are the defaults). */
 struct Settings {
@@ -119,13 +118,12 @@ struct State {
   ov::Renderer renderer;
   ov::Target target;
 
-  /* built-in palette colours, the fallback for classes without a labels
-   * meta */
-  std::vector<std::pair<std::string, ov::Rgb>> default_colours;
+  /* the labels meta's classes, and the built-in palette's colours for
+   * classes without one */
+  ov::ClassColours colours;
 
   /* per-frame scratch, reused */
   std::vector<ov::Detection> detections;
-  std::array<ov::ClassInfo, kMaxClasses> classes;
   std::vector<ov::Rgb> map_colours;
   std::vector<ov::EstimatedLandmark> estimated;
 };
@@ -224,17 +222,7 @@ gst_landmark_overlay_start (GstBaseTransform * trans)
           landmark_overlay_load_map))
     return FALSE;
   gst_landmark_overlay_map_changed (self);
-  if (st.default_colours.empty ()) {
-    for (const auto & c : landmark::palette_default ().classes) {
-      double rgb[3];
-      landmark::lab_to_srgb (c.lab, rgb);
-      ov::Rgb col;
-      col.r = (guint8) (rgb[0] * 255 + 0.5);
-      col.g = (guint8) (rgb[1] * 255 + 0.5);
-      col.b = (guint8) (rgb[2] * 255 + 0.5);
-      st.default_colours.emplace_back (c.name, col);
-    }
-  }
+  st.colours.init_defaults ();
   return TRUE;
 }
 
@@ -276,241 +264,7 @@ gst_landmark_overlay_configure (GstVideoFilter * filter,
   return TRUE;
 }
 
-/* ---- reading the metadata ------------------------------------------- */
-
-namespace {
-
-bool
-get_number (const GstStructure * s, const char *field, double *out)
-{
-  const GValue *v = s ? gst_structure_get_value (s, field) : nullptr;
-  if (!v)
-    return false;
-  if (G_VALUE_HOLDS_DOUBLE (v))
-    *out = g_value_get_double (v);
-  else if (G_VALUE_HOLDS_FLOAT (v))
-    *out = g_value_get_float (v);
-  else if (G_VALUE_HOLDS_INT (v))
-    *out = g_value_get_int (v);
-  else if (G_VALUE_HOLDS_UINT (v))
-    *out = g_value_get_uint (v);
-  else
-    return false;
-  return std::isfinite (*out);
-}
-
-bool
-get_bool (const GstStructure * s, const char *field, bool *out)
-{
-  gboolean b;
-  if (!s || !gst_structure_get_boolean (s, field, &b))
-    return false;
-  *out = b;
-  return true;
-}
-
-ov::Rgb
-rgb_from_uint (guint v)
-{
-  ov::Rgb c;
-  c.r = (v >> 16) & 0xff;
-  c.g = (v >> 8) & 0xff;
-  c.b = v & 0xff;
-  return c;
-}
-
-}  // namespace
-
-/* The labels meta's classes; returns how many (0 without the meta). */
-static int
-gst_landmark_overlay_read_classes (State & st, const GstStructure * labels,
-    ov::Histogram * hist)
-{
-  const guint n = MIN (landmark_labels_n_classes (labels), (guint) kMaxClasses);
-  for (guint k = 0; k < n; k++) {
-    ov::ClassInfo & ci = st.classes[k];
-    ci = ov::ClassInfo ();
-    ci.name = landmark_labels_class_name (labels, k);
-    const GValue *v = landmark_labels_class_value (labels,
-        LANDMARK_LABELS_CLASS_RGB, k);
-    if (v && G_VALUE_HOLDS_UINT (v))
-      ci.colour = rgb_from_uint (g_value_get_uint (v));
-    ci.count = landmark_labels_class_count (labels, k);
-    v = landmark_labels_class_value (labels, LANDMARK_LABELS_CLASS_ACTIVE,
-        k);
-    ci.active = v && G_VALUE_HOLDS_BOOLEAN (v) && g_value_get_boolean (v);
-    v = landmark_labels_class_value (labels, LANDMARK_LABELS_CLASS_MARKERS,
-        k);
-    ci.marker = !(v && G_VALUE_HOLDS_BOOLEAN (v)) || g_value_get_boolean (v);
-  }
-  hist->classes = st.classes.data ();
-  hist->n = (int) n;
-  guint threshold = 0, aw = 0, ah = 0;
-  gst_structure_get_uint (labels, LANDMARK_LABELS_MIN_CLASS_PIXELS,
-      &threshold);
-  hist->threshold = threshold;
-  if (!gst_structure_get_uint (labels, LANDMARK_LABELS_ANALYSIS_WIDTH, &aw) ||
-      !gst_structure_get_uint (labels, LANDMARK_LABELS_ANALYSIS_HEIGHT, &ah)) {
-    gst_structure_get_uint (labels, LANDMARK_LABELS_WIDTH, &aw);
-    gst_structure_get_uint (labels, LANDMARK_LABELS_HEIGHT, &ah);
-  }
-  hist->total = (double) aw * ah;
-  return (int) n;
-}
-
-static ov::Rgb
-gst_landmark_overlay_class_colour (const State & st, int n_classes,
-    const char *name)
-{
-  if (name) {
-    for (int k = 0; k < n_classes; k++)
-      if (st.classes[k].name && !strcmp (st.classes[k].name, name))
-        return st.classes[k].colour;
-    for (const auto & dc : st.default_colours)
-      if (dc.first == name)
-        return dc.second;
-  }
-  return ov::Rgb ();
-}
-
-static void
-gst_landmark_overlay_read_detections (GstLandmarkOverlay * self,
-    GstBuffer * buf, int n_classes, int width, int height)
-{
-  State & st = self->priv->state;
-  st.detections.clear ();
-  gpointer iter = nullptr;
-  GstMeta *meta;
-  while ((meta = gst_buffer_iterate_meta_filtered (buf, &iter,
-              GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE))) {
-    auto roi = (GstVideoRegionOfInterestMeta *) meta;
-    ov::Detection d;
-    d.class_name = g_quark_to_string (roi->roi_type);
-    d.x = roi->x;
-    d.y = roi->y;
-    d.w = roi->w;
-    d.h = roi->h;
-    const GstStructure *blob =
-        landmark_detection_get_param (buf, roi, LANDMARK_BLOB_PARAMS);
-    if (blob) {
-      if (const char *cls = gst_structure_get_string (blob, "class"))
-        d.class_name = cls;
-      double fw = 0, fh = 0;
-      if (get_number (blob, "frame-width", &fw) && fw > 0)
-        d.sx = width / fw;
-      if (get_number (blob, "frame-height", &fh) && fh > 0)
-        d.sy = height / fh;
-      d.has_ellipse = get_number (blob, "ellipse-x", &d.ellipse_x) &&
-          get_number (blob, "ellipse-y", &d.ellipse_y) &&
-          get_number (blob, "ellipse-major", &d.ellipse_major) &&
-          get_number (blob, "ellipse-minor", &d.ellipse_minor) &&
-          d.ellipse_major >= 0 && d.ellipse_minor >= 0;
-      if (d.has_ellipse && !get_number (blob, "ellipse-angle",
-              &d.ellipse_angle))
-        d.ellipse_angle = 0;
-      d.has_centroid = get_number (blob, "centroid-x", &d.centroid_x) &&
-          get_number (blob, "centroid-y", &d.centroid_y);
-      d.has_roundness = get_number (blob, "roundness", &d.roundness);
-      get_bool (blob, "kept", &d.kept);
-      d.reject_reason = gst_structure_get_string (blob, "reject-reason");
-    }
-    const GstStructure *range =
-        landmark_detection_get_param (buf, roi, LANDMARK_RANGE_PARAMS);
-    if (range) {
-      get_bool (range, "no-floor", &d.no_floor);
-      d.has_range = get_number (range, "range", &d.range) && d.range >= 0;
-      d.has_bearing = get_number (range, "bearing", &d.bearing);
-    }
-    const GstStructure *match =
-        landmark_detection_get_param (buf, roi, LANDMARK_MATCH_PARAMS);
-    if (match) {
-      d.has_match = true;
-      get_bool (match, "matched", &d.matched);
-      d.landmark_id = gst_structure_get_string (match, "landmark-id");
-    }
-    /* rejected by any stage (shape, size, map) draws as rejected */
-    const gchar *rejected_by;
-    d.kept = !landmark_detection_rejected (buf, roi, &rejected_by,
-        &d.reject_reason);
-    d.colour = gst_landmark_overlay_class_colour (st, n_classes,
-        d.class_name);
-    GST_LOG_OBJECT (self, "detection %d %s bbox %g,%g %gx%g blob:%d "
-        "ellipse:%d range:%d match:%d kept:%d", roi->id, d.class_name, d.x,
-        d.y, d.w, d.h, blob != nullptr, d.has_ellipse, d.has_range,
-        d.has_match, d.kept);
-    st.detections.push_back (d);
-  }
-}
-
 /* ---- streaming ------------------------------------------------------ */
-
-namespace {
-
-/* The arrays of a floor meta, mapped for the frame; unmapped when it goes
- * out of scope. A part whose arrays are missing or short stays null. */
-struct FloorArrays {
-  ov::Floor floor;
-  struct Plane {
-    GstBuffer *buf = nullptr;
-    GstMapInfo map;
-  } planes[4];
-  int n = 0;
-
-  FloorArrays () = default;
-  FloorArrays (const FloorArrays &) = delete;
-  FloorArrays & operator= (const FloorArrays &) = delete;
-  ~FloorArrays () {
-    for (int i = 0; i < n; i++) {
-      gst_buffer_unmap (planes[i].buf, &planes[i].map);
-      gst_buffer_unref (planes[i].buf);
-    }
-  }
-
-  const void *get (const GstStructure * s, const char *field, gsize elem,
-      gsize want) {
-    Plane & p = planes[n];
-    gsize count = 0;
-    if (!landmark_floor_map_array (s, field, elem, &p.buf, &p.map, &count))
-      return nullptr;
-    n++;
-    return count >= want && want > 0 ? p.map.data : nullptr;
-  }
-};
-
-}  // namespace
-
-static void
-read_floor (const GstStructure * s, FloorArrays * fa)
-{
-  guint width = 0, height = 0, bins = 0;
-  gdouble bin_width = 0;
-  if (!gst_structure_get_uint (s, LANDMARK_FLOOR_WIDTH, &width) ||
-      !gst_structure_get_uint (s, LANDMARK_FLOOR_HEIGHT, &height) ||
-      !gst_structure_get_uint (s, LANDMARK_FLOOR_BEARING_BINS, &bins) ||
-      !gst_structure_get_double (s, LANDMARK_FLOOR_BIN_WIDTH, &bin_width))
-    return;
-  ov::Floor & f = fa->floor;
-  auto row = (const float *) fa->get (s, LANDMARK_FLOOR_BOUNDARY_ROW,
-      sizeof (float), width);
-  auto col_state = (const uint8_t *) fa->get (s,
-      LANDMARK_FLOOR_BOUNDARY_STATE, 1, width);
-  if (row && col_state && height > 0) {
-    f.width = (int) width;
-    f.height = (int) height;
-    f.boundary_row = row;
-    f.boundary_state = col_state;
-  }
-  auto range = (const float *) fa->get (s, LANDMARK_FLOOR_ROP_RANGE,
-      sizeof (float), bins);
-  auto bin_state = (const uint8_t *) fa->get (s, LANDMARK_FLOOR_ROP_STATE, 1,
-      bins);
-  if (range && bin_state && bin_width > 0) {
-    f.bins = (int) bins;
-    f.bin_width = bin_width;
-    f.rop_range = range;
-    f.rop_state = bin_state;
-  }
-}
 
 /* The i-th double of an array field; false when absent or not a double. */
 static bool
@@ -540,7 +294,7 @@ array_value (const GstStructure * s, const char *field, guint i)
  * from the pose meta's 3x3 `covariance`. */
 static void
 gst_landmark_overlay_read_estimate (State & st, const GstStructure * map_s,
-    const GstStructure * pose_s, int n_classes, ov::Estimate * est)
+    const GstStructure * pose_s, ov::Estimate * est)
 {
   st.estimated.clear ();
   const GValue *ids = map_s ? gst_structure_get_value (map_s, "ids") : nullptr;
@@ -555,8 +309,8 @@ gst_landmark_overlay_read_estimate (State & st, const GstStructure * map_s,
         !array_double (map_s, "y", i, &lm.y))
       continue;
     lm.id = g_value_get_string (id);
-    lm.colour = gst_landmark_overlay_class_colour (st, n_classes,
-        cls && G_VALUE_HOLDS_STRING (cls) ? g_value_get_string (cls) : nullptr);
+    lm.colour = st.colours.colour (cls && G_VALUE_HOLDS_STRING (cls) ?
+        g_value_get_string (cls) : nullptr);
     lm.confirmed = ok && G_VALUE_HOLDS_BOOLEAN (ok) && g_value_get_boolean (ok);
     for (guint k = 0; k < 4; k++)
       if (!array_double (map_s, "covariance", 4 * i + k, &lm.cov[k]))
@@ -597,17 +351,18 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         const GstStructure *labels = landmark_labels_meta_get (buf);
         const GstStructure *pose_s = landmark_pose_meta_get (buf);
         ov::Pose pose;
-        const bool has_pose = pose_s && get_number (pose_s, "x", &pose.x) &&
-            get_number (pose_s, "y", &pose.y) &&
-            get_number (pose_s, "heading", &pose.heading);
+        const bool has_pose = pose_s &&
+            ov::meta_number (pose_s, "x", &pose.x) &&
+            ov::meta_number (pose_s, "y", &pose.y) &&
+            ov::meta_number (pose_s, "heading", &pose.heading);
         const bool has_rois = gst_buffer_get_meta (buf,
             GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE) != nullptr;
         const GstStructure *floor_s = (s.show_boundary ||
             (s.show_minimap && s.show_free_space)) ?
             landmark_floor_meta_get (buf) : nullptr;
-        FloorArrays fa;
+        ov::FloorArrays fa;
         if (floor_s)
-          read_floor (floor_s, &fa);
+          ov::read_floor (floor_s, &fa);
         const bool boundary = s.show_boundary && fa.floor.boundary_row;
         const bool free_space = s.show_minimap && s.show_free_space &&
             fa.floor.rop_range;
@@ -625,10 +380,10 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 
         const int w = st.target.width, h = st.target.height;
         ov::Histogram hist;
-        const int n_classes = labels ?
-            gst_landmark_overlay_read_classes (st, labels, &hist) : 0;
+        st.colours.read (labels, &hist);
         if (has_rois && (detections || minimap))
-          gst_landmark_overlay_read_detections (self, buf, n_classes, w, h);
+          ov::read_detections (buf, st.colours, w, h, &st.detections,
+              GST_CAT_DEFAULT, G_OBJECT (self));
         else
           st.detections.clear ();
 
@@ -666,8 +421,8 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
           const bool with_map = has_map && has_pose;
           if (with_map)
             for (const auto & lm : st.map.contents.landmarks)
-              st.map_colours.push_back (gst_landmark_overlay_class_colour (st,
-                      n_classes, lm.class_name.c_str ()));
+              st.map_colours.push_back (st.colours.colour (
+                      lm.class_name.c_str ()));
           ov::Pose where = pose;
           if (!has_pose) {
             where = ov::Pose ();
@@ -676,7 +431,7 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
           ov::Estimate est;
           if (map_meta)
             gst_landmark_overlay_read_estimate (st, map_meta, pose_s,
-                n_classes, &est);
+                &est);
           r.draw_minimap (with_map ? st.map.contents : st.no_map,
               st.map_colours.data (), where, st.detections.data (),
               (int) st.detections.size (), free_space ? &fa.floor : nullptr,

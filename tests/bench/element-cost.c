@@ -2,7 +2,10 @@
  * frames, each beside identity pushed the same way (the harness's own
  * cost), as wall-clock and process CPU time:
  *
- *   birdseye       RGB 640x480 -> 400x400 bird's-eye view
+ *   birdseye       RGB 640x480 -> 400x400 bird's-eye view, the plain remap
+ *                  and with draw=boundary+landmarks+robot on a frame with a
+ *                  floor meta (a wall at 1.5 m, 81 columns, 360 bins) and
+ *                  eight ranged landmarks
  *   floorboundary  a label plane with a wall at row 120 and a speck every
  *                  53rd pixel, one plane for every frame
  *   blobroundness  ten ellipses of five marker classes over a background of
@@ -106,6 +109,20 @@ birdseye (void)
   gst_buffer_unmap (frame, &map);
   report ("birdseye 640x480 RGB -> 400x400",
       "birdseye camera-height=0.3 tilt=25 hfov=60",
+      "video/x-raw,format=RGB,width=640,height=480,framerate=30/1", frame,
+      300, 1);
+  landmark_check_floor_wall_attach (frame, 1.5);
+  for (i = 0; i < 8; i++)
+    landmark_check_ranged_attach (frame, "red", 1.0 + 0.3 * i,
+        0.8 - 0.2 * i, 0.1, TRUE, i % 2 ? "L1" : NULL);
+  report ("birdseye 640x480 RGB -> 400x400, that frame with metadata, "
+      "draw=none", "birdseye camera-height=0.3 tilt=25 hfov=60",
+      "video/x-raw,format=RGB,width=640,height=480,framerate=30/1", frame,
+      300, 1);
+  report ("birdseye 640x480 RGB -> 400x400, that frame with metadata, "
+      "draw=boundary+landmarks+robot",
+      "birdseye camera-height=0.3 tilt=25 hfov=60 "
+      "draw=boundary+landmarks+robot",
       "video/x-raw,format=RGB,width=640,height=480,framerate=30/1", frame,
       300, 1);
   gst_buffer_unref (frame);

@@ -150,6 +150,82 @@ landmark_check_labels_attach (GstBuffer * buf, const guint8 * plane, guint w,
   return s;
 }
 
+/* A floor-meta array field holding a copy of n bytes. */
+void
+landmark_check_floor_array (GstStructure * s, const gchar * field, gconstpointer data,
+    gsize n)
+{
+  GstBuffer *copy = gst_buffer_new_memdup (data, n);
+  gst_structure_set (s, field, GST_TYPE_BUFFER, copy, NULL);
+  gst_buffer_unref (copy);
+}
+
+#define WALL_COLUMNS 81
+#define WALL_BINS 360
+
+/* A floor meta whose boundary is a wall across the view at x = wall
+ * metres (81 columns from y = 1 to -1, obstacle), and its ROP: the bins
+ * within 30 degrees of ahead end at the wall, the others unseen. */
+void
+landmark_check_floor_wall_attach (GstBuffer * buf, gdouble wall)
+{
+  GstStructure *s = landmark_check_meta_add (buf, LANDMARK_FLOOR_META);
+  gfloat row[WALL_COLUMNS], bx[WALL_COLUMNS], by[WALL_COLUMNS];
+  gfloat range[WALL_BINS];
+  guint8 cstate[WALL_COLUMNS], bstate[WALL_BINS];
+  guint k;
+  for (k = 0; k < WALL_COLUMNS; k++) {
+    row[k] = 200;
+    bx[k] = wall;
+    by[k] = 1.0 - 2.0 * k / (WALL_COLUMNS - 1);
+    cstate[k] = 2;
+  }
+  for (k = 0; k < WALL_BINS; k++) {
+    /* bin k is centred on k degrees to the left */
+    const gdouble phi = (k <= 180 ? k : k - 360.0) * G_PI / 180;
+    const gboolean seen = fabs (phi) <= 30 * G_PI / 180;
+    range[k] = seen ? wall / cos (phi) : 0;
+    bstate[k] = seen ? 2 : 0;
+  }
+  gst_structure_set (s, "width", G_TYPE_UINT, WALL_COLUMNS, "height",
+      G_TYPE_UINT, 480, "bearing-bins", G_TYPE_UINT, WALL_BINS, "bin-width",
+      G_TYPE_DOUBLE, 2 * G_PI / WALL_BINS, "max-range", G_TYPE_DOUBLE, 4.0,
+      NULL);
+  landmark_check_floor_array (s, "boundary-row", row, sizeof (row));
+  landmark_check_floor_array (s, "boundary-x", bx, sizeof (bx));
+  landmark_check_floor_array (s, "boundary-y", by, sizeof (by));
+  landmark_check_floor_array (s, "boundary-state", cstate, sizeof (cstate));
+  landmark_check_floor_array (s, "rop-range", range, sizeof (range));
+  landmark_check_floor_array (s, "rop-state", bstate, sizeof (bstate));
+}
+
+/* A detection of class cls that ipmrange placed at (x, y) metres with the
+ * map's diameter (0: none given); blobroundness kept it or not;
+ * trilaterate matched it to id (NULL: not matched). */
+void
+landmark_check_ranged_attach (GstBuffer * buf, const gchar * cls, gdouble x, gdouble y,
+    gdouble diameter, gboolean kept, const gchar * id)
+{
+  GstVideoRegionOfInterestMeta *roi =
+      gst_buffer_add_video_region_of_interest_meta (buf, cls, 300, 200, 20,
+      12);
+  GstStructure *range = gst_structure_new ("landmark-range", "range",
+      G_TYPE_DOUBLE, hypot (x, y), "bearing", G_TYPE_DOUBLE, atan2 (y, x),
+      "ground-x", G_TYPE_DOUBLE, x, "ground-y", G_TYPE_DOUBLE, y,
+      "no-floor", G_TYPE_BOOLEAN, FALSE, "kept", G_TYPE_BOOLEAN, TRUE, NULL);
+  if (diameter > 0)
+    gst_structure_set (range, "marker-diameter", G_TYPE_DOUBLE, diameter,
+        "marker-height", G_TYPE_DOUBLE, 0.0, "marker-kind", G_TYPE_STRING,
+        "disc", NULL);
+  gst_video_region_of_interest_meta_add_param (roi,
+      gst_structure_new ("landmark-blob", "class", G_TYPE_STRING, cls,
+          "kept", G_TYPE_BOOLEAN, kept, NULL));
+  gst_video_region_of_interest_meta_add_param (roi, range);
+  gst_video_region_of_interest_meta_add_param (roi,
+      gst_structure_new ("landmark-match", "matched", G_TYPE_BOOLEAN,
+          id != NULL, "landmark-id", G_TYPE_STRING, id, NULL));
+}
+
 GstBuffer *
 landmark_check_frame_new (gsize size, guint n)
 {

@@ -84,6 +84,24 @@ GstStructure *landmark_check_labels_attach (GstBuffer * buf,
     const guint8 * plane, guint w, guint h, guint stride,
     const gchar ** names, const gboolean * markers, guint n);
 
+/* Sets a floor-meta array field (docs/floorboundary.md) to a buffer
+ * holding a copy of the n bytes at data. */
+void landmark_check_floor_array (GstStructure * s, const gchar * field,
+    gconstpointer data, gsize n);
+
+/* Attaches a floor meta whose boundary is a wall across the view at x =
+ * wall metres (81 columns from y = 1 to -1, obstacle) and its ROP of 360
+ * bins: those within 30 degrees of ahead end at the wall, the others are
+ * not seen. */
+void landmark_check_floor_wall_attach (GstBuffer * buf, gdouble wall);
+
+/* Attaches a detection of class cls that ipmrange placed at (x, y) metres
+ * (landmark-range ground-x, ground-y) with the map's marker-diameter (0:
+ * none given); blobroundness kept it or not; trilaterate matched it to id
+ * (NULL: not matched). */
+void landmark_check_ranged_attach (GstBuffer * buf, const gchar * cls,
+    gdouble x, gdouble y, gdouble diameter, gboolean kept, const gchar * id);
+
 /* Frame n of a 30 fps stream: `size` bytes, its timestamp and duration. */
 GstBuffer *landmark_check_frame_new (gsize size, guint n);
 

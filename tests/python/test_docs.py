@@ -112,6 +112,19 @@ def check_property(pspec, cells):
             "meaning", "")]
         if missing:
             problems.append(f"{name}: values {missing} not documented")
+    elif t.is_a(GObject.TYPE_FLAGS):
+        # the default as its flags' nicks joined by '+' ('none': 0)
+        values = type(pspec.default_value).__flags_values__
+        bits = int(pspec.default_value)
+        want = "+".join(v.first_value_nick for k, v in sorted(values.items())
+                        if k and bits & k == k) or "none"
+        if default.split()[:1] != [want]:
+            problems.append(f"{name}: default {default!r}, element: {want}")
+        missing = [v.first_value_nick for v in values.values()
+                   if v.first_value_nick not in cells["type"] +
+                   cells.get("meaning", "")]
+        if missing:
+            problems.append(f"{name}: values {missing} not documented")
     elif t == GObject.TYPE_BOOLEAN:
         want = "true" if pspec.default_value else "false"
         if default.split()[:1] != [want]:

@@ -178,28 +178,45 @@ def rgb_frames(desc):
     return frames
 
 
-# The dashboard's bird's-eye tile against birdseye run alone on the same
-# frames: mean absolute difference per frame (MJPEG at quality 85 costs
-# 0.53 levels at most on the shipped clip; the check allows three times).
+# The dashboard's bird's-eye tile against the same chain and birdseye run
+# alone on the same frames: mean absolute difference per frame (MJPEG at
+# quality 85 costs 0.53 levels at most on the shipped clip without the
+# drawings; the check allows three times).
 BIRDSEYE_TILE_MAX_MEAN_DIFF = 3 * 0.53
+BIRDSEYE_DRAW = "draw=boundary+landmarks+robot"
 
 
 def check_birdseye_tile(variables):
-    """The top right tile of the dashboard is the floor seen from above:
-    birdseye of the same 640x480 frames, and black below it."""
+    """The top right tile of the dashboard is the floor seen from above
+    with the chain's results drawn on it: birdseye after the same chain on
+    the same 640x480 frames, and black below it."""
+    dashboard = goldens.launch_line(os.path.join(PIPELINE_DIR,
+                                                 "dashboard.pipeline"))
+    assert BIRDSEYE_DRAW in dashboard
     tiles = rgb_frames(f"filesrc location={variables['OUTPUT']} ! "
                        "decodebin")
+    scaled = (f"filesrc location={variables['INPUT']} ! decodebin ! "
+              "videoconvert ! videoscale ! video/x-raw,width=640,height=480")
+    birdseye = (f"videoconvert ! birdseye calibration={variables['CAMERA']} "
+                "pixels-per-metre=120 forward=4 side=2")
     alone = rgb_frames(
-        f"filesrc location={variables['INPUT']} ! decodebin ! videoconvert "
-        "! videoscale ! video/x-raw,width=640,height=480 ! videoconvert ! "
-        f"birdseye calibration={variables['CAMERA']} pixels-per-metre=120 "
-        "forward=4 side=2")
-    assert len(tiles) == len(alone) == CHAIN_CLIP_FRAMES
+        f"{scaled} ! labsegment palette={variables['PALETTE']} "
+        f"min-class-pixels=50 ! floorboundary "
+        f"calibration={variables['CAMERA']} ! blobroundness min-area=30 ! "
+        f"ipmrange calibration={variables['CAMERA']} map={variables['MAP']} "
+        f"! trilaterate map={variables['MAP']} filter=ekf ! {birdseye} "
+        f"map={variables['MAP']} {BIRDSEYE_DRAW}")
+    plain = rgb_frames(f"{scaled} ! {birdseye}")
+    assert len(tiles) == len(alone) == len(plain) == CHAIN_CLIP_FRAMES
     assert alone[0].shape == (480, 480, 3)
     worst = 0.0
-    for dash, want in zip(tiles, alone):
+    for dash, want, remap in zip(tiles, alone, plain):
         # the floor fills much of the view: a blank tile would pass else
-        assert (want.max(axis=2) > 16).mean() > 0.3
+        assert (remap.max(axis=2) > 16).mean() > 0.3
+        # the robot: a white triangle standing on the camera's floor
+        # point, output pixel (239.5, 479.5), pointing up
+        assert want[474, 239:241].min() > 230
+        assert remap[474, 239:241].max() < 200
         diff = np.abs(dash[:480, 1280:].astype(int) - want.astype(int))
         worst = max(worst, float(diff.mean()))
         assert dash[480:, 1280:].max() < 24     # nothing below it

@@ -1,5 +1,5 @@
 /* Blending the canvas into the video frame in its own format (packed RGB,
- * I420, NV12, YUY2), only over the areas drawn. */
+ * I420, NV12, YUY2, 8-bit grey), only over the areas drawn. */
 #include "overlaydraw.h"
 
 #include <algorithm>
@@ -173,6 +173,21 @@ composite_yuy2 (const cv::Mat & canvas, const cv::Rect & r,
   }
 }
 
+/* 8-bit grey: the luma of the colour (the target's model, e.g. full-range
+ * BT.601) per pixel. */
+void
+composite_gray (const cv::Mat & canvas, const cv::Rect & r, const Target & t,
+    const YuvCoefficients & k)
+{
+  for (int y = r.y; y < r.y + r.height; y++) {
+    const uint8_t *src = canvas.ptr<uint8_t> (y) + 4 * r.x;
+    uint8_t *dst = t.data[0] + (size_t) y * t.stride[0] + r.x;
+    for (int x = 0; x < r.width; x++, src += 4, dst++)
+      if (src[3])
+        *dst = k.luma (*dst, src);
+  }
+}
+
 }  // namespace
 
 void
@@ -219,6 +234,9 @@ Renderer::composite (const Target & t)
           break;
         case Target::Kind::YUY2:
           composite_yuy2 (canvas_, r, t, k);
+          break;
+        case Target::Kind::GRAY:
+          composite_gray (canvas_, r, t, k);
           break;
       }
     }

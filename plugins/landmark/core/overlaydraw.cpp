@@ -67,7 +67,7 @@ Renderer::configure (int width, int height)
   cover_y1_ = INT32_MIN;
   reset_clip ();
   rects_.clear ();
-  rects_.reserve (128);
+  rects_.reserve (512);
   spans_.reserve (128);
   reserved_.reserve (64);
   labels_.reserve (64);
@@ -169,6 +169,8 @@ Renderer::cover_segment (cv::Point2d a, cv::Point2d b, double hw)
   const double bx0 = std::min (a.x, b.x) - reach,
       bx1 = std::max (a.x, b.x) + reach;
   const double len = std::sqrt (len2);
+  const double reach2 = reach * reach;
+  const double inner2 = reach > 1 ? (reach - 1) * (reach - 1) : -1;
   for (int y = y0; y < y1; y++) {
     /* the row's part of the band around the infinite line, within the
      * segment's box */
@@ -196,7 +198,11 @@ Renderer::cover_segment (cv::Point2d a, cv::Point2d b, double hw)
         px -= t * dx;
         py -= t * dy;
       }
-      const double cov = reach - std::sqrt (px * px + py * py);
+      /* the square root only at the anti-aliased rim */
+      const double d2 = px * px + py * py;
+      if (d2 >= reach2)
+        continue;
+      const double cov = d2 <= inner2 ? 1 : reach - std::sqrt (d2);
       any |= raise_coverage (m[x], cov);
     }
     if (any)
@@ -338,8 +344,21 @@ Renderer::paint (Rgb c, int alpha)
 {
   if (cover_y0_ >= cover_y1_)
     return;
-  int bx0 = INT32_MAX, bx1 = INT32_MIN;
+  /* the area is marked in bands of rows, each as wide as its rows' cover:
+   * a long slanted line marks a thin staircase, not its whole bounding
+   * box, so blending and clearing follow the line's length */
+  constexpr int kBand = 16;
+  const cv::Rect saved = clip_;
+  clip_ = cv::Rect (0, 0, width_, height_);
+  int bx0 = INT32_MAX, bx1 = INT32_MIN, by0 = cover_y0_;
   for (int y = cover_y0_; y < cover_y1_; y++) {
+    if (y > by0 && y % kBand == 0) {
+      if (bx0 < bx1)
+        mark (bx0, by0, bx1, y);
+      bx0 = INT32_MAX;
+      bx1 = INT32_MIN;
+      by0 = y;
+    }
     const int x0 = row_x0_[y], x1 = row_x1_[y];
     if (x0 >= x1)
       continue;
@@ -356,13 +375,10 @@ Renderer::paint (Rgb c, int alpha)
     row_x0_[y] = INT32_MAX;
     row_x1_[y] = INT32_MIN;
   }
-  if (bx0 < bx1) {
-    /* the mark is not cut to the clip: the coverage already is */
-    const cv::Rect saved = clip_;
-    clip_ = cv::Rect (0, 0, width_, height_);
-    mark (bx0, cover_y0_, bx1, cover_y1_);
-    clip_ = saved;
-  }
+  /* the marks are not cut to the clip: the coverage already is */
+  if (bx0 < bx1)
+    mark (bx0, by0, bx1, cover_y1_);
+  clip_ = saved;
   cover_y0_ = INT32_MAX;
   cover_y1_ = INT32_MIN;
 }

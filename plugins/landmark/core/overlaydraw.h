@@ -69,6 +69,11 @@ struct Detection {
   bool has_bearing = false;
   double bearing = 0;
   bool no_floor = false;
+  /* landmark-range: the floor position (robot frame, metres), and the
+   * marker's diameter and centre height when the map gave them (0: not) */
+  bool has_ground = false;
+  double ground_x = 0, ground_y = 0;
+  double marker_diameter = 0, marker_height = 0;
   /* landmark-match */
   bool has_match = false;
   bool matched = false;
@@ -97,6 +102,23 @@ struct Floor {
   double bin_width = 0;
   const float *rop_range = nullptr;      /* metres */
   const uint8_t *rop_state = nullptr;
+  /* per column: the boundary's floor point, robot frame, metres (may be
+   * null) */
+  const float *boundary_x = nullptr, *boundary_y = nullptr;
+};
+
+/* The scale of the bird's-eye view (birdseye, docs/birdseye.md): a
+ * robot-frame point (x forward, y left, metres) is drawn at output pixel
+ * (origin_u - y ppm, origin_v - x ppm), pixel centres on integers, where
+ * (origin_u, origin_v) is the camera's floor point. */
+struct FloorView {
+  double pixels_per_metre = 100;
+  double origin_u = 0, origin_v = 0;
+
+  cv::Point2d to_px (double x, double y) const {
+    return cv::Point2d (origin_u - y * pixels_per_metre,
+        origin_v - x * pixels_per_metre);
+  }
 };
 
 /* landmarkslam's estimate (GstLandmarkMapMeta, docs/landmarkslam.md):
@@ -159,14 +181,14 @@ struct Histogram {
 /* ---- the frame the canvas is blended into ---------------------------- */
 
 struct Target {
-  enum class Kind { PACKED, I420, NV12, YUY2 };
+  enum class Kind { PACKED, I420, NV12, YUY2, GRAY };  /* GRAY: 8-bit luma */
   Kind kind = Kind::PACKED;
   int width = 0, height = 0;
   uint8_t *data[3] = { nullptr, nullptr, nullptr };
   int stride[3] = { 0, 0, 0 };
   int pixel_stride = 4;              /* PACKED: 3 or 4 */
   int offset[3] = { 0, 1, 2 };       /* PACKED: bytes of R, G, B */
-  InputModel model;                  /* YUV: matrix and range */
+  InputModel model;                  /* YUV, GRAY: matrix and range */
 };
 
 /* ---- the renderer ---------------------------------------------------- */
@@ -203,6 +225,24 @@ public:
       const Pose & pose, const Detection * dets, int n_dets,
       const Floor * free_space = nullptr, const Estimate * estimate = nullptr);
   void draw_labels ();
+
+  /* The bird's-eye view: what is drawn in robot-frame metres at the
+   * view's scale. The floor meta's boundary points as a line (red on
+   * obstacles, cyan where the floor reaches max-range or the image's
+   * top), and its free space, the ROP's seen bins at their ranges, as an
+   * outline around the robot (red at obstacles); unseen bins are not
+   * free. */
+  void draw_floor_boundary (const Floor & floor, const FloorView & view);
+  /* A ranged landmark as a disc of its diameter (metres; <= 0: a small
+   * dot) at its floor position, in its class colour over a dark rim, with
+   * its id when matched. */
+  void draw_floor_landmark (const Detection & d, double diameter,
+      const FloorView & view);
+  /* The robot: the camera's field of view on the floor (dashed runs of
+   * output pixels, run_lengths[i] points each), and a triangle from the
+   * camera's floor point pointing forward. */
+  void draw_floor_robot (const FloorView & view, const cv::Point2d * fov,
+      const int *run_lengths, int n_runs);
 
   /* True when something was drawn since begin_frame(). */
   bool dirty () const { return !rects_.empty (); }
@@ -266,6 +306,12 @@ private:
   void fill_circle (cv::Point2d centre, double radius, Rgb c, int alpha);
   void fill_poly (const cv::Point2d * pts, int n, Rgb c, int alpha);
   cv::Size label_size (const Label & l) const;
+  /* the boundary's runs of seen columns, at their image rows (view null)
+   * or at their floor points */
+  void boundary_runs (const Floor & f, const FloorView * view);
+  /* appends p to pts_, or moves the last point there while it is within
+   * min_step of the one before (dense points cost strokes, not detail) */
+  void push_point (cv::Point2d p, double min_step);
 
   int width_ = 0, height_ = 0;
   cv::Mat canvas_;

@@ -356,33 +356,52 @@ Renderer::draw_boundary (const Floor & f)
   if (canvas_.empty () || f.width <= 0 || f.height <= 0 || !f.boundary_row ||
       !f.boundary_state)
     return;
+  boundary_runs (f, nullptr);
+}
+
+void
+Renderer::boundary_runs (const Floor & f, const FloorView * view)
+{
   /* label plane to frame: pixel centres on integers in both */
   const double sx = (double) width_ / f.width, sy = (double) height_ / f.height;
   const int thick = st_.line + 1;
+  auto seen = [&](int e) {
+    if (f.boundary_state[e] == 0 || !(f.boundary_row[e] >= 0))
+      return false;
+    return !view || (std::isfinite (f.boundary_x[e]) &&
+        std::isfinite (f.boundary_y[e]));
+  };
+  auto at = [&](int e) {
+    return view ? view->to_px (f.boundary_x[e], f.boundary_y[e]) :
+        cv::Point2d ((e + 0.5) * sx - 0.5, (f.boundary_row[e] + 0.5) * sy -
+        0.5);
+  };
   /* runs of seen columns in one colour, each a polyline on a dark halo */
   for (int pass = 0; pass < 2; pass++) {
     int c = 0;
     while (c < f.width) {
-      const uint8_t state = f.boundary_state[c];
-      if (f.boundary_row[c] < 0 || state == 0) {
+      if (!seen (c)) {
         c++;
         continue;
       }
-      const bool obstacle = state == 2;
+      const bool obstacle = f.boundary_state[c] == 2;
       pts_.clear ();
       int e = c;
       for (; e < f.width; e++) {
-        if (f.boundary_row[e] < 0 || f.boundary_state[e] == 0 ||
-            (f.boundary_state[e] == 2) != obstacle)
+        if (!seen (e) || (f.boundary_state[e] == 2) != obstacle)
           break;
-        pts_.emplace_back ((e + 0.5) * sx - 0.5,
-            (f.boundary_row[e] + 0.5) * sy - 0.5);
+        if (view)
+          push_point (at (e), 3);  /* columns are denser than pixels */
+        else
+          pts_.push_back (at (e));
       }
-      /* a lone column: a short horizontal dash across its width */
+      /* a lone column: a short horizontal dash across its width (on the
+       * floor: a dot) */
       if (pts_.size () == 1) {
         const cv::Point2d m = pts_[0];
-        pts_[0].x = m.x - sx / 2;
-        pts_.emplace_back (m.x + sx / 2, m.y);
+        const double half = view ? 0 : sx / 2;
+        pts_[0].x = m.x - half;
+        pts_.emplace_back (m.x + half, m.y);
       }
       if (pass == 0)
         polyline (pts_.data (), (int) pts_.size (), false, kBlack, 150,

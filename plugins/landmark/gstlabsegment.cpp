@@ -74,6 +74,7 @@ struct Settings {
   gboolean post_messages = FALSE;
   GstLabSegmentRareClasses rare_classes = GST_LAB_SEGMENT_RARE_UNLABELLED;
   guint n_threads = 0;  /* 0: landmark::frame_threads decides */
+  gboolean adapt = FALSE;
 };
 
 /* Every value the properties accept is valid; the palette file is read
@@ -90,6 +91,13 @@ struct State {
   bool table_valid = false;
   gdouble table_max_distance = -1;
   gboolean table_use_lightness = TRUE;
+  /* adapt=true: the drift followed, the gains the table was built with,
+   * frames since it was, and a frame's samples (kept: no allocation) */
+  landmark::ColourDrift drift;
+  std::array<double, 3> table_gains {1.0, 1.0, 1.0};
+  guint frames_since_build = 0;
+  bool rebuild_for_drift = false;
+  landmark::ClassColourSums samples;
 
   landmark::FrameLayout layout;
   landmark::InputModel model;
@@ -187,7 +195,13 @@ lab_segment_properties ()
           "Threads that label a frame in horizontal slices, with results "
           "identical to one thread (0: every core for frames of 1920x1080 "
           "pixels and more, one below)", &Settings::n_threads, 0u,
-          landmark::WorkerPool::kMaxThreads);
+          landmark::WorkerPool::kMaxThreads)
+      .boolean ("adapt", "Follow drift",
+          "Follow the camera's exposure and white-balance drift: channel "
+          "gains that carry the palette's one-colour classes onto their "
+          "pixels are estimated over recent frames (within one stop, and 15 "
+          "% between red, green and blue) and the references re-made with "
+          "them", &Settings::adapt);
   return table;
 }
 
@@ -223,18 +237,30 @@ gst_lab_segment_palette_changed (GstLabSegment * self)
         ((guint) (rgb[0] * 255 + 0.5) << 16) |
         ((guint) (rgb[1] * 255 + 0.5) << 8) | (guint) (rgb[2] * 255 + 0.5));
   }
+  std::vector<landmark::Lab> labs;
+  std::vector<bool> single;
+  for (const auto & c : palette.classes) {
+    labs.push_back (c.lab);
+    single.push_back (c.references.size () <= 1);
+  }
+  st.drift.reset (labs, single);
   GST_INFO_OBJECT (self, "palette %s: %u classes",
       st.palette.path.empty ()? "(built-in)" : st.palette.path.c_str (), n);
 }
 
 static void
 gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
-    gboolean use_lightness)
+    gboolean use_lightness, const std::array<double, 3> & gains)
 {
   State & st = self->priv->state;
   landmark::ClassifierConfig cfg;
   landmark::palette_references (st.palette.contents, &cfg.refs,
       &cfg.ref_class);
+  if (gains != std::array<double, 3> {1.0, 1.0, 1.0})
+    for (landmark::Lab & ref : cfg.refs)
+      ref = landmark::lab_under_gains (ref, gains);
+  st.table_gains = gains;
+  st.frames_since_build = 0;
   cfg.use_lightness = use_lightness;
   cfg.max_distance = max_distance;
   cfg.model = st.model;
@@ -257,8 +283,9 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
   }
   const double black[3] = { 0, 0, 0 };
   st.model.from_srgb (black, st.black.data ());
-  GST_INFO_OBJECT (self, "class table built in %.1f ms (%zu boundary cells)",
-      ms, st.table.boundary_cells ());
+  GST_INFO_OBJECT (self, "class table built in %.1f ms (%zu boundary cells, "
+      "gains %.3f %.3f %.3f)", ms, st.table.boundary_cells (), gains[0],
+      gains[1], gains[2]);
 }
 
 /* ---- GObject -------------------------------------------------------- */
@@ -399,6 +426,49 @@ gst_lab_segment_attach_labels (GstLabSegment * self, GstBuffer * buf,
   gst_structure_take_value (meta, LANDMARK_LABELS_CLASS_COUNTS, &cv);
   gst_structure_take_value (meta, LANDMARK_LABELS_CLASS_ACTIVE, &av);
   gst_structure_take_value (meta, LANDMARK_LABELS_LABEL_COUNTS, &lv);
+  if (s.adapt) {
+    GValue gv = G_VALUE_INIT;
+    gst_value_array_init (&gv, 3);
+    for (double g : st.table_gains)
+      landmark_value_array_append_double (&gv, g);
+    gst_structure_take_value (meta, LANDMARK_LABELS_COLOUR_GAINS, &gv);
+  }
+}
+
+/* adapt=true: takes the frame's labelled colours into the drift estimate;
+ * once the references it gives differ from the table's by a
+ * just-noticeable difference, the table is rebuilt before the next frame
+ * (at most every kDriftRebuildFrames frames: a build costs milliseconds). */
+static void
+gst_lab_segment_follow_drift (GstLabSegment * self,
+    const GstVideoFrame * frame, const guint8 * labels, guint n)
+{
+  constexpr guint kDriftRebuildFrames = 10;
+  constexpr double kJustNoticeable = 2.3;
+  State & st = self->priv->state;
+  landmark::class_colour_sums (frame, st.layout, st.model, labels, n,
+      &st.samples);
+  st.frames_since_build++;
+  if (!st.drift.update (st.samples) ||
+      st.frames_since_build < kDriftRebuildFrames)
+    return;
+  const auto & gains = st.drift.gains ();
+  auto moved = [&](const landmark::Lab & ref) {
+    const landmark::Lab now = landmark::lab_under_gains (ref, gains);
+    const landmark::Lab built = landmark::lab_under_gains (ref,
+        st.table_gains);
+    return std::hypot (now.L - built.L, now.a - built.a, now.b - built.b) >
+        kJustNoticeable;
+  };
+  for (const auto & c : st.palette.contents.classes) {
+    bool any = c.references.empty () && moved (c.lab);
+    for (const landmark::Lab & ref : c.references)
+      any = any || moved (ref);
+    if (any) {
+      st.rebuild_for_drift = true;
+      return;
+    }
+  }
 }
 
 static GstFlowReturn
@@ -444,6 +514,8 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
       s.min_class_pixels, s.rare_classes == GST_LAB_SEGMENT_RARE_NEAREST,
       counts, labels, &rule, st.workers.pool);
 
+  if (s.adapt)
+    gst_lab_segment_follow_drift (self, &frame, labels, n);
   if (draw)
     landmark::draw_false_colour (&frame, st.layout, labels, st.display,
         st.black, st.workers.pool);
@@ -481,10 +553,19 @@ gst_lab_segment_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
             gst_lab_segment_palette_changed (self);
         }
         const Settings & s = st.applied.config.s;
+        static constexpr std::array<double, 3> kNoGains {1.0, 1.0, 1.0};
+        if (!s.adapt && st.table_gains != kNoGains) {
+          /* adapt turned off: the palette as it is, and a fresh start
+           * when it is turned on again */
+          gst_lab_segment_palette_changed (self);
+        }
         if (!st.table_valid || st.table_max_distance != s.max_distance ||
-            st.table_use_lightness != s.use_lightness)
+            st.table_use_lightness != s.use_lightness ||
+            st.rebuild_for_drift) {
+          st.rebuild_for_drift = false;
           gst_lab_segment_build_table (self, s.max_distance,
-              s.use_lightness);
+              s.use_lightness, s.adapt ? st.drift.gains () : kNoGains);
+        }
         return gst_lab_segment_process (self, buf, s);
       });
 }

@@ -8,6 +8,8 @@
 #define LANDMARK_HAVE_AVX2_PATH 1
 #endif
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 
 namespace landmark {
@@ -582,6 +584,49 @@ dominant_colour_rule (ClassTable & table, const GstVideoFrame * frame,
     }
   }
   flush ();
+}
+
+void
+class_colour_sums (const GstVideoFrame * frame, const FrameLayout & layout,
+    const InputModel & model, const guint8 * labels, guint n,
+    ClassColourSums * out)
+{
+  /* sRGB to linear light by table: 4096 steps are finer than any 8-bit
+   * input's */
+  static const std::array<float, 4097> linear = [] {
+    std::array<float, 4097> t {};
+    for (int i = 0; i <= 4096; i++)
+      t[i] = (float) srgb_to_linear (i / 4096.0);
+    return t;
+  }();
+  /* a component this close to full scale may be clipped: its gain is
+   * unknown */
+  constexpr double kClipped = 250.0 / 255.0;
+  const guint w = GST_VIDEO_FRAME_WIDTH (frame);
+  const guint h = GST_VIDEO_FRAME_HEIGHT (frame);
+  out->reset (n);
+  const guint step = std::max (8u, (guint) std::sqrt ((double) w * h /
+          5000.0));
+  PixelReader reader { frame, layout };
+  for (guint y = step / 2; y < h; y += step) {
+    reader.set_row (y);
+    const guint8 *row = labels + (gsize) y * w;
+    for (guint x = step / 2; x < w; x += step) {
+      const guint label = row[x];
+      if (label == 0 || label > n)
+        continue;
+      guint8 c[3] = { 0, 0, 0 };
+      reader.get (x, c);
+      double rgb[3];
+      model.to_srgb (c[0], c[1], c[2], rgb);
+      if (rgb[0] >= kClipped || rgb[1] >= kClipped || rgb[2] >= kClipped)
+        continue;
+      auto & sum = out->sum[label - 1];
+      for (int k = 0; k < 3; k++)
+        sum[k] += linear[(int) (std::clamp (rgb[k], 0.0, 1.0) * 4096 + 0.5)];
+      out->count[label - 1]++;
+    }
+  }
 }
 
 }  // namespace landmark

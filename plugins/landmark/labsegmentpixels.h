@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "classtable.h"
+#include "colourdrift.h"
 #include "frameformat.h"
 #include "workerpool.h"
 
@@ -76,6 +77,14 @@ void dominant_colour_rule (ClassTable & table,
     const GstVideoFrame * frame, const FrameLayout & layout, guint n,
     guint min_class_pixels, bool to_nearest, const guint32 counts[256],
     guint8 * labels, ClassRule * rule, WorkerPool & pool);
+
+/* The linear RGB of about 5,000 pixels spread over the frame (every
+ * step-th row and column, step at least 8: enough for a class mean), summed per final label (label
+ * k + 1 into class k; label 0 and pixels with a clipped component left
+ * out): what labsegment adapt=true estimates the camera's drift from. */
+void class_colour_sums (const GstVideoFrame * frame,
+    const FrameLayout & layout, const InputModel & model,
+    const guint8 * labels, guint n, ClassColourSums * out);
 
 /* Writes each pixel's class colour into the frame (output=labels): display
  * holds a colour per class in the frame's own components, black is label

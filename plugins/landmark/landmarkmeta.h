@@ -41,6 +41,7 @@ G_BEGIN_DECLS
 #define LANDMARK_LABELS_MIN_CLASS_PIXELS "min-class-pixels"  /* guint */
 #define LANDMARK_LABELS_MAX_DISTANCE "max-distance"    /* gdouble */
 #define LANDMARK_LABELS_USE_LIGHTNESS "use-lightness"  /* gboolean */
+#define LANDMARK_LABELS_COLOUR_GAINS "colour-gains"  /* array of 3 doubles, adapt=true only: linear R, G, B gains the references were re-made with */
 
 const GstMetaInfo *gst_landmark_labels_meta_get_info (void);
 const GstMetaInfo *gst_landmark_pose_meta_get_info (void);

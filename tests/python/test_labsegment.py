@@ -293,3 +293,61 @@ def test_palette_set_again_is_read_again(gst, tmp_path):
         assert names_of_next_frame() == second.names
     finally:
         pipe.set_state(gst.State.NULL)
+
+
+def _srgb8_under_gain(lab, gain):
+    """The 8-bit sRGB of an L*a*b* colour whose linear light is scaled by
+    gain (the sRGB curve, IEC 61966-2-1)."""
+    rgb = reference.lab_to_srgb8(np.array([lab], np.float64))[0] / 255.0
+    lin = np.where(rgb <= 0.04045, rgb / 12.92,
+                   ((rgb + 0.055) / 1.055) ** 2.4) * gain
+    out = np.where(lin <= 0.0031308, 12.92 * lin,
+                   1.055 * lin ** (1 / 2.4) - 0.055)
+    return np.clip(np.rint(out * 255), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("fmt", ["RGB", "I420"])
+def test_adapt_follows_exposure(gst, tmp_path, fmt):
+    """A red disc on a grey floor, the palette red, maroon (red with half
+    the light) and grey. The camera loses one stop over 20 frames: without
+    adapt the disc becomes maroon; with it the gains follow the grey floor
+    to about a half and the disc stays red, the meta saying by what gains."""
+    red, grey = (50.0, 60.0, 45.0), (60.0, 0.0, 0.0)
+    maroon = reference.rgb_to_lab(
+        _srgb8_under_gain(red, 0.5)[None, None, :])[0, 0].tolist()
+    pal_file = tmp_path / "p.json"
+    palette.save_palette(palette.parse_palette({"classes": [
+        {"name": "red", "lab": list(red), "role": "marker"},
+        {"name": "maroon", "lab": maroon, "role": "marker"},
+        {"name": "grey", "lab": list(grey), "role": "floor"}]}), pal_file)
+    yy, xx = np.mgrid[:120, :160]
+    disc = (yy - 60) ** 2 + (xx - 80) ** 2 < 30 ** 2
+    frames = []
+    for i in range(60):
+        gain = 2.0 ** -min(1.0, i / 20)
+        img = np.empty((120, 160, 3), np.uint8)
+        img[:] = _srgb8_under_gain(grey, gain)
+        img[disc] = _srgb8_under_gain(red, gain)
+        frames.append(img)
+    convert = "" if fmt == "RGB" else \
+        f"videoconvert ! video/x-raw,format={fmt} ! "
+    chain = f"{convert}labsegment palette={pal_file}"
+    caps = F.caps_string("RGB", 160, 120)
+    plain = run(chain, frames, caps)
+    adapted = run(f"{chain} adapt=true", frames, caps)
+
+    def centre(buf):
+        return int(meta.labels(buf).plane[60, 80])
+
+    def gains(buf):
+        s = buf.get_custom_meta(meta.LABELS_META).get_structure()
+        return None if not s.has_field("colour-gains") else \
+            meta._values(s, "colour-gains")
+
+    assert centre(plain[0]) == centre(adapted[0]) == 1
+    assert centre(plain[-1]) == 2, "one stop darker, red is maroon"
+    assert [centre(b) for b in adapted[35:]] == [1] * 25, \
+        [centre(b) for b in adapted]
+    assert gains(plain[-1]) is None
+    assert all(abs(g - 0.5) < 0.05 for g in gains(adapted[-1])), \
+        gains(adapted[-1])

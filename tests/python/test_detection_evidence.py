@@ -135,19 +135,27 @@ def test_square_and_stripe_rejected(gst, tmp_path):
                 if d["accepted"]]
 
 
-def test_size_check_can_be_turned_off(gst, tmp_path):
-    frame = render([disc(0.5, 0.15, 0.033)])
-    map_file = tmp_path / "map.json"
-    map_file.write_text(json.dumps({"landmarks": [
-        {"id": "L1", "class": "red", "x": 1.0, "y": 0.0, "z": 0.0,
-         "diameter": 0.1, "kind": "disc"}]}))
+RED_DISC = {"id": "L1", "class": "red", "x": 1.0, "y": 0.0, "z": 0.0,
+            "diameter": 0.1, "kind": "disc"}
+
+
+def ranged(tmp_path, frame, landmarks=(RED_DISC,), props=""):
+    """labsegment ! blobroundness ! ipmrange (the test's camera, a map of
+    these landmarks, props) ! landmarklog on one frame: its detections."""
+    map_file = tmp_path / "ranged-map.json"
+    map_file.write_text(json.dumps({"landmarks": list(landmarks)}))
     caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
-    log = tmp_path / "off.jsonl"
+    log = tmp_path / "ranged.jsonl"
     pipeline.process_frames(
         f"labsegment ! blobroundness ! ipmrange camera-height={CAM_H} "
-        f"tilt={TILT} hfov={HFOV} map={map_file} check-size=false ! "
+        f"tilt={TILT} hfov={HFOV} map={map_file} {props} ! "
         f"landmarklog location={log}", [frame], caps)
-    dets = json.loads(log.read_text())["detections"]
+    return json.loads(log.read_text())["detections"]
+
+
+def test_size_check_can_be_turned_off(gst, tmp_path):
+    dets = ranged(tmp_path, render([disc(0.5, 0.15, 0.033)]),
+                  props="check-size=false")
     assert [d["accepted"] for d in dets] == [True]
     assert "size-agreement" not in dets[0]["range"]
 
@@ -241,24 +249,15 @@ def test_marginal_shape_stays_out_of_slam(gst, tmp_path):
 def test_cut_blob_too_large_for_every_marker_of_its_class(gst, tmp_path):
     # red is a 0.1 m disc and a 0.1 m ball on the map. A disc cut by the
     # frame's left edge fits both images (its kind cannot be told) and is
-    # kept, ranged as the properties' marker; a one-pixel line of red from the same edge at row 40 (mixed pixels
-    # along a horizon), ranged some 10 m away where either marker images
-    # at a few pixels, fits neither and is rejected on its size
+    # kept, ranged as the properties' marker; a one-pixel line of red
+    # from the same edge at row 40 (mixed pixels along a horizon), ranged
+    # some 10 m away where either marker images at a few pixels, fits
+    # neither and is rejected on its size
     frame = render([disc(0.6, 0.31, 0.1)]).copy()
     frame[40, :160] = RED
-    map_file = tmp_path / "map.json"
-    map_file.write_text(json.dumps({"landmarks": [
-        {"id": "L1", "class": "red", "x": 1.0, "y": 0.0, "z": 0.0,
-         "diameter": 0.1, "kind": "disc"},
-        {"id": "L2", "class": "red", "x": 2.0, "y": 0.5, "z": 0.05,
-         "diameter": 0.1, "kind": "ball"}]}))
-    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
-    log = tmp_path / "cut.jsonl"
-    pipeline.process_frames(
-        f"labsegment ! blobroundness ! ipmrange camera-height={CAM_H} "
-        f"tilt={TILT} hfov={HFOV} map={map_file} ! "
-        f"landmarklog location={log}", [frame], caps)
-    dets = json.loads(log.read_text())["detections"]
+    dets = ranged(tmp_path, frame, (RED_DISC, {
+        "id": "L2", "class": "red", "x": 2.0, "y": 0.5, "z": 0.05,
+        "diameter": 0.1, "kind": "ball"}))
     assert all(d["bbox"][0] == 0 for d in dets), dets
     line = next(d for d in dets if d["bbox"][3] == 1)
     cut_disc = next(d for d in dets if d is not line)

@@ -1073,6 +1073,17 @@ def test_learn_drops_references_that_take_another_class():
     assert 140 / 2000 > MAX_STOLEN_SHARE
 
 
+def banded_scene(rng, rows, width=100):
+    """Horizontal bands [(lab, mask value, rows), ...] of 1-sigma noisy
+    colour, top to bottom: the BGR image and its class mask."""
+    image = np.vstack([np.tile(lab_to_bgr(lab), (n, width, 1))
+                       for lab, _, n in rows]).astype(np.float64)
+    image = np.clip(np.rint(image + rng.normal(0, 1.0, image.shape)), 0,
+                    255).astype(np.uint8)
+    mask = np.vstack([np.full((n, width), k, np.uint8) for _, k, n in rows])
+    return image, mask
+
+
 def test_learn_drops_marker_references_that_take_the_untaught_scene():
     """A red ball lit on 60 % and shaded on 40 %, a floor, and above them a
     dark sky nobody taught (30 % of the image): the shaded-red reference
@@ -1089,14 +1100,8 @@ def test_learn_drops_marker_references_that_take_the_untaught_scene():
         np.linalg.norm(np.subtract(sky, RED_LAB))
 
     def learn(above):
-        rows = [(above, 0, 30), (RED_LAB, 1, 18), (shaded_red, 1, 12),
-                (floor, 2, 40)]
-        image = np.vstack([np.tile(lab_to_bgr(lab), (n, 100, 1))
-                           for lab, _, n in rows]).astype(np.float64)
-        image = np.clip(np.rint(image + rng.normal(0, 1.0, image.shape)), 0,
-                        255).astype(np.uint8)
-        mask = np.vstack([np.full((n, 100), k, np.uint8)
-                          for _, k, n in rows])
+        image, mask = banded_scene(rng, [(above, 0, 30), (RED_LAB, 1, 18),
+                                         (shaded_red, 1, 12), (floor, 2, 40)])
         return learn_from_mask(image, mask, names=["red", "floor"],
                                markers=["red"], references="auto")
 
@@ -1121,15 +1126,8 @@ def test_learn_untaught_class_takes_the_sky():
         (22.0, 0.0, -4.0)
 
     def scene(above, rows_above=30):
-        rows = [(above, 0, rows_above), (RED_LAB, 1, 18), (shaded_red, 1, 12),
-                (floor, 2, 90)]
-        image = np.vstack([np.tile(lab_to_bgr(lab), (n, 100, 1))
-                           for lab, _, n in rows]).astype(np.float64)
-        image = np.clip(np.rint(image + rng.normal(0, 1.0, image.shape)), 0,
-                        255).astype(np.uint8)
-        mask = np.vstack([np.full((n, 100), k, np.uint8)
-                          for _, k, n in rows])
-        return image, mask
+        return banded_scene(rng, [(above, 0, rows_above), (RED_LAB, 1, 18),
+                                  (shaded_red, 1, 12), (floor, 2, 90)])
 
     def learn(image, mask, **kw):
         return learn_from_mask(image, mask, names=["red", "floor"],

@@ -1,0 +1,165 @@
+/* slam-bench: the cost and memory of the SLAM core (plugins/landmark/core/
+ * slam.h) over a long run: 15 landmarks of five colours (each three times)
+ * around a 3 m x 3 m field, a robot driving an ellipse inside it at
+ * 0.3 m/s, 30 frames per second, 3,000 frames (about five laps); each frame
+ * the landmarks within 3.5 m and 27 degrees of the heading (the seed's
+ * 54-degree camera), ranged with 1 % and 0.002 rad of Gaussian noise, one
+ * in twenty missed. No map, no odometry: the constant-velocity model.
+ *
+ * Prints the CPU time of this thread per frame (median, p95, max; the first
+ * and the last 300 frames apart), the resident memory after 300, 1,500 and
+ * 3,000 frames, the landmarks estimated and the path error against the
+ * truth in the map frame (the first pose's). It asserts nothing about
+ * speed; docs/landmarkslam.md quotes it.
+ *
+ *   build/tests/bench/slam-bench [FRAMES]
+ */
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "slam.h"
+
+using namespace landmark;
+
+static double
+thread_ms ()
+{
+  timespec ts;
+  clock_gettime (CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+/* resident set size, kB (Linux) */
+static long
+rss_kb ()
+{
+  std::ifstream f ("/proc/self/status");
+  std::string key;
+  long value = -1;
+  while (f >> key) {
+    if (key == "VmRSS:") {
+      f >> value;
+      break;
+    }
+    f.ignore (1 << 12, '\n');
+  }
+  return value;
+}
+
+static double
+quantile (std::vector<double> v, double q)
+{
+  if (v.empty ())
+    return 0;
+  std::sort (v.begin (), v.end ());
+  return v[std::min (v.size () - 1, (size_t) (q * v.size ()))];
+}
+
+struct Truth {
+  double x, y;
+  std::string class_name;
+};
+
+int
+main (int argc, char **argv)
+{
+  const int frames = argc > 1 ? std::max (1, std::atoi (argv[1])) : 3000;
+  const double fps = 30, speed = 0.3, rx = 1.1, ry = 0.8;
+  const double fov = 27 * M_PI / 180, max_range = 3.5;
+  const char *colours[] = { "red", "green", "yellow", "pink", "blue" };
+  std::mt19937 rng (20261125);
+  std::normal_distribution<double> unit (0, 1);
+  std::uniform_real_distribution<double> uniform (0, 1);
+
+  /* three of each colour, spread around the field's edge, a little off it */
+  std::vector<Truth> field;
+  for (int i = 0; i < 15; i++) {
+    const double a = 2 * M_PI * i / 15 + 0.1 * unit (rng);
+    const double r = 1.5 + 0.1 * unit (rng);
+    field.push_back ({r * std::cos (a), r * std::sin (a), colours[i % 5]});
+  }
+
+  Slam slam;
+  std::vector<double> cost;
+  std::vector<double> error;
+  long rss[3] = { 0, 0, 0 };
+  Pose2 first {};
+  double t = 0;
+  /* the ellipse's parameter advances so that the robot keeps its speed */
+  double phase = 0;
+  for (int f = 0; f < frames; f++) {
+    const double dx = -rx * std::sin (phase), dy = ry * std::cos (phase);
+    const Pose2 truth {rx * std::cos (phase), ry * std::sin (phase),
+      std::atan2 (dy, dx)};
+    if (f == 0)
+      first = truth;
+    std::vector<SlamObservation> obs;
+    for (const Truth & m : field) {
+      const double wx = m.x - truth.x, wy = m.y - truth.y;
+      const double c = std::cos (truth.heading), s = std::sin (truth.heading);
+      const double gx = c * wx + s * wy, gy = -s * wx + c * wy;
+      const double range = std::hypot (gx, gy), bearing = std::atan2 (gy, gx);
+      if (range > max_range || range < 0.3 || std::fabs (bearing) > fov
+          || uniform (rng) < 0.05)
+        continue;
+      const double r = range * (1 + 0.01 * unit (rng));
+      const double b = bearing + 0.002 * unit (rng);
+      SlamObservation o;
+      o.class_name = m.class_name;
+      o.obs.gx = r * std::cos (b);
+      o.obs.gy = r * std::sin (b);
+      o.obs.range_sigma = 0.01 * range;
+      o.obs.bearing_sigma = 0.002;
+      o.marker_diameter = 0.1;
+      obs.push_back (o);
+    }
+    const double t0 = thread_ms ();
+    if (f > 0)
+      slam.predict (1 / fps);
+    const SlamFrame out = slam.update (obs);
+    cost.push_back (thread_ms () - t0);
+    if (out.ok) {
+      /* the truth in the map frame: relative to the first pose */
+      const double c = std::cos (first.heading), s = std::sin (first.heading);
+      const double wx = truth.x - first.x, wy = truth.y - first.y;
+      const Pose2 p = slam.pose ();
+      error.push_back (std::hypot (p.x - (c * wx + s * wy),
+              p.y - (-s * wx + c * wy)));
+    }
+    if (f + 1 == 300)
+      rss[0] = rss_kb ();
+    if (f + 1 == 1500)
+      rss[1] = rss_kb ();
+    if (f + 1 == frames)
+      rss[2] = rss_kb ();
+    phase += speed / fps / std::hypot (dx, dy);
+    t += 1 / fps;
+  }
+
+  int confirmed = 0;
+  for (const SlamLandmark & l : slam.landmarks ())
+    confirmed += l.confirmed;
+  const size_t tail = std::min<size_t> (300, cost.size ());
+  const std::vector<double> head (cost.begin (), cost.begin () + tail);
+  const std::vector<double> last (cost.end () - tail, cost.end ());
+  std::printf ("slam-bench: %d frames (%.0f s, %.1f laps), 15 landmarks, "
+      "no map, no odometry\n", frames, t, phase / (2 * M_PI));
+  std::printf ("cost per frame, CPU ms: median %.3f, p95 %.3f, max %.3f; "
+      "first 300: median %.3f; last 300: median %.3f, p95 %.3f\n",
+      quantile (cost, 0.5), quantile (cost, 0.95), quantile (cost, 1.0),
+      quantile (head, 0.5), quantile (last, 0.5), quantile (last, 0.95));
+  std::printf ("resident memory, kB: %ld after 300 frames, %ld after 1500, "
+      "%ld after %d\n", rss[0], rss[1], rss[2], frames);
+  std::printf ("landmarks: %zu estimated, %d confirmed; path error in the "
+      "map frame: median %.1f cm, p95 %.1f cm over %zu frames with a pose\n",
+      slam.landmarks ().size (), confirmed, 100 * quantile (error, 0.5),
+      100 * quantile (error, 0.95), error.size ());
+  return 0;
+}

@@ -243,20 +243,29 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return 1
     recs: List[Dict[str, Any]] = []
     per_clip = {}
+    tallies = []
     for clip in clips:
         name = f"{clip['scenario']}-v{clip['variant']}"
         run_dir = os.path.join(args.out, "runs", name)
         log = os.path.join(run_dir, "log.jsonl")
         if not (args.reuse and os.path.exists(log)):
             log = run_clip(clip, run_dir, args.set)
-        got = records(read_jsonl(log), read_jsonl(
-            os.path.join(clip["folder"], "truth.jsonl")))
+        results = read_jsonl(log)
+        truth = read_jsonl(os.path.join(clip["folder"], "truth.jsonl"))
+        got = records(results, truth)
+        tallies.append(S.score(results, truth))
         for r in got:
             r["clip"] = name
         per_clip[name] = bin_stats([r for r in got if whole(r)])
         recs.extend(got)
     rep = study(recs)
-    text = format_report(rep, per_clip)
+    pose = S.summarise(S.merge(tallies))
+    text = format_report(rep, per_clip) + (
+        "\ntrilaterate's position error over the frames with three or more "
+        f"required landmarks: median {_mm(pose['position_median_m'] or 0)} "
+        f"mm, p95 {_mm(pose['position_p95_m'] or 0)} mm, pose on "
+        f"{100 * (pose['pose_coverage'] or 0):.1f} % of "
+        f"{pose['pose_frames']} frames\n")
     print(text)
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, f"report-{args.half}.md"), "w",

@@ -89,6 +89,16 @@ centre_covariance (const BlobObservation & blob, double edge_sigma,
     uu = s2 * ixx / (area * area);
     uv = s2 * ixy / (area * area);
     vv = s2 * iyy / (area * area);
+    /* the ellipse of a whole blob is that of its moments, centred on its
+     * centroid; one fitted to what the border left of a blob is centred
+     * elsewhere, extrapolated beyond the pixels seen: as uncertain as the
+     * extrapolation is long, in any direction */
+    if (std::isfinite (blob.eu) && std::isfinite (blob.ev)) {
+      const double d2 = std::pow (blob.eu - blob.u, 2) +
+          std::pow (blob.ev - blob.v, 2);
+      uu += d2;
+      vv += d2;
+    }
   } else if (blob.equivalent_diameter > 0
       && std::isfinite (blob.equivalent_diameter)) {
     uu = vv = s2 * 2 / (M_PI * std::max (blob.equivalent_diameter, 1.0));

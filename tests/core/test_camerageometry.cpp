@@ -256,6 +256,23 @@ test_estimate ()
       "no bias to correct?");
   std::printf ("disc: ground %.5f size %.5f (true %.5f), ellipse centre "
       "%.5f\n", r.range_ground, r.range_size, want, std::hypot (gx, gy));
+  /* the same disc taken for one 30 % larger: its size range is 30 % too
+   * far, beyond what the two sigmas explain, and the excess is added to
+   * the sigmas reported; with the right diameter nothing is added */
+  CHECK (r.size_excess == 0, "right diameter, excess %g", r.size_excess);
+  MarkerSpec larger = disc;
+  larger.diameter *= 1.3;
+  const RangeEstimate w = estimate_range (g, o, larger, 0.5);
+  const double d = w.range_size - w.range_ground;
+  CHECK (std::fabs (d - 0.3 * want) < 0.02 * want, "disagreement %g", d);
+  const double e2 = d * d - 6.63 * (w.range_ground_sigma *
+      w.range_ground_sigma + w.range_size_sigma * w.range_size_sigma);
+  CHECK (e2 > 0 && std::fabs (w.size_excess - std::sqrt (e2)) < 1e-12,
+      "excess %g want %g", w.size_excess, std::sqrt (std::max (e2, 0.0)));
+  CHECK (std::fabs (w.range_sigma_total (w.range_ground_sigma) -
+          std::hypot (w.range_ground_sigma, w.size_excess)) < 1e-15
+      && w.bearing_sigma_total () > w.bearing_sigma
+      && w.range_ground == r.range_ground, "widened sigmas");
 }
 
 /* The floor point of pixel (u, v) for a pinhole of focal length f pixels,

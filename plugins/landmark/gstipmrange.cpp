@@ -18,7 +18,12 @@
  * - `method`: what `range` reports (`ground`, `size` or `fused`, the
  *   inverse-variance weighted mean of the two);
  * - `range-sigma`, `bearing-sigma`: one-sigma estimates (a `pixel-sigma`
- *   error of the measured points, propagated);
+ *   error of the blob's outline points, which moves its centre by less the
+ *   larger the blob, propagated through the camera; the mounting's
+ *   `height-sigma` and `tilt-sigma`; and `size-excess`, docs/ranging.md);
+ * - `size-excess`: metres, the part of the disagreement of `range-size`
+ *   and `range-ground` that their sigmas do not explain (a blob cut or
+ *   merged), 0 without it;
  * - `no-floor`: true when the ray never meets the marker's plane (above
  *   the horizon); then no range fields, never a negative or infinite one.
  *
@@ -103,6 +108,8 @@ struct Settings {
   std::string map;
   GstIpmRangeMethod method = GST_IPM_RANGE_METHOD_GROUND;
   gdouble pixel_sigma = 0.5;
+  gdouble height_sigma = 0.0;     /* relative */
+  gdouble tilt_sigma = 0.0;       /* degrees */
   gboolean check_size = TRUE;
 };
 
@@ -204,9 +211,17 @@ ipm_range_properties ()
       .enumeration ("range-method", "Range method", "What range reports",
           &Settings::method, GST_TYPE_IPM_RANGE_METHOD)
       .number ("pixel-sigma", "Pixel sigma",
-          "One-sigma error of a measured image point, pixels, for "
+          "One-sigma error of a point of a blob's outline, pixels: the "
+          "centre's error follows from it and the blob's size, for "
           "range-sigma, bearing-sigma and the fused weights",
           &Settings::pixel_sigma, 0.0, 100.0)
+      .number ("height-sigma", "Height sigma",
+          "One-sigma error of the camera height, relative (0.005: 1 mm in "
+          "0.2 m), added to range-sigma (0: the height is exact)",
+          &Settings::height_sigma, 0.0, 1.0)
+      .number ("tilt-sigma", "Tilt sigma",
+          "One-sigma error of the tilt, degrees, added to range-sigma (0: "
+          "the tilt is exact)", &Settings::tilt_sigma, 0.0, 90.0)
       .boolean ("check-size", "Check size",
           "Reject a detection (kept=false, reject-reason=size) whose image "
           "disagrees in size or aspect with a marker of known diameter at "
@@ -515,6 +530,9 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (marker.z >= cfg.camera.e.camera_height)
     marker.z = 0;   /* cannot range it; treat as on the floor */
 
+  landmark::MountingSigma mounting;
+  mounting.height_rel = cfg.s.height_sigma;
+  mounting.tilt = cfg.s.tilt_sigma * M_PI / 180;
   landmark::RangeEstimate e;
   const landmark::MarkerSpec *chosen = nullptr;
   /* a blob cut by the frame's edge has no trustworthy size to choose by */
@@ -531,7 +549,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     double best_agreement = -1, best_score = HUGE_VAL;
     for (const landmark::MarkerSpec & h : *hypotheses) {
       const landmark::RangeEstimate t = landmark::estimate_range
-          (st.geometry, obs, h, cfg.s.pixel_sigma);
+          (st.geometry, obs, h, cfg.s.pixel_sigma, mounting);
       if (t.no_floor)
         continue;
       landmark::ImageEllipse predicted;
@@ -563,7 +581,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
         &e);
   if (!chosen)
     e = landmark::estimate_range (st.geometry, obs, marker,
-        cfg.s.pixel_sigma);
+        cfg.s.pixel_sigma, mounting);
 
   GstStructure *s;
   if (e.no_floor) {
@@ -597,8 +615,9 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
       "ground-y", G_TYPE_DOUBLE, e.ground_y * k,
       "range-ground", G_TYPE_DOUBLE, e.range_ground,
       "method", G_TYPE_STRING, method,
-      "range-sigma", G_TYPE_DOUBLE, sigma,
-      "bearing-sigma", G_TYPE_DOUBLE, e.bearing_sigma,
+      "range-sigma", G_TYPE_DOUBLE, e.range_sigma_total (sigma),
+      "bearing-sigma", G_TYPE_DOUBLE, e.bearing_sigma_total (),
+      "size-excess", G_TYPE_DOUBLE, e.size_excess,
       "no-floor", G_TYPE_BOOLEAN, FALSE, nullptr);
   if (e.has_size)
     gst_structure_set (s, "range-size", G_TYPE_DOUBLE, e.range_size,

@@ -199,30 +199,31 @@ slam_properties ()
 }
 
 /* The part of the disagreement of ipmrange's floor and size ranges that
- * its pixel noise does not explain (docs/landmarkslam.md, "Measurement
- * noise"), signed; 0 without both ranges. The size range's sigma is that
- * of the ellipse's major axis, ipmrange's default pixel-sigma (0.5 px)
- * over the axis, relative; their sum of variances times 6.63 (chi-square,
- * 1 degree of freedom, 99 %) is what whole blobs may disagree by. */
+ * their sigmas do not explain (docs/landmarkslam.md, "Measurement noise"):
+ * ipmrange's `size-excess`, signed as `range-size - range-ground`; 0
+ * without it. ipmrange has added it once to range-sigma and bearing-sigma;
+ * the filter adds it once per view of the pass (slam_observation_sigmas),
+ * so it is taken out of the observation's sigmas here. */
 static double
-range_disagreement (GstBuffer * buf, GstVideoRegionOfInterestMeta * roi)
+range_disagreement (GstBuffer * buf, GstVideoRegionOfInterestMeta * roi,
+    landmark::RangeBearing * obs)
 {
   const GstStructure *rs = landmark_detection_get_param (buf, roi,
       LANDMARK_RANGE_PARAMS);
-  const GstStructure *bs = landmark_detection_get_param (buf, roi,
-      LANDMARK_BLOB_PARAMS);
-  double r_size, r_ground, sigma, major;
-  if (!rs || !bs || !gst_structure_get_double (rs, "range-size", &r_size)
-      || !gst_structure_get_double (rs, "range-ground", &r_ground)
-      || !gst_structure_get_double (rs, "range-sigma", &sigma)
-      || !gst_structure_get_double (bs, "ellipse-major", &major)
-      || !(major > 0) || !std::isfinite (r_size - r_ground))
+  double excess, r_size, r_ground;
+  if (!rs || !gst_structure_get_double (rs, "size-excess", &excess)
+      || !(excess > 0) || !std::isfinite (excess)
+      || !gst_structure_get_double (rs, "range-size", &r_size)
+      || !gst_structure_get_double (rs, "range-ground", &r_ground))
     return 0;
-  const double size_sigma = r_size * 0.5 / major;
-  const double d = r_size - r_ground;
-  const double excess = d * d - 6.63 * (sigma * sigma
-      + size_sigma * size_sigma);
-  return excess > 0 ? std::copysign (std::sqrt (excess), d) : 0;
+  const double r = obs->range ();
+  if (obs->range_sigma > 0)
+    obs->range_sigma = std::sqrt (std::max (0.0, obs->range_sigma *
+            obs->range_sigma - excess * excess));
+  if (obs->bearing_sigma > 0 && r > 0)
+    obs->bearing_sigma = std::sqrt (std::max (0.0, obs->bearing_sigma *
+            obs->bearing_sigma - (excess / r) * (excess / r)));
+  return std::copysign (excess, r_size - r_ground);
 }
 
 /* The estimate starts again on the configured anchors. */
@@ -498,7 +499,8 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     o.marker_z = d.marker_z;
     o.marker_diameter = d.marker_diameter;
     o.marker_ball = d.marker_ball;
-    o.range_disagreement = range_disagreement (buf, ranged.rois[k]);
+    o.range_disagreement = range_disagreement (buf, ranged.rois[k],
+        &o.obs);
     obs.push_back (o);
   }
 

@@ -63,6 +63,8 @@
 
 #include <gst/video/video.h>
 
+#include <opencv2/core.hpp>
+
 #include <cmath>
 #include <string>
 #include <vector>
@@ -239,6 +241,24 @@ gst_trilaterate_sink_event (GstBaseTransform * trans, GstEvent * event)
 
 /* ---- streaming ------------------------------------------------------ */
 
+/* Whether the filter's predicted pose and a solver's pose agree within
+ * their covariances (chi-square, 3 degrees of freedom, 99.9 %: 16.27). */
+static bool
+gst_trilaterate_ekf_agrees (const landmark::PoseFilter & ekf,
+    const landmark::PoseSolution & sol)
+{
+  double c[9];
+  ekf.pose_cov (c);
+  const landmark::Pose2 p = ekf.pose ();
+  const cv::Matx33d S = cv::Matx33d (c) + cv::Matx33d (sol.cov);
+  const cv::Vec3d d (sol.pose.x - p.x, sol.pose.y - p.y,
+      landmark::wrap_angle (sol.pose.heading - p.heading));
+  cv::Matx33d Si;
+  if (cv::invert (S, Si, cv::DECOMP_SVD) == 0)
+    return true;
+  return d.dot (Si * d) <= 16.27;
+}
+
 /* Brings the state up to date with settings changed while playing (a bad
  * value: a warning, and the previous settings and map stay). The map file
  * is read again only when `map` names another file. */
@@ -363,8 +383,18 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
         st.ekf_time = st.ekf_measured = now;
       }
     } else {
-      if (!used.empty () && st.ekf.update (used) > 0)
+      if (res.ok && used.size () >= 3 && !gst_trilaterate_ekf_agrees (st.ekf,
+              res.solution)) {
+        /* three or more landmarks place the robot by themselves; a filter
+         * whose prediction they reject has drifted beyond its own
+         * covariance (a turn bridged on one landmark): updated, it would
+         * gate out some of them and be pulled by the others; it restarts
+         * from their pose */
+        st.ekf.init (res.solution.pose, res.solution.cov);
         st.ekf_measured = now;
+      } else if (!used.empty () && st.ekf.update (used) > 0) {
+        st.ekf_measured = now;
+      }
       ok = true;
       fp.pose = st.ekf.pose ();
       st.ekf.pose_cov (fp.cov);

@@ -256,6 +256,143 @@ test_estimate ()
       "no bias to correct?");
   std::printf ("disc: ground %.5f size %.5f (true %.5f), ellipse centre "
       "%.5f\n", r.range_ground, r.range_size, want, std::hypot (gx, gy));
+  /* the same disc taken for one 30 % larger: its size range is 30 % too
+   * far, beyond what the two sigmas explain, and the excess is added to
+   * the sigmas reported; with the right diameter nothing is added */
+  CHECK (r.size_excess == 0, "right diameter, excess %g", r.size_excess);
+  MarkerSpec larger = disc;
+  larger.diameter *= 1.3;
+  const RangeEstimate w = estimate_range (g, o, larger, 0.5);
+  const double d = w.range_size - w.range_ground;
+  CHECK (std::fabs (d - 0.3 * want) < 0.02 * want, "disagreement %g", d);
+  const double e2 = d * d - 6.63 * (w.range_ground_sigma *
+      w.range_ground_sigma + w.range_size_sigma * w.range_size_sigma);
+  CHECK (e2 > 0 && std::fabs (w.size_excess - std::sqrt (e2)) < 1e-12,
+      "excess %g want %g", w.size_excess, std::sqrt (std::max (e2, 0.0)));
+  CHECK (std::fabs (w.range_sigma_total (w.range_ground_sigma) -
+          std::hypot (w.range_ground_sigma, w.size_excess)) < 1e-15
+      && w.bearing_sigma_total () > w.bearing_sigma
+      && w.range_ground == r.range_ground, "widened sigmas");
+}
+
+/* The floor point of pixel (u, v) for a pinhole of focal length f pixels,
+ * principal point (cx, cy), height h and tilt t below the horizontal,
+ * written out from the projection (camera x right, y down, z forward):
+ * range and bearing. */
+static void
+pinhole_floor_polar (double f, double cx, double cy, double h, double t,
+    double u, double v, double *range, double *bearing)
+{
+  const double xc = (u - cx) / f, yc = (v - cy) / f;
+  const double fwd = std::cos (t) - yc * std::sin (t);
+  const double up = -std::sin (t) - yc * std::cos (t);
+  const double left = -xc;
+  const double s = h / -up;
+  *range = std::hypot (s * fwd, s * left);
+  *bearing = std::atan2 (s * left, s * fwd);
+}
+
+/* The sigma model (docs/ranging.md, "Uncertainty") against the camera
+ * written out by hand: a round blob of D pixels has a centre sigma of
+ * pixel_sigma sqrt (2 / (pi D)) per axis, and range and bearing sigmas of
+ * that times the gradient of the projection's range and bearing, here by
+ * finite differences of pinhole_floor_polar. The seed camera: 0.2 m, tilt
+ * 20, hfov 54, 640x480. */
+static void
+test_sigma_model ()
+{
+  CameraParams p;
+  p.width = 640;
+  p.height = 480;
+  p.camera_height = 0.2;
+  p.tilt_deg = 20;
+  CHECK (intrinsics_from_hfov (54, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy),
+      "hfov 54");
+  CameraGeometry g;
+  std::string err;
+  CHECK (g.configure (p, &err), "%s", err.c_str ());
+  const double f = 320 / std::tan (27 * M_PI / 180);
+  const double t = 20 * M_PI / 180, e = 0.5;
+  const double pts[][3] = { {319.5, 300, 40}, {500, 260, 25}, {100, 400, 80},
+    {320, 250, 12} };
+  for (const auto & pt : pts) {
+    const double u = pt[0], v = pt[1], d = pt[2];
+    const double h = 1e-3;
+    double r0, b0, rl, bl, rr, br, ru, bu, rd, bd;
+    pinhole_floor_polar (f, 319.5, 239.5, 0.2, t, u, v, &r0, &b0);
+    pinhole_floor_polar (f, 319.5, 239.5, 0.2, t, u - h, v, &rl, &bl);
+    pinhole_floor_polar (f, 319.5, 239.5, 0.2, t, u + h, v, &rr, &br);
+    pinhole_floor_polar (f, 319.5, 239.5, 0.2, t, u, v - h, &ru, &bu);
+    pinhole_floor_polar (f, 319.5, 239.5, 0.2, t, u, v + h, &rd, &bd);
+    const double sc = e * std::sqrt (2 / (M_PI * d));
+    const double want_r = sc * std::hypot ((rr - rl) / (2 * h),
+        (rd - ru) / (2 * h));
+    const double want_b = sc * std::hypot ((br - bl) / (2 * h),
+        (bd - bu) / (2 * h));
+    /* a round blob: by its ellipse and by its equivalent diameter */
+    for (bool ellipse : { false, true }) {
+      BlobObservation o;
+      o.u = o.eu = u;
+      o.v = o.ev = v;
+      o.has_ellipse = ellipse;
+      o.major = o.minor = d;
+      o.equivalent_diameter = d;
+      const RangeEstimate r = estimate_range (g, o, MarkerSpec (), e);
+      /* the centroid's ray (with an ellipse, the circle through its
+       * outline on the floor: another point) */
+      CHECK (ellipse || std::fabs (r.range_ground - r0) < 1e-6 * r0,
+          "range %g want %g", r.range_ground, r0);
+      /* central differences of 0.5 px against 1e-3 px: the curvature of
+       * the projection, well under 1 % */
+      CHECK (std::fabs (r.range_ground_sigma / want_r - 1) < 0.01,
+          "(%g, %g) D %g ellipse %d: range sigma %g want %g", u, v, d,
+          ellipse, r.range_ground_sigma, want_r);
+      CHECK (std::fabs (r.bearing_sigma / want_b - 1) < 0.01,
+          "(%g, %g) D %g ellipse %d: bearing sigma %g want %g", u, v, d,
+          ellipse, r.bearing_sigma, want_b);
+      CHECK (r.size_excess == 0, "no size, no excess");
+    }
+    /* the mounting: 1 % of the height scales the range by 1 %; 0.1 degree
+     * of tilt moves it as the projection does */
+    BlobObservation o;
+    o.u = u;
+    o.v = v;
+    o.equivalent_diameter = d;
+    MountingSigma m;
+    m.height_rel = 0.01;
+    m.tilt = 0.1 * M_PI / 180;
+    double rt, bt;
+    pinhole_floor_polar (f, 319.5, 239.5, 0.2, t + 1e-6, u, v, &rt, &bt);
+    const double want_m = std::sqrt (want_r * want_r + 1e-4 * r0 * r0 +
+        std::pow ((rt - r0) / 1e-6 * m.tilt, 2));
+    const RangeEstimate rm = estimate_range (g, o, MarkerSpec (), e, m);
+    CHECK (std::fabs (rm.range_ground_sigma / want_m - 1) < 0.01,
+        "(%g, %g): range sigma with mounting %g want %g", u, v,
+        rm.range_ground_sigma, want_m);
+  }
+  /* a flat ellipse (a disc far away, 2a x 2b): its long edges place the
+   * centre across them (v) about as well as a circle of its major axis,
+   * variance 8 / (3 pi) of the circle's as b / a -> 0, and along (u) worse
+   * than that circle */
+  double wide[3], round_minor[3], round_major[3];
+  BlobObservation o;
+  o.has_ellipse = true;
+  o.major = 60;
+  o.minor = 12;
+  centre_covariance (o, 0.5, wide);
+  o.major = o.minor = 12;
+  centre_covariance (o, 0.5, round_minor);
+  o.major = o.minor = 60;
+  centre_covariance (o, 0.5, round_major);
+  CHECK (std::fabs (round_major[0] - 0.25 * 2 / (M_PI * 60)) < 1e-4 *
+      round_major[0], "circle of 60 px: %g", round_major[0]);
+  CHECK (std::fabs (wide[2] / round_major[2] - 8 / (3 * M_PI)) < 0.03,
+      "v variance %g, circle of the major axis %g", wide[2],
+      round_major[2]);
+  CHECK (wide[0] > round_major[0], "u variance %g, circle %g", wide[0],
+      round_major[0]);
+  CHECK (std::fabs (wide[1]) < 1e-12, "axis-aligned: no covariance");
+  std::printf ("sigma model: matches the hand-written pinhole's gradient\n");
 }
 
 int
@@ -264,5 +401,6 @@ main ()
   test_pinhole ();
   test_seed ();
   test_estimate ();
+  test_sigma_model ();
   return corecheck_summary ();
 }

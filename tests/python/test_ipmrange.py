@@ -152,6 +152,51 @@ def test_range_sweep_accuracy(gst, sweep, tmp_path, kind, method):
                            rng["range"]) < 1e-9
 
 
+SIGMA_ROW = re.compile(r"^\| (disc|ball)s \| (\d+) \| ([\d.]+) \| "
+                       r"([\d.]+) % \| ([\d.]+) \| ([\d.]+) % \|$")
+
+
+def documented_sigma_figures():
+    """docs/ranging.md's "Sigmas on the range sweep" table: {kind: (RMS of
+    range error / sigma, share within 2 sigma, the same for bearing)}."""
+    out = {}
+    with open(os.path.join(SOURCE_ROOT, "docs", "ranging.md")) as f:
+        for line in f:
+            m = SIGMA_ROW.match(line.strip())
+            if m:
+                out[m.group(1)] = tuple(float(x) for x in m.groups()[2:])
+    assert set(out) == {"disc", "ball"}, out
+    return out
+
+
+@pytest.mark.parametrize("kind", ["disc", "ball"])
+def test_sigmas_describe_rendered_errors(gst, sweep, tmp_path, kind):
+    """range-sigma and bearing-sigma against the errors of whole markers
+    on the rendered range sweep: the RMS of error / sigma within a factor
+    of three of docs/ranging.md's figure (about 1: sigmas that are right),
+    either way, and the share within two sigma within a third of it. The
+    former sigmas, half a pixel of centre error whatever the blob's size,
+    were 5 to 8 times the errors (RMS under 0.2)."""
+    from gstlandmark.devtools import sigmastudy
+    results = range_run(gst, sweep, kind, "ground", tmp_path / "log.jsonl")
+    truth = read_jsonl(str(sweep / "truth.jsonl"))
+    recs = [r for r in sigmastudy.records(results, truth)
+            if r["kind"] == kind and sigmastudy.whole(r)
+            and r["range_true"] <= MAX_RANGE + 1e-9]
+    assert len(recs) >= (55 if kind == "disc" else 58)
+    st = sigmastudy.bin_stats(recs)
+    got = (st["range_z_rms"], 100 * st["range_within_2"],
+           st["bearing_z_rms"], 100 * st["bearing_within_2"])
+    want = documented_sigma_figures()[kind]
+    print(f"\n{kind}: n={len(recs)} error/sigma RMS range {got[0]:.2f} "
+          f"within 2 sigma {got[1]:.1f} %, bearing {got[2]:.2f} "
+          f"{got[3]:.1f} % (documented {want})")
+    for g, w in ((got[0], want[0]), (got[2], want[2])):
+        assert w / MARGIN <= g <= w * MARGIN, (got, want)
+    for g, w in ((got[1], want[1]), (got[3], want[3])):
+        assert g >= w / MARGIN, (got, want)
+
+
 @pytest.mark.parametrize("kind", ["disc", "ball"])
 def test_size_range_is_reported(gst, sweep, tmp_path, kind):
     results = range_run(gst, sweep, kind, "size", tmp_path / "log.jsonl")

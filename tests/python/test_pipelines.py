@@ -120,9 +120,9 @@ def run_old(name, desc, tmp_path):
 
 # What docs/pipelines.md says the full chain (trilaterate filter=ekf)
 # does on the shipped clip, against its truth.jsonl: a pose on 44 of 45
-# frames, median position error 4 mm, worst about 0.2 m. The checks allow
-# three times each error.
-TRILATERATE_ON_CLIP = {"posed": 44, "median_m": 3 * 0.004, "max_m": 3 * 0.2}
+# frames, median position error 3 mm, worst about 0.6 m (frames bridged on
+# one landmark through a turn). The checks allow three times each error.
+TRILATERATE_ON_CLIP = {"posed": 44, "median_m": 3 * 0.003, "max_m": 3 * 0.63}
 
 
 def check_log(path, posed_min, median_m, max_m):

@@ -14,9 +14,12 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 /* the smallest sigmas used as weights, so a zero never means infinite
- * confidence */
-constexpr double kMinRangeSigma = 0.002;
-constexpr double kMinBearingSigma = 0.0005;
+ * confidence: a tenth of ipmrange's smallest on rendered clips (0.3 mm and
+ * 0.1 mrad for large near blobs, docs/ranging.md), so that they never
+ * replace a stated sigma (at 2 mm and 0.5 mrad they did for most whole
+ * blobs, and weighted range against bearing by the floors' ratio) */
+constexpr double kMinRangeSigma = 0.0002;
+constexpr double kMinBearingSigma = 0.00005;
 /* below this angle (radians) between the lines of sight to two landmarks
  * the two-circle intersection is ill-conditioned */
 const double kSinDegenerate = std::sin (10.0 * kPi / 180.0);

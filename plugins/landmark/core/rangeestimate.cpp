@@ -48,6 +48,68 @@ fit_circle (const std::vector<double> & xy, double *cx, double *cy,
   return true;
 }
 
+double
+RangeEstimate::range_sigma_total (double sigma) const
+{
+  return std::hypot (sigma, size_excess);
+}
+
+double
+RangeEstimate::bearing_sigma_total () const
+{
+  return range_ground > 0 ? std::hypot (bearing_sigma, size_excess /
+      range_ground) : bearing_sigma;
+}
+
+void
+centre_covariance (const BlobObservation & blob, double edge_sigma,
+    double cov[3])
+{
+  const double s2 = edge_sigma * edge_sigma;
+  double uu, uv = 0, vv;
+  if (blob.has_ellipse && blob.major > 0 && blob.minor > 0
+      && std::isfinite (blob.major) && std::isfinite (blob.minor)) {
+    /* at least half a pixel across: a blob is never thinner */
+    const double a = std::max (blob.major, 1.0) / 2;
+    const double b = std::max (blob.minor, 1.0) / 2;
+    const double ca = std::cos (blob.angle), sa = std::sin (blob.angle);
+    const int n = 64;
+    double ixx = 0, ixy = 0, iyy = 0;
+    for (int i = 0; i < n; i++) {
+      const double t = 2 * M_PI * (i + 0.5) / n;
+      const double x = a * std::cos (t), y = b * std::sin (t);
+      const double dl = std::hypot (a * std::sin (t), b * std::cos (t))
+          * 2 * M_PI / n;
+      const double pu = x * ca - y * sa, pv = x * sa + y * ca;
+      ixx += pu * pu * dl;
+      ixy += pu * pv * dl;
+      iyy += pv * pv * dl;
+    }
+    const double area = M_PI * a * b;
+    uu = s2 * ixx / (area * area);
+    uv = s2 * ixy / (area * area);
+    vv = s2 * iyy / (area * area);
+    /* the ellipse of a whole blob is that of its moments, centred on its
+     * centroid; one fitted to what the border left of a blob is centred
+     * elsewhere, extrapolated beyond the pixels seen: as uncertain as the
+     * extrapolation is long, in any direction */
+    if (std::isfinite (blob.eu) && std::isfinite (blob.ev)) {
+      const double d2 = std::pow (blob.eu - blob.u, 2) +
+          std::pow (blob.ev - blob.v, 2);
+      uu += d2;
+      vv += d2;
+    }
+  } else if (blob.equivalent_diameter > 0
+      && std::isfinite (blob.equivalent_diameter)) {
+    uu = vv = s2 * 2 / (M_PI * std::max (blob.equivalent_diameter, 1.0));
+  } else {
+    uu = vv = s2;
+  }
+  cov[0] = uu * blob.sx * blob.sx;
+  cov[1] = uv * blob.sx * blob.sy;
+  cov[2] = vv * blob.sy * blob.sy;
+}
+
 namespace {
 
 Vec3
@@ -74,7 +136,7 @@ polar_at (const CameraGeometry & g, double u, double v, double z0,
 
 RangeEstimate
 estimate_range (const CameraGeometry & g, const BlobObservation & blob,
-    const MarkerSpec & m, double pixel_sigma)
+    const MarkerSpec & m, double pixel_sigma, const MountingSigma & mounting)
 {
   RangeEstimate out;
   auto to_geom = [&](double u, double v, std::vector<double> *uv) {
@@ -180,25 +242,56 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
   out.range_ground = std::hypot (gx, gy);
   out.bearing = std::atan2 (gy, gx);
 
-  /* uncertainty: a pixel_sigma error of the centre point, propagated */
-  double r0, b0, ru, bu, rv, bv;
-  if (polar_at (g, centre_u, centre_v, m.z, &r0, &b0)
-      && polar_at (g, centre_u + 1, centre_v, m.z, &ru, &bu)
-      && polar_at (g, centre_u, centre_v + 1, m.z, &rv, &bv)) {
-    const double dbu = std::remainder (bu - b0, 2 * M_PI);
-    const double dbv = std::remainder (bv - b0, 2 * M_PI);
-    out.range_ground_sigma = pixel_sigma * std::hypot (ru - r0, rv - r0);
-    out.bearing_sigma = pixel_sigma * std::hypot (dbu, dbv);
+  /* uncertainty: the centre's image covariance through the derivatives of
+   * range and bearing at the centre (central differences) */
+  double cov[3];
+  centre_covariance (blob, pixel_sigma, cov);
+  const double h = 0.5;
+  double rl, bl, rr, br, ru, bu, rd, bd;
+  if (polar_at (g, centre_u - h, centre_v, m.z, &rl, &bl)
+      && polar_at (g, centre_u + h, centre_v, m.z, &rr, &br)
+      && polar_at (g, centre_u, centre_v - h, m.z, &ru, &bu)
+      && polar_at (g, centre_u, centre_v + h, m.z, &rd, &bd)) {
+    const double r_u = (rr - rl) / (2 * h), r_v = (rd - ru) / (2 * h);
+    const double b_u = std::remainder (br - bl, 2 * M_PI) / (2 * h);
+    const double b_v = std::remainder (bd - bu, 2 * M_PI) / (2 * h);
+    out.range_ground_sigma = std::sqrt (std::max (0.0, r_u * r_u * cov[0]
+            + 2 * r_u * r_v * cov[1] + r_v * r_v * cov[2]));
+    out.bearing_sigma = std::sqrt (std::max (0.0, b_u * b_u * cov[0]
+            + 2 * b_u * b_v * cov[1] + b_v * b_v * cov[2]));
   } else {
     /* next to the horizon: the ground range is barely constrained */
     out.range_ground_sigma = out.range_ground;
     out.bearing_sigma = pixel_sigma / std::max (1.0, g.params ().fx);
+  }
+  /* the mounting: a height error scales the plane's distance below the
+   * camera, and so the range; a tilt error turns every ray's angle of
+   * depression phi, and r = H / tan phi moves by (r^2 + H^2) / H per
+   * radian (H the height above the marker's plane). The bearing moves
+   * with the tilt only off the optical axis, to second order: left out. */
+  const double below = g.params ().camera_height - m.z;
+  if (below > 0) {
+    const double r = out.range_ground;
+    const double s_h = r * mounting.height_rel * g.params ().camera_height
+        / below;
+    const double s_t = (r * r + below * below) / below * mounting.tilt;
+    out.range_ground_sigma = std::sqrt (out.range_ground_sigma *
+        out.range_ground_sigma + s_h * s_h + s_t * s_t);
   }
   if (size_distance > 0 && std::isfinite (size_distance)) {
     const double horiz = std::hypot (axis.x, axis.y);
     out.has_size = true;
     out.range_size = size_distance * horiz;
     out.range_size_sigma = out.range_size * size_rel_sigma;
+    /* whole blobs disagree by less than 0.5 px of their axis (docs/
+     * ranging.md); beyond what both sigmas explain at 99 % the blob is cut
+     * or merged and its centre is off by about that much */
+    const double d = out.range_size - out.range_ground;
+    const double excess = d * d - 6.63 * (out.range_ground_sigma *
+        out.range_ground_sigma + out.range_size_sigma *
+        out.range_size_sigma);
+    if (excess > 0)
+      out.size_excess = std::sqrt (excess);
   }
   return out;
 }

@@ -38,6 +38,14 @@ struct MarkerSpec {
   bool ball = false;
 };
 
+/* How well the camera's mounting is known (docs/ranging.md,
+ * "Uncertainty"): one-sigma errors of the camera height, relative (0.005:
+ * 1 mm in 0.2 m), and of the tilt, radians. 0: the camera is as given. */
+struct MountingSigma {
+  double height_rel = 0;
+  double tilt = 0;
+};
+
 struct RangeEstimate {
   bool no_floor = true;          /* the ray misses the marker's plane */
   double ground_x = 0, ground_y = 0;   /* ground method, metres */
@@ -45,7 +53,25 @@ struct RangeEstimate {
   bool has_size = false;         /* a diameter was known and usable */
   double range_size = 0, range_size_sigma = 0;
   double bearing = 0, bearing_sigma = 0;
+  /* the part of |range_size - range_ground| that the two sigmas do not
+   * explain (chi-square, 1 dof, 99 %), metres: a blob cut or merged, whose
+   * centre is off by about as much in an unknown direction */
+  double size_excess = 0;
+  /* the sigmas with size_excess added (to the range, and over the range
+   * to the bearing): what ipmrange reports */
+  double range_sigma_total (double sigma) const;
+  double bearing_sigma_total () const;
 };
+
+/* One-sigma errors of a blob centre's image position, pixels^2: the
+ * covariance (cuu, cuv, cvv) of the centroid of a region whose outline
+ * points each move by edge_sigma along the normal, independently per pixel
+ * of outline: (edge_sigma / A)^2 times the outline integral of x x^T about
+ * the centre (A the area). A circle of diameter D gives edge_sigma^2 x
+ * 2 / (pi D) per axis. The blob's ellipse when it has one, else a circle of
+ * its equivalent diameter, else one pixel. In the geometry's pixels. */
+void centre_covariance (const BlobObservation & blob, double edge_sigma,
+    double cov[3]);
 
 /* Range and bearing of one detection. Discs: the ellipse's outline mapped
  * to the marker's plane, its centre by a circle fit; size range from the
@@ -53,9 +79,12 @@ struct RangeEstimate {
  * scaled). Balls: the axis of the cone tangent to the ball bisects the rays
  * of the ellipse's major-axis ends; its half angle gives the distance.
  * Without an ellipse, the centroid's ray. pixel_sigma: one-sigma error of
- * a measured point, pixels. */
+ * a point of the blob's outline, pixels (centre_covariance; the axis
+ * lengths for the size range); propagated to range and bearing through the
+ * camera's derivatives at the centre, with the mounting's errors and the
+ * unexplained disagreement of the two ranges added (docs/ranging.md). */
 RangeEstimate estimate_range (const CameraGeometry & geometry,
     const BlobObservation & blob, const MarkerSpec & marker,
-    double pixel_sigma);
+    double pixel_sigma, const MountingSigma & mounting = MountingSigma ());
 
 }  // namespace landmark

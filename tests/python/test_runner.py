@@ -94,11 +94,12 @@ def test_truth_adds_accuracy(gst, project, tmp_path, capsys):
     assert accuracy["pose"]["frames_with_pose"] == 44
     # docs/pipelines.md on this clip, three times each error: no false
     # detection, a miss rate of 13 % (39 %), median position error 4 mm
-    # (12 mm), worst about 0.2 m (0.6 m)
+    # (12 mm), worst 0.63 m (1.9 m: the one-landmark stretch through the
+    # tight turn)
     detection = accuracy["detection"]["all"]
     assert detection["fp"] == 0 and detection["recall"] >= 1 - 3 * 0.13
     position = accuracy["pose"]["all"]["position_m"]
-    assert position["median"] <= 3 * 0.004 and position["max"] <= 3 * 0.2
+    assert position["median"] <= 3 * 0.004 and position["max"] <= 3 * 0.63
     assert summary["accuracy"]["detection"] == accuracy["detection"]["all"]
     assert "frames evaluated: 45" in printed
     assert (out / "trajectory.png").exists()

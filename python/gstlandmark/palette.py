@@ -670,6 +670,26 @@ def _split_untaught(lab, masks, taught):
     return pixels[near], pixels[~near]
 
 
+def _refs_taking_no_taught_pixels(refs, taught, seed):
+    """The references of the untaught class that are the nearest reference
+    of at most MAX_STOLEN_SHARE of every taught class's pixels that the
+    taught references alone give their own class: what the mask left out
+    must not take what it taught (a carpet's dark fibres beyond Delta E 10
+    of the carpet's mean are still carpet)."""
+    refs = np.asarray(refs, dtype=np.float64).reshape(-1, 3)
+    own = np.vstack([r for _, r in taught])
+    owner = np.repeat(np.arange(len(taught)), [len(r) for _, r in taught])
+    keep = np.ones(len(refs), dtype=bool)
+    for k, (pixels, _) in enumerate(taught):
+        sample = _sample(pixels, seed)
+        d_own = ((sample[:, None, :] - own[None, :, :]) ** 2).sum(axis=2)
+        right = owner[d_own.argmin(axis=1)] == k
+        d_new = ((sample[:, None, :] - refs[None, :, :]) ** 2).sum(axis=2)
+        taken = right[:, None] & (d_new < d_own.min(axis=1)[:, None])
+        keep &= taken.mean(axis=0) <= MAX_STOLEN_SHARE
+    return refs[keep]
+
+
 def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
                         references=1, seed=0, untaught_class=None):
     """Mean Lab of each class's pixels (and its reference colours, see
@@ -717,8 +737,15 @@ def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
             entries.append({"name": untaught_class,
                             "lab": [float(v) for v in mean],
                             "role": "background"})
-            refs = cluster_references(far, references, seed)
-            taught.append((far, mean[None, :] if len(refs) == 1 else refs))
+            refs = _refs_taking_no_taught_pixels(
+                mean[None, :] if references == 1 else
+                cluster_references(far, references, seed), taught, seed)
+            if len(refs):
+                entries[-1]["lab"] = [float(v) for v in
+                                      (mean if len(refs) > 1 else refs[0])]
+                taught.append((far, refs))
+            else:
+                entries.pop()
     if references == "auto" and len(taught) > 1:
         if untaught is None:
             untaught = _untaught_pixels(lab, masks)

@@ -1165,6 +1165,31 @@ def test_learn_untaught_class_takes_the_sky():
         learn(image, mask, untaught_class="floor")
 
 
+def test_untaught_class_takes_no_taught_pixels():
+    """A floor taught with its dark fibres (8 % of it, Delta E 12 from the
+    floor's mean, nearer the sky than the mean is) and an untaught dark sky
+    above: the sky's colour would take those fibres from the floor, so no
+    untaught class is learned; with fibres no darker than the mean's
+    neighbourhood it is."""
+    from gstlandmark.palette import MAX_STOLEN_SHARE
+    rng = np.random.default_rng(13)
+    floor, sky = (45.0, 0.0, 6.0), (26.0, 0.0, -4.0)
+
+    def learn(fibre):
+        image, mask = banded_scene(rng, [(sky, 0, 30), (RED_LAB, 1, 20),
+                                         (floor, 2, 92), (fibre, 2, 8)])
+        return learn_from_mask(image, mask, names=["red", "floor"],
+                               markers=["red"], references="auto",
+                               untaught_class="untaught")
+
+    dark = (34.0, 0.0, 0.0)
+    assert np.linalg.norm(np.subtract(dark, sky)) < \
+        np.linalg.norm(np.subtract(dark, floor))
+    assert 8 / 100 > MAX_STOLEN_SHARE
+    assert learn(dark).names == ["red", "floor"]
+    assert learn((43.0, 0.0, 5.0)).names == ["red", "floor", "untaught"]
+
+
 def test_cli_check_lists_references(tmp_path, capsys):
     path = write_json(tmp_path / "p.json", {"classes": [
         good_class("yellow", (75, -5, 70),

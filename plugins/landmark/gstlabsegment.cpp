@@ -94,6 +94,10 @@ struct State {
   /* adapt=true: the drift followed, the gains the table was built with,
    * frames since it was, and a frame's samples (kept: no allocation) */
   landmark::ColourDrift drift;
+  /* the palette's reference colours and their classes (what the table is
+   * built from, before gains) */
+  std::vector<landmark::Lab> palette_refs;
+  std::vector<int> palette_ref_class;
   std::array<double, 3> table_gains {1.0, 1.0, 1.0};
   guint frames_since_build = 0;
   bool rebuild_for_drift = false;
@@ -244,6 +248,8 @@ gst_lab_segment_palette_changed (GstLabSegment * self)
     single.push_back (c.references.size () <= 1);
   }
   st.drift.reset (labs, single);
+  landmark::palette_references (palette, &st.palette_refs,
+      &st.palette_ref_class);
   GST_INFO_OBJECT (self, "palette %s: %u classes",
       st.palette.path.empty ()? "(built-in)" : st.palette.path.c_str (), n);
 }
@@ -254,8 +260,8 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
 {
   State & st = self->priv->state;
   landmark::ClassifierConfig cfg;
-  landmark::palette_references (st.palette.contents, &cfg.refs,
-      &cfg.ref_class);
+  cfg.refs = st.palette_refs;
+  cfg.ref_class = st.palette_ref_class;
   if (gains != std::array<double, 3> {1.0, 1.0, 1.0})
     for (landmark::Lab & ref : cfg.refs)
       ref = landmark::lab_under_gains (ref, gains);
@@ -452,19 +458,13 @@ gst_lab_segment_follow_drift (GstLabSegment * self,
   if (!st.drift.update (st.samples) ||
       st.frames_since_build < kDriftRebuildFrames)
     return;
-  const auto & gains = st.drift.gains ();
-  auto moved = [&](const landmark::Lab & ref) {
-    const landmark::Lab now = landmark::lab_under_gains (ref, gains);
-    const landmark::Lab built = landmark::lab_under_gains (ref,
-        st.table_gains);
-    return std::hypot (now.L - built.L, now.a - built.a, now.b - built.b) >
-        kJustNoticeable;
-  };
-  for (const auto & c : st.palette.contents.classes) {
-    bool any = c.references.empty () && moved (c.lab);
-    for (const landmark::Lab & ref : c.references)
-      any = any || moved (ref);
-    if (any) {
+  /* the table holds the references under the gains it was built with */
+  const std::vector<landmark::Lab> & built = st.table.config ().refs;
+  for (size_t i = 0; i < built.size () && i < st.palette_refs.size (); i++) {
+    const landmark::Lab now = landmark::lab_under_gains (st.palette_refs[i],
+        st.drift.gains ());
+    if (std::hypot (now.L - built[i].L, now.a - built[i].a,
+            now.b - built[i].b) > kJustNoticeable) {
       st.rebuild_for_drift = true;
       return;
     }

@@ -21,7 +21,10 @@
  * marker's colour is then an obstacle. `markers=obstacles` makes markers
  * end the floor like any obstacle (landmark balls). With
  * `max-marker-length`, a run of marker pixels longer than that on the
- * floor stands up (a ball) and ends the floor at its bulge.
+ * floor stands up (a ball) and ends the floor at its bulge. After
+ * `ipmrange`, every accepted detection it ranged as a ball (`marker-kind`
+ * ball, with its diameter) stands in the profile as its circle on the
+ * floor: the bins it covers end at its bulge.
  *
  * Each frame with labels gets a `GstLandmarkFloorMeta` (docs/metadata.md):
  * `width`, `height` (the analysed label plane), `bearing-bins`,
@@ -113,6 +116,7 @@ struct State {
   landmark::LabelRole role[256];
 
   std::vector<landmark::MarkerBox> marker_boxes;   /* markers=detections */
+  std::vector<landmark::RangedBall> balls;   /* ranged by ipmrange */
   gint video_width = 0, video_height = 0;   /* from the caps, 0: unknown */
 
   bool warned_no_meta = false;
@@ -455,14 +459,18 @@ gst_floor_boundary_attach (GstFloorBoundary * self, GstBuffer * buf)
       gst_message_new_element (GST_OBJECT_CAST (self), m));
 }
 
-/* The boxes of the accepted detections (not rejected by any stage), in
- * pixels of the label plane, one pixel wider on each side. */
+/* From the accepted detections (not rejected by any stage): their boxes,
+ * in pixels of the label plane and one pixel wider on each side, when
+ * markers=detections; and the balls ipmrange ranged, with their radius. */
 static void
-gst_floor_boundary_marker_boxes (GstFloorBoundary * self, GstBuffer * buf,
+gst_floor_boundary_read_detections (GstFloorBoundary * self, GstBuffer * buf,
     guint plane_w, guint plane_h)
 {
   State & st = self->priv->state;
+  const bool want_boxes = st.applied.config.markers ==
+      GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS;
   st.marker_boxes.clear ();
+  st.balls.clear ();
   const double sx = st.video_width > 0 ? (double) plane_w / st.video_width :
       1.0;
   const double sy = st.video_height > 0 ? (double) plane_h /
@@ -475,12 +483,28 @@ gst_floor_boundary_marker_boxes (GstFloorBoundary * self, GstBuffer * buf,
     const gchar *element = nullptr, *reason = nullptr;
     if (landmark_detection_rejected (buf, roi, &element, &reason))
       continue;
-    landmark::MarkerBox b;
-    b.u0 = (int) std::floor (roi->x * sx) - 1;
-    b.v0 = (int) std::floor (roi->y * sy) - 1;
-    b.u1 = (int) std::ceil ((roi->x + roi->w) * sx) + 1;
-    b.v1 = (int) std::ceil ((roi->y + roi->h) * sy) + 1;
-    st.marker_boxes.push_back (b);
+    if (want_boxes) {
+      landmark::MarkerBox b;
+      b.u0 = (int) std::floor (roi->x * sx) - 1;
+      b.v0 = (int) std::floor (roi->y * sy) - 1;
+      b.u1 = (int) std::ceil ((roi->x + roi->w) * sx) + 1;
+      b.v1 = (int) std::ceil ((roi->y + roi->h) * sy) + 1;
+      st.marker_boxes.push_back (b);
+    }
+    const GstStructure *range = landmark_detection_get_param (buf, roi,
+        LANDMARK_RANGE_PARAMS);
+    const gchar *kind = range ? gst_structure_get_string (range,
+        "marker-kind") : nullptr;
+    landmark::RangedBall ball;
+    gdouble diameter = 0;
+    if (kind && std::strcmp (kind, "ball") == 0 &&
+        gst_structure_get_double (range, "ground-x", &ball.x) &&
+        gst_structure_get_double (range, "ground-y", &ball.y) &&
+        gst_structure_get_double (range, "marker-diameter", &diameter) &&
+        std::isfinite (ball.x) && std::isfinite (ball.y) && diameter > 0) {
+      ball.radius = diameter / 2;
+      st.balls.push_back (ball);
+    }
   }
 }
 
@@ -531,12 +555,11 @@ gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
         ("Could not read the label plane."), (nullptr));
     return GST_FLOW_ERROR;
   }
-  const std::vector<landmark::MarkerBox> *boxes = nullptr;
-  if (st.applied.config.markers == GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS) {
-    gst_floor_boundary_marker_boxes (self, buf, w, h);
-    boxes = &st.marker_boxes;
-  }
-  st.profile.scan (map.data, stride, st.role, boxes);
+  gst_floor_boundary_read_detections (self, buf, w, h);
+  st.profile.scan (map.data, stride, st.role,
+      st.applied.config.markers == GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS ?
+      &st.marker_boxes : nullptr);
+  st.profile.stand_balls (st.balls);
   gst_buffer_unmap (plane, &map);
   gst_buffer_unref (plane);
   gst_floor_boundary_attach (self, buf);

@@ -622,11 +622,18 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (e.has_size)
     gst_structure_set (s, "range-size", G_TYPE_DOUBLE, e.range_size,
         nullptr);
-  if (chosen)
+  /* the marker the range assumed, unless the class has several and none
+   * could be chosen (then its kind is not known) */
+  const landmark::MarkerSpec *assumed = chosen ? chosen :
+      hypotheses ? nullptr : &marker;
+  if (assumed) {
     gst_structure_set (s, "marker-kind", G_TYPE_STRING,
-        chosen->ball ? "ball" : "disc", "marker-height", G_TYPE_DOUBLE,
-        chosen->z, "marker-diameter", G_TYPE_DOUBLE, chosen->diameter,
-        nullptr);
+        assumed->ball ? "ball" : "disc", "marker-height", G_TYPE_DOUBLE,
+        assumed->z, nullptr);
+    if (assumed->diameter > 0)
+      gst_structure_set (s, "marker-diameter", G_TYPE_DOUBLE,
+          assumed->diameter, nullptr);
+  }
   const char *reject = nullptr;
   if (cfg.s.check_size)
     reject = gst_ipm_range_check_size (self, obs, chosen ? *chosen : marker,

@@ -476,6 +476,63 @@ test_marker_length ()
   CHECK (obstacles == 0, "off: %d obstacle columns", obstacles);
 }
 
+/* stand_balls: the bins a ranged ball covers end at its circle's nearest
+ * point inside each bin's wedge, found here by sampling the wedge's
+ * bearings; the bins it does not cover, those not seen (a ball behind the
+ * robot) and those a nearer obstacle ends stay as they were. */
+static void
+test_ranged_balls ()
+{
+  FloorProfileParams fp;
+  Scanner sc (camera (), fp);
+  std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
+  sc.prof.scan (plane.data (), W, sc.r);
+  const std::vector<RopBin> before = sc.prof.bins ();
+  const RangedBall ball {1.0, -0.3, 0.08}, behind {-1.0, 0.0, 0.1};
+  sc.prof.stand_balls ({ball, behind});
+  const int n = fp.bearing_bins;
+  int covered = 0;
+  for (int k = 0; k < n; k++) {
+    double want = HUGE_VAL;
+    for (int j = 0; j <= 2000; j++) {
+      const double a = sc.prof.bin_bearing (k) + (j / 2000.0 - 0.5) * 2 *
+          M_PI / n;
+      /* |t (cos a, sin a) - c| = r, the nearer root */
+      const double along = ball.x * std::cos (a) + ball.y * std::sin (a);
+      const double across = -ball.x * std::sin (a) + ball.y * std::cos (a);
+      if (std::fabs (across) < ball.radius)
+        want = std::min (want, along - std::sqrt (ball.radius *
+                ball.radius - across * across));
+    }
+    const RopBin & b = sc.prof.bins ()[k];
+    if (before[k].state == FreeState::NotSeen || want >= before[k].range) {
+      CHECK (b.state == before[k].state && b.range == before[k].range,
+          "bin %d changed: %s %g", k, free_state_name (b.state), b.range);
+      continue;
+    }
+    covered++;
+    CHECK (b.state == FreeState::Obstacle && std::fabs (b.range - want) <
+        1e-4, "bin %d: %s %g, want %g", k, free_state_name (b.state),
+        b.range, want);
+  }
+  const double half = std::asin (ball.radius / std::hypot (ball.x,
+          ball.y)) * 180 / M_PI;
+  CHECK (covered >= (int) (2 * half) && covered <= (int) (2 * half) + 2,
+      "%d bins covered, the ball spans %g degrees", covered, 2 * half);
+  /* a wall of boxes across the view 0.6 m ahead (the bottom rows of the
+   * image see nearer floor): nearer than the ball, it stays */
+  for (int v = 0; v < H; v++)
+    for (int u = 0; u < W; u++)
+      if (v < H - 60)
+        plane[(size_t) v * W + u] = BOX;
+  sc.prof.scan (plane.data (), W, sc.r);
+  const std::vector<RopBin> walled = sc.prof.bins ();
+  sc.prof.stand_balls ({ball});
+  for (int k = 0; k < n; k++)
+    CHECK (sc.prof.bins ()[k].range == walled[k].range, "bin %d behind the "
+        "wall: %g, was %g", k, sc.prof.bins ()[k].range, walled[k].range);
+}
+
 int
 main ()
 {
@@ -487,5 +544,6 @@ main ()
   test_rolled_camera ();
   test_seed_model ();
   test_marker_length ();
+  test_ranged_balls ();
   return corecheck_summary ();
 }

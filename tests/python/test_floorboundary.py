@@ -138,6 +138,50 @@ def test_ball_with_markers_obstacles(gst):
     assert abs(fm.rop_range[k] - near_edge) < 0.02
 
 
+def test_ball_ranged_by_ipmrange_stands(gst):
+    """A red ball (radius 0.1 m, resting 1.1 m ahead and 0.2 m left),
+    ray-cast: floorboundary alone walks over its pixels (markers=floor),
+    after ipmrange (told it is a ball) the bins it covers end at its
+    circle's nearest point in each bin, d - r towards its centre."""
+    bx, by, br = 1.1, 0.2, 0.1
+    d = rays()
+    # the sphere |C + t d - P| = r, C = (0, 0, h), P = (bx, by, r)
+    o = np.array([-bx, -by, CAM_H - br])
+    qb = 2 * (d @ o)
+    qc = o @ o - br * br
+    disc = qb * qb - 4 * (d * d).sum(-1) * qc
+    ball = disc >= 0
+    rgb = np.empty((H, W, 3), np.uint8)
+    rgb[:] = GREY
+    rgb[ball] = RED
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    camera = "camera-height=0.3 tilt=25 hfov=60"
+    ranged = CHAIN.replace(
+        "labsegment min-class-pixels=0 !",
+        f"labsegment min-class-pixels=0 ! blobroundness ! ipmrange {camera} "
+        f"marker-kind=ball marker-diameter={2 * br} marker-height={br} !")
+    centre = math.hypot(bx, by)
+    k = None
+    for chain in (CHAIN, ranged):
+        fm = meta.floor(pipeline.process_frames(chain, [rgb], caps)[0])
+        k = fm.bin_of(math.atan2(by, bx))
+        if chain == CHAIN:
+            assert fm.state_name(k) == "free", fm.state_name(k)
+            continue
+        assert fm.state_name(k) == "obstacle"
+        print(f"ball bin {k}: {fm.rop_range[k]:.4f} m, bulge "
+              f"{centre - br:.4f} m")
+        assert abs(fm.rop_range[k] - (centre - br)) < 0.01
+        half = math.asin(br / centre)
+        covered = [j for j in range(fm.bearing_bins)
+                   if fm.state_name(j) == "obstacle"]
+        assert covered and all(
+            abs(math.remainder(fm.bin_bearing(j) - math.atan2(by, bx),
+                               2 * math.pi)) < half + fm.bin_width
+            for j in covered), covered
+        assert len(covered) >= 2 * math.degrees(half) - 1
+
+
 CLIP_DIR = shippedclip.CLIP_DIR
 
 

@@ -486,6 +486,43 @@ FloorProfile::build_rop ()
   }
 }
 
+void
+FloorProfile::stand_balls (const std::vector<RangedBall> & balls)
+{
+  const int n = params_.bearing_bins;
+  const double half_bin = M_PI / n;
+  for (const RangedBall & ball : balls) {
+    const double d = std::hypot (ball.x, ball.y), r = ball.radius;
+    if (!(r > 0) || !(d > r))
+      continue;   /* the camera's floor point inside the ball: nonsense */
+    const double centre = std::atan2 (ball.y, ball.x);
+    const double half_width = std::asin (r / d);
+    const int first = bin_of (centre - half_width);
+    const int count = (bin_of (centre + half_width) - first + n) % n + 1;
+    for (int j = 0; j < count; j++) {
+      RopBin & bin = bins_[(first + j) % n];
+      if (bin.state == FreeState::NotSeen)
+        continue;
+      /* the circle's nearest point in the wedge: towards the centre when
+       * the wedge holds that bearing, else on the wedge's edge nearer it */
+      const double off = std::fabs (std::remainder (centre -
+              bin_bearing ((first + j) % n), 2 * M_PI));
+      double range = d - r;
+      if (off > half_bin) {
+        const double across = d * std::sin (off - half_bin);
+        if (across >= r)
+          continue;
+        range = d * std::cos (off - half_bin) - std::sqrt (r * r -
+            across * across);
+      }
+      if (range < bin.range) {
+        bin.state = FreeState::Obstacle;
+        bin.range = (float) range;
+      }
+    }
+  }
+}
+
 /* ---- bird's-eye view -------------------------------------------------- */
 
 bool

@@ -58,6 +58,12 @@ struct RopBin {
   float marker_range = -1;     /* nearest marker floor point, -1: none */
 };
 
+/* A landmark ball a ranging stage found: its centre's floor point (robot
+ * frame) and its radius, metres. */
+struct RangedBall {
+  double x = 0, y = 0, radius = 0;
+};
+
 /* A box of the label plane, [u0, u1) x [v0, v1) pixels. */
 struct MarkerBox {
   int u0 = 0, v0 = 0, u1 = 0, v1 = 0;
@@ -83,6 +89,13 @@ public:
   void scan (const uint8_t * labels, size_t stride,
       const LabelRole role[256],
       const std::vector<MarkerBox> *marker_boxes = nullptr);
+
+  /* After scan: each seen bin whose wedge meets a ball's circle ends at
+   * the circle's nearest point in the wedge (where the robot would touch
+   * it) when that is nearer than what the walk found. The image shows a
+   * ball's foot, up to its radius behind its bulge; a ball ranged from its
+   * blob with its known diameter puts the bulge where it is. */
+  void stand_balls (const std::vector<RangedBall> & balls);
 
   const std::vector<ColumnBoundary> & columns () const { return cols_; }
   const std::vector<RopBin> & bins () const { return bins_; }

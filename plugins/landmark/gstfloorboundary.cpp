@@ -74,6 +74,7 @@
 #include "cameraprops.h"
 #include "elementsettings.h"
 #include "landmarkmeta.h"
+#include "overlaymeta.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_floor_boundary_debug);
 #define GST_CAT_DEFAULT gst_floor_boundary_debug
@@ -117,6 +118,7 @@ struct State {
 
   std::vector<landmark::MarkerBox> marker_boxes;   /* markers=detections */
   std::vector<landmark::RangedBall> balls;   /* ranged by ipmrange */
+  std::vector<landmark::ImageEllipse> discs;   /* the other landmarks */
   gint video_width = 0, video_height = 0;   /* from the caps, 0: unknown */
 
   bool warned_no_meta = false;
@@ -459,6 +461,36 @@ gst_floor_boundary_attach (GstFloorBoundary * self, GstBuffer * buf)
       gst_message_new_element (GST_OBJECT_CAST (self), m));
 }
 
+/* An accepted landmark that is not a ball lies on the floor: its blob's
+ * ellipse, in pixels of the label plane (the blob's frame scaled to it;
+ * not when the two scale unequally). */
+static void
+gst_floor_boundary_add_disc (GstFloorBoundary * self, GstBuffer * buf,
+    GstVideoRegionOfInterestMeta * roi, guint plane_w, guint plane_h)
+{
+  using landmark::overlay::meta_number;
+  const GstStructure *blob = landmark_detection_get_param (buf, roi,
+      LANDMARK_BLOB_PARAMS);
+  landmark::ImageEllipse e;
+  double fw = 0, fh = 0;
+  if (!blob || !meta_number (blob, "ellipse-x", &e.cx) ||
+      !meta_number (blob, "ellipse-y", &e.cy) ||
+      !meta_number (blob, "ellipse-major", &e.major) ||
+      !meta_number (blob, "ellipse-minor", &e.minor) ||
+      !meta_number (blob, "ellipse-angle", &e.angle) ||
+      !meta_number (blob, "frame-width", &fw) ||
+      !meta_number (blob, "frame-height", &fh) || fw <= 0 || fh <= 0)
+    return;
+  const double sx = plane_w / fw, sy = plane_h / fh;
+  if (std::fabs (sx - sy) > 1e-3 * sx)
+    return;
+  e.cx = (e.cx + 0.5) * sx - 0.5;
+  e.cy = (e.cy + 0.5) * sy - 0.5;
+  e.major *= sx;
+  e.minor *= sx;
+  self->priv->state.discs.push_back (e);
+}
+
 /* From the accepted detections (not rejected by any stage): their boxes,
  * in pixels of the label plane and one pixel wider on each side, when
  * markers=detections; and the balls ipmrange ranged, with their radius. */
@@ -471,6 +503,7 @@ gst_floor_boundary_read_detections (GstFloorBoundary * self, GstBuffer * buf,
       GST_FLOOR_BOUNDARY_MARKERS_DETECTIONS;
   st.marker_boxes.clear ();
   st.balls.clear ();
+  st.discs.clear ();
   const double sx = st.video_width > 0 ? (double) plane_w / st.video_width :
       1.0;
   const double sy = st.video_height > 0 ? (double) plane_h /
@@ -497,15 +530,20 @@ gst_floor_boundary_read_detections (GstFloorBoundary * self, GstBuffer * buf,
         "marker-kind") : nullptr;
     landmark::RangedBall ball;
     gdouble diameter = 0;
-    if (kind && std::strcmp (kind, "ball") == 0 &&
-        gst_structure_get_double (range, "ground-x", &ball.x) &&
-        gst_structure_get_double (range, "ground-y", &ball.y) &&
-        gst_structure_get_double (range, "marker-diameter", &diameter) &&
-        std::isfinite (ball.x) && std::isfinite (ball.y) && diameter > 0) {
-      ball.radius = diameter / 2;
-      st.balls.push_back (ball);
+    if (kind && std::strcmp (kind, "ball") == 0) {
+      if (gst_structure_get_double (range, "ground-x", &ball.x) &&
+          gst_structure_get_double (range, "ground-y", &ball.y) &&
+          gst_structure_get_double (range, "marker-diameter", &diameter) &&
+          std::isfinite (ball.x) && std::isfinite (ball.y) && diameter > 0) {
+        ball.radius = diameter / 2;
+        st.balls.push_back (ball);
+      }
+      continue;
     }
+    if (st.applied.config.markers != GST_FLOOR_BOUNDARY_MARKERS_OBSTACLES)
+      gst_floor_boundary_add_disc (self, buf, roi, plane_w, plane_h);
   }
+  st.profile.set_landmark_discs (st.discs);
 }
 
 static GstFlowReturn

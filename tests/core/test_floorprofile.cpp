@@ -533,6 +533,76 @@ test_ranged_balls ()
         "wall: %g, was %g", k, sc.prof.bins ()[k].range, walled[k].range);
 }
 
+/* A disc (0.15 m across, 0.9 m ahead) ray-cast with a rim one pixel wide
+ * of no class around it (the floor and the disc blended): at the
+ * ellipse's tips the rim runs down a column for several rows and ends the
+ * floor there; with the disc's image ellipse given (from the pixels'
+ * second moments here), every column walks over it. */
+static void
+test_disc_rim ()
+{
+  FloorProfileParams fp;
+  Scanner sc (camera (), fp);
+  const double dx = 0.9, dy = 0.1, dr = 0.075;
+  std::vector<uint8_t> plane ((size_t) W * H, FLOOR);
+  each_downward_ray ([&](int u, int v, const double d[3]) {
+        const double t = CAM_H / -d[2];
+        if (std::hypot (t * d[0] - dx, t * d[1] - dy) <= dr)
+          plane[(size_t) v * W + u] = MARKER;
+      });
+  double n = 0, mu = 0, mv = 0, suu = 0, svv = 0, suv = 0;
+  for (int v = 0; v < H; v++)
+    for (int u = 0; u < W; u++)
+      if (plane[(size_t) v * W + u] == MARKER) {
+        n++;
+        mu += u;
+        mv += v;
+        suu += (double) u * u;
+        svv += (double) v * v;
+        suv += (double) u * v;
+      }
+  mu /= n;
+  mv /= n;
+  const double cuu = suu / n - mu * mu, cvv = svv / n - mv * mv;
+  const double cuv = suv / n - mu * mv;
+  const double mid = (cuu + cvv) / 2, dev = std::sqrt ((cuu - cvv) *
+      (cuu - cvv) / 4 + cuv * cuv);
+  /* a filled ellipse's semi-axis is twice the square root of its
+   * variance along it */
+  const ImageEllipse disc {mu, mv, 4 * std::sqrt (mid + dev),
+    4 * std::sqrt (mid - dev), 0.5 * std::atan2 (2 * cuv, cuu - cvv)};
+  std::vector<uint8_t> rimmed = plane;
+  for (int v = 1; v < H - 1; v++)
+    for (int u = 1; u < W - 1; u++) {
+      if (plane[(size_t) v * W + u] != FLOOR)
+        continue;
+      for (int j = -1; j <= 1; j++)
+        for (int i = -1; i <= 1; i++)
+          if (plane[(size_t) (v + j) * W + u + i] == MARKER)
+            rimmed[(size_t) v * W + u] = NONE;
+    }
+  int ended = 0;
+  sc.prof.scan (rimmed.data (), W, sc.r);
+  for (const ColumnBoundary & c : sc.prof.columns ())
+    ended += c.state == FreeState::Obstacle;
+  CHECK (ended > 0, "the rim ends no column without the ellipse");
+  sc.prof.set_landmark_discs ({disc});
+  sc.prof.scan (rimmed.data (), W, sc.r);
+  int still = 0;
+  for (const ColumnBoundary & c : sc.prof.columns ())
+    still += c.state == FreeState::Obstacle;
+  CHECK (still == 0, "%d columns end at the rim with the ellipse", still);
+  std::printf ("disc rim: %d columns ended without its ellipse (%.1f x %.1f "
+      "px), %d with\n", ended, disc.major, disc.minor, still);
+  /* the ellipses stay for later scans; cleared, the rim ends them again */
+  sc.prof.set_landmark_discs ({});
+  sc.prof.scan (rimmed.data (), W, sc.r);
+  int again = 0;
+  for (const ColumnBoundary & c : sc.prof.columns ())
+    again += c.state == FreeState::Obstacle;
+  CHECK (again == ended, "cleared: %d columns, %d before", again, ended);
+}
+
 int
 main ()
 {
@@ -545,5 +615,6 @@ main ()
   test_seed_model ();
   test_marker_length ();
   test_ranged_balls ();
+  test_disc_rim ();
   return corecheck_summary ();
 }

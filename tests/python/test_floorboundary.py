@@ -182,6 +182,34 @@ def test_ball_ranged_by_ipmrange_stands(gst):
         assert len(covered) >= 2 * math.degrees(half) - 1
 
 
+def test_disc_rim_walked_over_after_blobroundness(gst):
+    """The disc ringed by a rim of the box's colour one pixel wide (a
+    blend of disc and floor labelled neither): alone, floorboundary ends
+    the columns at the rim's tips; after blobroundness it walks over every
+    pixel near an accepted disc's ellipse."""
+    rgb, label = render()
+    disc = label == 2
+    near = np.zeros_like(disc)
+    for dv in (-1, 0, 1):
+        for du in (-1, 0, 1):
+            near |= np.roll(np.roll(disc, dv, 0), du, 1)
+    rgb[near & ~disc & (label == 0)] = WHITE
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    bd = math.atan2(DISC["y"], DISC["x"])
+    half = math.asin(DISC["r"] / math.hypot(DISC["x"], DISC["y"]))
+    ended = {}
+    for chain in (CHAIN, CHAIN.replace("labsegment min-class-pixels=0 !",
+                                       "labsegment min-class-pixels=0 ! "
+                                       "blobroundness !")):
+        fm = meta.floor(pipeline.process_frames(chain, [rgb], caps)[0])
+        bearings = np.arctan2(fm.boundary_y, fm.boundary_x)
+        at_disc = np.abs(bearings - bd) < half + 0.02
+        ended[chain] = int((fm.boundary_state[at_disc] == 2).sum())
+    print(ended)
+    assert list(ended.values())[0] > 0
+    assert list(ended.values())[1] == 0
+
+
 CLIP_DIR = shippedclip.CLIP_DIR
 
 

@@ -262,6 +262,20 @@ FloorProfile::scan (const uint8_t * labels, size_t stride,
           obst[u] = 0xff;
       }
     }
+    for (const DiscSpan & e : discs_) {
+      /* the row's chord of the ellipse: a du^2 + 2 b dv du + c dv^2 = 1 */
+      const double dv = v - e.cy;
+      const double q = e.b * dv * e.b * dv - e.a * (e.c * dv * dv - 1);
+      if (q < 0)
+        continue;
+      const double root = std::sqrt (q);
+      const int lo = std::max (0, (int) std::ceil (e.cx + (-e.b * dv - root)
+              / e.a));
+      const int hi = std::min (w - 1, (int) std::floor (e.cx + (-e.b * dv +
+                  root) / e.a));
+      for (int u = lo; u <= hi; u++)
+        obst[u] = 0;
+    }
     bool finish = false;
 #ifdef __SSE2__
     {
@@ -483,6 +497,23 @@ FloorProfile::build_rop ()
     }
     prev = &c;
     prev_bin = k;
+  }
+}
+
+void
+FloorProfile::set_landmark_discs (const std::vector<ImageEllipse> & discs)
+{
+  discs_.clear ();
+  for (const ImageEllipse & e : discs) {
+    const double ra = e.major / 2 + kDiscRimPixels;
+    const double rb = e.minor / 2 + kDiscRimPixels;
+    if (!(ra > 0 && rb > 0) || !std::isfinite (e.cx) || !std::isfinite (e.cy)
+        || !std::isfinite (e.angle))
+      continue;
+    const double cs = std::cos (e.angle), sn = std::sin (e.angle);
+    const double ia = 1 / (ra * ra), ib = 1 / (rb * rb);
+    discs_.push_back ({e.cx, e.cy, cs * cs * ia + sn * sn * ib,
+            cs * sn * (ia - ib), sn * sn * ia + cs * cs * ib});
   }
 }
 

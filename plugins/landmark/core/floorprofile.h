@@ -11,6 +11,7 @@
 
 #include "camerageometry.h"
 #include "camerasetup.h"
+#include "markerevidence.h"
 
 namespace landmark {
 
@@ -90,6 +91,14 @@ public:
       const LabelRole role[256],
       const std::vector<MarkerBox> *marker_boxes = nullptr);
 
+  /* Image ellipses (label plane pixels) of accepted landmark discs, for
+   * the scans that follow: every pixel within kDiscRimPixels of one is
+   * floor for the walk, so a disc's rim, blended with the floor into a
+   * colour of neither, does not end it (at an ellipse's left and right
+   * tips the rim runs down a column for several rows). */
+  void set_landmark_discs (const std::vector<ImageEllipse> & discs);
+  static constexpr double kDiscRimPixels = 1.5;
+
   /* After scan: each seen bin whose wedge meets a ball's circle ends at
    * the circle's nearest point in the wedge (where the robot would touch
    * it) when that is nearer than what the walk found. The image shows a
@@ -132,6 +141,12 @@ private:
   std::vector<int> marker_edge_, end_edge_;
   std::vector<int> marker_run_edge_, marker_last_row_;
   std::vector<uint8_t> ball_;   /* the ball rule ended the column */
+  /* the discs' grown ellipses as quadratic forms of (u - cx, v - cy):
+   * a du^2 + 2 b du dv + c dv^2 <= 1 inside */
+  struct DiscSpan {
+    double cx, cy, a, b, c;
+  };
+  std::vector<DiscSpan> discs_;
   std::vector<uint8_t> run_, obst_, beyond_, walking_;   /* 16-padded */
   /* columns sorted by stop edge: those of edge e are
    * by_stop_[by_stop_start_[e] .. by_stop_start_[e + 1]) */

@@ -493,7 +493,9 @@ gst_floor_boundary_add_disc (GstFloorBoundary * self, GstBuffer * buf,
 
 /* From the accepted detections (not rejected by any stage): their boxes,
  * in pixels of the label plane and one pixel wider on each side, when
- * markers=detections; and the balls ipmrange ranged, with their radius. */
+ * markers=detections; the balls ipmrange ranged, with their radius; and
+ * the others' ellipses, whose rims the walk crosses (not with
+ * markers=obstacles). */
 static void
 gst_floor_boundary_read_detections (GstFloorBoundary * self, GstBuffer * buf,
     guint plane_w, guint plane_h)

@@ -24,7 +24,9 @@
  * floor stands up (a ball) and ends the floor at its bulge. After
  * `ipmrange`, every accepted detection it ranged as a ball (`marker-kind`
  * ball, with its diameter) stands in the profile as its circle on the
- * floor: the bins it covers end at its bulge.
+ * floor: the bins it covers end at its bulge. After `blobroundness`, the
+ * pixels within 1.5 pixels of every other accepted detection's ellipse
+ * are floor (a disc's rim, blended with the floor, does not end it).
  *
  * Each frame with labels gets a `GstLandmarkFloorMeta` (docs/metadata.md):
  * `width`, `height` (the analysed label plane), `bearing-bins`,

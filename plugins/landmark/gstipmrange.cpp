@@ -582,6 +582,20 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (!chosen)
     e = landmark::estimate_range (st.geometry, obs, marker,
         cfg.s.pixel_sigma, mounting);
+  if (!chosen && hypotheses && !e.no_floor) {
+    /* several markers and none chosen: the range is the properties'
+     * marker's and may be any of theirs, so its sigma covers them all */
+    for (const landmark::MarkerSpec & h : *hypotheses) {
+      const landmark::RangeEstimate t = landmark::estimate_range
+          (st.geometry, obs, h, cfg.s.pixel_sigma, mounting);
+      if (t.no_floor)
+        continue;
+      e.kind_range_spread = std::max (e.kind_range_spread,
+          std::fabs (t.range_ground - e.range_ground));
+      e.kind_bearing_spread = std::max (e.kind_bearing_spread,
+          std::fabs (std::remainder (t.bearing - e.bearing, 2 * M_PI)));
+    }
+  }
 
   GstStructure *s;
   if (e.no_floor) {

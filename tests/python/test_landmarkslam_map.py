@@ -10,6 +10,7 @@ map file set."""
 import json
 import os
 import threading
+import time
 
 import pytest
 
@@ -235,11 +236,19 @@ def test_write_map_from_another_thread_while_frames_flow(gst, camera,
         "post-messages=true", "fakesink name=sink sync=false"))
     slam = pipe.get_by_name("slam")
     maps = []
-    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
-        Gst.PadProbeType.BUFFER,
-        lambda pad, info: maps.append(meta.landmark_map(info.get_buffer()))
-        or Gst.PadProbeReturn.OK)
     stop, asked = threading.Event(), [0]
+
+    def on_buffer(pad, info):
+        maps.append(meta.landmark_map(info.get_buffer()))
+        # the first frames wait for a few requests each, so the writes race
+        # the stream however the machine's load schedules the two threads
+        deadline = time.monotonic() + TIMEOUT_S
+        while (len(maps) <= 5 and asked[0] < 3 * len(maps)
+               and time.monotonic() < deadline):
+            time.sleep(0.001)
+        return Gst.PadProbeReturn.OK
+    pipe.get_by_name("sink").get_static_pad("sink").add_probe(
+        Gst.PadProbeType.BUFFER, on_buffer)
 
     def ask():
         while not stop.is_set():

@@ -51,14 +51,16 @@ fit_circle (const std::vector<double> & xy, double *cx, double *cy,
 double
 RangeEstimate::range_sigma_total (double sigma) const
 {
-  return std::hypot (sigma, size_excess);
+  return std::sqrt (sigma * sigma + size_excess * size_excess +
+      kind_range_spread * kind_range_spread);
 }
 
 double
 RangeEstimate::bearing_sigma_total () const
 {
-  return range_ground > 0 ? std::hypot (bearing_sigma, size_excess /
-      range_ground) : bearing_sigma;
+  const double excess = range_ground > 0 ? size_excess / range_ground : 0;
+  return std::sqrt (bearing_sigma * bearing_sigma + excess * excess +
+      kind_bearing_spread * kind_bearing_spread);
 }
 
 void
@@ -246,6 +248,12 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
    * range and bearing at the centre (central differences) */
   double cov[3];
   centre_covariance (blob, pixel_sigma, cov);
+  if (m.ball) {
+    const double shade = kBallShadeShare * (ellipse ? blob.major :
+        blob.equivalent_diameter);
+    cov[0] += shade * shade * blob.sx * blob.sx;
+    cov[2] += shade * shade * blob.sy * blob.sy;
+  }
   const double h = 0.5;
   double rl, bl, rr, br, ru, bu, rd, bd;
   if (polar_at (g, centre_u - h, centre_v, m.z, &rl, &bl)

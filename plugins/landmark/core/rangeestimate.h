@@ -57,8 +57,11 @@ struct RangeEstimate {
    * explain (chi-square, 1 dof, 99 %), metres: a blob cut or merged, whose
    * centre is off by about as much in an unknown direction */
   double size_excess = 0;
-  /* the sigmas with size_excess added (to the range, and over the range
-   * to the bearing): what ipmrange reports */
+  /* when the class has several markers and none could be chosen: how far
+   * the others' ranges (metres) and bearings (radians) lie from this one */
+  double kind_range_spread = 0, kind_bearing_spread = 0;
+  /* the sigmas with size_excess and the kind spreads added (to the range,
+   * and over the range to the bearing): what ipmrange reports */
   double range_sigma_total (double sigma) const;
   double bearing_sigma_total () const;
 };
@@ -72,6 +75,12 @@ struct RangeEstimate {
  * its equivalent diameter, else one pixel. In the geometry's pixels. */
 void centre_covariance (const BlobObservation & blob, double edge_sigma,
     double cov[3]);
+
+/* A ball's shaded underside is segmented alike frame after frame, so its
+ * centre carries a bias that grows with its image, not noise that shrinks:
+ * one-sigma, per axis, this share of its diameter in pixels (fitted on the
+ * tuning half of the sweep, docs/ranging.md "Uncertainty"). */
+constexpr double kBallShadeShare = 0.00064;
 
 /* Range and bearing of one detection. Discs: the ellipse's outline mapped
  * to the marker's plane, its centre by a circle fit; size range from the

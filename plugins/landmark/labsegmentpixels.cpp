@@ -17,6 +17,17 @@ namespace landmark {
 namespace {
 
 #ifdef LANDMARK_HAVE_AVX2_PATH
+/* The sum of the 32 bytes of acc. */
+__attribute__ ((target ("avx2"))) inline guint64
+sum_bytes_avx2 (__m256i acc)
+{
+  const __m256i s = _mm256_sad_epu8 (acc, _mm256_setzero_si256 ());
+  return (guint64) _mm256_extract_epi64 (s, 0) +
+      (guint64) _mm256_extract_epi64 (s, 1) +
+      (guint64) _mm256_extract_epi64 (s, 2) +
+      (guint64) _mm256_extract_epi64 (s, 3);
+}
+
 /* counts[values[i]] = pixels equal to values[i] in plane[0..end), end a
  * multiple of 32: up to 8 values per pass, one load per 32 labels
  * compared with each value (8-bit per-lane counters, summed before they
@@ -43,13 +54,8 @@ count_values_avx2 (const guint8 * plane, gsize end, const guint8 * values,
         for (guint i = 0; i < k; i++)
           acc[i] = _mm256_sub_epi8 (acc[i], _mm256_cmpeq_epi8 (x, v[i]));
       }
-      for (guint i = 0; i < k; i++) {
-        const __m256i s = _mm256_sad_epu8 (acc[i], _mm256_setzero_si256 ());
-        total[i] += (guint64) _mm256_extract_epi64 (s, 0) +
-            (guint64) _mm256_extract_epi64 (s, 1) +
-            (guint64) _mm256_extract_epi64 (s, 2) +
-            (guint64) _mm256_extract_epi64 (s, 3);
-      }
+      for (guint i = 0; i < k; i++)
+        total[i] += sum_bytes_avx2 (acc[i]);
     }
     for (guint i = 0; i < k; i++)
       counts[values[first + i]] = (guint32) total[i];
@@ -214,6 +220,98 @@ classify_packed4 (const guint8 * table, const guint8 * row, int shift,
   for (; x < width; x++)
     labels[x] = table[(load32 (row + x * 4) >> shift) & 0xffffff];
 }
+
+#ifdef LANDMARK_HAVE_AVX2_PATH
+/* The labels of 8 packed 4-byte pixels, one per 32-bit lane: the keys
+ * looked up by one gather. A 4-byte read at the last key reaches into the
+ * table's padding; only the low byte is kept. */
+__attribute__ ((target ("avx2"))) inline __m256i
+gather8_labels (const guint8 * table, const guint8 * pixels, __m128i shift)
+{
+  const __m256i px = _mm256_loadu_si256 ((const __m256i *) pixels);
+  const __m256i keys = _mm256_and_si256 (_mm256_srl_epi32 (px, shift),
+      _mm256_set1_epi32 (0xffffff));
+  return _mm256_and_si256 (_mm256_i32gather_epi32 ((const int *) table,
+          keys, 1), _mm256_set1_epi32 (0xff));
+}
+
+/* Pass 1 of a packed 4-byte frame for rows y0..y1-1 of a slice: the table
+ * lookups by gathers, 32 pixels (four gathers packed to 32 labels, one
+ * store) a step, and counts[v] as count_labels gives it. Up to 7 classes
+ * (with kPending, 8 values) are counted as the labels go by, in registers
+ * (8-bit per-lane counters, summed before they can overflow), in place of
+ * a second pass over the plane; larger palettes count afterwards. The
+ * table holds kPending for cells not computed yet, as the scalar loop
+ * reads it: label_frame resolves them. */
+__attribute__ ((target ("avx2"))) void
+label_packed4_avx2 (const guint8 * table, const GstVideoFrame * frame,
+    int shift, guint y0, guint y1, guint8 * labels, guint n,
+    guint32 counts[256])
+{
+  const guint width = GST_VIDEO_FRAME_WIDTH (frame);
+  const guint8 *data = (const guint8 *) GST_VIDEO_FRAME_PLANE_DATA (frame, 0);
+  const gsize stride = GST_VIDEO_FRAME_PLANE_STRIDE (frame, 0);
+  const __m128i count = _mm_cvtsi32_si128 (shift);
+  /* packs work within 128-bit lanes: this puts the 8-byte groups back in
+   * pixel order */
+  const __m256i order = _mm256_setr_epi32 (0, 4, 1, 5, 2, 6, 3, 7);
+  const bool fold = n + 1 <= 8;
+  guint8 values[8];
+  __m256i v[8], acc[8];
+  guint64 total[8] = { 0 };
+  guint steps = 0;
+  /* the loops over the 8 values are unrolled so that the counters stay in
+   * registers */
+#pragma GCC unroll 8
+  for (guint i = 0; i < 8; i++) {
+    values[i] = i < n ? i + 1 : ClassTable::kPending;
+    v[i] = _mm256_set1_epi8 ((char) values[i]);
+    acc[i] = _mm256_setzero_si256 ();
+  }
+  for (guint y = y0; y < y1; y++) {
+    const guint8 *row = data + y * stride;
+    guint8 *out = labels + (gsize) y * width;
+    guint x = 0;
+    for (; x + 32 <= width; x += 32) {
+      const guint8 *p = row + x * 4;
+      const __m256i a = gather8_labels (table, p, count);
+      const __m256i b = gather8_labels (table, p + 32, count);
+      const __m256i c = gather8_labels (table, p + 64, count);
+      const __m256i d = gather8_labels (table, p + 96, count);
+      const __m256i bytes = _mm256_permutevar8x32_epi32 (_mm256_packus_epi16
+          (_mm256_packus_epi32 (a, b), _mm256_packus_epi32 (c, d)), order);
+      _mm256_storeu_si256 ((__m256i *) (out + x), bytes);
+      if (!fold)
+        continue;
+#pragma GCC unroll 8
+      for (guint i = 0; i < 8; i++)
+        acc[i] = _mm256_sub_epi8 (acc[i], _mm256_cmpeq_epi8 (bytes, v[i]));
+      if (++steps < 255)
+        continue;
+#pragma GCC unroll 8
+      for (guint i = 0; i < 8; i++) {
+        total[i] += sum_bytes_avx2 (acc[i]);
+        acc[i] = _mm256_setzero_si256 ();
+      }
+      steps = 0;
+    }
+    classify_packed4 (table, row + x * 4, shift, width - x, out + x);
+    if (fold)
+      for (; x < width; x++)
+        for (guint i = 0; i <= n; i++)
+          total[i] += out[x] == values[i];
+  }
+  if (!fold) {
+    count_labels (labels + (gsize) y0 * width, (gsize) (y1 - y0) * width, n,
+        SimdLevel::AVX2, counts);
+    return;
+  }
+#pragma GCC unroll 8
+  for (guint i = 0; i < 8; i++)
+    if (i <= n)
+      counts[values[i]] += (guint32) (total[i] + sum_bytes_avx2 (acc[i]));
+}
+#endif
 
 void
 classify_packed3 (const guint8 * table, const guint8 * row, guint width,
@@ -483,6 +581,14 @@ label_frame (ClassTable & table, const GstVideoFrame * frame,
   PixelReader reader { frame, layout };
   /* the table is only read here: cells are filled below, on this thread */
   auto slice = [&](unsigned i, guint y0, guint y1) {
+#ifdef LANDMARK_HAVE_AVX2_PATH
+    if (layout.layout == PixelLayout::PACKED4 &&
+        layout.simd == SimdLevel::AVX2) {
+      label_packed4_avx2 (table.labels (), frame, layout.key_shift, y0, y1,
+          labels, n, workers.slice_counts[i].data ());
+      return;
+    }
+#endif
     PixelReader rows { frame, layout };
     classify_rows (table, rows, w, y0, y1, labels);
     count_labels (labels + (gsize) y0 * w, (gsize) (y1 - y0) * w, n,

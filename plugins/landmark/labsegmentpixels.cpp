@@ -235,6 +235,24 @@ struct Packed4Keys {
   }
 };
 
+/* 3-byte pixels: the 24 bytes of 8 pixels (a masked load: nothing is
+ * read past them), bytes 12-27 moved to the high lane, then each pixel's
+ * three bytes to its lane. */
+struct Packed3Keys {
+  __attribute__ ((target ("avx2"))) __m256i
+  operator() (const PixelReader & r, guint x) const
+  {
+    const __m256i six = _mm256_setr_epi32 (-1, -1, -1, -1, -1, -1, 0, 0);
+    const __m256i bytes = _mm256_permutevar8x32_epi32 (_mm256_maskload_epi32
+        ((const int *) (r.row0 + x * 3), six),
+        _mm256_setr_epi32 (0, 1, 2, 3, 3, 4, 5, 6));
+    const __m256i pick = _mm256_setr_epi8 (0, 1, 2, -1, 3, 4, 5, -1,
+        6, 7, 8, -1, 9, 10, 11, -1, 0, 1, 2, -1, 3, 4, 5, -1,
+        6, 7, 8, -1, 9, 10, 11, -1);
+    return _mm256_shuffle_epi8 (bytes, pick);
+  }
+};
+
 /* Y | U << 8 | V << 16, a chroma pair for two pixels: the 4 pairs as
  * 16-bit U | V << 8 words (NV12 stores them so), each twice, widened. */
 struct Yuv420Keys {
@@ -379,6 +397,8 @@ label_rows_gather (const ClassTable & table, PixelReader & reader,
           counts);
       break;
     case PixelLayout::PACKED3:
+      label_rows_avx2 (table, reader, Packed3Keys (), width, y0, y1, labels,
+          n, counts);
       break;
   }
 }
@@ -654,8 +674,7 @@ label_frame (ClassTable & table, const GstVideoFrame * frame,
   auto slice = [&](unsigned i, guint y0, guint y1) {
     PixelReader rows { frame, layout };
 #ifdef LANDMARK_HAVE_AVX2_PATH
-    if (layout.layout != PixelLayout::PACKED3 &&
-        layout.simd == SimdLevel::AVX2) {
+    if (layout.simd == SimdLevel::AVX2) {
       label_rows_gather (table, rows, w, y0, y1, labels, n,
           workers.slice_counts[i].data ());
       return;

@@ -17,6 +17,17 @@ namespace landmark {
 namespace {
 
 #ifdef LANDMARK_HAVE_AVX2_PATH
+/* The sum of the 32 bytes of acc. */
+__attribute__ ((target ("avx2"))) inline guint64
+sum_bytes_avx2 (__m256i acc)
+{
+  const __m256i s = _mm256_sad_epu8 (acc, _mm256_setzero_si256 ());
+  return (guint64) _mm256_extract_epi64 (s, 0) +
+      (guint64) _mm256_extract_epi64 (s, 1) +
+      (guint64) _mm256_extract_epi64 (s, 2) +
+      (guint64) _mm256_extract_epi64 (s, 3);
+}
+
 /* counts[values[i]] = pixels equal to values[i] in plane[0..end), end a
  * multiple of 32: up to 8 values per pass, one load per 32 labels
  * compared with each value (8-bit per-lane counters, summed before they
@@ -43,13 +54,8 @@ count_values_avx2 (const guint8 * plane, gsize end, const guint8 * values,
         for (guint i = 0; i < k; i++)
           acc[i] = _mm256_sub_epi8 (acc[i], _mm256_cmpeq_epi8 (x, v[i]));
       }
-      for (guint i = 0; i < k; i++) {
-        const __m256i s = _mm256_sad_epu8 (acc[i], _mm256_setzero_si256 ());
-        total[i] += (guint64) _mm256_extract_epi64 (s, 0) +
-            (guint64) _mm256_extract_epi64 (s, 1) +
-            (guint64) _mm256_extract_epi64 (s, 2) +
-            (guint64) _mm256_extract_epi64 (s, 3);
-      }
+      for (guint i = 0; i < k; i++)
+        total[i] += sum_bytes_avx2 (acc[i]);
     }
     for (guint i = 0; i < k; i++)
       counts[values[first + i]] = (guint32) total[i];
@@ -214,6 +220,189 @@ classify_packed4 (const guint8 * table, const guint8 * row, int shift,
   for (; x < width; x++)
     labels[x] = table[(load32 (row + x * 4) >> shift) & 0xffffff];
 }
+
+#ifdef LANDMARK_HAVE_AVX2_PATH
+/* The 24-bit table keys of pixels x..x+7 of the reader's row, one per
+ * 32-bit lane in pixel order, for each layout the gathers handle. */
+struct Packed4Keys {
+  __m128i shift;
+  __attribute__ ((target ("avx2"))) __m256i
+  operator() (const PixelReader & r, guint x) const
+  {
+    const __m256i px = _mm256_loadu_si256 ((const __m256i *) (r.row0 + x * 4));
+    return _mm256_and_si256 (_mm256_srl_epi32 (px, shift),
+        _mm256_set1_epi32 (0xffffff));
+  }
+};
+
+/* 3-byte pixels: the 24 bytes of 8 pixels (a masked load: nothing is
+ * read past them), bytes 12-27 moved to the high lane, then each pixel's
+ * three bytes to its lane. */
+struct Packed3Keys {
+  __attribute__ ((target ("avx2"))) __m256i
+  operator() (const PixelReader & r, guint x) const
+  {
+    const __m256i six = _mm256_setr_epi32 (-1, -1, -1, -1, -1, -1, 0, 0);
+    const __m256i bytes = _mm256_permutevar8x32_epi32 (_mm256_maskload_epi32
+        ((const int *) (r.row0 + x * 3), six),
+        _mm256_setr_epi32 (0, 1, 2, 3, 3, 4, 5, 6));
+    const __m256i pick = _mm256_setr_epi8 (0, 1, 2, -1, 3, 4, 5, -1,
+        6, 7, 8, -1, 9, 10, 11, -1, 0, 1, 2, -1, 3, 4, 5, -1,
+        6, 7, 8, -1, 9, 10, 11, -1);
+    return _mm256_shuffle_epi8 (bytes, pick);
+  }
+};
+
+/* Y | U << 8 | V << 16, a chroma pair for two pixels: the 4 pairs as
+ * 16-bit U | V << 8 words (NV12 stores them so), each twice, widened. */
+struct Yuv420Keys {
+  __attribute__ ((target ("avx2"))) __m256i
+  operator() (const PixelReader & r, guint x) const
+  {
+    __m128i uv;
+    if (r.upstride == 2) {
+      uv = _mm_loadl_epi64 ((const __m128i *) (r.row1 + x));
+    } else {
+      guint32 u, v;
+      memcpy (&u, r.row1 + x / 2, 4);
+      memcpy (&v, r.row2 + x / 2, 4);
+      uv = _mm_unpacklo_epi8 (_mm_cvtsi32_si128 ((int) u),
+          _mm_cvtsi32_si128 ((int) v));
+    }
+    const __m256i chroma = _mm256_cvtepu16_epi32 (_mm_unpacklo_epi16 (uv, uv));
+    const __m256i y = _mm256_cvtepu8_epi32 (_mm_loadl_epi64 ((const __m128i *)
+            (r.row0 + x)));
+    return _mm256_or_si256 (y, _mm256_slli_epi32 (chroma, 8));
+  }
+};
+
+/* Y0 U Y1 V words: one byte shuffle per 128-bit lane puts Y, U, V of
+ * pixels 0-3 (bytes 0-7) and 4-7 (bytes 8-15) in their lanes. */
+struct Yuy2Keys {
+  __attribute__ ((target ("avx2"))) __m256i
+  operator() (const PixelReader & r, guint x) const
+  {
+    const __m256i bytes = _mm256_broadcastsi128_si256 (_mm_loadu_si128
+        ((const __m128i *) (r.row0 + x * 2)));
+    const __m256i pick = _mm256_setr_epi8 (0, 1, 3, -1, 2, 1, 3, -1,
+        4, 5, 7, -1, 6, 5, 7, -1, 8, 9, 11, -1, 10, 9, 11, -1,
+        12, 13, 15, -1, 14, 13, 15, -1);
+    return _mm256_shuffle_epi8 (bytes, pick);
+  }
+};
+
+/* The labels of 8 keys, one per 32-bit lane: one gather reads 4 table
+ * bytes at each key (at the last key 3 of them are the table's padding)
+ * and the low byte is kept. */
+__attribute__ ((target ("avx2"))) inline __m256i
+gather8 (const guint8 * table, __m256i keys)
+{
+  return _mm256_and_si256 (_mm256_i32gather_epi32 ((const int *) table,
+          keys, 1), _mm256_set1_epi32 (0xff));
+}
+
+/* Pass 1 for rows y0..y1-1 of a slice with gathers, 32 pixels (four
+ * gathers packed to 32 labels, one store) a step, and counts[v] as
+ * count_labels gives it. Up to 7 classes (with kPending, 8 values) are
+ * counted as the labels go by, in registers (8-bit per-lane counters,
+ * summed before they can overflow), in place of a second pass over the
+ * plane; larger palettes count afterwards. The table holds kPending for
+ * cells not computed yet, as the scalar loops read it: label_frame
+ * resolves them. Row ends (under 32 pixels) go pixel by pixel. */
+template <class Keys> __attribute__ ((target ("avx2"))) void
+label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
+    guint width, guint y0, guint y1, guint8 * labels, guint n,
+    guint32 counts[256])
+{
+  const guint8 *t = table.labels ();
+  /* packs work within 128-bit lanes: this puts the 8-byte groups back in
+   * pixel order */
+  const __m256i order = _mm256_setr_epi32 (0, 4, 1, 5, 2, 6, 3, 7);
+  const bool fold = n + 1 <= 8;
+  guint8 values[8];
+  __m256i v[8], acc[8];
+  guint64 total[8] = { 0 };
+  guint steps = 0;
+  /* the loops over the 8 values are unrolled so that the counters stay in
+   * registers */
+#pragma GCC unroll 8
+  for (guint i = 0; i < 8; i++) {
+    values[i] = i < n ? i + 1 : ClassTable::kPending;
+    v[i] = _mm256_set1_epi8 ((char) values[i]);
+    acc[i] = _mm256_setzero_si256 ();
+  }
+  for (guint y = y0; y < y1; y++) {
+    reader.set_row (y);
+    guint8 *out = labels + (gsize) y * width;
+    guint x = 0;
+    for (; x + 32 <= width; x += 32) {
+      const __m256i a = gather8 (t, keys (reader, x));
+      const __m256i b = gather8 (t, keys (reader, x + 8));
+      const __m256i c = gather8 (t, keys (reader, x + 16));
+      const __m256i d = gather8 (t, keys (reader, x + 24));
+      const __m256i bytes = _mm256_permutevar8x32_epi32 (_mm256_packus_epi16
+          (_mm256_packus_epi32 (a, b), _mm256_packus_epi32 (c, d)), order);
+      _mm256_storeu_si256 ((__m256i *) (out + x), bytes);
+      if (!fold)
+        continue;
+#pragma GCC unroll 8
+      for (guint i = 0; i < 8; i++)
+        acc[i] = _mm256_sub_epi8 (acc[i], _mm256_cmpeq_epi8 (bytes, v[i]));
+      if (++steps < 255)
+        continue;
+#pragma GCC unroll 8
+      for (guint i = 0; i < 8; i++) {
+        total[i] += sum_bytes_avx2 (acc[i]);
+        acc[i] = _mm256_setzero_si256 ();
+      }
+      steps = 0;
+    }
+    for (; x < width; x++) {
+      guint8 c[3] = { 0, 0, 0 };
+      reader.get (x, c);
+      out[x] = table.lookup (c[0], c[1], c[2]);
+      if (fold)
+        for (guint i = 0; i <= n; i++)
+          total[i] += out[x] == values[i];
+    }
+  }
+  if (!fold) {
+    count_labels (labels + (gsize) y0 * width, (gsize) (y1 - y0) * width, n,
+        SimdLevel::AVX2, counts);
+    return;
+  }
+#pragma GCC unroll 8
+  for (guint i = 0; i < 8; i++)
+    if (i <= n)
+      counts[values[i]] += (guint32) (total[i] + sum_bytes_avx2 (acc[i]));
+}
+
+/* label_rows_avx2 with the layout's keys. */
+void
+label_rows_gather (const ClassTable & table, PixelReader & reader,
+    guint width, guint y0, guint y1, guint8 * labels, guint n,
+    guint32 counts[256])
+{
+  switch (reader.layout.layout) {
+    case PixelLayout::PACKED4:
+      label_rows_avx2 (table, reader, Packed4Keys { _mm_cvtsi32_si128
+              (reader.layout.key_shift) }, width, y0, y1, labels, n, counts);
+      break;
+    case PixelLayout::YUV420:
+      label_rows_avx2 (table, reader, Yuv420Keys (), width, y0, y1, labels,
+          n, counts);
+      break;
+    case PixelLayout::YUY2:
+      label_rows_avx2 (table, reader, Yuy2Keys (), width, y0, y1, labels, n,
+          counts);
+      break;
+    case PixelLayout::PACKED3:
+      label_rows_avx2 (table, reader, Packed3Keys (), width, y0, y1, labels,
+          n, counts);
+      break;
+  }
+}
+#endif
 
 void
 classify_packed3 (const guint8 * table, const guint8 * row, guint width,
@@ -484,6 +673,13 @@ label_frame (ClassTable & table, const GstVideoFrame * frame,
   /* the table is only read here: cells are filled below, on this thread */
   auto slice = [&](unsigned i, guint y0, guint y1) {
     PixelReader rows { frame, layout };
+#ifdef LANDMARK_HAVE_AVX2_PATH
+    if (layout.simd == SimdLevel::AVX2) {
+      label_rows_gather (table, rows, w, y0, y1, labels, n,
+          workers.slice_counts[i].data ());
+      return;
+    }
+#endif
     classify_rows (table, rows, w, y0, y1, labels);
     count_labels (labels + (gsize) y0 * w, (gsize) (y1 - y0) * w, n,
         layout.simd,

@@ -3,6 +3,7 @@ slices on several threads gives exactly what one thread gives (labels,
 histograms, the dominant-colour rule, the false-colour view, blobs), and
 the worker threads follow the property while playing."""
 
+import json
 import os
 import zlib
 
@@ -10,7 +11,7 @@ import cv2
 import numpy as np
 import pytest
 
-from gstlandmark import meta, pipeline
+from gstlandmark import meta, palette, pipeline
 
 import frames as F
 
@@ -84,15 +85,35 @@ def test_labsegment_threads_identical(gst, fmt, rare):
     assert demoted_seen
 
 
+def palette_of(n, tmp_path):
+    """A palette of n classes: the default one's 7, then grey levels."""
+    classes = json.loads(palette.default_palette_text())["classes"][:n]
+    for i in range(len(classes), n):
+        classes.append({"name": f"grey{i}", "lab": [5.0 + 90.0 * i / n,
+                                                    0.0, 0.0],
+                        "role": "floor"})
+    path = tmp_path / f"palette{n}.json"
+    path.write_text(json.dumps({"classes": classes}))
+    return path
+
+
+# 7 classes: the packed 4-byte gathers count the labels as they go; 12:
+# they count afterwards (two AVX2 passes)
+@pytest.mark.parametrize("classes", [7, 12])
 @pytest.mark.parametrize("fmt", F.ALL_FORMATS)
-def test_simd_levels_identical(gst, fmt, monkeypatch):
-    """The AVX2 class histogram, the SSE2 one and the SSE2 YUV keys against
-    the scalar loops (LANDMARK_SIMD, read when caps are set), on widths
-    with a vector part and a tail."""
-    rng = np.random.default_rng(seed_of(fmt, "scalar"))
-    for width, height in SIZES:
+def test_simd_levels_identical(gst, fmt, classes, monkeypatch, tmp_path):
+    """The AVX2 gathers and class histogram, the SSE2 histogram and the
+    SSE2 YUV keys against the scalar loops (LANDMARK_SIMD, read when caps
+    are set), on widths with a vector part (32 pixels a gather step) and a
+    tail."""
+    rng = np.random.default_rng(seed_of(fmt, "scalar", classes))
+    pal = palette_of(classes, tmp_path)
+    # 320x64: 640 steps of 32 pixels, past the 255 after which the
+    # gathers' 8-bit counters must be summed
+    for width, height in SIZES + [(320, 64)]:
         caps, payloads = payloads_for(fmt, width, height, rng)
-        element = f"labsegment output=labels min-class-pixels={width}"
+        element = (f"labsegment output=labels palette={pal} "
+                   f"min-class-pixels={width}")
         results = {}
         for level in ("none", "sse2", "best"):
             monkeypatch.setenv("LANDMARK_SIMD", level)

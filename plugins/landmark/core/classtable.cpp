@@ -169,11 +169,12 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
   if (!direct_) {
     void *p = nullptr;
     /* 2 MB aligned, so the table can sit in eight huge pages */
-    if (posix_memalign (&p, (size_t) 2 << 20, kTableSize) != 0)
+    if (posix_memalign (&p, (size_t) 2 << 20, kTableSize + kPadding) != 0)
       throw std::bad_alloc ();
 #ifdef MADV_HUGEPAGE
     madvise (p, kTableSize, MADV_HUGEPAGE);
 #endif
+    memset ((uint8_t *) p + kTableSize, 0, kPadding);
     direct_.reset ((uint8_t *) p);
   }
   uint8_t *out = direct_.get ();

@@ -54,8 +54,11 @@ public:
   const ClassifierConfig & config () const { return cfg_; }
   KeyOrder order () const { return order_; }
 
-  /* The label array, indexed by key; hot loops keep it in a local. */
+  /* The label array, indexed by key; hot loops keep it in a local. It is
+   * followed by kPadding zero bytes, so a gather may read 4 bytes at any
+   * key and keep the low one. */
   const uint8_t *labels () const { return direct_.get (); }
+  static constexpr size_t kPadding = 64;
 
   uint32_t key (uint8_t c0, uint8_t c1, uint8_t c2) const
   {

@@ -786,6 +786,47 @@ test_sharp_turns ()
   CHECK (worst_back < 0.3, "after the turns %f", worst_back);
 }
 
+/* after a second without landmarks the heading's sigma is about a
+ * radian: a new detection waits (its position would be off by the
+ * heading's curvature, beyond its covariance); seen again once a known
+ * landmark has fixed the heading, it starts */
+static void
+test_new_waits_for_heading ()
+{
+  Slam slam;
+  SlamObservation a, b;
+  a.class_name = "red";
+  a.obs.gx = 1.0;
+  a.obs.gy = 0.0;
+  b.class_name = "blue";
+  b.obs.gx = 1.5;
+  b.obs.gy = 0.5;
+  for (int k = 0; k < 5; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({ a });
+  }
+  for (int k = 0; k < 30; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({});
+  }
+  double c[9];
+  slam.pose_cov (c);
+  slam.predict (1 / 30.0);
+  SlamFrame f = slam.update ({ b });
+  std::printf ("heading sigma %.3f rad after a blind second: %s\n",
+      std::sqrt (c[8]), f.reasons[0].c_str ());
+  CHECK (f.reasons[0] == "uncertain-heading" && slam.landmarks ().size () == 1,
+      "%s, %zu landmarks", f.reasons[0].c_str (), slam.landmarks ().size ());
+  for (int k = 0; k < 10; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({ a });
+  }
+  slam.predict (1 / 30.0);
+  f = slam.update ({ a, b });
+  CHECK (f.reasons[1] == "new-landmark" && slam.landmarks ().size () == 2,
+      "%s, %zu landmarks", f.reasons[1].c_str (), slam.landmarks ().size ());
+}
+
 int
 main ()
 {
@@ -801,5 +842,6 @@ main ()
   test_biased_ranges_widened ();
   test_spurious_dropped ();
   test_sharp_turns ();
+  test_new_waits_for_heading ();
   return corecheck_summary ();
 }

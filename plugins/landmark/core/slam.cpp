@@ -681,6 +681,17 @@ Slam::update (const std::vector<SlamObservation> & obs)
       f.reasons[i] = "ambiguous";
       continue;
     }
+    /* A landmark starts from the pose: its position is off by
+     * r (1 - cos e) ~ r e^2 / 2 for a heading error e, which the
+     * linearised covariance leaves out. With the heading's sigma at
+     * tens of degrees (after a turn bridged on no landmark) that is
+     * decimetres at 2 m: the copy would be confirmed where the pose
+     * was wrong and later pull the pose there. Wait until that error
+     * is within the map accuracy asked for (confirm_sigma). */
+    if (0.5 * obs[i].obs.range () * p_[2 * n () + 2] > opt.confirm_sigma) {
+      f.reasons[i] = "uncertain-heading";
+      continue;
+    }
     if (lm_.size () >= opt.max_landmarks) {
       f.reasons[i] = "map-full";
       continue;

@@ -112,8 +112,8 @@ struct SlamFrame {
   bool ok = false;                /* a pose exists */
   std::string why;                /* when !ok */
   std::vector<int> match;         /* per observation: landmark index, -1 */
-  /* per observation: "new-landmark", "ambiguous", "no-pose",
-   * "map-full", empty when matched */
+  /* per observation: "new-landmark", "ambiguous", "uncertain-heading",
+   * "no-pose", "map-full", empty when matched */
   std::vector<std::string> reasons;
   int n_matched = 0;
   int n_new = 0;

@@ -4,7 +4,9 @@
  * with known Gaussian noise. Checked: map and path error bounds, no merged
  * or duplicated landmark, bearings beyond +-90 degrees, consistency
  * (NEES), a partial map anchoring the frame, odometry, a stationary robot,
- * the confirmation rule, biased ranges and a spurious detection. */
+ * the confirmation rule, biased ranges, a spurious detection, sharp turns
+ * with one or two landmarks in view, and a new landmark waiting for the
+ * heading. */
 #include "slam.h"
 #include "corecheck.h"
 

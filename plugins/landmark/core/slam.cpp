@@ -278,8 +278,8 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   s_[1] += s * dx + c * dy;
   s_[2] = wrap_angle (s_[2] + dth);
   if (dt > 0) {
-    /* the velocity states follow the odometry (robot-frame turned into
-     * world frame) for a later constant-velocity prediction */
+    /* the speed and turn rate follow the odometry, for a later
+     * constant-velocity prediction */
     s_[3] = dx / dt;
     s_[5] = dth / dt;
   }
@@ -454,25 +454,27 @@ Slam::update (const std::vector<SlamObservation> & obs)
   const int N = (int) n ();
   cv::Mat P (N, N, CV_64F, p_.data ());
 
-  /* innovation and Jacobian of observation i as landmark k, linearised
-   * at the state x */
-  auto measure = [&](const std::vector<double> &x, int i, int k,
-      cv::Vec2d * nu, cv::Mat * H) {
+  auto make_pairing = [&](int i, int k, Pairing * pr) {
     const auto & o = obs[i];
     const SlamLandmark & l = lm_[k];
     const int sl = slot_[k];
-    const double lx = sl >= 0 ? x[sl] : l.x, ly = sl >= 0 ? x[sl + 1] : l.y;
-    const double dx = lx - x[0], dy = ly - x[1];
+    const double lx = sl >= 0 ? s_[sl] : l.x, ly = sl >= 0 ? s_[sl + 1] : l.y;
+    const double dx = lx - s_[0], dy = ly - s_[1];
     const double q = dx * dx + dy * dy;
     if (q < 1e-12)
       return false;
     const double r = std::sqrt (q);
+    const double zr = o.obs.range (), zb = o.obs.bearing ();
+    double sr, sb;
+    slam_observation_sigmas (o, pass_views_[k] + 1, &sr, &sb);
+    pr->obs = i;
+    pr->lm = k;
     /* bearing innovation wrapped: a landmark behind the robot is near
      * +-pi and must not look 2 pi away */
-    *nu = cv::Vec2d (o.obs.range () - r, wrap_angle (o.obs.bearing () -
-            wrap_angle (std::atan2 (dy, dx) - x[2])));
-    *H = cv::Mat::zeros (2, (int) x.size (), CV_64F);
-    double *h0 = H->ptr<double> (0), *h1 = H->ptr<double> (1);
+    pr->nu = cv::Vec2d (zr - r, wrap_angle (zb -
+            wrap_angle (std::atan2 (dy, dx) - s_[2])));
+    pr->H = cv::Mat::zeros (2, (int) n (), CV_64F);
+    double *h0 = pr->H.ptr<double> (0), *h1 = pr->H.ptr<double> (1);
     h0[0] = -dx / r;
     h0[1] = -dy / r;
     h1[0] = dy / q;
@@ -484,16 +486,6 @@ Slam::update (const std::vector<SlamObservation> & obs)
       h1[sl] = -dy / q;
       h1[sl + 1] = dx / q;
     }
-    return true;
-  };
-
-  auto make_pairing = [&](int i, int k, Pairing * pr) {
-    if (!measure (s_, i, k, &pr->nu, &pr->H))
-      return false;
-    double sr, sb;
-    slam_observation_sigmas (obs[i], pass_views_[k] + 1, &sr, &sb);
-    pr->obs = i;
-    pr->lm = k;
     pr->R = cv::Matx22d (sr * sr, 0, 0, sb * sb);
     pr->PHt = P * pr->H.t ();
     cv::Mat S = pr->H * pr->PHt + cv::Mat (pr->R);

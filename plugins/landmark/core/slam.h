@@ -2,7 +2,9 @@
  * robot's pose and velocity and the positions of the landmarks it has
  * seen, with range-bearing measurements.
  *
- * - Motion: constant velocity, or robot-frame odometry increments whose
+ * - Motion: constant velocity of a ground robot (it drives along its
+ *   heading; the camera ahead of the turning centre), or robot-frame
+ *   odometry increments whose
  *   scale error and heading drift are part of the state.
  * - A landmark starts from one range and bearing, with the covariance that
  *   the pose's and the measurement's uncertainties give it. It is

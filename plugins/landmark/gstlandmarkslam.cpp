@@ -20,7 +20,7 @@
  *   or tentative (docs/metadata.md);
  * - on each detection a `landmark-match` structure: `matched`,
  *   `landmark-id`, or `reason` (`no-range`, `not-kept`, `cut-by-border`,
- *   `ambiguous`, `map-full`, `no-pose`).
+ *   `ambiguous`, `uncertain-heading`, `map-full`, `no-pose`).
  *
  * Placed after `trilaterate` it uses the detections trilaterate accepted,
  * leaves trilaterate's `landmark-match` in place and replaces its pose.

@@ -4,7 +4,9 @@
  * with known Gaussian noise. Checked: map and path error bounds, no merged
  * or duplicated landmark, bearings beyond +-90 degrees, consistency
  * (NEES), a partial map anchoring the frame, odometry, a stationary robot,
- * the confirmation rule, biased ranges and a spurious detection. */
+ * the confirmation rule, biased ranges, a spurious detection, sharp turns
+ * with one or two landmarks in view, and a new landmark waiting for the
+ * heading. */
 #include "slam.h"
 #include "corecheck.h"
 
@@ -49,6 +51,8 @@ struct SimOptions {
   double odo_scale = 1.02, odo_drift = M_PI / 180;   /* rad per metre */
   Pose2 start;
   int blind_after = -1;           /* frames from which nothing is seen */
+  /* the path frame by frame instead of the circle (from start) */
+  const std::vector<Pose2> *path = nullptr;
   SlamOptions slam;
 };
 
@@ -56,6 +60,7 @@ struct SimResult {
   std::vector<double> pose_err, nees;
   std::vector<Pose2> est, true_path;
   std::vector<int> seen;          /* per truth landmark: frames seen */
+  std::vector<int> in_view;       /* per posed frame: observations */
   /* observations at bearings beyond +-90 degrees after the first frame,
    * and how many of them were paired with a landmark */
   int behind = 0, behind_paired = 0;
@@ -67,7 +72,9 @@ truth_pose (const SimOptions & o, int k)
 {
   const double t = k / 30.0;
   Pose2 p;
-  if (o.speed > 0) {
+  if (o.path) {
+    p = (*o.path)[std::min ((size_t) k, o.path->size () - 1)];
+  } else if (o.speed > 0) {
     const double w = o.speed / o.radius, a = w * t;
     /* starts at the origin heading +x, turning left around (0, r) */
     p.x = o.radius * std::sin (a);
@@ -147,6 +154,7 @@ run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
     pt.heading = wrap_angle (p.heading - origin.heading);
     res->est.push_back (e);
     res->true_path.push_back (pt);
+    res->in_view.push_back ((int) obs.size ());
     const double ex = e.x - pt.x, ey = e.y - pt.y,
         eh = wrap_angle (e.heading - pt.heading);
     res->pose_err.push_back (std::hypot (ex, ey));
@@ -691,6 +699,136 @@ test_spurious_dropped ()
   CHECK (slam.landmarks ().empty (), "%zu", slam.landmarks ().size ());
 }
 
+
+/* A rounded square driven at constant speed: straights, then quarter
+ * turns whose turn rate ramps up at `alpha` to `wmax` and down again (a
+ * ground robot's bounded angular acceleration). Starts at the origin
+ * heading +x, turning left. */
+static std::vector<Pose2>
+square_path (double straight_s, double v, double alpha, double wmax,
+    int frames)
+{
+  const double ramp = wmax / alpha;
+  const double hold = (M_PI / 2 - wmax * ramp) / wmax;
+  const double side = straight_s + 2 * ramp + hold;
+  std::vector<Pose2> path;
+  Pose2 p;
+  const int sub = 20;
+  const double dt = 1 / 30.0 / sub;
+  double t = 0;
+  for (int k = 0; k < frames; k++) {
+    path.push_back (p);
+    for (int i = 0; i < sub; i++, t += dt) {
+      const double u = std::fmod (t, side) - straight_s;
+      double w = 0;
+      if (u > 0 && u < ramp)
+        w = alpha * u;
+      else if (u >= ramp && u < ramp + hold)
+        w = wmax;
+      else if (u >= ramp + hold && u < 2 * ramp + hold)
+        w = alpha * (2 * ramp + hold - u);
+      /* midpoint heading */
+      const double h = p.heading + 0.5 * w * dt;
+      p.x += v * dt * std::cos (h);
+      p.y += v * dt * std::sin (h);
+      p.heading = wrap_angle (p.heading + w * dt);
+    }
+  }
+  return path;
+}
+
+static void
+test_sharp_turns ()
+{
+  const auto path = square_path (2.5, 0.4, 4.0, 2.0, 908);
+  std::vector<TruthLandmark> truth;
+  const char *cls[] = { "red", "blue", "green", "yellow" };
+  /* five along each wall of a square around the path, four colours:
+   * one to four in view, none in some turns */
+  const double lo = -0.7, hi = 2.0;
+  for (int i = 0; i < 20; i++) {
+    const int side = i / 5;
+    const double a = lo + (hi - lo) * (i % 5 + 0.5) / 5;
+    double x = 0, y = 0;
+    switch (side) {
+      case 0: x = a; y = lo; break;
+      case 1: x = hi; y = a; break;
+      case 2: x = lo + hi - a; y = hi; break;
+      default: x = lo; y = lo + hi - a; break;
+    }
+    truth.push_back ({ cls[i % 4], x, y });
+  }
+  SimOptions o;
+  o.path = &path;
+  o.frames = (int) path.size ();
+  o.fov = 27 * M_PI / 180;        /* the seed's 54 degree camera */
+  o.max_range = 2.0;
+  SimResult r;
+  run (o, truth, &r);
+  int few = 0;
+  for (int v : r.in_view)
+    few += v < 3;
+  /* the pose once three or more are in view again after a stretch of
+   * fewer: recovered */
+  double worst_back = 0;
+  for (size_t k = 1; k + 5 < r.in_view.size (); k++)
+    if (r.in_view[k - 1] < 3 && r.in_view[k] >= 3)
+      worst_back = std::max (worst_back, r.pose_err[k + 5]);
+  const double rms = check_map (r, truth, "sharp turns");
+  const double med = percentile (r.pose_err, 0.5);
+  std::printf ("sharp turns: %d of %zu frames with fewer than 3 landmarks in "
+      "view, %zu landmarks (truth %zu), map rms %.4f m, path median %.4f "
+      "p95 %.4f m, worst 5 frames after 3 are back %.4f m\n", few,
+      r.in_view.size (), r.slam.landmarks ().size (), truth.size (), rms,
+      med, percentile (r.pose_err, 0.95), worst_back);
+  CHECK (r.slam.landmarks ().size () == truth.size (), "%zu landmarks",
+      r.slam.landmarks ().size ());
+  CHECK (rms < 0.06, "map rms %f", rms);
+  CHECK (med < 0.05, "path median %f", med);
+  CHECK (worst_back < 0.3, "after the turns %f", worst_back);
+}
+
+/* after a second without landmarks the heading's sigma is about a
+ * radian: a new detection waits (its position would be off by the
+ * heading's curvature, beyond its covariance); seen again once a known
+ * landmark has fixed the heading, it starts */
+static void
+test_new_waits_for_heading ()
+{
+  Slam slam;
+  SlamObservation a, b;
+  a.class_name = "red";
+  a.obs.gx = 1.0;
+  a.obs.gy = 0.0;
+  b.class_name = "blue";
+  b.obs.gx = 1.5;
+  b.obs.gy = 0.5;
+  for (int k = 0; k < 5; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({ a });
+  }
+  for (int k = 0; k < 30; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({});
+  }
+  double c[9];
+  slam.pose_cov (c);
+  slam.predict (1 / 30.0);
+  SlamFrame f = slam.update ({ b });
+  std::printf ("heading sigma %.3f rad after a blind second: %s\n",
+      std::sqrt (c[8]), f.reasons[0].c_str ());
+  CHECK (f.reasons[0] == "uncertain-heading" && slam.landmarks ().size () == 1,
+      "%s, %zu landmarks", f.reasons[0].c_str (), slam.landmarks ().size ());
+  for (int k = 0; k < 10; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({ a });
+  }
+  slam.predict (1 / 30.0);
+  f = slam.update ({ a, b });
+  CHECK (f.reasons[1] == "new-landmark" && slam.landmarks ().size () == 2,
+      "%s, %zu landmarks", f.reasons[1].c_str (), slam.landmarks ().size ());
+}
+
 int
 main ()
 {
@@ -705,5 +843,7 @@ main ()
   test_confirm_short_pass ();
   test_biased_ranges_widened ();
   test_spurious_dropped ();
+  test_sharp_turns ();
+  test_new_waits_for_heading ();
   return corecheck_summary ();
 }

@@ -28,7 +28,8 @@ gamma_p (double a, double x)
       * sum);
 }
 
-/* x y th vx vy w, then the odometry's scale error (its distance over the
+/* x y th, forward speed v, camera offset d, turn rate w, then the
+ * odometry's scale error (its distance over the
  * true one, minus 1) and heading drift (rad per metre) */
 constexpr int kPose = 8;
 constexpr int kScale = 6, kDrift = 7;
@@ -160,7 +161,8 @@ Slam::init_pose (const Pose2 & p, const double cov[9])
     for (int j = 0; j < 3; j++)
       p_[i * kPose + j] = cov[i * 3 + j];
   /* the robot may start moving: velocities unknown within these sigmas */
-  p_[3 * kPose + 3] = p_[4 * kPose + 4] = 0.5 * 0.5;
+  p_[3 * kPose + 3] = 0.5 * 0.5;
+  p_[4 * kPose + 4] = opt.offset_sigma * opt.offset_sigma;
   p_[5 * kPose + 5] = 1.0;
   p_[kScale * kPose + kScale] = opt.odo_scale_sigma * opt.odo_scale_sigma;
   p_[kDrift * kPose + kDrift] = opt.odo_drift_sigma * opt.odo_drift_sigma;
@@ -174,25 +176,56 @@ Slam::predict (double dt)
     return;
   const int N = (int) n ();
   cv::Mat P (N, N, CV_64F, p_.data ());
-  /* only the pose rows and columns change: P = F P F' + Q with F the
-   * identity but for x += vx dt (and y, heading) */
-  for (int k = 0; k < 3; k++) {
-    s_[k] += dt * s_[k + 3];
-    P.row (k) += dt * P.row (k + 3);
-  }
-  for (int k = 0; k < 3; k++)
-    P.col (k) += dt * P.col (k + 3);
-  s_[2] = wrap_angle (s_[2]);
-  const double qa = opt.accel_sigma * opt.accel_sigma;
-  const double qw = opt.alpha_sigma * opt.alpha_sigma;
+  /* A ground robot drives along its heading: its wheels do not slide
+   * sideways, so a turn changes the direction of travel with the heading
+   * and needs no acceleration to explain it. The camera (whose pose this
+   * is) sits a distance d ahead of the turning centre and swings out at
+   * w d on turns. State: forward speed v, that offset d, turn rate w;
+   * heading at the middle of the interval. */
+  const double v = s_[3], d = s_[4], w = s_[5], u = w * d;
+  const double ph = s_[2] + 0.5 * w * dt, c = std::cos (ph),
+      sn = std::sin (ph);
+  const double vx = c * v - sn * u, vy = sn * v + c * u;
+  cv::Mat F = cv::Mat::zeros (3, N, CV_64F);
+  for (int i = 0; i < 3; i++)
+    F.at<double> (i, i) = 1;
+  F.at<double> (0, 2) = -dt * vy;
+  F.at<double> (0, 3) = dt * c;
+  F.at<double> (0, 4) = -dt * sn * w;
+  F.at<double> (0, 5) = -0.5 * dt * dt * vy - dt * sn * d;
+  F.at<double> (1, 2) = dt * vx;
+  F.at<double> (1, 3) = dt * sn;
+  F.at<double> (1, 4) = dt * c * w;
+  F.at<double> (1, 5) = 0.5 * dt * dt * vx + dt * c * d;
+  F.at<double> (2, 5) = dt;
+  cv::Mat rows = F * P;
+  rows.copyTo (P.rowRange (0, 3));
+  cv::Mat cols = P * F.t ();
+  cols.copyTo (P.colRange (0, 3));
+  s_[0] += dt * vx;
+  s_[1] += dt * vy;
+  s_[2] = wrap_angle (s_[2] + dt * w);
+  /* white acceleration noise along the heading and of the turn rate
+   * (position-velocity blocks t^3/3, t^2/2, t), a little sideways slip
+   * (position only) and the offset nearly constant */
   const double t3 = dt * dt * dt / 3, t2 = dt * dt / 2;
-  for (int k = 0; k < 3; k++) {
-    const double q = k < 2 ? qa : qw;
-    P.at<double> (k, k) += t3 * q;
-    P.at<double> (k, k + 3) += t2 * q;
-    P.at<double> (k + 3, k) += t2 * q;
-    P.at<double> (k + 3, k + 3) += dt * q;
-  }
+  const double qf = opt.accel_sigma * opt.accel_sigma,
+      ql = opt.lateral_sigma * opt.lateral_sigma,
+      qw = opt.alpha_sigma * opt.alpha_sigma;
+  P.at<double> (0, 0) += t3 * (c * c * qf + sn * sn * ql);
+  P.at<double> (0, 1) += t3 * c * sn * (qf - ql);
+  P.at<double> (1, 0) += t3 * c * sn * (qf - ql);
+  P.at<double> (1, 1) += t3 * (sn * sn * qf + c * c * ql);
+  P.at<double> (0, 3) += t2 * c * qf;
+  P.at<double> (3, 0) += t2 * c * qf;
+  P.at<double> (1, 3) += t2 * sn * qf;
+  P.at<double> (3, 1) += t2 * sn * qf;
+  P.at<double> (3, 3) += dt * qf;
+  P.at<double> (4, 4) += dt * opt.offset_drift * opt.offset_drift;
+  P.at<double> (2, 2) += t3 * qw;
+  P.at<double> (2, 5) += t2 * qw;
+  P.at<double> (5, 2) += t2 * qw;
+  P.at<double> (5, 5) += dt * qw;
 }
 
 void
@@ -245,10 +278,9 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   s_[1] += s * dx + c * dy;
   s_[2] = wrap_angle (s_[2] + dth);
   if (dt > 0) {
-    /* the velocity states follow the odometry (robot-frame turned into
-     * world frame) for a later constant-velocity prediction */
-    s_[3] = (c * dx - s * dy) / dt;
-    s_[4] = (s * dx + c * dy) / dt;
+    /* the speed and turn rate follow the odometry, for a later
+     * constant-velocity prediction */
+    s_[3] = dx / dt;
     s_[5] = dth / dt;
   }
 }
@@ -639,6 +671,17 @@ Slam::update (const std::vector<SlamObservation> & obs)
         d2 = 0;
     if (d2 < opt.new_chi2) {
       f.reasons[i] = "ambiguous";
+      continue;
+    }
+    /* A landmark starts from the pose: its position is off by
+     * r (1 - cos e) ~ r e^2 / 2 for a heading error e, which the
+     * linearised covariance leaves out. With the heading's sigma at
+     * tens of degrees (after a turn bridged on no landmark) that is
+     * decimetres at 2 m: the copy would be confirmed where the pose
+     * was wrong and later pull the pose there. Wait until that error
+     * is within the map accuracy asked for (confirm_sigma). */
+    if (0.5 * obs[i].obs.range () * p_[2 * n () + 2] > opt.confirm_sigma) {
+      f.reasons[i] = "uncertain-heading";
       continue;
     }
     if (lm_.size () >= opt.max_landmarks) {

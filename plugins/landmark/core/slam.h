@@ -2,7 +2,9 @@
  * robot's pose and velocity and the positions of the landmarks it has
  * seen, with range-bearing measurements.
  *
- * - Motion: constant velocity, or robot-frame odometry increments whose
+ * - Motion: constant velocity of a ground robot (it drives along its
+ *   heading; the camera ahead of the turning centre), or robot-frame
+ *   odometry increments whose
  *   scale error and heading drift are part of the state.
  * - A landmark starts from one range and bearing, with the covariance that
  *   the pose's and the measurement's uncertainties give it. It is
@@ -38,11 +40,18 @@
 namespace landmark {
 
 struct SlamOptions {
-  /* constant-velocity process noise: a robot that drives smoothly (the
-   * synthetic loops turn at up to 0.7 m/s^2, 0.6 rad/s^2); looser values
-   * let the heading drift faster between landmarks */
-  double accel_sigma = 0.5;       /* m/s^2 */
-  double alpha_sigma = 1.0;       /* rad/s^2 */
+  /* constant-velocity model of a ground robot (docs/landmarkslam.md,
+   * "Motion"): it drives along its heading, the camera a distance d
+   * ahead of the turning centre (a state, prior sigma offset_sigma);
+   * white noise of the forward acceleration and of the turn rate's
+   * change at the bounds of what a small robot does (as trilaterate's
+   * filter: 1 m/s^2, 3 rad/s^2, a turn rate changing by up to 0.1 rad/s
+   * per frame at 30 fps), and a little sideways slip */
+  double accel_sigma = 1.0;       /* m/s^2, along the heading */
+  double alpha_sigma = 3.0;       /* rad/s^2 */
+  double lateral_sigma = 0.1;     /* m/s^2, slip across the heading */
+  double offset_sigma = 0.1;      /* m */
+  double offset_drift = 0.001;    /* m/sqrt(s): the offset is fixed */
   double gate_chi2 = 13.82;       /* per pairing, 2 dof (99.9 %) */
   double joint_probability = 0.999;   /* JCBB joint test */
   double new_chi2 = 40.0;         /* farther than this from all: new */
@@ -105,8 +114,8 @@ struct SlamFrame {
   bool ok = false;                /* a pose exists */
   std::string why;                /* when !ok */
   std::vector<int> match;         /* per observation: landmark index, -1 */
-  /* per observation: "new-landmark", "ambiguous", "no-pose",
-   * "map-full", empty when matched */
+  /* per observation: "new-landmark", "ambiguous", "uncertain-heading",
+   * "no-pose", "map-full", empty when matched */
   std::vector<std::string> reasons;
   int n_matched = 0;
   int n_new = 0;
@@ -142,7 +151,7 @@ public:
 private:
   bool init_ = false;
   bool anchored_ = false;
-  std::vector<double> s_;         /* x y th vx vy w k g, then landmarks */
+  std::vector<double> s_;         /* x y th v d w k g, then landmarks */
   std::vector<double> p_;         /* covariance, n x n row-major */
   std::vector<SlamLandmark> lm_;
   std::vector<int> slot_;         /* per landmark: state index, -1 anchor */

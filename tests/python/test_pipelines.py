@@ -255,9 +255,9 @@ def test_pipeline_runs(gst, name, tmp_path, monkeypatch, chain_vars):
     if "landmarkslam" in desc:
         # landmarkslam waits for two landmarks in view before its first
         # pose (frames 0-16 of this clip see one): 28 of 45 when written;
-        # docs/landmarkslam.md: path error median 2.2 cm, p95 5.5 cm
-        check_log(variables["LOG"], posed_min=28, median_m=3 * 0.022,
-                  max_m=3 * 0.055)
+        # docs/pipelines.md: path error median 1.5 mm, worst 6.2 mm
+        check_log(variables["LOG"], posed_min=28, median_m=3 * 0.0015,
+                  max_m=3 * 0.0062)
     elif "${LOG}" in desc or log_only:
         check_log(variables["LOG"], posed_min=TRILATERATE_ON_CLIP["posed"],
                   median_m=TRILATERATE_ON_CLIP["median_m"],

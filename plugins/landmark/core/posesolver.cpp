@@ -662,6 +662,7 @@ localise (const std::vector<MapPoint> & map,
     det_of.push_back (k);
   }
 
+  res.paired = match;
   PoseSolution sol;
   if (cs.size () >= 3) {
     sol = solve_many (cs, opt.lsq);

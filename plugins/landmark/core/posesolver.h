@@ -150,6 +150,10 @@ struct LocaliseResult {
    * "outside-gate", "ambiguous", "duplicate", "outlier",
    * "too-few-landmarks", "no-solution"; empty when matched */
   std::vector<std::string> reasons;
+  /* per detection: the map index it was paired with before solving (-1:
+   * none), kept when no pose was found, so that a filter can test each
+   * pairing against its own prediction */
+  std::vector<int> paired;
   int n_used = 0;               /* landmarks in the solution */
   int hypotheses = 0;           /* pair poses the consensus tried */
 };

@@ -56,8 +56,20 @@ teardown (void)
 /* A detection of map landmark k seen from pose (x, y, h), with a
  * landmark-range structure in the robot frame (docs/conventions.md). */
 static void
+add_seen_sigma (GstBuffer * buf, gint id, guint k, double x, double y,
+    double h, double range_bias, double range_sigma);
+
+static void
 add_seen (GstBuffer * buf, gint id, guint k, double x, double y, double h,
     double range_bias)
+{
+  add_seen_sigma (buf, id, k, x, y, h, range_bias, 0.01);
+}
+
+/* The same with the range's sigma given. */
+static void
+add_seen_sigma (GstBuffer * buf, gint id, guint k, double x, double y,
+    double h, double range_bias, double range_sigma)
 {
   const double dx = LM[k].x - x, dy = LM[k].y - y;
   double gx = cos (h) * dx + sin (h) * dy;
@@ -73,7 +85,7 @@ add_seen (GstBuffer * buf, gint id, guint k, double x, double y, double h,
       gst_structure_new ("landmark-range", "range", G_TYPE_DOUBLE, r,
           "bearing", G_TYPE_DOUBLE, atan2 (gy, gx), "ground-x", G_TYPE_DOUBLE,
           gx, "ground-y", G_TYPE_DOUBLE, gy, "range-sigma", G_TYPE_DOUBLE,
-          0.01, "bearing-sigma", G_TYPE_DOUBLE, 0.005, "no-floor",
+          range_sigma, "bearing-sigma", G_TYPE_DOUBLE, 0.005, "no-floor",
           G_TYPE_BOOLEAN, FALSE, NULL));
 }
 
@@ -402,6 +414,45 @@ LANDMARK_TEST ("general", test_ekf_bridges)
                 "solver"), "ekf");
     } else if (n > 30 + 16) {
       fail_unless (m == NULL, "frame %u bridged beyond max-age", n);
+    }
+    gst_buffer_unref (out);
+  }
+  harness_done (h, bus);
+}
+GST_END_TEST;
+
+/* The robot stops after a second at 0.3 m/s along +x. From then on it
+ * sees the yellow landmark (its colour's only one) exactly and a green one
+ * ranged 1 m short with a 0.5 m sigma (a blob merged or cut): no pose
+ * fits both, yet the filter, testing each pairing against its own
+ * prediction, keeps the yellow one and follows the robot to its stop. */
+LANDMARK_TEST ("general", test_ekf_keeps_pairings_without_a_solution)
+{
+  GstBus *bus;
+  GstHarness *h = harness ("filter=ekf", &bus);
+  guint n;
+  for (n = 0; n < 75; n++) {
+    const double x = 1 + 0.3 * MIN (n, 30) / 30.0, y = 2, hd = 0.0;
+    GstBuffer *in = frame (n);
+    if (n < 30) {
+      add_seen (in, 0, 0, x, y, hd, 0);
+      add_seen (in, 1, 1, x, y, hd, 0);
+      add_seen (in, 2, 5, x, y, hd, 0);
+    } else {
+      add_seen (in, 0, 5, x, y, hd, 0);
+      add_seen_sigma (in, 1, 1, x, y, hd, -1.0, 0.5);
+    }
+    GstBuffer *out = gst_harness_push_and_pull (h, in);
+    if (n >= 60) {
+      GstCustomMeta *m = gst_buffer_get_custom_meta (out,
+          "GstLandmarkPoseMeta");
+      double px, py;
+      fail_unless (m != NULL, "no pose in frame %u", n);
+      const GstStructure *pose = gst_custom_meta_get_structure (m);
+      gst_structure_get_double (pose, "x", &px);
+      gst_structure_get_double (pose, "y", &py);
+      fail_unless (hypot (px - x, py - y) < 0.05,
+          "frame %u: (%.4f, %.4f) want (%.4f, %.4f)", n, px, py, x, y);
     }
     gst_buffer_unref (out);
   }

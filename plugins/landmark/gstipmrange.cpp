@@ -404,7 +404,7 @@ static const landmark::MarkerSpec *
 gst_ipm_range_cut_blob_fits_no_marker (GstIpmRange * self,
     const landmark::BlobObservation & obs,
     const std::vector<landmark::MarkerSpec> & hypotheses,
-    landmark::RangeEstimate * e)
+    const landmark::MountingSigma & mounting, landmark::RangeEstimate * e)
 {
   const Config & cfg = self->priv->state.applied.config;
   const landmark::MarkerSpec *first = nullptr;
@@ -413,7 +413,7 @@ gst_ipm_range_cut_blob_fits_no_marker (GstIpmRange * self,
     obs.minor, obs.angle};
   for (const landmark::MarkerSpec & h : hypotheses) {
     const landmark::RangeEstimate t = landmark::estimate_range
-        (self->priv->state.geometry, obs, h, cfg.s.pixel_sigma);
+        (self->priv->state.geometry, obs, h, cfg.s.pixel_sigma, mounting);
     landmark::ImageEllipse predicted;
     if (t.no_floor || gst_ipm_range_size_agreement (self, obs, h, t,
             &predicted) < 0)
@@ -578,7 +578,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   }
   if (hypotheses && cut)
     chosen = gst_ipm_range_cut_blob_fits_no_marker (self, obs, *hypotheses,
-        &e);
+        mounting, &e);
   if (!chosen)
     e = landmark::estimate_range (st.geometry, obs, marker,
         cfg.s.pixel_sigma, mounting);

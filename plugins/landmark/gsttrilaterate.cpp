@@ -394,13 +394,13 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
         st.ekf_measured = now;
       } else if (!res.ok) {
         /* no pose from the landmarks together (one of them far off its
-         * pairing): the filter tests each pairing against its prediction */
-        std::vector<landmark::Correspondence> paired;
-        for (size_t k = 0; k < dets.size (); k++)
-          if (k < res.paired.size () && res.paired[k] >= 0)
-            paired.push_back ({ dets[k].obs, map[res.paired[k]].x,
+         * pairing): the filter tests each pairing against its prediction
+         * (used is empty without a solution; cleared again below) */
+        for (size_t k = 0; k < res.paired.size (); k++)
+          if (res.paired[k] >= 0)
+            used.push_back ({ dets[k].obs, map[res.paired[k]].x,
                     map[res.paired[k]].y });
-        if (!paired.empty () && st.ekf.update (paired) > 0)
+        if (!used.empty () && st.ekf.update (used) > 0)
           st.ekf_measured = now;
       } else if (!used.empty () && st.ekf.update (used) > 0) {
         st.ekf_measured = now;

@@ -29,15 +29,11 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import pipeline
+from ..landmarklog import read_jsonl
 from ..synth import render_scenario
 
 FRAMES, MAPPED = 900, 600
 SEED_CAMERA = {"hfov_deg": 54.0, "height_m": 0.2, "tilt_deg": 18.0}
-
-
-def read_jsonl(path: str) -> List[Dict[str, Any]]:
-    with open(path) as f:
-        return [json.loads(line) for line in f if line.strip()]
 
 
 def chain_head(clip: str) -> str:

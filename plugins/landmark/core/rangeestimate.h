@@ -60,7 +60,13 @@ struct RangeEstimate {
   /* when the class has several markers and none could be chosen: how far
    * the others' ranges (metres) and bearings (radians) lie from this one */
   double kind_range_spread = 0, kind_bearing_spread = 0;
-  /* the sigmas with size_excess and the kind spreads added (to the range,
+  /* a disc's outline off its edge by the same offset all round (blur,
+   * the colour threshold): the offset the known diameter gives, through
+   * the shift of the plane circle's centre it makes, metres and radians
+   * (docs/ranging.md, "Uncertainty"); 0 for balls, without a diameter, and
+   * when size_excess stands for a cut or merged blob */
+  double rim_range = 0, rim_bearing = 0;
+  /* the sigmas with size_excess, the kind spreads and the rim added (to the range,
    * and over the range to the bearing): what ipmrange reports */
   double range_sigma_total (double sigma) const;
   double bearing_sigma_total () const;

@@ -275,6 +275,7 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
   }
   const double h = 0.5;
   double rl, bl, rr, br, ru, bu, rd, bd;
+  double range_v = 0, bearing_v = 0;    /* per geometry pixel down */
   if (polar_at (g, centre_u - h, centre_v, m.z, &rl, &bl)
       && polar_at (g, centre_u + h, centre_v, m.z, &rr, &br)
       && polar_at (g, centre_u, centre_v - h, m.z, &ru, &bu)
@@ -282,6 +283,8 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     const double r_u = (rr - rl) / (2 * h), r_v = (rd - ru) / (2 * h);
     const double b_u = std::remainder (br - bl, 2 * M_PI) / (2 * h);
     const double b_v = std::remainder (bd - bu, 2 * M_PI) / (2 * h);
+    range_v = r_v;
+    bearing_v = b_v;
     out.range_ground_sigma = std::sqrt (std::max (0.0, r_u * r_u * cov[0]
             + 2 * r_u * r_v * cov[1] + r_v * r_v * cov[2]));
     out.bearing_sigma = std::sqrt (std::max (0.0, b_u * b_u * cov[0]
@@ -319,6 +322,16 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
         out.range_size_sigma);
     if (excess > 0)
       out.size_excess = std::sqrt (excess);
+  }
+  /* a ball's rim: its outline is off its edge by the offset its size
+   * range gives (the major axis against the one the floor range predicts,
+   * per side), but the shading takes it from the underside rather than all
+   * round, so the centre may move down the image by as much */
+  if (m.ball && ellipse && out.has_size && out.range_ground > 0) {
+    const double offset = blob.major / 2 *
+        (out.range_size / out.range_ground - 1) * blob.sy;
+    out.rim_range = std::fabs (offset * range_v);
+    out.rim_bearing = std::fabs (offset * bearing_v);
   }
   /* a disagreement beyond the bound is a cut or merged blob, not a rim:
    * size_excess stands for it */

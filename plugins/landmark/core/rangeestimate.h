@@ -60,10 +60,11 @@ struct RangeEstimate {
   /* when the class has several markers and none could be chosen: how far
    * the others' ranges (metres) and bearings (radians) lie from this one */
   double kind_range_spread = 0, kind_bearing_spread = 0;
-  /* a disc's outline off its edge by the same offset all round (blur,
-   * the colour threshold): the offset the known diameter gives, through
-   * the shift of the plane circle's centre it makes, metres and radians
-   * (docs/ranging.md, "Uncertainty"); 0 for balls, without a diameter, and
+  /* the outline off the marker's edge (blur, the colour threshold) by the
+   * offset the known diameter gives: a disc's all round, through the shift
+   * of the plane circle's centre it makes; a ball's from its shaded
+   * underside, the centre moved down the image by as much. Metres and
+   * radians (docs/ranging.md, "Uncertainty"); 0 without a diameter and
    * when size_excess stands for a cut or merged blob */
   double rim_range = 0, rim_bearing = 0;
   /* the sigmas with size_excess, the kind spreads and the rim added (to the range,

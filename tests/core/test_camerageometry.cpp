@@ -292,6 +292,23 @@ pinhole_floor_polar (double f, double cx, double cy, double h, double t,
   *bearing = std::atan2 (s * left, s * fwd);
 }
 
+/* The seed's camera: 0.2 m up, hfov 54, 640x480, tilted tilt_deg down. */
+static CameraGeometry
+seed_camera (double tilt_deg)
+{
+  CameraParams p;
+  p.width = 640;
+  p.height = 480;
+  p.camera_height = 0.2;
+  p.tilt_deg = tilt_deg;
+  CHECK (intrinsics_from_hfov (54, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy),
+      "hfov 54");
+  CameraGeometry g;
+  std::string err;
+  CHECK (g.configure (p, &err), "%s", err.c_str ());
+  return g;
+}
+
 /* The sigma model (docs/ranging.md, "Uncertainty") against the camera
  * written out by hand: a round blob of D pixels has a centre sigma of
  * pixel_sigma sqrt (2 / (pi D)) per axis, and range and bearing sigmas of
@@ -301,16 +318,7 @@ pinhole_floor_polar (double f, double cx, double cy, double h, double t,
 static void
 test_sigma_model ()
 {
-  CameraParams p;
-  p.width = 640;
-  p.height = 480;
-  p.camera_height = 0.2;
-  p.tilt_deg = 20;
-  CHECK (intrinsics_from_hfov (54, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy),
-      "hfov 54");
-  CameraGeometry g;
-  std::string err;
-  CHECK (g.configure (p, &err), "%s", err.c_str ());
+  const CameraGeometry g = seed_camera (20);
   const double f = 320 / std::tan (27 * M_PI / 180);
   const double t = 20 * M_PI / 180, e = 0.5;
   const double pts[][3] = { {319.5, 300, 40}, {500, 260, 25}, {100, 400, 80},
@@ -444,16 +452,7 @@ moved_outline (const std::vector<cv::Point2f> & in, F offset)
 static void
 test_rim ()
 {
-  CameraParams p;
-  p.width = 640;
-  p.height = 480;
-  p.camera_height = 0.2;
-  p.tilt_deg = 18;
-  CHECK (intrinsics_from_hfov (54, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy),
-      "hfov 54");
-  CameraGeometry g;
-  std::string err;
-  CHECK (g.configure (p, &err), "%s", err.c_str ());
+  const CameraGeometry g = seed_camera (18);
   /* a disc of 0.1 m, 0.4 m ahead and 0.1 m to the left */
   const double dx = 0.4, dy = 0.1, rad = 0.05;
   std::vector<cv::Point2f> disc;

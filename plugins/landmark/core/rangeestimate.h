@@ -67,8 +67,8 @@ struct RangeEstimate {
    * radians (docs/ranging.md, "Uncertainty"); 0 without a diameter and
    * when size_excess stands for a cut or merged blob */
   double rim_range = 0, rim_bearing = 0;
-  /* the sigmas with size_excess, the kind spreads and the rim added (to the range,
-   * and over the range to the bearing): what ipmrange reports */
+  /* the sigmas with size_excess, the kind spreads and the rim added (to
+   * the range, and over the range to the bearing): what ipmrange reports */
   double range_sigma_total (double sigma) const;
   double bearing_sigma_total () const;
 };

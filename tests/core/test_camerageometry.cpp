@@ -292,6 +292,23 @@ pinhole_floor_polar (double f, double cx, double cy, double h, double t,
   *bearing = std::atan2 (s * left, s * fwd);
 }
 
+/* The seed's camera: 0.2 m up, hfov 54, 640x480, tilted tilt_deg down. */
+static CameraGeometry
+seed_camera (double tilt_deg)
+{
+  CameraParams p;
+  p.width = 640;
+  p.height = 480;
+  p.camera_height = 0.2;
+  p.tilt_deg = tilt_deg;
+  CHECK (intrinsics_from_hfov (54, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy),
+      "hfov 54");
+  CameraGeometry g;
+  std::string err;
+  CHECK (g.configure (p, &err), "%s", err.c_str ());
+  return g;
+}
+
 /* The sigma model (docs/ranging.md, "Uncertainty") against the camera
  * written out by hand: a round blob of D pixels has a centre sigma of
  * pixel_sigma sqrt (2 / (pi D)) per axis, and range and bearing sigmas of
@@ -301,16 +318,7 @@ pinhole_floor_polar (double f, double cx, double cy, double h, double t,
 static void
 test_sigma_model ()
 {
-  CameraParams p;
-  p.width = 640;
-  p.height = 480;
-  p.camera_height = 0.2;
-  p.tilt_deg = 20;
-  CHECK (intrinsics_from_hfov (54, 640, 480, &p.fx, &p.fy, &p.cx, &p.cy),
-      "hfov 54");
-  CameraGeometry g;
-  std::string err;
-  CHECK (g.configure (p, &err), "%s", err.c_str ());
+  const CameraGeometry g = seed_camera (20);
   const double f = 320 / std::tan (27 * M_PI / 180);
   const double t = 20 * M_PI / 180, e = 0.5;
   const double pts[][3] = { {319.5, 300, 40}, {500, 260, 25}, {100, 400, 80},
@@ -395,6 +403,141 @@ test_sigma_model ()
   std::printf ("sigma model: matches the hand-written pinhole's gradient\n");
 }
 
+/* A blob from outline points (cv::fitEllipse), as blobroundness gives it. */
+static BlobObservation
+blob_of (const std::vector<cv::Point2f> & outline)
+{
+  const cv::RotatedRect e = cv::fitEllipse (outline);
+  BlobObservation o;
+  o.has_ellipse = true;
+  o.u = o.eu = e.center.x;
+  o.v = o.ev = e.center.y;
+  o.major = std::max (e.size.width, e.size.height);
+  o.minor = std::min (e.size.width, e.size.height);
+  o.angle = e.angle * M_PI / 180 + (e.size.width < e.size.height ?
+      M_PI / 2 : 0);
+  return o;
+}
+
+/* Each point of a closed outline moved along its normal (outwards
+ * positive) by offset (x, y): the normal from its two neighbours. */
+template < typename F > static std::vector<cv::Point2f>
+moved_outline (const std::vector<cv::Point2f> & in, F offset)
+{
+  std::vector<cv::Point2f> out;
+  const size_t n = in.size ();
+  double area2 = 0;             /* > 0: counter-clockwise in (u, v) */
+  for (size_t i = 0; i < n; i++)
+    area2 += in[i].x * in[(i + 1) % n].y - in[(i + 1) % n].x * in[i].y;
+  for (size_t i = 0; i < n; i++) {
+    const cv::Point2f t = in[(i + 1) % n] - in[(i + n - 1) % n];
+    double nu = t.y, nv = -t.x;
+    const double len = std::hypot (nu, nv) * (area2 > 0 ? 1 : -1);
+    nu /= len;
+    nv /= len;
+    const double d = offset (nu, nv);
+    out.emplace_back ((float) (in[i].x + d * nu), (float) (in[i].y + d * nv));
+  }
+  return out;
+}
+
+/* The rim (docs/ranging.md, "Uncertainty"): the seed camera (0.2 m, tilt
+ * 18, hfov 54). A near disc whose outline is eroded by 0.3 px all round,
+ * as blur and a colour threshold do, comes out short by a shift of its
+ * plane centre that the pixel term (0.05 mm at 0.4 m) does not cover; a
+ * ball whose outline lost 0.5 px underneath, 0.25 px on the sides and none
+ * on top (its shading) comes out long. The rim term,
+ * from the known diameter, must account for each error, and is nil for
+ * the exact outlines. */
+static void
+test_rim ()
+{
+  const CameraGeometry g = seed_camera (18);
+  /* a disc of 0.1 m, 0.4 m ahead and 0.1 m to the left */
+  const double dx = 0.4, dy = 0.1, rad = 0.05;
+  std::vector<cv::Point2f> disc;
+  for (int i = 0; i < 720; i++) {
+    const double t = 2 * M_PI * i / 720;
+    double u, v;
+    g.project (Vec3 {dx + rad * std::cos (t), dy + rad * std::sin (t), 0},
+        &u, &v);
+    disc.emplace_back ((float) u, (float) v);
+  }
+  MarkerSpec dspec;
+  dspec.diameter = 2 * rad;
+  const double want = std::hypot (dx, dy);
+  const RangeEstimate exact = estimate_range (g, blob_of (disc), dspec, 0.5);
+  const RangeEstimate eroded = estimate_range (g, blob_of (moved_outline (
+              disc, [](double, double) { return -0.3; })), dspec, 0.5);
+  const double e_disc = eroded.range_ground - want;
+  std::printf ("rim, disc at %.3f m: exact %+.4f mm (rim %.4f), eroded "
+      "0.3 px %+.4f mm, pixel sigma %.4f, rim %.4f mm\n", want,
+      1e3 * (exact.range_ground - want), 1e3 * exact.rim_range,
+      1e3 * e_disc, 1e3 * eroded.range_ground_sigma,
+      1e3 * eroded.rim_range);
+  CHECK (std::fabs (exact.range_ground - want) < 5e-6
+      && exact.rim_range < 0.1 * eroded.rim_range, "exact disc: error %g, "
+      "rim %g", exact.range_ground - want, exact.rim_range);
+  CHECK (e_disc < -1.5 * eroded.range_ground_sigma, "eroded disc: error %g "
+      "beyond the pixel sigma %g", e_disc, eroded.range_ground_sigma);
+  CHECK (std::fabs (eroded.rim_range / std::fabs (e_disc) - 1) < 0.25
+      && eroded.size_excess == 0, "rim %g for an error of %g (excess %g)",
+      eroded.rim_range, e_disc, eroded.size_excess);
+  CHECK (std::fabs (eroded.range_sigma_total (eroded.range_ground_sigma) -
+          std::hypot (eroded.range_ground_sigma, eroded.rim_range)) <
+      1e-12, "reported range sigma with the rim");
+
+  /* a ball of 0.08 m resting on the floor 0.7 m ahead: its outline is the
+   * tangent cone's, the circle of tangent points projected */
+  const double bx = 0.7, by = -0.1, br = 0.04;
+  const Vec3 c = g.centre ();
+  const Vec3 a {bx - c.x, by - c.y, br - c.z};
+  const double len = std::sqrt (a.x * a.x + a.y * a.y + a.z * a.z);
+  const Vec3 k {a.x / len, a.y / len, a.z / len};
+  /* two unit vectors across the axis */
+  Vec3 e1 {-k.y, k.x, 0};
+  const double n1 = std::hypot (e1.x, e1.y);
+  e1 = Vec3 {e1.x / n1, e1.y / n1, 0};
+  const Vec3 e2 {k.y * e1.z - k.z * e1.y, k.z * e1.x - k.x * e1.z,
+    k.x * e1.y - k.y * e1.x};
+  const double back = br * br / len, across = br * std::sqrt (len * len -
+      br * br) / len;
+  std::vector<cv::Point2f> ball;
+  for (int i = 0; i < 720; i++) {
+    const double t = 2 * M_PI * i / 720;
+    const double s1 = across * std::cos (t), s2 = across * std::sin (t);
+    double u, v;
+    g.project (Vec3 {bx - back * k.x + s1 * e1.x + s2 * e2.x,
+            by - back * k.y + s1 * e1.y + s2 * e2.y,
+            br - back * k.z + s1 * e1.z + s2 * e2.z}, &u, &v);
+    ball.emplace_back ((float) u, (float) v);
+  }
+  MarkerSpec bspec;
+  bspec.ball = true;
+  bspec.z = br;
+  bspec.diameter = 2 * br;
+  const double bwant = std::hypot (bx, by);
+  const RangeEstimate bexact = estimate_range (g, blob_of (ball), bspec, 0.5);
+  /* the shading grows towards the underside: the outline loses 0.5 px
+   * where it faces down the image, 0.25 px on the sides, nothing on top */
+  const RangeEstimate shaded = estimate_range (g, blob_of (moved_outline (
+              ball, [](double, double nv) {
+                return -0.25 * (1 + nv); })), bspec, 0.5);
+  const double e_ball = shaded.range_ground - bwant;
+  std::printf ("rim, ball at %.3f m: exact %+.4f mm (rim %.4f), shaded "
+      "%+.4f mm, pixel and shading sigma %.4f, rim %.4f mm\n", bwant,
+      1e3 * (bexact.range_ground - bwant), 1e3 * bexact.rim_range,
+      1e3 * e_ball, 1e3 * shaded.range_ground_sigma, 1e3 * shaded.rim_range);
+  CHECK (std::fabs (bexact.range_ground - bwant) < 2e-5
+      && bexact.rim_range < 0.1 * shaded.rim_range, "exact ball: error %g, "
+      "rim %g", bexact.range_ground - bwant, bexact.rim_range);
+  CHECK (e_ball > 1.5 * shaded.range_ground_sigma, "shaded ball: error %g "
+      "beyond the pixel sigma %g", e_ball, shaded.range_ground_sigma);
+  CHECK (shaded.rim_range > 0.7 * e_ball && shaded.rim_range < 2.5 * e_ball
+      && shaded.size_excess == 0, "rim %g for an error of %g (excess %g)",
+      shaded.rim_range, e_ball, shaded.size_excess);
+}
+
 int
 main ()
 {
@@ -402,5 +545,6 @@ main ()
   test_seed ();
   test_estimate ();
   test_sigma_model ();
+  test_rim ();
   return corecheck_summary ();
 }

@@ -52,7 +52,7 @@ double
 RangeEstimate::range_sigma_total (double sigma) const
 {
   return std::sqrt (sigma * sigma + size_excess * size_excess +
-      kind_range_spread * kind_range_spread);
+      kind_range_spread * kind_range_spread + rim_range * rim_range);
 }
 
 double
@@ -60,7 +60,7 @@ RangeEstimate::bearing_sigma_total () const
 {
   const double excess = range_ground > 0 ? size_excess / range_ground : 0;
   return std::sqrt (bearing_sigma * bearing_sigma + excess * excess +
-      kind_bearing_spread * kind_bearing_spread);
+      kind_bearing_spread * kind_bearing_spread + rim_bearing * rim_bearing);
 }
 
 void
@@ -175,28 +175,47 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     centre_u = (uv[0] + uv[2]) / 2;
     centre_v = (uv[1] + uv[3]) / 2;
   } else if (ellipse) {
-    const int n = 48;
-    std::vector<double> uv;
-    for (int i = 0; i < n; i++) {
-      const double t = 2 * M_PI * i / n;
-      const double x = a * std::cos (t), y = b * std::sin (t);
-      to_geom (blob.eu + x * ca - y * sa, blob.ev + x * sa + y * ca, &uv);
-    }
-    std::vector<Vec3> d;
-    g.rays (uv, &d);
-    std::vector<double> plane;
-    for (const Vec3 & di : d) {
-      double gx, gy;
-      if (!g.intersect (di, m.z, &gx, &gy))
-        break;
-      plane.push_back (gx);
-      plane.push_back (gy);
-    }
+    /* the circle on the marker's plane through the outline grown by
+     * `grow` pixels along both axes */
+    auto fit_disc = [&](double grow, double *ox, double *oy, double *radius) {
+      const int n = 48;
+      std::vector<double> uv;
+      for (int i = 0; i < n; i++) {
+        const double t = 2 * M_PI * i / n;
+        const double x = (a + grow) * std::cos (t);
+        const double y = (b + grow) * std::sin (t);
+        to_geom (blob.eu + x * ca - y * sa, blob.ev + x * sa + y * ca, &uv);
+      }
+      std::vector<Vec3> d;
+      g.rays (uv, &d);
+      std::vector<double> plane;
+      for (const Vec3 & di : d) {
+        double gx, gy;
+        if (!g.intersect (di, m.z, &gx, &gy))
+          return false;
+        plane.push_back (gx);
+        plane.push_back (gy);
+      }
+      return fit_circle (plane, ox, oy, radius);
+    };
     double ox, oy, radius;
-    if (plane.size () == 2 * (size_t) n && fit_circle (plane, &ox, &oy,
-            &radius)) {
+    if (fit_disc (0, &ox, &oy, &radius)) {
       axis = unit (Vec3 {ox, oy, m.z - g.params ().camera_height});
       have_axis = true;
+      /* the rim: blur and the colour threshold put the outline off the
+       * disc's edge by the same amount all round, which the plane's
+       * perspective turns into a shift of the centre (the far side's
+       * pixels are wider); the known diameter measures that offset */
+      double gx, gy, grown;
+      const double h = 0.5;
+      if (m.diameter > 0 && fit_disc (h, &gx, &gy, &grown)
+          && grown > radius) {
+        const double offset = (m.diameter / 2 - radius) / (grown - radius);
+        const double r0 = std::hypot (ox, oy);
+        out.rim_range = std::fabs (offset * (std::hypot (gx, gy) - r0));
+        out.rim_bearing = std::fabs (offset * std::remainder (
+                std::atan2 (gy, gx) - std::atan2 (oy, ox), 2 * M_PI));
+      }
       if (m.diameter > 0) {
         /* the plane's distance below the camera scales the circle: the
          * size estimate needs no camera height */
@@ -256,6 +275,7 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
   }
   const double h = 0.5;
   double rl, bl, rr, br, ru, bu, rd, bd;
+  double range_v = 0, bearing_v = 0;    /* per geometry pixel down */
   if (polar_at (g, centre_u - h, centre_v, m.z, &rl, &bl)
       && polar_at (g, centre_u + h, centre_v, m.z, &rr, &br)
       && polar_at (g, centre_u, centre_v - h, m.z, &ru, &bu)
@@ -263,6 +283,8 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     const double r_u = (rr - rl) / (2 * h), r_v = (rd - ru) / (2 * h);
     const double b_u = std::remainder (br - bl, 2 * M_PI) / (2 * h);
     const double b_v = std::remainder (bd - bu, 2 * M_PI) / (2 * h);
+    range_v = r_v;
+    bearing_v = b_v;
     out.range_ground_sigma = std::sqrt (std::max (0.0, r_u * r_u * cov[0]
             + 2 * r_u * r_v * cov[1] + r_v * r_v * cov[2]));
     out.bearing_sigma = std::sqrt (std::max (0.0, b_u * b_u * cov[0]
@@ -301,6 +323,20 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     if (excess > 0)
       out.size_excess = std::sqrt (excess);
   }
+  /* a ball's rim: its outline is off its edge by the offset its size
+   * range gives (the major axis against the one the floor range predicts,
+   * per side), but the shading takes it from the underside rather than all
+   * round, so the centre may move down the image by as much */
+  if (m.ball && ellipse && out.has_size && out.range_ground > 0) {
+    const double offset = blob.major / 2 *
+        (out.range_size / out.range_ground - 1) * blob.sy;
+    out.rim_range = std::fabs (offset * range_v);
+    out.rim_bearing = std::fabs (offset * bearing_v);
+  }
+  /* a disagreement beyond the bound is a cut or merged blob, not a rim:
+   * size_excess stands for it */
+  if (out.size_excess > 0)
+    out.rim_range = out.rim_bearing = 0;
   return out;
 }
 

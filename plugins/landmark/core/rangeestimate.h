@@ -60,8 +60,15 @@ struct RangeEstimate {
   /* when the class has several markers and none could be chosen: how far
    * the others' ranges (metres) and bearings (radians) lie from this one */
   double kind_range_spread = 0, kind_bearing_spread = 0;
-  /* the sigmas with size_excess and the kind spreads added (to the range,
-   * and over the range to the bearing): what ipmrange reports */
+  /* the outline off the marker's edge (blur, the colour threshold) by the
+   * offset the known diameter gives: a disc's all round, through the shift
+   * of the plane circle's centre it makes; a ball's from its shaded
+   * underside, the centre moved down the image by as much. Metres and
+   * radians (docs/ranging.md, "Uncertainty"); 0 without a diameter and
+   * when size_excess stands for a cut or merged blob */
+  double rim_range = 0, rim_bearing = 0;
+  /* the sigmas with size_excess, the kind spreads and the rim added (to
+   * the range, and over the range to the bearing): what ipmrange reports */
   double range_sigma_total (double sigma) const;
   double bearing_sigma_total () const;
 };

@@ -5,5 +5,6 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 cd "$ROOT"
-"$VENV/bin/python" -m gstlandmark.devtools.goldens refresh "$@"
+# this checkout's package, whichever one the venv was installed from
+PYTHONPATH="$ROOT/python${PYTHONPATH:+:$PYTHONPATH}" "$VENV/bin/python" -m gstlandmark.devtools.goldens refresh "$@"
 git --no-pager diff --stat -- tests/golden || true

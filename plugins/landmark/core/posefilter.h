@@ -1,19 +1,27 @@
-/* The robot pose filtered over time: a constant-velocity EKF updated with
- * range-bearing observations of mapped landmarks or with whole poses
+/* The robot pose filtered over time: an EKF with a ground robot's
+ * constant-velocity motion (groundmotion.h) updated with range-bearing
+ * observations of mapped landmarks or with whole poses
  * (docs/positioning.md, trilaterate filter=ekf). No GStreamer types. */
 #pragma once
 
 #include <vector>
 
+#include "groundmotion.h"
 #include "posesolver.h"
 
 namespace landmark {
 
-/* State x, y, heading, vx, vy, omega (world frame). */
+/* State: the camera's x, y, heading (map frame), the robot's forward
+ * speed, the camera's offset ahead of the turning centre and the turn
+ * rate (GroundMotionState order). */
 class PoseFilter {
 public:
-  double accel_sigma = 1.0;     /* m/s^2, process noise */
-  double alpha_sigma = 3.0;     /* rad/s^2 */
+  GroundMotionNoise motion;       /* process noise */
+  /* priors of the motion states at (re)start: unknown speed and turn
+   * rate within a robot's few m/s and rad/s; the offset 0 +- 0.1 m */
+  double speed_sigma = 1.0;       /* m/s */
+  double turn_rate_sigma = 2.0;   /* rad/s */
+  double offset_sigma = 0.1;      /* m */
 
   bool initialised () const { return init_; }
   void reset () { init_ = false; }
@@ -26,12 +34,15 @@ public:
   /* A direct pose measurement (used when a solver gave one). */
   void update_pose (const Pose2 & p, const double cov[9]);
   Pose2 pose () const;
+  /* one motion state's estimate (speed, offset, turn rate, ...) */
+  double state (GroundMotionState k) const { return s_[k]; }
   void pose_cov (double cov[9]) const;
 
 private:
   bool init_ = false;
-  double s_[6] = { 0 };
-  double p_[36] = { 0 };
+  static constexpr int N = kMotionStates;
+  double s_[N] = { 0 };
+  double p_[N * N] = { 0 };
 };
 
 }  // namespace landmark

@@ -383,13 +383,20 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
         st.ekf_time = st.ekf_measured = now;
       }
     } else {
+      /* whether most of the pairings fail the filter's gate one by one */
+      auto most_reject = [&]() {
+        landmark::PoseFilter tested = st.ekf;
+        return 2 * (size_t) tested.update (used) <= used.size ();
+      };
       if (res.ok && used.size () >= 3 && !gst_trilaterate_ekf_agrees (st.ekf,
-              res.solution)) {
+              res.solution) && most_reject ()) {
         /* three or more landmarks place the robot by themselves; a filter
-         * whose prediction they reject has drifted beyond its own
-         * covariance (a turn bridged on one landmark): updated, it would
-         * gate out some of them and be pulled by the others; it restarts
-         * from their pose */
+         * whose prediction they reject, most of them one by one, has
+         * drifted beyond its own covariance (a turn bridged on one
+         * landmark): updated, it would be pulled by the few that pass; it
+         * restarts from their pose. When most pass, the solution is the
+         * one off (a biased range pulling the least squares, its
+         * covariance too small) and the filter takes the update. */
         st.ekf.init (res.solution.pose, res.solution.cov);
         st.ekf_measured = now;
       } else if (!res.ok) {

@@ -526,6 +526,37 @@ test_ekf_turn_on_one_landmark ()
   CHECK (worst_sigma < 3, "error %.2f sigma", worst_sigma);
 }
 
+/* When a solution from three landmarks disagrees with the filter, the
+ * filter is lost only if the landmarks reject it one by one too; a
+ * solution pulled off by one biased range is the one that is wrong. */
+static void
+test_ekf_lost ()
+{
+  const double L[][2] = { {0, 0}, {5, 0}, {5, 4} };
+  const double x = 2, y = 1.5, h = 0.3;
+  std::vector<Correspondence> cs;
+  for (const auto & l : L)
+    cs.push_back (corr (x, y, h, l[0], l[1]));
+  const double tight[9] = { 1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 1e-4 };
+  PoseSolution sol;
+  sol.ok = true;
+  std::copy (tight, tight + 9, sol.cov);
+
+  /* the filter on the truth; the solution 0.15 m and 0.05 rad off, 10
+   * sigma of the two together: the pairings pass, the filter stays */
+  PoseFilter f;
+  f.init (Pose2 { x, y, h }, tight);
+  sol.pose = Pose2 { x + 0.15, y, h + 0.05 };
+  CHECK (!f.lost (sol, cs), "a pulled solution restarts the filter");
+  /* the filter 0.5 m off the truth, the solution on it: lost */
+  f.init (Pose2 { x + 0.5, y, h }, tight);
+  sol.pose = Pose2 { x, y, h };
+  CHECK (f.lost (sol, cs), "a drifted filter is kept");
+  /* the two agree: not lost */
+  f.init (Pose2 { x + 0.01, y, h }, tight);
+  CHECK (!f.lost (sol, cs), "agreeing solution");
+}
+
 /* Clutter: a map with 253 landmarks of one colour and three of their own,
  * 40 blobs of the repeated colour at random places beside the three true
  * ones. The consensus stays within its budget of pair poses and still
@@ -579,5 +610,6 @@ main ()
   test_consensus_budget ();
   test_ekf_bridges_gap ();
   test_ekf_turn_on_one_landmark ();
+  test_ekf_lost ();
   return corecheck_summary ();
 }

@@ -98,6 +98,25 @@ PoseFilter::update (const std::vector<Correspondence> & cs, double gate_chi2)
   return used;
 }
 
+bool
+PoseFilter::lost (const PoseSolution & sol,
+    const std::vector<Correspondence> & cs) const
+{
+  if (!init_)
+    return false;
+  cv::Matx33d c;
+  pose_cov (c.val);
+  const Pose2 p = pose ();
+  const cv::Vec3d d (sol.pose.x - p.x, sol.pose.y - p.y,
+      wrap_angle (sol.pose.heading - p.heading));
+  cv::Matx33d Si;
+  if (cv::invert (c + cv::Matx33d (sol.cov), Si, cv::DECOMP_SVD) == 0
+      || d.dot (Si * d) <= 16.27)
+    return false;
+  PoseFilter tested = *this;
+  return 2 * (size_t) tested.update (cs) <= cs.size ();
+}
+
 void
 PoseFilter::update_pose (const Pose2 & p, const double cov[9])
 {

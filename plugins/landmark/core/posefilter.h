@@ -31,6 +31,13 @@ public:
    * per measurement at `gate_chi2`); returns how many were used. */
   int update (const std::vector<Correspondence> & cs,
       double gate_chi2 = 16.0);
+  /* Whether a solution from three or more landmarks (`cs` its pairings)
+   * shows the filter lost: it disagrees with the prediction (chi-square,
+   * 3 dof, 99.9 %) and most of its pairings fail the gate one by one.
+   * When most pass, the solution is the one off (a biased range pulling
+   * the least squares, its covariance too small). */
+  bool lost (const PoseSolution & sol,
+      const std::vector<Correspondence> & cs) const;
   /* A direct pose measurement (used when a solver gave one). */
   void update_pose (const Pose2 & p, const double cov[9]);
   Pose2 pose () const;

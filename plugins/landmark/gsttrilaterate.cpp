@@ -18,9 +18,10 @@
  * - three or more: consensus over pairs against one wrong detection, then
  *   Huber-weighted Gauss-Newton over all ranges and bearings.
  *
- * `filter=ekf` runs a constant-velocity extended Kalman filter over the
- * ranges and bearings, which smooths the poses and bridges frames with too
- * few landmarks for up to `max-age` seconds.
+ * `filter=ekf` runs an extended Kalman filter over the ranges and bearings
+ * with a ground robot's constant-velocity motion (it drives along its
+ * heading: core/groundmotion.h), which smooths the poses and bridges frames
+ * with too few landmarks for up to `max-age` seconds.
  *
  * Output, per frame:
  * - a `GstLandmarkPoseMeta` (`GstCustomMeta`) when there is a pose, its

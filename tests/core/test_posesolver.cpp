@@ -422,6 +422,73 @@ struct CirclePath {
   }
 };
 
+/* The ground robot's prediction: its Jacobian against central
+ * differences of the predicted states, its noise symmetric and positive
+ * semi-definite, and the motion a ground robot's: a camera at the turning
+ * centre (d = 0) moves along its heading at mid-interval, a camera
+ * ahead of it (d > 0) swings out to the left on a left turn. */
+static void
+test_ground_motion ()
+{
+  const int N = kMotionStates;
+  const GroundMotionNoise noise;
+  std::mt19937 rng (7);
+  std::uniform_real_distribution<double> u (-1, 1);
+  for (int trial = 0; trial < 20; trial++) {
+    const double s[N] = { 3 * u (rng), 3 * u (rng), M_PI * u (rng),
+      u (rng), 0.2 * u (rng), 2 * u (rng) };
+    const double dt = 0.05 + 0.1 * (u (rng) + 1);
+    const GroundMotionStep step = ground_motion_predict (s, dt, noise);
+    double worst = 0;
+    for (int j = 0; j < N; j++) {
+      const double h = 1e-6;
+      double sp[N], sm[N];
+      std::copy (s, s + N, sp);
+      std::copy (s, s + N, sm);
+      sp[j] += h;
+      sm[j] -= h;
+      const GroundMotionStep a = ground_motion_predict (sp, dt, noise);
+      const GroundMotionStep b = ground_motion_predict (sm, dt, noise);
+      for (int i = 0; i < N; i++) {
+        double diff = a.s[i] - b.s[i];
+        if (i == kMotionHeading)
+          diff = angdiff (a.s[i], b.s[i]);
+        worst = std::max (worst, std::fabs (diff / (2 * h)
+                - step.F[i * N + j]));
+      }
+    }
+    CHECK (worst < 1e-6, "trial %d: Jacobian off by %g", trial, worst);
+    double qmin = 1e9;
+    for (int i = 0; i < N; i++)
+      for (int j = 0; j < N; j++)
+        CHECK (step.Q[i * N + j] == step.Q[j * N + i], "Q not symmetric");
+    /* positive semi-definite: every 2x2 principal minor and the diagonal */
+    for (int i = 0; i < N; i++) {
+      qmin = std::min (qmin, step.Q[i * N + i]);
+      for (int j = i + 1; j < N; j++)
+        qmin = std::min (qmin, step.Q[i * N + i] * step.Q[j * N + j]
+            - step.Q[i * N + j] * step.Q[j * N + i] + 1e-30);
+    }
+    CHECK (qmin >= 0, "Q not positive semi-definite: %g", qmin);
+  }
+  /* heading 0.3 rad, 0.5 m/s, turning 1 rad/s over 0.1 s */
+  const double at_centre[N] = { 1, 2, 0.3, 0.5, 0, 1 };
+  const GroundMotionStep c = ground_motion_predict (at_centre, 0.1,
+      noise);
+  CHECK (std::fabs (std::atan2 (c.s[1] - 2, c.s[0] - 1) - 0.35) < 1e-12
+      && std::fabs (std::hypot (c.s[1] - 2, c.s[0] - 1) - 0.05) < 1e-12
+      && std::fabs (c.s[kMotionHeading] - 0.4) < 1e-12,
+      "at the centre: (%g, %g, %g)", c.s[0], c.s[1], c.s[2]);
+  double ahead[N];
+  std::copy (at_centre, at_centre + N, ahead);
+  ahead[kMotionOffset] = 0.1;
+  const GroundMotionStep o = ground_motion_predict (ahead, 0.1, noise);
+  /* sideways w d dt = 0.01 m to the left of the mid heading */
+  CHECK (std::fabs ((o.s[0] - c.s[0]) + 0.01 * std::sin (0.35)) < 1e-12
+      && std::fabs ((o.s[1] - c.s[1]) - 0.01 * std::cos (0.35)) < 1e-12,
+      "offset: (%g, %g)", o.s[0] - c.s[0], o.s[1] - c.s[1]);
+}
+
 static void
 test_ekf_bridges_gap ()
 {
@@ -608,6 +675,7 @@ main ()
   test_collinear ();
   test_association ();
   test_consensus_budget ();
+  test_ground_motion ();
   test_ekf_bridges_gap ();
   test_ekf_turn_on_one_landmark ();
   test_ekf_lost ();

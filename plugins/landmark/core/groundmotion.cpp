@@ -22,8 +22,12 @@ add_white_acceleration (double Q[N * N], double dt, double q, double ex,
 {
   const double e[2] = { ex, ey };
   for (int i = 0; i < 2; i++) {
-    for (int j = 0; j < 2; j++)
-      Q[i * N + j] += q * dt * dt * dt / 3 * e[i] * e[j];
+    for (int j = i; j < 2; j++) {
+      const double qij = q * dt * dt * dt / 3 * e[i] * e[j];
+      Q[i * N + j] += qij;
+      if (j != i)
+        Q[j * N + i] += qij;
+    }
     if (rate >= 0) {
       Q[i * N + rate] += q * dt * dt / 2 * e[i];
       Q[rate * N + i] += q * dt * dt / 2 * e[i];

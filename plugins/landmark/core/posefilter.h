@@ -41,8 +41,6 @@ public:
   /* A direct pose measurement (used when a solver gave one). */
   void update_pose (const Pose2 & p, const double cov[9]);
   Pose2 pose () const;
-  /* one motion state's estimate (speed, offset, turn rate, ...) */
-  double state (GroundMotionState k) const { return s_[k]; }
   void pose_cov (double cov[9]) const;
 
 private:

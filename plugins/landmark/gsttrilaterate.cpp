@@ -18,9 +18,10 @@
  * - three or more: consensus over pairs against one wrong detection, then
  *   Huber-weighted Gauss-Newton over all ranges and bearings.
  *
- * `filter=ekf` runs a constant-velocity extended Kalman filter over the
- * ranges and bearings, which smooths the poses and bridges frames with too
- * few landmarks for up to `max-age` seconds.
+ * `filter=ekf` runs an extended Kalman filter over the ranges and bearings
+ * with a ground robot's constant-velocity motion (it drives along its
+ * heading: core/groundmotion.h), which smooths the poses and bridges frames
+ * with too few landmarks for up to `max-age` seconds.
  *
  * Output, per frame:
  * - a `GstLandmarkPoseMeta` (`GstCustomMeta`) when there is a pose, its
@@ -241,24 +242,6 @@ gst_trilaterate_sink_event (GstBaseTransform * trans, GstEvent * event)
 
 /* ---- streaming ------------------------------------------------------ */
 
-/* Whether the filter's predicted pose and a solver's pose agree within
- * their covariances (chi-square, 3 degrees of freedom, 99.9 %: 16.27). */
-static bool
-gst_trilaterate_ekf_agrees (const landmark::PoseFilter & ekf,
-    const landmark::PoseSolution & sol)
-{
-  double c[9];
-  ekf.pose_cov (c);
-  const landmark::Pose2 p = ekf.pose ();
-  const cv::Matx33d S = cv::Matx33d (c) + cv::Matx33d (sol.cov);
-  const cv::Vec3d d (sol.pose.x - p.x, sol.pose.y - p.y,
-      landmark::wrap_angle (sol.pose.heading - p.heading));
-  cv::Matx33d Si;
-  if (cv::invert (S, Si, cv::DECOMP_SVD) == 0)
-    return true;
-  return d.dot (Si * d) <= 16.27;
-}
-
 /* Brings the state up to date with settings changed while playing (a bad
  * value: a warning, and the previous settings and map stay). The map file
  * is read again only when `map` names another file. */
@@ -383,13 +366,12 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
         st.ekf_time = st.ekf_measured = now;
       }
     } else {
-      if (res.ok && used.size () >= 3 && !gst_trilaterate_ekf_agrees (st.ekf,
-              res.solution)) {
+      if (res.ok && used.size () >= 3 && st.ekf.lost (res.solution, used)) {
         /* three or more landmarks place the robot by themselves; a filter
-         * whose prediction they reject has drifted beyond its own
-         * covariance (a turn bridged on one landmark): updated, it would
-         * gate out some of them and be pulled by the others; it restarts
-         * from their pose */
+         * whose prediction they reject, most of them one by one, has
+         * drifted beyond its own covariance (a turn bridged on one
+         * landmark): updated, it would be pulled by the few that pass; it
+         * restarts from their pose */
         st.ekf.init (res.solution.pose, res.solution.cov);
         st.ekf_measured = now;
       } else if (!res.ok) {

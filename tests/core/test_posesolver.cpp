@@ -1,8 +1,9 @@
 /* Pose solvers (plugins/landmark/core/posesolver.h): exact observations
  * recover the exact pose for each solver, both two-landmark ambiguities,
  * degenerate geometry reported, an outlier rejected, association with
- * repeated colours, the EKF bridging a gap. Observations are made here
- * from docs/conventions.md directly, not with the solver's helpers. */
+ * repeated colours, the EKF bridging a gap and a turn on one landmark.
+ * Observations are made here from docs/conventions.md directly, not with
+ * the solver's helpers. */
 #include "posefilter.h"
 #include "corecheck.h"
 
@@ -392,36 +393,126 @@ test_association ()
   }
 }
 
+/* Range and bearing of landmark (lx, ly) from the true pose, with noise. */
+static Correspondence
+noisy_corr (double x, double y, double h, double lx, double ly,
+    std::mt19937 & rng)
+{
+  std::normal_distribution<double> nr (0, 0.01), nb (0, 0.005);
+  Correspondence c = corr (x, y, h, lx, ly);
+  const double r = c.obs.range () + nr (rng);
+  const double b = c.obs.bearing () + nb (rng);
+  c.obs.gx = r * std::cos (b);
+  c.obs.gy = r * std::sin (b);
+  return c;
+}
+
+/* A ground robot on a circle: its turning centre at radius `radius`
+ * round the origin, driving counter-clockwise at `speed`, the camera
+ * `offset` ahead of it; the camera's pose at time t. */
+struct CirclePath {
+  double radius, speed, offset;
+  Pose2 at (double t) const {
+    const double a = speed / radius * t;     /* angle round the circle */
+    Pose2 p;
+    p.heading = wrap_angle (a + M_PI / 2);
+    p.x = radius * std::cos (a) + offset * std::cos (p.heading);
+    p.y = radius * std::sin (a) + offset * std::sin (p.heading);
+    return p;
+  }
+};
+
+/* The ground robot's prediction: its Jacobian against central
+ * differences of the predicted states, its noise symmetric and positive
+ * semi-definite, and the motion a ground robot's: a camera at the turning
+ * centre (d = 0) moves along its heading at mid-interval, a camera
+ * ahead of it (d > 0) swings out to the left on a left turn. */
+static void
+test_ground_motion ()
+{
+  const int N = kMotionStates;
+  const GroundMotionNoise noise;
+  std::mt19937 rng (7);
+  std::uniform_real_distribution<double> u (-1, 1);
+  for (int trial = 0; trial < 20; trial++) {
+    const double s[N] = { 3 * u (rng), 3 * u (rng), M_PI * u (rng),
+      u (rng), 0.2 * u (rng), 2 * u (rng) };
+    const double dt = 0.05 + 0.1 * (u (rng) + 1);
+    const GroundMotionStep step = ground_motion_predict (s, dt, noise);
+    double worst = 0;
+    for (int j = 0; j < N; j++) {
+      const double h = 1e-6;
+      double sp[N], sm[N];
+      std::copy (s, s + N, sp);
+      std::copy (s, s + N, sm);
+      sp[j] += h;
+      sm[j] -= h;
+      const GroundMotionStep a = ground_motion_predict (sp, dt, noise);
+      const GroundMotionStep b = ground_motion_predict (sm, dt, noise);
+      for (int i = 0; i < N; i++) {
+        double diff = a.s[i] - b.s[i];
+        if (i == kMotionHeading)
+          diff = angdiff (a.s[i], b.s[i]);
+        worst = std::max (worst, std::fabs (diff / (2 * h)
+                - step.F[i * N + j]));
+      }
+    }
+    CHECK (worst < 1e-6, "trial %d: Jacobian off by %g", trial, worst);
+    double qmin = 1e9;
+    for (int i = 0; i < N; i++)
+      for (int j = 0; j < N; j++)
+        CHECK (step.Q[i * N + j] == step.Q[j * N + i], "Q not symmetric");
+    /* positive semi-definite: every 2x2 principal minor and the diagonal */
+    for (int i = 0; i < N; i++) {
+      qmin = std::min (qmin, step.Q[i * N + i]);
+      for (int j = i + 1; j < N; j++)
+        qmin = std::min (qmin, step.Q[i * N + i] * step.Q[j * N + j]
+            - step.Q[i * N + j] * step.Q[j * N + i] + 1e-30);
+    }
+    CHECK (qmin >= 0, "Q not positive semi-definite: %g", qmin);
+  }
+  /* heading 0.3 rad, 0.5 m/s, turning 1 rad/s over 0.1 s */
+  const double at_centre[N] = { 1, 2, 0.3, 0.5, 0, 1 };
+  const GroundMotionStep c = ground_motion_predict (at_centre, 0.1,
+      noise);
+  CHECK (std::fabs (std::atan2 (c.s[1] - 2, c.s[0] - 1) - 0.35) < 1e-12
+      && std::fabs (std::hypot (c.s[1] - 2, c.s[0] - 1) - 0.05) < 1e-12
+      && std::fabs (c.s[kMotionHeading] - 0.4) < 1e-12,
+      "at the centre: (%g, %g, %g)", c.s[0], c.s[1], c.s[2]);
+  double ahead[N];
+  std::copy (at_centre, at_centre + N, ahead);
+  ahead[kMotionOffset] = 0.1;
+  const GroundMotionStep o = ground_motion_predict (ahead, 0.1, noise);
+  /* sideways w d dt = 0.01 m to the left of the mid heading */
+  CHECK (std::fabs ((o.s[0] - c.s[0]) + 0.01 * std::sin (0.35)) < 1e-12
+      && std::fabs ((o.s[1] - c.s[1]) - 0.01 * std::cos (0.35)) < 1e-12,
+      "offset: (%g, %g)", o.s[0] - c.s[0], o.s[1] - c.s[1]);
+}
+
 static void
 test_ekf_bridges_gap ()
 {
-  /* constant-velocity motion: 0.5 m/s along +x, turning 0.2 rad/s;
-   * measurements for 1 s, a gap of 0.5 s, then again */
-  const double L[][2] = { {0, 0}, {5, 0}, {5, 4}, {0, 4} };
+  /* a wide arc (0.5 m/s turning 0.2 rad/s); measurements for 1 s, a gap
+   * of 0.5 s, then again */
+  const double L[][2] = { {-3, -1}, {3, -1}, {3, 4}, {-3, 4} };
+  const CirclePath path { 2.5, 0.5, 0.0 };
   PoseFilter f;
   /* the motion is truly constant-velocity: little process noise */
-  f.accel_sigma = 0.2;
-  f.alpha_sigma = 0.5;
+  f.motion.accel_sigma = 0.2;
+  f.motion.alpha_sigma = 0.5;
   const double dt = 1.0 / 30;
   std::mt19937 rng (3);
-  std::normal_distribution<double> nr (0, 0.01), nb (0, 0.005);
   double worst_gap = 0, worst_after = 0;
   for (int k = 0; k < 60; k++) {
-    const double t = k * dt;
-    const double x = 1 + 0.5 * t, y = 2, h = 0.2 * t;
+    const Pose2 truth = path.at (k * dt);
     const bool gap = k >= 30 && k < 45;
     if (f.initialised ())
       f.predict (dt);
     if (!gap) {
       std::vector<Correspondence> cs;
-      for (const auto & l : L) {
-        Correspondence c = corr (x, y, h, l[0], l[1]);
-        const double r = c.obs.range () + nr (rng);
-        const double b = c.obs.bearing () + nb (rng);
-        c.obs.gx = r * std::cos (b);
-        c.obs.gy = r * std::sin (b);
-        cs.push_back (c);
-      }
+      for (const auto & l : L)
+        cs.push_back (noisy_corr (truth.x, truth.y, truth.heading, l[0],
+                l[1], rng));
       if (!f.initialised ()) {
         const PoseSolution s = solve_many (cs);
         CHECK (s.ok, "init");
@@ -431,7 +522,7 @@ test_ekf_bridges_gap ()
       }
     }
     const Pose2 p = f.pose ();
-    const double e = std::hypot (p.x - x, p.y - y);
+    const double e = std::hypot (p.x - truth.x, p.y - truth.y);
     if (gap)
       worst_gap = std::max (worst_gap, e);
     else if (k > 45)
@@ -448,6 +539,89 @@ test_ekf_bridges_gap ()
   /* an absurd measurement is gated out */
   std::vector<Correspondence> cs = { corr (10, 10, 0, 0, 0) };
   CHECK (f.update (cs) == 0, "gross outlier accepted");
+}
+
+/* A robot turning on a tight circle (radius 1 m, 0.5 m/s, 0.5 rad/s, the
+ * camera 0.1 m ahead of the turning centre) sees four landmarks for 1 s,
+ * then one for 2 s (a full radian of turn). One range and bearing fixes
+ * the pose only up to a slide round that landmark; the motion model has
+ * to hold it. A robot that drives along its heading does (worst 2.2 cm,
+ * 0.012 rad, 1.5 sigma); a constant velocity in the map frame takes the
+ * turn for sideways acceleration and the pose slides round the landmark
+ * (1.2 m, 0.48 rad, 6.2 sigma). */
+static void
+test_ekf_turn_on_one_landmark ()
+{
+  const double L[][2] = { {2.5, 0.5}, {-2, 2}, {-2, -2}, {2, -2} };
+  const CirclePath path { 1.0, 0.5, 0.1 };
+  PoseFilter f;                   /* the element's noise and priors */
+  const double dt = 1.0 / 30;
+  std::mt19937 rng (11);
+  double worst = 0, worst_heading = 0, worst_sigma = 0;
+  for (int k = 0; k < 90; k++) {
+    const Pose2 truth = path.at (k * dt);
+    if (f.initialised ())
+      f.predict (dt);
+    std::vector<Correspondence> cs;
+    for (int i = 0; i < (k < 30 ? 4 : 1); i++)
+      cs.push_back (noisy_corr (truth.x, truth.y, truth.heading, L[i][0],
+              L[i][1], rng));
+    if (!f.initialised ()) {
+      const PoseSolution s = solve_many (cs);
+      CHECK (s.ok, "init");
+      f.init (s.pose, s.cov);
+      continue;
+    }
+    CHECK (f.update (cs) == (int) cs.size (), "frame %d: a pairing gated "
+        "out", k);
+    if (k < 30)
+      continue;
+    const Pose2 p = f.pose ();
+    double c[9];
+    f.pose_cov (c);
+    const double e = std::hypot (p.x - truth.x, p.y - truth.y);
+    worst = std::max (worst, e);
+    worst_heading = std::max (worst_heading,
+        std::fabs (angdiff (p.heading, truth.heading)));
+    /* the error stays within what the filter states (3 sigma) */
+    worst_sigma = std::max (worst_sigma, e / std::sqrt (c[0] + c[4]));
+  }
+  CHECK (worst < 0.06, "worst position error on one landmark %.4f m",
+      worst);
+  CHECK (worst_heading < 0.04, "worst heading error %.4f rad",
+      worst_heading);
+  CHECK (worst_sigma < 3, "error %.2f sigma", worst_sigma);
+}
+
+/* When a solution from three landmarks disagrees with the filter, the
+ * filter is lost only if the landmarks reject it one by one too; a
+ * solution pulled off by one biased range is the one that is wrong. */
+static void
+test_ekf_lost ()
+{
+  const double L[][2] = { {0, 0}, {5, 0}, {5, 4} };
+  const double x = 2, y = 1.5, h = 0.3;
+  std::vector<Correspondence> cs;
+  for (const auto & l : L)
+    cs.push_back (corr (x, y, h, l[0], l[1]));
+  const double tight[9] = { 1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 1e-4 };
+  PoseSolution sol;
+  sol.ok = true;
+  std::copy (tight, tight + 9, sol.cov);
+
+  /* the filter on the truth; the solution 0.15 m and 0.05 rad off, 10
+   * sigma of the two together: the pairings pass, the filter stays */
+  PoseFilter f;
+  f.init (Pose2 { x, y, h }, tight);
+  sol.pose = Pose2 { x + 0.15, y, h + 0.05 };
+  CHECK (!f.lost (sol, cs), "a pulled solution restarts the filter");
+  /* the filter 0.5 m off the truth, the solution on it: lost */
+  f.init (Pose2 { x + 0.5, y, h }, tight);
+  sol.pose = Pose2 { x, y, h };
+  CHECK (f.lost (sol, cs), "a drifted filter is kept");
+  /* the two agree: not lost */
+  f.init (Pose2 { x + 0.01, y, h }, tight);
+  CHECK (!f.lost (sol, cs), "agreeing solution");
 }
 
 /* Clutter: a map with 253 landmarks of one colour and three of their own,
@@ -501,6 +675,9 @@ main ()
   test_collinear ();
   test_association ();
   test_consensus_budget ();
+  test_ground_motion ();
   test_ekf_bridges_gap ();
+  test_ekf_turn_on_one_landmark ();
+  test_ekf_lost ();
   return corecheck_summary ();
 }

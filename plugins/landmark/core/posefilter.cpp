@@ -1,7 +1,8 @@
-/* The constant-velocity pose EKF: see posefilter.h and
+/* The pose EKF with a ground robot's motion: see posefilter.h and
  * docs/positioning.md. */
 #include "posefilter.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <opencv2/core.hpp>
@@ -11,17 +12,18 @@ namespace landmark {
 void
 PoseFilter::init (const Pose2 & p, const double cov[9])
 {
-  std::fill (s_, s_ + 6, 0.0);
-  std::fill (p_, p_ + 36, 0.0);
-  s_[0] = p.x;
-  s_[1] = p.y;
-  s_[2] = p.heading;
+  std::fill (s_, s_ + N, 0.0);
+  std::fill (p_, p_ + N * N, 0.0);
+  s_[kMotionX] = p.x;
+  s_[kMotionY] = p.y;
+  s_[kMotionHeading] = p.heading;
   for (int r = 0; r < 3; r++)
     for (int c = 0; c < 3; c++)
-      p_[r * 6 + c] = cov[r * 3 + c];
-  /* unknown velocity: a robot's few m/s and rad/s */
-  p_[3 * 6 + 3] = p_[4 * 6 + 4] = 1.0;
-  p_[5 * 6 + 5] = 4.0;
+      p_[r * N + c] = cov[r * 3 + c];
+  p_[kMotionSpeed * N + kMotionSpeed] = speed_sigma * speed_sigma;
+  p_[kMotionOffset * N + kMotionOffset] = offset_sigma * offset_sigma;
+  p_[kMotionTurnRate * N + kMotionTurnRate] =
+      turn_rate_sigma * turn_rate_sigma;
   init_ = true;
 }
 
@@ -30,26 +32,11 @@ PoseFilter::predict (double dt)
 {
   if (!init_ || !(dt > 0))
     return;
-  cv::Matx<double, 6, 6> F = cv::Matx<double, 6, 6>::eye ();
-  F (0, 3) = F (1, 4) = F (2, 5) = dt;
-  cv::Matx<double, 6, 6> P (p_);
-  cv::Matx<double, 6, 6> Q = cv::Matx<double, 6, 6>::zeros ();
-  const double qa = accel_sigma * accel_sigma, qw = alpha_sigma * alpha_sigma;
-  const double t3 = dt * dt * dt / 3, t2 = dt * dt / 2;
-  for (int k = 0; k < 3; k++) {
-    const double q = k < 2 ? qa : qw;
-    Q (k, k) = t3 * q;
-    Q (k, k + 3) = Q (k + 3, k) = t2 * q;
-    Q (k + 3, k + 3) = dt * q;
-  }
-  cv::Vec<double, 6> s (s_);
-  s = F * s;
-  s[2] = wrap_angle (s[2]);
-  P = F * P * F.t () + Q;
-  for (int i = 0; i < 6; i++)
-    s_[i] = s[i];
-  for (int i = 0; i < 36; i++)
-    p_[i] = P.val[i];
+  const GroundMotionStep step = ground_motion_predict (s_, dt, motion);
+  const cv::Matx<double, N, N> F (step.F), Q (step.Q), P (p_);
+  const cv::Matx<double, N, N> predicted = F * P * F.t () + Q;
+  std::copy (step.s, step.s + N, s_);
+  std::copy (predicted.val, predicted.val + N * N, p_);
 }
 
 /* The Kalman correction of state s and covariance p (P, as a matrix) by
@@ -109,6 +96,25 @@ PoseFilter::update (const std::vector<Correspondence> & cs, double gate_chi2)
     used++;
   }
   return used;
+}
+
+bool
+PoseFilter::lost (const PoseSolution & sol,
+    const std::vector<Correspondence> & cs) const
+{
+  if (!init_)
+    return false;
+  cv::Matx33d c;
+  pose_cov (c.val);
+  const Pose2 p = pose ();
+  const cv::Vec3d d (sol.pose.x - p.x, sol.pose.y - p.y,
+      wrap_angle (sol.pose.heading - p.heading));
+  cv::Matx33d Si;
+  if (cv::invert (c + cv::Matx33d (sol.cov), Si, cv::DECOMP_SVD) == 0
+      || d.dot (Si * d) <= 16.27)
+    return false;
+  PoseFilter tested = *this;
+  return 2 * (size_t) tested.update (cs) <= cs.size ();
 }
 
 void

@@ -1,19 +1,27 @@
-/* The robot pose filtered over time: a constant-velocity EKF updated with
- * range-bearing observations of mapped landmarks or with whole poses
+/* The robot pose filtered over time: an EKF with a ground robot's
+ * constant-velocity motion (groundmotion.h) updated with range-bearing
+ * observations of mapped landmarks or with whole poses
  * (docs/positioning.md, trilaterate filter=ekf). No GStreamer types. */
 #pragma once
 
 #include <vector>
 
+#include "groundmotion.h"
 #include "posesolver.h"
 
 namespace landmark {
 
-/* State x, y, heading, vx, vy, omega (world frame). */
+/* State: the camera's x, y, heading (map frame), the robot's forward
+ * speed, the camera's offset ahead of the turning centre and the turn
+ * rate (GroundMotionState order). */
 class PoseFilter {
 public:
-  double accel_sigma = 1.0;     /* m/s^2, process noise */
-  double alpha_sigma = 3.0;     /* rad/s^2 */
+  GroundMotionNoise motion;       /* process noise */
+  /* priors of the motion states at (re)start: unknown speed and turn
+   * rate within a robot's few m/s and rad/s; the offset 0 +- 0.1 m */
+  double speed_sigma = 1.0;       /* m/s */
+  double turn_rate_sigma = 2.0;   /* rad/s */
+  double offset_sigma = 0.1;      /* m */
 
   bool initialised () const { return init_; }
   void reset () { init_ = false; }
@@ -23,6 +31,13 @@ public:
    * per measurement at `gate_chi2`); returns how many were used. */
   int update (const std::vector<Correspondence> & cs,
       double gate_chi2 = 16.0);
+  /* Whether a solution from three or more landmarks (`cs` its pairings)
+   * shows the filter lost: it disagrees with the prediction (chi-square,
+   * 3 dof, 99.9 %) and most of its pairings fail the gate one by one.
+   * When most pass, the solution is the one off (a biased range pulling
+   * the least squares, its covariance too small). */
+  bool lost (const PoseSolution & sol,
+      const std::vector<Correspondence> & cs) const;
   /* A direct pose measurement (used when a solver gave one). */
   void update_pose (const Pose2 & p, const double cov[9]);
   Pose2 pose () const;
@@ -30,8 +45,9 @@ public:
 
 private:
   bool init_ = false;
-  double s_[6] = { 0 };
-  double p_[36] = { 0 };
+  static constexpr int N = kMotionStates;
+  double s_[N] = { 0 };
+  double p_[N * N] = { 0 };
 };
 
 }  // namespace landmark

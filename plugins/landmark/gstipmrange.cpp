@@ -24,6 +24,10 @@
  * - `size-excess`: metres, the part of the disagreement of `range-size`
  *   and `range-ground` that their sigmas do not explain (a blob cut or
  *   merged), 0 without it;
+ * - `rim-range-sigma`, `rim-bearing-sigma`: the part of the sigmas from the
+ *   outline lying off the marker's edge (blur, the colour threshold): an
+ *   error that repeats in every view of a pass, so a filter must not
+ *   average it away (docs/ranging.md);
  * - `no-floor`: true when the ray never meets the marker's plane (above
  *   the horizon); then no range fields, never a negative or infinite one.
  *
@@ -632,6 +636,8 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
       "range-sigma", G_TYPE_DOUBLE, e.range_sigma_total (sigma),
       "bearing-sigma", G_TYPE_DOUBLE, e.bearing_sigma_total (),
       "size-excess", G_TYPE_DOUBLE, e.size_excess,
+      "rim-range-sigma", G_TYPE_DOUBLE, e.rim_range,
+      "rim-bearing-sigma", G_TYPE_DOUBLE, e.rim_bearing,
       "no-floor", G_TYPE_BOOLEAN, FALSE, nullptr);
   if (e.has_size)
     gst_structure_set (s, "range-size", G_TYPE_DOUBLE, e.range_size,

@@ -24,6 +24,14 @@ namespace {
 const int kDx[8] = { 1, 1, 0, -1, -1, -1, 0, 1 };
 const int kDy[8] = { 0, 1, 1, 1, 0, -1, -1, -1 };
 
+/* k mod n for 0 <= k < 2n: the closed contours' indices, without a
+ * division per point */
+inline int
+wrap (int k, int n)
+{
+  return k < n ? k : k - n;
+}
+
 double
 point_segment_distance2 (const cv::Point & p, const cv::Point & a,
     const cv::Point & b)
@@ -47,7 +55,7 @@ chain_length (const cv::Point * c, int n)
   double len = 0;
   for (int i = 0; i < n; i++) {
     const cv::Point & a = c[i];
-    const cv::Point & b = c[(i + 1) % n];
+    const cv::Point & b = c[wrap (i + 1, n)];
     len += std::hypot ((double) (b.x - a.x), (double) (b.y - a.y));
   }
   return len;
@@ -60,9 +68,9 @@ smoothed_length (const cv::Point * c, int n)
   if (n < 3)
     return chain_length (c, n);
   auto at = [&](int i) {
-    const cv::Point & a = c[(i + n - 1) % n];
+    const cv::Point & a = c[wrap (i + n - 1, n)];
     const cv::Point & b = c[i];
-    const cv::Point & d = c[(i + 1) % n];
+    const cv::Point & d = c[wrap (i + 1, n)];
     return cv::Point2d ((a.x + b.x + d.x) / 3.0, (a.y + b.y + d.y) / 3.0);
   };
   const cv::Point2d first = at (0);
@@ -90,7 +98,7 @@ fit_polygon (const cv::Point * c, int n, double eps, BlobLineFit & s,
   double area2 = 0;
   for (int i = 0; i < n; i++) {
     const cv::Point & a = c[i];
-    const cv::Point & b = c[(i + 1) % n];
+    const cv::Point & b = c[wrap (i + 1, n)];
     area2 += (double) a.x * b.y - (double) b.x * a.y;
   }
   if (std::fabs (area2) < 1e-9)
@@ -122,19 +130,19 @@ fit_polygon (const cv::Point * c, int n, double eps, BlobLineFit & s,
     s.stack.pop_back ();
     if (j - i < 2)
       continue;
-    const cv::Point & a = c[i % n];
-    const cv::Point & b = c[j % n];
+    const cv::Point & a = c[wrap (i, n)];
+    const cv::Point & b = c[wrap (j, n)];
     int best = -1;
     double best_d = eps2;
     for (int k = i + 1; k < j; k++) {
-      const double d = point_segment_distance2 (c[k % n], a, b);
+      const double d = point_segment_distance2 (c[wrap (k, n)], a, b);
       if (d > best_d) {
         best_d = d;
         best = k;
       }
     }
     if (best >= 0) {
-      s.keep[best % n] = 1;
+      s.keep[wrap (best, n)] = 1;
       s.stack.emplace_back (i, best);
       s.stack.emplace_back (best, j);
     }
@@ -157,21 +165,22 @@ fit_polygon (const cv::Point * c, int n, double eps, BlobLineFit & s,
     const int cnt = j - i + 1;
     double mx = 0, my = 0;
     for (int q = i; q <= j; q++) {
-      mx += c[q % n].x;
-      my += c[q % n].y;
+      mx += c[wrap (q, n)].x;
+      my += c[wrap (q, n)].y;
     }
     mx /= cnt;
     my /= cnt;
     double sxx = 0, syy = 0, sxy = 0;
     for (int q = i; q <= j; q++) {
-      const double dx = c[q % n].x - mx, dy = c[q % n].y - my;
+      const double dx = c[wrap (q, n)].x - mx, dy = c[wrap (q, n)].y - my;
       sxx += dx * dx;
       syy += dy * dy;
       sxy += dx * dy;
     }
     const double theta = 0.5 * std::atan2 (2 * sxy, sxx - syy);
     cv::Point2d t (std::cos (theta), std::sin (theta));
-    const double chx = c[j % n].x - c[i].x, chy = c[j % n].y - c[i].y;
+    const cv::Point & end = c[wrap (j, n)];
+    const double chx = end.x - c[i].x, chy = end.y - c[i].y;
     if (t.x * chx + t.y * chy < 0)
       t = -t;
     const cv::Point2d nrm = orient > 0 ? cv::Point2d (t.y, -t.x) :

@@ -235,6 +235,16 @@ struct Packed4Keys {
   }
 };
 
+/* The same when the colour bytes come first (RGBx, BGRx): no shift. */
+struct Packed4LowKeys {
+  __attribute__ ((target ("avx2"))) __m256i
+  operator() (const PixelReader & r, guint x) const
+  {
+    return _mm256_and_si256 (_mm256_loadu_si256 ((const __m256i *)
+            (r.row0 + x * 4)), _mm256_set1_epi32 (0xffffff));
+  }
+};
+
 /* 3-byte pixels: the 24 bytes of 8 pixels (a masked load: nothing is
  * read past them), bytes 12-27 moved to the high lane, then each pixel's
  * three bytes to its lane. */
@@ -437,8 +447,13 @@ label_rows_gather (const ClassTable & table, PixelReader & reader,
 {
   switch (reader.layout.layout) {
     case PixelLayout::PACKED4:
-      label_rows_avx2 (table, reader, Packed4Keys { _mm_cvtsi32_si128
-              (reader.layout.key_shift) }, width, y0, y1, labels, n, counts);
+      if (reader.layout.key_shift == 0)
+        label_rows_avx2 (table, reader, Packed4LowKeys (), width, y0, y1,
+            labels, n, counts);
+      else
+        label_rows_avx2 (table, reader, Packed4Keys { _mm_cvtsi32_si128
+                (reader.layout.key_shift) }, width, y0, y1, labels, n,
+            counts);
       break;
     case PixelLayout::YUV420:
       label_rows_avx2 (table, reader, Yuv420Keys (), width, y0, y1, labels,

@@ -660,8 +660,9 @@ components_of (BlobAnalyzer & a)
 /* The AVX2 run search (64 labels a step, the row's last 32 read again for
  * its end) finds what the SSE2 / scalar one finds, and both what OpenCV
  * finds in each slot's mask: widths around the vector steps, marker
- * pixels in the first and last columns and rows, selected labels in every
- * nibble (and one above 127, which takes the other path), strides. */
+ * pixels in the first and last columns and rows, selected labels all
+ * under 16 (with unselected ones sharing their low nibble) or in several
+ * high nibbles (and one above 127, which takes the other path), strides. */
 static void
 test_label_runs_vector_paths ()
 {
@@ -678,11 +679,11 @@ test_label_runs_vector_paths ()
     for (int y = 0; y < h; y++)
       for (int x = 0; x < w; x++)
         plane[(size_t) y * stride + x] = U (rng) % 3 ? 6 : 7;
-    const uint8_t markers[] = { 1, 3, 17, 70, 127, 200 };
+    const uint8_t markers[] = { 1, 3, 17, 70, 127, 200, 6, 15 };
     for (int k = 0; k < w * h / 20 + 1; k++) {
       const int y = U (rng) % h, x = U (rng) % w;
       const int len = 1 + U (rng) % (k % 4 ? 3 : 70);
-      const uint8_t l = markers[U (rng) % 6];
+      const uint8_t l = markers[U (rng) % 8];
       for (int i = x; i < std::min (w, x + len); i++)
         plane[(size_t) y * stride + i] = l;
     }
@@ -698,9 +699,16 @@ test_label_runs_vector_paths ()
     uint8_t slot_of[256] = { 0 };
     slot_of[1] = 1;
     slot_of[3] = 2;
-    slot_of[17] = 1;            /* two labels of one slot */
-    slot_of[70] = 3;
-    slot_of[127] = 4;
+    if (trial % 4 < 2) {
+      /* labels under 16 only: 17, 70 and 127, which share their low
+       * nibble with 1, 6 and 15, must not count */
+      slot_of[6] = 3;
+      slot_of[15] = 4;
+    } else {
+      slot_of[17] = 1;          /* two labels of one slot */
+      slot_of[70] = 3;
+      slot_of[127] = 4;
+    }
     if (trial % 8 == 7)
       slot_of[200] = 5;         /* over 127: the SSE2 / scalar search */
 

@@ -258,23 +258,29 @@ run_end (const uint8_t * row, int from, int w, uint8_t l)
 }
 
 #ifdef LANDMARK_BLOB_AVX2
-/* The run search 64 labels a step. Whether a label is selected is one
- * table look-up per byte, whatever the number of selected labels: byte
- * lo[l & 15] of the table has bit l >> 4 set when label l is selected
- * (labels 0..127; the caller checks that no larger one is), and a second
- * shuffle turns the high nibble into that bit (0 for 128..255). Built for
- * AVX2 whatever the compiler's target; called only when the processor has
- * it. */
+/* The run search 64 labels a step. Whether a label is selected is a
+ * byte-shuffle table look-up, whatever the number of selected labels.
+ * When they are all under 16 (palettes up to 15 classes): a saturating
+ * add of 0x70 sets the top bit of every larger label (the shuffle gives 0
+ * for those) and keeps the low nibble of the others, whose table entry
+ * has its top bit set when selected. Otherwise byte lo[l & 15] of the
+ * table has bit l >> 4 set when label l is selected (labels 0..127; the
+ * caller checks that no larger one is), and a second shuffle turns the
+ * high nibble into that bit (0 for 128..255). Built for AVX2 whatever the
+ * compiler's target; called only when the processor has it. */
 struct Avx2Selection {
   __m256i lo, bit, nibble;
+  bool small = true;
 
   __attribute__ ((target ("avx2"))) explicit
   Avx2Selection (const uint8_t slot_of[256])
   {
     alignas (16) uint8_t t[16] = { 0 };
+    for (int l = 16; l < 128; l++)
+      small = small && !slot_of[l];
     for (int l = 0; l < 128; l++)
       if (slot_of[l])
-        t[l & 15] |= (uint8_t) (1u << (l >> 4));
+        t[l & 15] |= small ? 0x80 : (uint8_t) (1u << (l >> 4));
     lo = _mm256_broadcastsi128_si256 (_mm_load_si128 ((const __m128i *) t));
     bit = _mm256_setr_epi8 (1, 2, 4, 8, 16, 32, 64, -128, 0, 0, 0, 0, 0, 0, 0,
         0, 1, 2, 4, 8, 16, 32, 64, -128, 0, 0, 0, 0, 0, 0, 0, 0);
@@ -286,6 +292,9 @@ struct Avx2Selection {
   at (const uint8_t * p) const
   {
     const __m256i v = _mm256_loadu_si256 ((const __m256i *) p);
+    if (small)
+      return (uint32_t) _mm256_movemask_epi8 (_mm256_shuffle_epi8 (lo,
+              _mm256_adds_epu8 (v, _mm256_set1_epi8 (0x70))));
     const __m256i rows = _mm256_shuffle_epi8 (lo, _mm256_and_si256 (v, nibble));
     const __m256i bits = _mm256_shuffle_epi8 (bit,
         _mm256_and_si256 (_mm256_srli_epi16 (v, 4), nibble));

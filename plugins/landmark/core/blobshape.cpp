@@ -257,6 +257,18 @@ run_end (const uint8_t * row, int from, int w, uint8_t l)
   return e;
 }
 
+/* Adds the run of pixels x..e-1 of row y to out, or extends the last run
+ * when it ends at x with the same slot (two labels of one slot). */
+inline void
+add_run (std::vector<BlobRun> & out, int y, int x, int e, int slot)
+{
+  if (!out.empty () && out.back ().y == y && out.back ().x1 + 1 == x &&
+      out.back ().slot == slot)
+    out.back ().x1 = e - 1;
+  else
+    out.push_back ({y, x, e - 1, slot});
+}
+
 #ifdef LANDMARK_BLOB_AVX2
 /* The run search 64 labels a step. Whether a label is selected is a
  * byte-shuffle table look-up, whatever the number of selected labels.
@@ -364,12 +376,7 @@ find_runs_avx2 (const uint8_t * plane, size_t stride, int w, int y0, int y1,
         }
         e = std::min (w, e + 32);
       }
-      const int slot = slot_of[l];
-      if (!out.empty () && out.back ().y == y &&
-          out.back ().x1 + 1 == x && out.back ().slot == slot)
-        out.back ().x1 = e - 1;       /* two labels of one slot */
-      else
-        out.push_back ({y, x, e - 1, slot});
+      add_run (out, y, x, e, slot_of[l]);
       x = e;
     }
   }
@@ -494,12 +501,7 @@ BlobAnalyzer::find_runs (const uint8_t * plane, size_t stride, int width,
       /* the run of this label */
       const uint8_t l = row[x];
       const int e = run_end (row, x + 1, w, l);
-      const int slot = slot_of[l];
-      if (!out.empty () && out.back ().y == y &&
-          out.back ().x1 + 1 == x && out.back ().slot == slot)
-        out.back ().x1 = e - 1;       /* two labels of one slot */
-      else
-        out.push_back ({y, x, e - 1, slot});
+      add_run (out, y, x, e, slot_of[l]);
       x = e;
     }
   }

@@ -9,10 +9,11 @@
  *
  * Components are kept as horizontal runs: one pass over the plane finds
  * the runs of selected labels (64 labels at a time with AVX2, 16 with
- * SSE2, while no selected label appears), a union-find over runs of consecutive rows joins them, and
- * every moment comes from closed-form sums over runs. Only a component's
- * own bounding box is ever painted (to trace its outline), so the work
- * grows with the marker pixels, not with the frame. Scratch memory is kept
+ * SSE2, while no selected label appears), a union-find over runs of
+ * consecutive rows joins them, and every moment comes from closed-form
+ * sums over runs. Only a component's own bounding box is ever painted
+ * (to trace its outline), so the work grows with the marker pixels, not
+ * with the frame. Scratch memory is kept
  * between calls: in steady state nothing is allocated (except inside
  * cv::fitEllipseDirect, for blobs touching the frame edge).
  *

@@ -80,6 +80,7 @@
 
 #include "blobshape.h"
 #include "elementsettings.h"
+#include "labsegmentpixels.h"
 #include "landmarkmeta.h"
 #include "markerevidence.h"
 
@@ -269,6 +270,8 @@ gst_blob_roundness_set_caps (GstBaseTransform * trans, GstCaps * incaps,
   } else {
     st.video_width = st.video_height = 0;
   }
+  /* the run search's vector level follows labsegment's (LANDMARK_SIMD) */
+  st.analyzer.set_avx2 (landmark::simd_level () == landmark::SimdLevel::AVX2);
   GST_DEBUG_OBJECT (self, "caps %" GST_PTR_FORMAT, incaps);
   return TRUE;
 }

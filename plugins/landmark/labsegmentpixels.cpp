@@ -235,6 +235,16 @@ struct Packed4Keys {
   }
 };
 
+/* The same when the colour bytes come first (RGBx, BGRx): no shift. */
+struct Packed4LowKeys {
+  __attribute__ ((target ("avx2"))) __m256i
+  operator() (const PixelReader & r, guint x) const
+  {
+    return _mm256_and_si256 (_mm256_loadu_si256 ((const __m256i *)
+            (r.row0 + x * 4)), _mm256_set1_epi32 (0xffffff));
+  }
+};
+
 /* 3-byte pixels: the 24 bytes of 8 pixels (a masked load: nothing is
  * read past them), bytes 12-27 moved to the high lane, then each pixel's
  * three bytes to its lane. */
@@ -301,13 +311,80 @@ gather8 (const guint8 * table, __m256i keys)
           keys, 1), _mm256_set1_epi32 (0xff));
 }
 
+/* Counts classes 1..7 of 32 labels a step in registers: each of four
+ * byte shuffles turns a label into a one in the low nibble (class 2k + 1)
+ * or the high nibble (class 2k + 2) of its byte, added to 8-bit counters
+ * that hold 15 steps before they are split into nibbles and summed
+ * (kPending and label 0 count nowhere: the shuffle gives 0 for them). */
+struct NibbleCounts {
+  __m256i lut[4], acc[4], sums[4];
+  guint steps = 0;
+
+  __attribute__ ((target ("avx2"))) explicit NibbleCounts (guint n)
+  {
+#pragma GCC unroll 4
+    for (guint k = 0; k < 4; k++) {
+      alignas (16) guint8 one[16] = { 0 };
+      if (2 * k + 1 <= n)
+        one[2 * k + 1] = 0x01;
+      if (2 * k + 2 <= n)
+        one[2 * k + 2] = 0x10;
+      lut[k] = _mm256_broadcastsi128_si256 (_mm_load_si128 ((const __m128i *)
+              one));
+      acc[k] = sums[k] = _mm256_setzero_si256 ();
+    }
+  }
+
+  __attribute__ ((target ("avx2"))) void add (__m256i labels)
+  {
+#pragma GCC unroll 4
+    for (guint k = 0; k < 4; k++)
+      acc[k] = _mm256_add_epi8 (acc[k], _mm256_shuffle_epi8 (lut[k], labels));
+    if (++steps == 15)
+      flush ();
+  }
+
+  /* each 64-bit lane of sums[k]: class 2k + 1 low, 2k + 2 high */
+  __attribute__ ((target ("avx2"))) void flush ()
+  {
+    const __m256i low = _mm256_set1_epi8 (0x0f);
+    const __m256i zero = _mm256_setzero_si256 ();
+#pragma GCC unroll 4
+    for (guint k = 0; k < 4; k++) {
+      const __m256i lo = _mm256_sad_epu8 (_mm256_and_si256 (acc[k], low), zero);
+      const __m256i hi = _mm256_sad_epu8 (_mm256_and_si256 (_mm256_srli_epi16
+              (acc[k], 4), low), zero);
+      sums[k] = _mm256_add_epi64 (sums[k], _mm256_add_epi64 (lo,
+              _mm256_slli_epi64 (hi, 32)));
+      acc[k] = zero;
+    }
+    steps = 0;
+  }
+
+  /* counts[1..n] += what was added */
+  __attribute__ ((target ("avx2"))) void total (guint n, guint32 counts[256])
+  {
+    flush ();
+    for (guint k = 0; k < 4; k++) {
+      const guint64 both = (guint64) _mm256_extract_epi64 (sums[k], 0) +
+          (guint64) _mm256_extract_epi64 (sums[k], 1) +
+          (guint64) _mm256_extract_epi64 (sums[k], 2) +
+          (guint64) _mm256_extract_epi64 (sums[k], 3);
+      if (2 * k + 1 <= n)
+        counts[2 * k + 1] += (guint32) both;
+      if (2 * k + 2 <= n)
+        counts[2 * k + 2] += (guint32) (both >> 32);
+    }
+  }
+};
+
 /* Pass 1 for rows y0..y1-1 of a slice with gathers, 32 pixels (four
  * gathers packed to 32 labels, one store) a step, and counts[v] as
- * count_labels gives it. Up to 7 classes (with kPending, 8 values) are
- * counted as the labels go by, in registers (8-bit per-lane counters,
- * summed before they can overflow), in place of a second pass over the
- * plane; larger palettes count afterwards. The table holds kPending for
- * cells not computed yet, as the scalar loops read it: label_frame
+ * count_labels gives it. Up to 7 classes are counted as the labels go by
+ * (NibbleCounts), in place of a second pass over the plane, and a running
+ * maximum tells whether any kPending went by (they are counted afterwards,
+ * only then); larger palettes count afterwards. The table holds kPending
+ * for cells not computed yet, as the scalar loops read it: label_frame
  * resolves them. Row ends (under 32 pixels) go pixel by pixel. */
 template <class Keys> __attribute__ ((target ("avx2"))) void
 label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
@@ -318,19 +395,10 @@ label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
   /* packs work within 128-bit lanes: this puts the 8-byte groups back in
    * pixel order */
   const __m256i order = _mm256_setr_epi32 (0, 4, 1, 5, 2, 6, 3, 7);
-  const bool fold = n + 1 <= 8;
-  guint8 values[8];
-  __m256i v[8], acc[8];
-  guint64 total[8] = { 0 };
-  guint steps = 0;
-  /* the loops over the 8 values are unrolled so that the counters stay in
-   * registers */
-#pragma GCC unroll 8
-  for (guint i = 0; i < 8; i++) {
-    values[i] = i < n ? i + 1 : ClassTable::kPending;
-    v[i] = _mm256_set1_epi8 ((char) values[i]);
-    acc[i] = _mm256_setzero_si256 ();
-  }
+  const bool fold = n <= 7;
+  NibbleCounts classes (n);
+  __m256i largest = _mm256_setzero_si256 ();
+  bool tail_pending = false;
   for (guint y = y0; y < y1; y++) {
     reader.set_row (y);
     guint8 *out = labels + (gsize) y * width;
@@ -345,36 +413,30 @@ label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
       _mm256_storeu_si256 ((__m256i *) (out + x), bytes);
       if (!fold)
         continue;
-#pragma GCC unroll 8
-      for (guint i = 0; i < 8; i++)
-        acc[i] = _mm256_sub_epi8 (acc[i], _mm256_cmpeq_epi8 (bytes, v[i]));
-      if (++steps < 255)
-        continue;
-#pragma GCC unroll 8
-      for (guint i = 0; i < 8; i++) {
-        total[i] += sum_bytes_avx2 (acc[i]);
-        acc[i] = _mm256_setzero_si256 ();
-      }
-      steps = 0;
+      classes.add (bytes);
+      largest = _mm256_max_epu8 (largest, bytes);
     }
     for (; x < width; x++) {
       guint8 c[3] = { 0, 0, 0 };
       reader.get (x, c);
       out[x] = table.lookup (c[0], c[1], c[2]);
-      if (fold)
-        for (guint i = 0; i <= n; i++)
-          total[i] += out[x] == values[i];
+      if (fold && out[x] >= 1 && out[x] <= n)
+        counts[out[x]]++;
+      tail_pending |= out[x] == ClassTable::kPending;
     }
   }
+  const guint8 *first = labels + (gsize) y0 * width;
+  const gsize size = (gsize) (y1 - y0) * width;
   if (!fold) {
-    count_labels (labels + (gsize) y0 * width, (gsize) (y1 - y0) * width, n,
-        SimdLevel::AVX2, counts);
+    count_labels (first, size, n, SimdLevel::AVX2, counts);
     return;
   }
-#pragma GCC unroll 8
-  for (guint i = 0; i < 8; i++)
-    if (i <= n)
-      counts[values[i]] += (guint32) (total[i] + sum_bytes_avx2 (acc[i]));
+  classes.total (n, counts);
+  const __m256i pending = _mm256_set1_epi8 ((char) ClassTable::kPending);
+  if (tail_pending || _mm256_movemask_epi8 (_mm256_cmpeq_epi8 (largest,
+              pending)))
+    counts[ClassTable::kPending] += (guint32) std::count (first, first + size,
+        ClassTable::kPending);
 }
 
 /* label_rows_avx2 with the layout's keys. */
@@ -385,8 +447,13 @@ label_rows_gather (const ClassTable & table, PixelReader & reader,
 {
   switch (reader.layout.layout) {
     case PixelLayout::PACKED4:
-      label_rows_avx2 (table, reader, Packed4Keys { _mm_cvtsi32_si128
-              (reader.layout.key_shift) }, width, y0, y1, labels, n, counts);
+      if (reader.layout.key_shift == 0)
+        label_rows_avx2 (table, reader, Packed4LowKeys (), width, y0, y1,
+            labels, n, counts);
+      else
+        label_rows_avx2 (table, reader, Packed4Keys { _mm_cvtsi32_si128
+                (reader.layout.key_shift) }, width, y0, y1, labels, n,
+            counts);
       break;
     case PixelLayout::YUV420:
       label_rows_avx2 (table, reader, Yuv420Keys (), width, y0, y1, labels,

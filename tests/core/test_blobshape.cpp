@@ -638,6 +638,116 @@ test_label_plane ()
   CHECK (a.count () == 3, "strided: %zu components", a.count ());
 }
 
+/* ---- the run search's vector paths ------------------------------------ */
+
+/* Pixels, bounding box and centroid of each component, in the analyzer's
+ * order. */
+static std::vector<std::vector<double>>
+components_of (BlobAnalyzer & a)
+{
+  std::vector<std::vector<double>> out;
+  a.label ();
+  for (size_t i = 0; i < a.count (); i++) {
+    BlobShape b;
+    a.measure (i, &b);
+    out.push_back ({ (double) b.slot, b.area, (double) b.bbox_x,
+            (double) b.bbox_y, (double) b.bbox_w, (double) b.bbox_h,
+            b.centroid_x, b.centroid_y });
+  }
+  return out;
+}
+
+/* The AVX2 run search (64 labels a step, the row's last 32 read again for
+ * its end) finds what the SSE2 / scalar one finds, and both what OpenCV
+ * finds in each slot's mask: widths around the vector steps, marker
+ * pixels in the first and last columns and rows, selected labels all
+ * under 16 (with unselected ones sharing their low nibble) or in several
+ * high nibbles (and one above 127, which takes the other path), strides. */
+static void
+test_label_runs_vector_paths ()
+{
+  const int widths[] = { 1, 7, 31, 32, 33, 63, 64, 65, 95, 96, 97, 127, 128,
+    129, 200, 640 };
+  std::mt19937 rng (5);
+  std::uniform_int_distribution<int> U (0, 1 << 30);
+  int trials = 0;
+  for (int trial = 0; trial < 160; trial++) {
+    const int w = widths[trial % 16], h = 1 + U (rng) % 24;
+    const size_t stride = (size_t) w + (trial % 3) * 5;
+    /* background labels, then runs of marker labels of random lengths */
+    std::vector<uint8_t> plane (stride * h, 250);
+    for (int y = 0; y < h; y++)
+      for (int x = 0; x < w; x++)
+        plane[(size_t) y * stride + x] = U (rng) % 3 ? 6 : 7;
+    const uint8_t markers[] = { 1, 3, 17, 70, 127, 200, 6, 15 };
+    for (int k = 0; k < w * h / 20 + 1; k++) {
+      const int y = U (rng) % h, x = U (rng) % w;
+      const int len = 1 + U (rng) % (k % 4 ? 3 : 70);
+      const uint8_t l = markers[U (rng) % 8];
+      for (int i = x; i < std::min (w, x + len); i++)
+        plane[(size_t) y * stride + i] = l;
+    }
+    /* the corners and the last column and row */
+    const uint8_t edge = markers[trial % 5];
+    for (int y = 0; y < h; y++)
+      if (trial % 2 || y == h - 1)
+        plane[(size_t) y * stride + w - 1] = edge;
+    plane[(size_t) (h - 1) * stride] = edge;
+    plane[(size_t) (h - 1) * stride + w - 1] = markers[(trial + 1) % 5];
+    plane[0] = edge;
+
+    uint8_t slot_of[256] = { 0 };
+    slot_of[1] = 1;
+    slot_of[3] = 2;
+    if (trial % 4 < 2) {
+      /* labels under 16 only: 17, 70 and 127, which share their low
+       * nibble with 1, 6 and 15, must not count */
+      slot_of[6] = 3;
+      slot_of[15] = 4;
+    } else {
+      slot_of[17] = 1;          /* two labels of one slot */
+      slot_of[70] = 3;
+      slot_of[127] = 4;
+    }
+    if (trial % 8 == 7)
+      slot_of[200] = 5;         /* over 127: the SSE2 / scalar search */
+
+    BlobAnalyzer wide, narrow;
+    narrow.set_avx2 (false);
+    wide.begin (w, h);
+    wide.add_label_runs (plane.data (), stride, slot_of);
+    narrow.begin (w, h);
+    narrow.add_label_runs (plane.data (), stride, slot_of);
+    const auto got = components_of (wide);
+    CHECK (got == components_of (narrow), "trial %d (%dx%d): the vector "
+        "paths differ", trial, w, h);
+
+    /* OpenCV on each slot's mask: components and pixels */
+    size_t expected = 0;
+    std::map<int, double> pixels;
+    for (int slot = 1; slot <= 5; slot++) {
+      cv::Mat mask (h, w, CV_8UC1, cv::Scalar (0));
+      for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+          if (slot_of[plane[(size_t) y * stride + x]] == slot) {
+            mask.at<uint8_t> (y, x) = 255;
+            pixels[slot]++;
+          }
+      cv::Mat cc;
+      expected += cv::connectedComponents (mask, cc, 8, CV_32S) - 1;
+    }
+    std::map<int, double> found;
+    for (const auto & c : got)
+      found[(int) c[0]] += c[1];
+    CHECK (got.size () == expected && found == pixels, "trial %d (%dx%d): "
+        "%zu components, OpenCV %zu", trial, w, h, got.size (), expected);
+    trials++;
+  }
+  printf ("run search: AVX2 (%s on this processor) and SSE2 paths identical "
+      "and matching OpenCV on %d planes\n", BlobAnalyzer::cpu_has_avx2 () ?
+      "available" : "not available", trials);
+}
+
 /* ---- speed ------------------------------------------------------------ */
 
 static void
@@ -729,6 +839,7 @@ main ()
   test_other_shapes ();
   test_degenerate ();
   test_label_plane ();
+  test_label_runs_vector_paths ();
   test_speed ();
   return corecheck_summary ();
 }

@@ -177,6 +177,38 @@ def test_rejected_shapes_and_reasons(gst):
             assert not nearest(dets, SCENE[1][4]).blob["kept"]
 
 
+def test_vector_run_search_matches_scalar(gst, monkeypatch):
+    """The run search's AVX2 path (the default where the processor has it)
+    finds the blobs the SSE2 path finds (LANDMARK_SIMD=sse2), on a width
+    that is no multiple of its 32-pixel steps, with discs cut by the last
+    column and the last row and one only one pixel into the frame."""
+    width, height = 161, 53
+    frame = antialiased(width, height, [
+        (BLUE, ellipse(150, 20, 30, 30, 0)),           # cut by the last column
+        (PINK, ellipse(60, 47, 24, 24, 0)),            # cut by the last row
+        (BLUE, ellipse(100, 10, 20, 12, 30)),
+        (PINK, ellipse(12, 30, 14, 14, 0))])
+    frame[:, -1] = BLUE                    # a stripe in the last column only
+    frame[-1, 100] = PINK
+    caps = (f"video/x-raw,format=RGB,width={width},height={height},"
+            "framerate=30/1")
+    chain = ("labsegment min-class-pixels=0 ! blobroundness min-area=1 "
+             "keep-rejected=true")
+    found = {}
+    for level in ("sse2", "best"):
+        monkeypatch.setenv("LANDMARK_SIMD", level)
+        (buf,) = pipeline.process_frames(chain, [frame], caps)
+        found[level] = sorted((d.class_name, d.bbox, d.blob["area"])
+                              for d in meta.detections(buf))
+    monkeypatch.delenv("LANDMARK_SIMD")
+    assert found["best"] == found["sse2"]
+    boxes = [bbox for _, bbox, _ in found["best"]]
+    # the blobs reach the last column and the last row
+    assert any(x + w == width for x, _, w, _ in boxes)
+    assert any(y + h == height for _, y, _, h in boxes)
+    assert ("pink", (100, height - 1, 1, 1), 1.0) in found["best"]
+
+
 @pytest.fixture(scope="module")
 def distractor_clip(tmp_path_factory, gst):
     from gstlandmark.synth import render_scenario

@@ -10,6 +10,10 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define LANDMARK_BLOB_AVX2 1
+#endif
 
 namespace landmark {
 
@@ -19,6 +23,14 @@ namespace {
  * NW, N, NE. */
 const int kDx[8] = { 1, 1, 0, -1, -1, -1, 0, 1 };
 const int kDy[8] = { 0, 1, 1, 1, 0, -1, -1, -1 };
+
+/* k mod n for 0 <= k < 2n: the closed contours' indices, without a
+ * division per point */
+inline int
+wrap (int k, int n)
+{
+  return k < n ? k : k - n;
+}
 
 double
 point_segment_distance2 (const cv::Point & p, const cv::Point & a,
@@ -43,7 +55,7 @@ chain_length (const cv::Point * c, int n)
   double len = 0;
   for (int i = 0; i < n; i++) {
     const cv::Point & a = c[i];
-    const cv::Point & b = c[(i + 1) % n];
+    const cv::Point & b = c[wrap (i + 1, n)];
     len += std::hypot ((double) (b.x - a.x), (double) (b.y - a.y));
   }
   return len;
@@ -56,9 +68,9 @@ smoothed_length (const cv::Point * c, int n)
   if (n < 3)
     return chain_length (c, n);
   auto at = [&](int i) {
-    const cv::Point & a = c[(i + n - 1) % n];
+    const cv::Point & a = c[wrap (i + n - 1, n)];
     const cv::Point & b = c[i];
-    const cv::Point & d = c[(i + 1) % n];
+    const cv::Point & d = c[wrap (i + 1, n)];
     return cv::Point2d ((a.x + b.x + d.x) / 3.0, (a.y + b.y + d.y) / 3.0);
   };
   const cv::Point2d first = at (0);
@@ -86,7 +98,7 @@ fit_polygon (const cv::Point * c, int n, double eps, BlobLineFit & s,
   double area2 = 0;
   for (int i = 0; i < n; i++) {
     const cv::Point & a = c[i];
-    const cv::Point & b = c[(i + 1) % n];
+    const cv::Point & b = c[wrap (i + 1, n)];
     area2 += (double) a.x * b.y - (double) b.x * a.y;
   }
   if (std::fabs (area2) < 1e-9)
@@ -118,19 +130,19 @@ fit_polygon (const cv::Point * c, int n, double eps, BlobLineFit & s,
     s.stack.pop_back ();
     if (j - i < 2)
       continue;
-    const cv::Point & a = c[i % n];
-    const cv::Point & b = c[j % n];
+    const cv::Point & a = c[wrap (i, n)];
+    const cv::Point & b = c[wrap (j, n)];
     int best = -1;
     double best_d = eps2;
     for (int k = i + 1; k < j; k++) {
-      const double d = point_segment_distance2 (c[k % n], a, b);
+      const double d = point_segment_distance2 (c[wrap (k, n)], a, b);
       if (d > best_d) {
         best_d = d;
         best = k;
       }
     }
     if (best >= 0) {
-      s.keep[best % n] = 1;
+      s.keep[wrap (best, n)] = 1;
       s.stack.emplace_back (i, best);
       s.stack.emplace_back (best, j);
     }
@@ -153,21 +165,22 @@ fit_polygon (const cv::Point * c, int n, double eps, BlobLineFit & s,
     const int cnt = j - i + 1;
     double mx = 0, my = 0;
     for (int q = i; q <= j; q++) {
-      mx += c[q % n].x;
-      my += c[q % n].y;
+      mx += c[wrap (q, n)].x;
+      my += c[wrap (q, n)].y;
     }
     mx /= cnt;
     my /= cnt;
     double sxx = 0, syy = 0, sxy = 0;
     for (int q = i; q <= j; q++) {
-      const double dx = c[q % n].x - mx, dy = c[q % n].y - my;
+      const double dx = c[wrap (q, n)].x - mx, dy = c[wrap (q, n)].y - my;
       sxx += dx * dx;
       syy += dy * dy;
       sxy += dx * dy;
     }
     const double theta = 0.5 * std::atan2 (2 * sxy, sxx - syy);
     cv::Point2d t (std::cos (theta), std::sin (theta));
-    const double chx = c[j % n].x - c[i].x, chy = c[j % n].y - c[i].y;
+    const cv::Point & end = c[wrap (j, n)];
+    const double chx = end.x - c[i].x, chy = end.y - c[i].y;
     if (t.x * chx + t.y * chy < 0)
       t = -t;
     const cv::Point2d nrm = orient > 0 ? cv::Point2d (t.y, -t.x) :
@@ -244,6 +257,132 @@ run_end (const uint8_t * row, int from, int w, uint8_t l)
   return e;
 }
 
+/* Adds the run of pixels x..e-1 of row y to out, or extends the last run
+ * when it ends at x with the same slot (two labels of one slot). */
+inline void
+add_run (std::vector<BlobRun> & out, int y, int x, int e, int slot)
+{
+  if (!out.empty () && out.back ().y == y && out.back ().x1 + 1 == x &&
+      out.back ().slot == slot)
+    out.back ().x1 = e - 1;
+  else
+    out.push_back ({y, x, e - 1, slot});
+}
+
+#ifdef LANDMARK_BLOB_AVX2
+/* The run search 64 labels a step. Whether a label is selected is a
+ * byte-shuffle table look-up, whatever the number of selected labels.
+ * When they are all under 16 (palettes up to 15 classes): a saturating
+ * add of 0x70 sets the top bit of every larger label (the shuffle gives 0
+ * for those) and keeps the low nibble of the others, whose table entry
+ * has its top bit set when selected. Otherwise byte lo[l & 15] of the
+ * table has bit l >> 4 set when label l is selected (labels 0..127; the
+ * caller checks that no larger one is), and a second shuffle turns the
+ * high nibble into that bit (0 for 128..255). Built for AVX2 whatever the
+ * compiler's target; called only when the processor has it. */
+struct Avx2Selection {
+  __m256i lo, bit, nibble;
+  bool small = true;
+
+  __attribute__ ((target ("avx2"))) explicit
+  Avx2Selection (const uint8_t slot_of[256])
+  {
+    alignas (16) uint8_t t[16] = { 0 };
+    for (int l = 16; l < 128; l++)
+      small = small && !slot_of[l];
+    for (int l = 0; l < 128; l++)
+      if (slot_of[l])
+        t[l & 15] |= small ? 0x80 : (uint8_t) (1u << (l >> 4));
+    lo = _mm256_broadcastsi128_si256 (_mm_load_si128 ((const __m128i *) t));
+    bit = _mm256_setr_epi8 (1, 2, 4, 8, 16, 32, 64, -128, 0, 0, 0, 0, 0, 0, 0,
+        0, 1, 2, 4, 8, 16, 32, 64, -128, 0, 0, 0, 0, 0, 0, 0, 0);
+    nibble = _mm256_set1_epi8 (0x0f);
+  }
+
+  /* bit i: label p[i] is selected, i in 0..31 */
+  __attribute__ ((target ("avx2"))) uint32_t
+  at (const uint8_t * p) const
+  {
+    const __m256i v = _mm256_loadu_si256 ((const __m256i *) p);
+    if (small)
+      return (uint32_t) _mm256_movemask_epi8 (_mm256_shuffle_epi8 (lo,
+              _mm256_adds_epu8 (v, _mm256_set1_epi8 (0x70))));
+    const __m256i rows = _mm256_shuffle_epi8 (lo, _mm256_and_si256 (v, nibble));
+    const __m256i bits = _mm256_shuffle_epi8 (bit,
+        _mm256_and_si256 (_mm256_srli_epi16 (v, 4), nibble));
+    return ~(uint32_t) _mm256_movemask_epi8 (_mm256_cmpeq_epi8
+        (_mm256_and_si256 (rows, bits), _mm256_setzero_si256 ()));
+  }
+};
+
+/* bit i: row[i] != l, i in 0..31 */
+__attribute__ ((target ("avx2"))) inline uint32_t
+differs_avx2 (const uint8_t * p, __m256i l)
+{
+  return ~(uint32_t) _mm256_movemask_epi8 (_mm256_cmpeq_epi8
+      (_mm256_loadu_si256 ((const __m256i *) p), l));
+}
+
+/* The 32 bits of what (a look at 32 labels) for pixels x..x+31 of a row of
+ * w >= 32 pixels: the last 32 pixels are read again for a row's end, and
+ * only the pixels from x on are kept (bits past the end are 0). */
+template <class Look> __attribute__ ((target ("avx2"))) inline uint32_t
+look32 (const uint8_t * row, int x, int w, Look what)
+{
+  if (x + 32 <= w)
+    return what (row + x);
+  return what (row + w - 32) >> (x - (w - 32));
+}
+
+__attribute__ ((target ("avx2"))) void
+find_runs_avx2 (const uint8_t * plane, size_t stride, int w, int y0, int y1,
+    const uint8_t slot_of[256], std::vector<BlobRun> & out)
+{
+  const Avx2Selection sel (slot_of);
+  auto selected = [&](const uint8_t * p) { return sel.at (p); };
+  for (int y = y0; y < y1; y++) {
+    const uint8_t *row = plane + (size_t) y * stride;
+    int x = 0;
+    while (x < w) {
+      /* skip pixels whose label is not selected, 64 at a time */
+      for (; x + 64 <= w; x += 64) {
+        const uint64_t m = selected (row + x) |
+            (uint64_t) selected (row + x + 32) << 32;
+        if (m) {
+          x += __builtin_ctzll (m);
+          break;
+        }
+      }
+      if (x >= w)
+        break;
+      const uint32_t m = look32 (row, x, w, selected);
+      if (!m) {
+        if (x + 32 >= w)
+          break;
+        x += 32;
+        continue;
+      }
+      x += __builtin_ctz (m);
+      /* the run of this label */
+      const uint8_t l = row[x];
+      const __m256i vl = _mm256_set1_epi8 ((char) l);
+      auto other = [&](const uint8_t * p) { return differs_avx2 (p, vl); };
+      int e = x + 1;
+      while (e < w) {
+        const uint32_t d = look32 (row, e, w, other);
+        if (d) {
+          e += __builtin_ctz (d);
+          break;
+        }
+        e = std::min (w, e + 32);
+      }
+      add_run (out, y, x, e, slot_of[l]);
+      x = e;
+    }
+  }
+}
+#endif
+
 }  // namespace
 
 /* ---- free functions ------------------------------------------------- */
@@ -287,6 +426,16 @@ blob_perimeter (const cv::Point * contour, int n, double eps,
 
 /* ---- runs ----------------------------------------------------------- */
 
+bool
+BlobAnalyzer::cpu_has_avx2 ()
+{
+#ifdef LANDMARK_BLOB_AVX2
+  return __builtin_cpu_supports ("avx2");
+#else
+  return false;
+#endif
+}
+
 void
 BlobAnalyzer::begin (int width, int height)
 {
@@ -298,7 +447,8 @@ BlobAnalyzer::begin (int width, int height)
 
 void
 BlobAnalyzer::find_runs (const uint8_t * plane, size_t stride, int width,
-    int y0, int y1, const uint8_t slot_of[256], std::vector<BlobRun> & out)
+    int y0, int y1, const uint8_t slot_of[256], bool avx2,
+    std::vector<BlobRun> & out)
 {
   uint8_t sel[256];
   int nsel = 0;
@@ -307,6 +457,14 @@ BlobAnalyzer::find_runs (const uint8_t * plane, size_t stride, int width,
       sel[nsel++] = (uint8_t) l;
   if (nsel == 0 || width == 0)
     return;
+#ifdef LANDMARK_BLOB_AVX2
+  if (avx2 && width >= 32 && sel[nsel - 1] < 128) {
+    find_runs_avx2 (plane, stride, width, y0, y1, slot_of, out);
+    return;
+  }
+#else
+  (void) avx2;
+#endif
 #ifdef __SSE2__
   /* up to 8 selected labels are compared 16 pixels at a time */
   const bool simd = nsel <= 8;
@@ -343,12 +501,7 @@ BlobAnalyzer::find_runs (const uint8_t * plane, size_t stride, int width,
       /* the run of this label */
       const uint8_t l = row[x];
       const int e = run_end (row, x + 1, w, l);
-      const int slot = slot_of[l];
-      if (!out.empty () && out.back ().y == y &&
-          out.back ().x1 + 1 == x && out.back ().slot == slot)
-        out.back ().x1 = e - 1;       /* two labels of one slot */
-      else
-        out.push_back ({y, x, e - 1, slot});
+      add_run (out, y, x, e, slot_of[l]);
       x = e;
     }
   }
@@ -358,7 +511,7 @@ void
 BlobAnalyzer::add_label_runs (const uint8_t * plane, size_t stride,
     const uint8_t slot_of[256])
 {
-  find_runs (plane, stride, width_, 0, height_, slot_of, runs_);
+  find_runs (plane, stride, width_, 0, height_, slot_of, avx2_, runs_);
 }
 
 void
@@ -374,7 +527,7 @@ BlobAnalyzer::add_label_runs (const uint8_t * plane, size_t stride,
   for (auto &r : slice_runs_)
     r.clear ();
   auto slice = [&](unsigned i, unsigned y0, unsigned y1) {
-    find_runs (plane, stride, width_, (int) y0, (int) y1, slot_of,
+    find_runs (plane, stride, width_, (int) y0, (int) y1, slot_of, avx2_,
         slice_runs_[i]);
   };
   pool.run_slices ((unsigned) height_, slice);

@@ -166,6 +166,8 @@ private:
   void remove_landmark (size_t k);
   void sync_landmarks ();
   void confirm_known ();
+  bool relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
+      std::vector<int> *assign) const;
 };
 
 }  // namespace landmark

@@ -434,6 +434,8 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
       Pxx (i, j) = p_[i * N + j];
   const cv::Matx33d Pinv = Pxx.inv (cv::DECOMP_SVD);
   const double plausible = chi2_quantile (opt.joint_probability, 3);
+  const double pc[4] = { Pxx (0, 0), Pxx (0, 1), Pxx (1, 0), Pxx (1, 1) };
+  const double pos_sigma = max_sigma_2x2 (pc);
   struct Hyp {
     std::vector<int> assign;
     Pose2 pose;
@@ -497,7 +499,12 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
           const cv::Vec3d e (h.pose.x - s_[0], h.pose.y - s_[1],
               wrap_angle (h.pose.heading - s_[2]));
           h.d2 = e.dot (Pinv * e);
-          if (h.inliers >= 2 && h.d2 < plausible)
+          /* two detections give one distance to check, weak evidence
+           * among repeated colours (a spurious or unmapped one matches
+           * some pair by chance): only while the predicted position is
+           * known to within their separation */
+          if (h.d2 < plausible && (h.inliers >= 3
+                  || (h.inliers == 2 && pos_sigma <= dz)))
             hyps.push_back (h);
         }
     }

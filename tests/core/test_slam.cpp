@@ -805,8 +805,8 @@ test_new_waits_for_heading ()
   b.obs.gx = 1.5;
   b.obs.gy = 0.5;
   g.class_name = "green";
-  g.obs.gx = 1.2;
-  g.obs.gy = -0.6;
+  g.obs.gx = 1.5;
+  g.obs.gy = -1.0;
   for (int k = 0; k < 5; k++) {
     slam.predict (1 / 30.0);
     slam.update ({ a, g });

@@ -25,6 +25,9 @@
  *   same detection and one detection never feeds two. A detection starts
  *   a new landmark only when it is far (`new_chi2`) from every landmark of
  *   its class; one between the gates is left out of the frame.
+ * - A lost pose (heading sigma beyond pi / sqrt(gate): the gate's bearing
+ *   span is the whole circle) pairs nothing alone; it is relocalised on two
+ *   or more detections matched to landmarks by their mutual distances.
  * - Frame: landmarks of a given map are anchors (exact); without any, the
  *   first pose is the origin with heading 0.
  *

@@ -424,10 +424,15 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
     slam_observation_sigmas (obs[i], 1, &sr, &sb);
     var[i] = sr * sr + std::pow (obs[i].obs.range () * sb, 2);
   }
-  auto lm_var = [&](size_t k) {
-    const double s = max_sigma_2x2 (lm_[k].cov);
-    return s * s;
-  };
+  std::vector<double> lm_var (nl);
+  for (size_t k = 0; k < nl; k++)
+    lm_var[k] = std::pow (max_sigma_2x2 (lm_[k].cov), 2);
+  /* per detection, the landmarks of its class */
+  std::vector<std::vector<int>> same (no);
+  for (size_t i = 0; i < no; i++)
+    for (size_t k = 0; k < nl; k++)
+      if (lm_[k].class_name == obs[i].class_name)
+        same[i].push_back ((int) k);
   cv::Matx33d Pxx;
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++)
@@ -442,24 +447,32 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
     int inliers = 0;
     double d2 = 0;
   };
-  std::vector<Hyp> hyps;
+  /* the best hypothesis, and whether another explains as many detections
+   * with other pairings (ambiguous); buffers reused */
+  Hyp best, h;
+  bool ambiguous = false;
+  std::vector<bool> taken (nl);
+  int tried = 0;
   for (size_t i = 0; i < no; i++)
     for (size_t j = i + 1; j < no; j++) {
       const auto & zi = obs[i].obs, &zj = obs[j].obs;
       const double dz = std::hypot (zj.gx - zi.gx, zj.gy - zi.gy);
       if (dz < opt.min_separation)
         continue;
-      for (size_t k = 0; k < nl; k++)
-        for (size_t l = 0; l < nl; l++) {
-          if (k == l || lm_[k].class_name != obs[i].class_name
-              || lm_[l].class_name != obs[j].class_name)
+      for (int k : same[i])
+        for (int l : same[j]) {
+          if (k == l)
             continue;
           const double dl = std::hypot (lm_[l].x - lm_[k].x,
               lm_[l].y - lm_[k].y);
-          const double v = var[i] + var[j] + lm_var (k) + lm_var (l);
-          if ((dz - dl) * (dz - dl) > opt.gate_chi2 * v)
+          const double v = var[i] + var[j] + lm_var[k] + lm_var[l];
+          /* each hypothesis scores every detection: bounded as JCBB's
+           * search, keeping what was found */
+          if ((dz - dl) * (dz - dl) > opt.gate_chi2 * v
+              || tried >= opt.max_jcbb_nodes)
             continue;
-          Hyp h;
+          tried++;
+          h.inliers = 0;
           h.pose.heading = wrap_angle (std::atan2 (lm_[l].y - lm_[k].y,
                   lm_[l].x - lm_[k].x) - std::atan2 (zj.gy - zi.gy,
                   zj.gx - zi.gx));
@@ -473,22 +486,22 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
            * landmark of its class; the two's heading error grows with
            * the range over their separation */
           h.assign.assign (no, -1);
-          std::vector<bool> taken (nl, false);
+          taken.assign (nl, false);
           for (size_t m = 0; m < no; m++) {
             double best = std::numeric_limits<double>::infinity ();
             const double lever = 1 + std::pow (obs[m].obs.range () / dz, 2);
-            for (size_t q = 0; q < nl; q++) {
-              if (taken[q] || lm_[q].class_name != obs[m].class_name)
+            for (int q : same[m]) {
+              if (taken[q])
                 continue;
-              double gx, gy;
-              world_to_robot (h.pose, lm_[q].x, lm_[q].y, &gx, &gy);
-              const double e2 = std::pow (gx - obs[m].obs.gx, 2)
-                  + std::pow (gy - obs[m].obs.gy, 2);
-              const double tol = opt.gate_chi2 * (var[m] + lm_var (q)
+              const double wx = lm_[q].x - h.pose.x, wy = lm_[q].y - h.pose.y;
+              const double ex = c * wx + s * wy - obs[m].obs.gx,
+                  ey = -s * wx + c * wy - obs[m].obs.gy;
+              const double e2 = ex * ex + ey * ey;
+              const double tol = opt.gate_chi2 * (var[m] + lm_var[q]
                   + lever * (var[i] + var[j]));
               if (e2 < tol && e2 < best) {
                 best = e2;
-                h.assign[m] = (int) q;
+                h.assign[m] = q;
               }
             }
             if (h.assign[m] >= 0) {
@@ -503,23 +516,23 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
            * among repeated colours (a spurious or unmapped one matches
            * some pair by chance): only while the predicted position is
            * known to within their separation */
-          if (h.d2 < plausible && (h.inliers >= 3
-                  || (h.inliers == 2 && pos_sigma <= dz)))
-            hyps.push_back (h);
+          if (!(h.d2 < plausible && (h.inliers >= 3
+                      || (h.inliers == 2 && pos_sigma <= dz))))
+            continue;
+          if (h.inliers > best.inliers) {
+            best = h;
+            ambiguous = false;
+          } else if (h.inliers == best.inliers) {
+            ambiguous |= h.assign != best.assign;
+            if (h.d2 < best.d2)
+              best = h;
+          }
         }
     }
-  if (hyps.empty ())
+  if (best.inliers == 0 || ambiguous)
     return false;
-  std::sort (hyps.begin (), hyps.end (), [](const Hyp & a, const Hyp & b) {
-        return a.inliers != b.inliers ? a.inliers > b.inliers : a.d2 < b.d2;
-      });
-  /* another set of pairings explaining as many: ambiguous */
-  for (size_t h = 1; h < hyps.size (); h++)
-    if (hyps[h].inliers == hyps[0].inliers
-        && hyps[h].assign != hyps[0].assign)
-      return false;
-  *at = hyps[0].pose;
-  *assign = hyps[0].assign;
+  *at = best.pose;
+  *assign = best.assign;
   return true;
 }
 
@@ -689,7 +702,10 @@ Slam::update (const std::vector<SlamObservation> & obs)
     if (cur.size () + remaining - (cand[i].empty ()? 0 : 1) >= best.size ())
       search (i + 1, nis);
   };
-  search (0, 0);
+  const bool lost = std::sqrt (std::max (0.0, p_[2 * N + 2]))
+      * std::sqrt (opt.gate_chi2) > M_PI;
+  if (!lost)
+    search (0, 0);
 
   /* A lost pose: the heading so uncertain (after a turn bridged on no
    * landmark) that the gate's bearing span, +-sqrt(gate) sigma, is the
@@ -702,9 +718,7 @@ Slam::update (const std::vector<SlamObservation> & obs)
    * linearise the update at that pose. */
   const std::vector<double> prior = s_;
   std::vector<Pairing> found;
-  if (std::sqrt (std::max (0.0, p_[2 * N + 2])) * std::sqrt (opt.gate_chi2)
-      > M_PI) {
-    best.clear ();
+  if (lost) {
     Pose2 at;
     std::vector<int> assign;
     if (relocalise (obs, &at, &assign)) {

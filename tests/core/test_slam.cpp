@@ -790,22 +790,26 @@ test_sharp_turns ()
 
 /* after a second without landmarks the heading's sigma is about a
  * radian: a new detection waits (its position would be off by the
- * heading's curvature, beyond its covariance); seen again once a known
- * landmark has fixed the heading, it starts */
+ * heading's curvature, beyond its covariance); seen again once two known
+ * landmarks have relocalised the pose (one alone, with the heading lost,
+ * is not paired), it starts */
 static void
 test_new_waits_for_heading ()
 {
   Slam slam;
-  SlamObservation a, b;
+  SlamObservation a, b, g;
   a.class_name = "red";
   a.obs.gx = 1.0;
   a.obs.gy = 0.0;
   b.class_name = "blue";
   b.obs.gx = 1.5;
   b.obs.gy = 0.5;
+  g.class_name = "green";
+  g.obs.gx = 1.5;
+  g.obs.gy = -1.0;
   for (int k = 0; k < 5; k++) {
     slam.predict (1 / 30.0);
-    slam.update ({ a });
+    slam.update ({ a, g });
   }
   for (int k = 0; k < 30; k++) {
     slam.predict (1 / 30.0);
@@ -817,16 +821,88 @@ test_new_waits_for_heading ()
   SlamFrame f = slam.update ({ b });
   std::printf ("heading sigma %.3f rad after a blind second: %s\n",
       std::sqrt (c[8]), f.reasons[0].c_str ());
-  CHECK (f.reasons[0] == "uncertain-heading" && slam.landmarks ().size () == 1,
+  CHECK (f.reasons[0] == "uncertain-heading" && slam.landmarks ().size () == 2,
       "%s, %zu landmarks", f.reasons[0].c_str (), slam.landmarks ().size ());
+  slam.predict (1 / 30.0);
+  f = slam.update ({ a });
+  CHECK (f.match[0] < 0, "one landmark paired with the heading lost");
   for (int k = 0; k < 10; k++) {
     slam.predict (1 / 30.0);
-    slam.update ({ a });
+    f = slam.update ({ a, g });
   }
+  CHECK (f.n_matched == 2, "%d paired", f.n_matched);
   slam.predict (1 / 30.0);
-  f = slam.update ({ a, b });
-  CHECK (f.reasons[1] == "new-landmark" && slam.landmarks ().size () == 2,
-      "%s, %zu landmarks", f.reasons[1].c_str (), slam.landmarks ().size ());
+  f = slam.update ({ a, g, b });
+  CHECK (f.reasons[2] == "new-landmark" && slam.landmarks ().size () == 3,
+      "%s, %zu landmarks", f.reasons[2].c_str (), slam.landmarks ().size ());
+}
+
+/* A yellow disc never seen before, after a blind stretch: the robot drives
+ * straight at 0.3 m/s past a yellow landmark A (mapped, then out of view)
+ * with a red one R in view, then sees nothing for a second while it stops;
+ * the constant-velocity estimate drives on 0.3 m and its heading sigma
+ * grows to tens of degrees. A new yellow disc B, 1 m from A, comes into
+ * view: within a gate that wide it would pair with A (and drag the pose
+ * and A to B); it is more likely a landmark not yet mapped, so it is not
+ * paired, and A stays where it was. Two mapped landmarks seen together
+ * then relocalise the lost pose. */
+static void
+test_blind_stretch_new_landmark ()
+{
+  Slam slam;
+  std::mt19937 rng (5);
+  std::normal_distribution<double> g (0, 1);
+  const double ax = 1.2, ay = 0.8, rx = 2.0, ry = -0.3, bx = 1.6, by = -0.1;
+  auto see = [&](double x, double px, double py, const char *cls) {
+    const double r = std::hypot (px - x, py), b = std::atan2 (py, px - x);
+    const double sr = 0.005 + 0.01 * r, sb = 0.01;
+    SlamObservation o = red_obs (r + sr * g (rng), b + sb * g (rng), sr, sb);
+    o.class_name = cls;
+    return o;
+  };
+  double x = 0;
+  for (int k = 0; k < 90; k++) {
+    if (k > 0)
+      slam.predict (1 / 30.0);
+    x = 0.3 * k / 30;
+    std::vector<SlamObservation> obs { see (x, rx, ry, "red") };
+    if (std::atan2 (ay, ax - x) < 0.7)
+      obs.push_back (see (x, ax, ay, "yellow"));
+    slam.update (obs);
+  }
+  CHECK (slam.landmarks ().size () == 2, "%zu landmarks",
+      slam.landmarks ().size ());
+  const SlamLandmark a = slam.landmarks ()[1];
+  for (int k = 0; k < 30; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({});
+  }
+  double cov[9];
+  slam.pose_cov (cov);
+  const double drift = slam.pose ().x - x;
+  slam.predict (1 / 30.0);
+  const SlamFrame f = slam.update ({ see (x, bx, by, "yellow") });
+  const SlamLandmark & a2 = slam.landmarks ()[1];
+  std::printf ("blind stretch: pose %.2f m ahead, heading sigma %.0f deg; "
+      "a new yellow 1 m from the mapped one: %s, the mapped one moved "
+      "%.3f m\n", drift, std::sqrt (cov[8]) * 180 / M_PI,
+      f.match[0] == 1 ? "paired with it" : f.reasons[0].c_str (),
+      std::hypot (a2.x - a.x, a2.y - a.y));
+  CHECK (drift > 0.25, "drift %f", drift);
+  CHECK (f.match[0] != 1, "paired with the mapped yellow landmark");
+  CHECK (std::hypot (a2.x - a.x, a2.y - a.y) < 0.01, "A moved %f",
+      std::hypot (a2.x - a.x, a2.y - a.y));
+  /* the red and the first yellow seen together: relocalised */
+  slam.predict (1 / 30.0);
+  const SlamFrame f2 = slam.update ({ see (x, rx, ry, "red"),
+        see (x, ax, ay, "yellow") });
+  const Pose2 p = slam.pose ();
+  std::printf ("blind stretch: two mapped landmarks: %d paired, pose "
+      "error %.3f m, %.2f deg\n", f2.n_matched, std::hypot (p.x - x, p.y),
+      p.heading * 180 / M_PI);
+  CHECK (f2.n_matched == 2, "%d paired", f2.n_matched);
+  CHECK (std::hypot (p.x - x, p.y) < 0.05 && std::fabs (p.heading) < 0.05,
+      "pose %f %f %f, truth %f 0 0", p.x, p.y, p.heading, x);
 }
 
 int
@@ -845,5 +921,6 @@ main ()
   test_spurious_dropped ();
   test_sharp_turns ();
   test_new_waits_for_heading ();
+  test_blind_stretch_new_landmark ();
   return corecheck_summary ();
 }

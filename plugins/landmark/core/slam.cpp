@@ -406,6 +406,136 @@ Slam::confirm_known ()
   }
 }
 
+/* Relocalisation of a lost pose. Pairings are hypothesised from what does
+ * not depend on the pose: the distance between two detections against the
+ * distance between two landmarks of their classes. Each hypothesis places
+ * the robot (the rigid motion taking the two detections onto the two
+ * landmarks) and is scored by the detections it then explains; the most,
+ * then the nearest to the predicted pose, wins, if the prediction allows
+ * it and no other hypothesis explains as many. */
+bool
+Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
+    std::vector<int> *assign) const
+{
+  const size_t N = n (), no = obs.size (), nl = lm_.size ();
+  std::vector<double> var (no);    /* detection's position variance */
+  for (size_t i = 0; i < no; i++) {
+    double sr, sb;
+    slam_observation_sigmas (obs[i], 1, &sr, &sb);
+    var[i] = sr * sr + std::pow (obs[i].obs.range () * sb, 2);
+  }
+  std::vector<double> lm_var (nl);
+  for (size_t k = 0; k < nl; k++)
+    lm_var[k] = std::pow (max_sigma_2x2 (lm_[k].cov), 2);
+  /* per detection, the landmarks of its class */
+  std::vector<std::vector<int>> same (no);
+  for (size_t i = 0; i < no; i++)
+    for (size_t k = 0; k < nl; k++)
+      if (lm_[k].class_name == obs[i].class_name)
+        same[i].push_back ((int) k);
+  cv::Matx33d Pxx;
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      Pxx (i, j) = p_[i * N + j];
+  const cv::Matx33d Pinv = Pxx.inv (cv::DECOMP_SVD);
+  const double plausible = chi2_quantile (opt.joint_probability, 3);
+  const double pc[4] = { Pxx (0, 0), Pxx (0, 1), Pxx (1, 0), Pxx (1, 1) };
+  const double pos_sigma = max_sigma_2x2 (pc);
+  struct Hyp {
+    std::vector<int> assign;
+    Pose2 pose;
+    int inliers = 0;
+    double d2 = 0;
+  };
+  /* the best hypothesis, and whether another explains as many detections
+   * with other pairings (ambiguous); buffers reused */
+  Hyp best, h;
+  bool ambiguous = false;
+  std::vector<bool> taken (nl);
+  int tried = 0;
+  for (size_t i = 0; i < no; i++)
+    for (size_t j = i + 1; j < no; j++) {
+      const auto & zi = obs[i].obs, &zj = obs[j].obs;
+      const double dz = std::hypot (zj.gx - zi.gx, zj.gy - zi.gy);
+      if (dz < opt.min_separation)
+        continue;
+      for (int k : same[i])
+        for (int l : same[j]) {
+          if (k == l)
+            continue;
+          const double dl = std::hypot (lm_[l].x - lm_[k].x,
+              lm_[l].y - lm_[k].y);
+          const double v = var[i] + var[j] + lm_var[k] + lm_var[l];
+          /* each hypothesis scores every detection: bounded as JCBB's
+           * search, keeping what was found */
+          if ((dz - dl) * (dz - dl) > opt.gate_chi2 * v
+              || tried >= opt.max_jcbb_nodes)
+            continue;
+          tried++;
+          h.inliers = 0;
+          h.pose.heading = wrap_angle (std::atan2 (lm_[l].y - lm_[k].y,
+                  lm_[l].x - lm_[k].x) - std::atan2 (zj.gy - zi.gy,
+                  zj.gx - zi.gx));
+          const double c = std::cos (h.pose.heading),
+              s = std::sin (h.pose.heading);
+          h.pose.x = 0.5 * (lm_[k].x + lm_[l].x - c * (zi.gx + zj.gx)
+              + s * (zi.gy + zj.gy));
+          h.pose.y = 0.5 * (lm_[k].y + lm_[l].y - s * (zi.gx + zj.gx)
+              - c * (zi.gy + zj.gy));
+          /* the detections it explains, each with its nearest free
+           * landmark of its class; the two's heading error grows with
+           * the range over their separation */
+          h.assign.assign (no, -1);
+          taken.assign (nl, false);
+          for (size_t m = 0; m < no; m++) {
+            double best = std::numeric_limits<double>::infinity ();
+            const double lever = 1 + std::pow (obs[m].obs.range () / dz, 2);
+            for (int q : same[m]) {
+              if (taken[q])
+                continue;
+              const double wx = lm_[q].x - h.pose.x, wy = lm_[q].y - h.pose.y;
+              const double ex = c * wx + s * wy - obs[m].obs.gx,
+                  ey = -s * wx + c * wy - obs[m].obs.gy;
+              const double e2 = ex * ex + ey * ey;
+              const double tol = opt.gate_chi2 * (var[m] + lm_var[q]
+                  + lever * (var[i] + var[j]));
+              if (e2 < tol && e2 < best) {
+                best = e2;
+                h.assign[m] = q;
+              }
+            }
+            if (h.assign[m] >= 0) {
+              taken[h.assign[m]] = true;
+              h.inliers++;
+            }
+          }
+          const cv::Vec3d e (h.pose.x - s_[0], h.pose.y - s_[1],
+              wrap_angle (h.pose.heading - s_[2]));
+          h.d2 = e.dot (Pinv * e);
+          /* two detections give one distance to check, weak evidence
+           * among repeated colours (a spurious or unmapped one matches
+           * some pair by chance): only while the predicted position is
+           * known to within their separation */
+          if (!(h.d2 < plausible && (h.inliers >= 3
+                      || (h.inliers == 2 && pos_sigma <= dz))))
+            continue;
+          if (h.inliers > best.inliers) {
+            best = h;
+            ambiguous = false;
+          } else if (h.inliers == best.inliers) {
+            ambiguous |= h.assign != best.assign;
+            if (h.d2 < best.d2)
+              best = h;
+          }
+        }
+    }
+  if (best.inliers == 0 || ambiguous)
+    return false;
+  *at = best.pose;
+  *assign = best.assign;
+  return true;
+}
+
 namespace {
 
 /* A detection-landmark pairing: innovation, Jacobian, P H'. */
@@ -572,25 +702,63 @@ Slam::update (const std::vector<SlamObservation> & obs)
     if (cur.size () + remaining - (cand[i].empty ()? 0 : 1) >= best.size ())
       search (i + 1, nis);
   };
-  search (0, 0);
+  const bool lost = std::sqrt (std::max (0.0, p_[2 * N + 2]))
+      * std::sqrt (opt.gate_chi2) > M_PI;
+  if (!lost)
+    search (0, 0);
 
-  /* the update over the jointly compatible set */
+  /* A lost pose: the heading so uncertain (after a turn bridged on no
+   * landmark) that the gate's bearing span, +-sqrt(gate) sigma, is the
+   * whole circle. Any landmark of the colour at about the right range
+   * then passes it, so a pairing carries no evidence that it is the same
+   * landmark (a yellow disc never seen would pair with the one yellow
+   * landmark mapped a metre away), and one linearised step from that far
+   * off leaves the pose degrees wrong while its covariance says one.
+   * Pair only what relocalisation on two or more landmarks finds, and
+   * linearise the update at that pose. */
+  const std::vector<double> prior = s_;
+  std::vector<Pairing> found;
+  if (lost) {
+    Pose2 at;
+    std::vector<int> assign;
+    if (relocalise (obs, &at, &assign)) {
+      s_[0] = at.x;
+      s_[1] = at.y;
+      s_[2] = at.heading;
+      found.reserve (obs.size ());
+      for (size_t i = 0; i < obs.size (); i++) {
+        Pairing pr;
+        if (assign[i] >= 0 && make_pairing ((int) i, assign[i], &pr))
+          found.push_back (std::move (pr));
+      }
+      for (const Pairing & pr : found)
+        best.push_back (&pr);
+      best_nis = best.empty ()? 0 : joint_nis (best);
+    }
+  }
+
+  /* the update over the jointly compatible set, linearised where the
+   * pairings were made: x0 + K (z - h(x) - H (x0 - x)), x the predicted
+   * state x0 or the relocalised one */
   if (!best.empty ()) {
     const int m = (int) best.size ();
     cv::Mat H (2 * m, N, CV_64F), R = cv::Mat::zeros (2 * m, 2 * m, CV_64F),
-        nu (2 * m, 1, CV_64F);
+        nu (2 * m, 1, CV_64F), dev (N, 1, CV_64F);
     for (int a = 0; a < m; a++) {
       best[a]->H.copyTo (H.rowRange (2 * a, 2 * a + 2));
       cv::Mat (best[a]->R).copyTo (R (cv::Rect (2 * a, 2 * a, 2, 2)));
       nu.at<double> (2 * a) = best[a]->nu[0];
       nu.at<double> (2 * a + 1) = best[a]->nu[1];
     }
+    for (int i = 0; i < N; i++)
+      dev.at<double> (i) = prior[i] - s_[i];
+    dev.at<double> (2) = wrap_angle (dev.at<double> (2));
     cv::Mat PHt = P * H.t ();
     cv::Mat S = H * PHt + R;
     cv::Mat K = PHt * S.inv (cv::DECOMP_CHOLESKY);
-    cv::Mat dx = K * nu;
+    cv::Mat dx = K * (nu - H * dev);
     for (int i = 0; i < N; i++)
-      s_[i] += dx.at<double> (i);
+      s_[i] = prior[i] + dx.at<double> (i);
     s_[2] = wrap_angle (s_[2]);
     /* Joseph form keeps P symmetric and positive */
     cv::Mat IKH = cv::Mat::eye (N, N, CV_64F) - K * H;

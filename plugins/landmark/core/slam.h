@@ -25,6 +25,9 @@
  *   same detection and one detection never feeds two. A detection starts
  *   a new landmark only when it is far (`new_chi2`) from every landmark of
  *   its class; one between the gates is left out of the frame.
+ * - A lost pose (heading sigma beyond pi / sqrt(gate): the gate's bearing
+ *   span is the whole circle) pairs nothing alone; it is relocalised on two
+ *   or more detections matched to landmarks by their mutual distances.
  * - Frame: landmarks of a given map are anchors (exact); without any, the
  *   first pose is the origin with heading 0.
  *
@@ -166,6 +169,8 @@ private:
   void remove_landmark (size_t k);
   void sync_landmarks ();
   void confirm_known ();
+  bool relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
+      std::vector<int> *assign) const;
 };
 
 }  // namespace landmark

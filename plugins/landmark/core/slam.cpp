@@ -174,58 +174,37 @@ Slam::predict (double dt)
 {
   if (!init_ || !(dt > 0))
     return;
+  /* a ground robot driving along its heading (core/groundmotion.h); the
+   * motion states come first, the rest of F is the identity, so
+   * F P F^T + Q changes the motion rows and columns only */
+  constexpr int M = kMotionStates;
   const int N = (int) n ();
-  cv::Mat P (N, N, CV_64F, p_.data ());
-  /* A ground robot drives along its heading: its wheels do not slide
-   * sideways, so a turn changes the direction of travel with the heading
-   * and needs no acceleration to explain it. The camera (whose pose this
-   * is) sits a distance d ahead of the turning centre and swings out at
-   * w d on turns. State: forward speed v, that offset d, turn rate w;
-   * heading at the middle of the interval. */
-  const double v = s_[3], d = s_[4], w = s_[5], u = w * d;
-  const double ph = s_[2] + 0.5 * w * dt, c = std::cos (ph),
-      sn = std::sin (ph);
-  const double vx = c * v - sn * u, vy = sn * v + c * u;
-  cv::Mat F = cv::Mat::zeros (3, N, CV_64F);
-  for (int i = 0; i < 3; i++)
-    F.at<double> (i, i) = 1;
-  F.at<double> (0, 2) = -dt * vy;
-  F.at<double> (0, 3) = dt * c;
-  F.at<double> (0, 4) = -dt * sn * w;
-  F.at<double> (0, 5) = -0.5 * dt * dt * vy - dt * sn * d;
-  F.at<double> (1, 2) = dt * vx;
-  F.at<double> (1, 3) = dt * sn;
-  F.at<double> (1, 4) = dt * c * w;
-  F.at<double> (1, 5) = 0.5 * dt * dt * vx + dt * c * d;
-  F.at<double> (2, 5) = dt;
-  cv::Mat rows = F * P;
-  rows.copyTo (P.rowRange (0, 3));
-  cv::Mat cols = P * F.t ();
-  cols.copyTo (P.colRange (0, 3));
-  s_[0] += dt * vx;
-  s_[1] += dt * vy;
-  s_[2] = wrap_angle (s_[2] + dt * w);
-  /* white acceleration noise along the heading and of the turn rate
-   * (position-velocity blocks t^3/3, t^2/2, t), a little sideways slip
-   * (position only) and the offset nearly constant */
-  const double t3 = dt * dt * dt / 3, t2 = dt * dt / 2;
-  const double qf = opt.accel_sigma * opt.accel_sigma,
-      ql = opt.lateral_sigma * opt.lateral_sigma,
-      qw = opt.alpha_sigma * opt.alpha_sigma;
-  P.at<double> (0, 0) += t3 * (c * c * qf + sn * sn * ql);
-  P.at<double> (0, 1) += t3 * c * sn * (qf - ql);
-  P.at<double> (1, 0) += t3 * c * sn * (qf - ql);
-  P.at<double> (1, 1) += t3 * (sn * sn * qf + c * c * ql);
-  P.at<double> (0, 3) += t2 * c * qf;
-  P.at<double> (3, 0) += t2 * c * qf;
-  P.at<double> (1, 3) += t2 * sn * qf;
-  P.at<double> (3, 1) += t2 * sn * qf;
-  P.at<double> (3, 3) += dt * qf;
-  P.at<double> (4, 4) += dt * opt.offset_drift * opt.offset_drift;
-  P.at<double> (2, 2) += t3 * qw;
-  P.at<double> (2, 5) += t2 * qw;
-  P.at<double> (5, 2) += t2 * qw;
-  P.at<double> (5, 5) += dt * qw;
+  const GroundMotionStep step = ground_motion_predict (s_.data (), dt,
+      opt.motion);
+  double *P = p_.data ();
+  double moved[M];
+  for (int j = 0; j < N; j++) {
+    for (int i = 0; i < M; i++) {
+      moved[i] = 0;
+      for (int k = 0; k < M; k++)
+        moved[i] += step.F[i * M + k] * P[k * N + j];
+    }
+    for (int i = 0; i < M; i++)
+      P[i * N + j] = moved[i];
+  }
+  for (int i = 0; i < N; i++) {
+    for (int j = 0; j < M; j++) {
+      moved[j] = 0;
+      for (int k = 0; k < M; k++)
+        moved[j] += P[i * N + k] * step.F[j * M + k];
+    }
+    for (int j = 0; j < M; j++)
+      P[i * N + j] = moved[j];
+  }
+  for (int i = 0; i < M; i++)
+    for (int j = 0; j < M; j++)
+      P[i * N + j] += step.Q[i * M + j];
+  std::copy (step.s, step.s + M, s_.begin ());
 }
 
 void

@@ -38,23 +38,18 @@
 #include <string>
 #include <vector>
 
+#include "groundmotion.h"
 #include "posesolver.h"
 
 namespace landmark {
 
 struct SlamOptions {
-  /* constant-velocity model of a ground robot (docs/landmarkslam.md,
-   * "Motion"): it drives along its heading, the camera a distance d
-   * ahead of the turning centre (a state, prior sigma offset_sigma);
-   * white noise of the forward acceleration and of the turn rate's
-   * change at the bounds of what a small robot does (as trilaterate's
-   * filter: 1 m/s^2, 3 rad/s^2, a turn rate changing by up to 0.1 rad/s
-   * per frame at 30 fps), and a little sideways slip */
-  double accel_sigma = 1.0;       /* m/s^2, along the heading */
-  double alpha_sigma = 3.0;       /* rad/s^2 */
-  double lateral_sigma = 0.1;     /* m/s^2, slip across the heading */
+  /* without odometry, a ground robot's constant-velocity motion
+   * (core/groundmotion.h, docs/landmarkslam.md "Motion"), the camera a
+   * distance d ahead of the turning centre (a state, prior sigma
+   * offset_sigma) */
+  GroundMotionNoise motion;
   double offset_sigma = 0.1;      /* m */
-  double offset_drift = 0.001;    /* m/sqrt(s): the offset is fixed */
   double gate_chi2 = 13.82;       /* per pairing, 2 dof (99.9 %) */
   double joint_probability = 0.999;   /* JCBB joint test */
   double new_chi2 = 40.0;         /* farther than this from all: new */

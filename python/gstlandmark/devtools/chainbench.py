@@ -40,6 +40,7 @@ from .benchkit import (BenchError, OneCore, add_build_dir_option,
 from .benchkit import find_build_dir as find_program_build_dir
 
 CHAIN_EXE = os.path.join("tests", "bench", "chain-bench")
+PEER_EXE = os.path.join("tests", "bench", "peer-bench")
 DEFAULT_SIZES = ((640, 480), (1920, 1080))
 DEFAULT_FRAMES = 1000
 DEFAULT_DISTINCT = 8
@@ -52,6 +53,9 @@ TARGET_SIZE = (640, 480)
 TARGET_MS = 1.5
 TARGET_SPEEDUP = 20.0
 TARGET_COPY_RATIO = 15.0
+# issue 18: the chain at least this many times faster than the hand-written
+# OpenCV C++ program (tests/bench/peer-bench.cpp)
+TARGET_PEER_RATIO = 6.0
 
 # The plain chain's blob filters (blobroundness's defaults).
 MIN_AREA = 100
@@ -298,6 +302,26 @@ def run_chain_bench(build_dir, scen, launch, label, frames, warmup, cpu,
     return items
 
 
+def run_peer_bench(build_dir, scen, frames, warmup, cpu):
+    """The hand-written OpenCV program on the same frames: its JSON line."""
+    cam = scen.camera
+    cmd = pin_prefix(cpu) + [
+        os.path.join(build_dir, PEER_EXE), "--input", scen.raw_path,
+        "--palette", scen.palette_path, "--width", str(scen.width),
+        "--height", str(scen.height), "--frames", str(frames),
+        "--warmup", str(warmup), "--camera-height", str(cam.height_m),
+        "--tilt", str(cam.tilt_deg), "--hfov", f"{cam.hfov_deg:.6f}"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise BenchError(f"peer-bench failed (status {proc.returncode}): "
+                         f"{proc.stderr.strip()}")
+    items = [json.loads(line) for line in proc.stdout.splitlines()
+             if line.startswith("{")]
+    if not items or items[0].get("type") != "peer":
+        raise BenchError(f"peer-bench printed no timing: {proc.stdout!r}")
+    return items[0]
+
+
 # ---------------------------------------------------------------------------
 # The benchmark
 
@@ -329,6 +353,8 @@ def run_chain(build_dir=None, sizes=DEFAULT_SIZES, frames=DEFAULT_FRAMES,
             items += run_chain_bench(build_dir, scen, scen.overlay_launch(),
                                      "chain+overlay", frames, warmup, cpu,
                                      copy=False)
+            say(f"{tag}: hand-written OpenCV program, {frames} frames")
+            peer = run_peer_bench(build_dir, scen, frames, warmup, cpu)
             iters = py_iterations if (width, height) == TARGET_SIZE \
                 else max(distinct, py_iterations // 3)
             say(f"{tag}: Python chain, {max(iters, distinct)} calls")
@@ -350,6 +376,7 @@ def run_chain(build_dir=None, sizes=DEFAULT_SIZES, frames=DEFAULT_FRAMES,
                     rows[it["run"]] = (it["median_ms"], it["p90_ms"])
                 elif it["type"] == "copy":
                     rows["copy"] = (it["median_ms"], it["p90_ms"])
+            rows["OpenCV program"] = (peer["median_ms"], peer["p90_ms"])
             rows["python chain"] = _stat(py_ms)
             chain_item = next(i for i in items if i["type"] == "chain"
                               and i["run"] == "chain")
@@ -360,6 +387,8 @@ def run_chain(build_dir=None, sizes=DEFAULT_SIZES, frames=DEFAULT_FRAMES,
                 "c_frames_with_pose": chain_item["frames_with_pose"],
                 "c_detections": chain_item["detections"],
                 "c_ranged": chain_item["ranged"],
+                "peer_detections": peer["detections"],
+                "peer_ranged": peer["ranged"],
                 "python_calls": len(py_ms),
                 "python_distinct_with_pose": len(py_err),
                 "python_pose_error_m_median": (float(np.median(py_err))
@@ -378,7 +407,8 @@ def format_table(result):
     lines = [f"{'size':>9}  {'stage':<16} {'median ms':>10} {'p90 ms':>9}"
              f"  {'x copy':>7}  {'Python / this':>13}"]
     order = ("copy",) + ELEMENTS + ("chain", "landmarkoverlay",
-                                    "chain+overlay", "python chain")
+                                    "chain+overlay", "OpenCV program",
+                                    "python chain")
     for size in result["sizes"]:
         rows = size["rows"]
         tag = f"{size['width']}x{size['height']}"
@@ -389,7 +419,8 @@ def format_table(result):
                 continue
             med, p90 = rows[name]
             versus = (f"{py_ms / med:13.1f}" if name in
-                      ("chain", "chain+overlay") else f"{'':13}")
+                      ("chain", "chain+overlay", "OpenCV program")
+                      else f"{'':13}")
             lines.append(f"{tag:>9}  {name:<16} {med:10.3f} {p90:9.3f}"
                          f"  {med / copy_ms:7.1f}  {versus}")
         lines.append(
@@ -400,7 +431,9 @@ def format_table(result):
             f"{size['python_distinct_with_pose']} of the distinct frames"
             + (f", median position error "
                f"{size['python_pose_error_m_median']:.3f} m"
-               if size["python_pose_error_m_median"] is not None else ""))
+               if size["python_pose_error_m_median"] is not None else "")
+            + f"; OpenCV program: {size['peer_ranged'] / size['c_frames']:.2f}"
+            f" ranged detections per frame")
     for size in result["sizes"]:
         if (size["width"], size["height"]) != TARGET_SIZE:
             continue
@@ -408,12 +441,16 @@ def format_table(result):
         chain = rows["chain"][0]
         speedup = rows["python chain"][0] / chain
         ratio = chain / rows["copy"][0]
+        peer = rows["OpenCV program"][0] / chain
         lines.append(f"targets at 640x480, one core: chain {chain:.3f} ms "
                      f"<= {TARGET_MS} ms: {_verdict(chain <= TARGET_MS)}; "
                      f"{speedup:.1f}x Python >= {TARGET_SPEEDUP:.0f}x: "
                      f"{_verdict(speedup >= TARGET_SPEEDUP)}; {ratio:.1f}x "
                      f"copy <= {TARGET_COPY_RATIO:.0f}x: "
-                     f"{_verdict(ratio <= TARGET_COPY_RATIO)}")
+                     f"{_verdict(ratio <= TARGET_COPY_RATIO)}; "
+                     f"{peer:.1f}x the OpenCV program >= "
+                     f"{TARGET_PEER_RATIO:.0f}x: "
+                     f"{_verdict(peer >= TARGET_PEER_RATIO)}")
         rss = size["rss"]
         if rss:
             lines.append(f"RSS at 640x480 over {rss['frames']} frames (after "

@@ -431,24 +431,26 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
   Hyp best, h;
   bool ambiguous = false;
   std::vector<bool> taken (nl);
+  /* each hypothesis scores every detection: bounded as JCBB's search,
+   * keeping what was found when the budget runs out */
   int tried = 0;
-  for (size_t i = 0; i < no; i++)
-    for (size_t j = i + 1; j < no; j++) {
+  const int budget = opt.max_jcbb_nodes;
+  for (size_t i = 0; i < no && tried < budget; i++)
+    for (size_t j = i + 1; j < no && tried < budget; j++) {
       const auto & zi = obs[i].obs, &zj = obs[j].obs;
       const double dz = std::hypot (zj.gx - zi.gx, zj.gy - zi.gy);
       if (dz < opt.min_separation)
         continue;
       for (int k : same[i])
         for (int l : same[j]) {
+          if (tried >= budget)
+            break;
           if (k == l)
             continue;
           const double dl = std::hypot (lm_[l].x - lm_[k].x,
               lm_[l].y - lm_[k].y);
           const double v = var[i] + var[j] + lm_var[k] + lm_var[l];
-          /* each hypothesis scores every detection: bounded as JCBB's
-           * search, keeping what was found */
-          if ((dz - dl) * (dz - dl) > opt.gate_chi2 * v
-              || tried >= opt.max_jcbb_nodes)
+          if ((dz - dl) * (dz - dl) > opt.gate_chi2 * v)
             continue;
           tried++;
           h.inliers = 0;
@@ -467,7 +469,7 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
           h.assign.assign (no, -1);
           taken.assign (nl, false);
           for (size_t m = 0; m < no; m++) {
-            double best = std::numeric_limits<double>::infinity ();
+            double nearest_e2 = std::numeric_limits<double>::infinity ();
             const double lever = 1 + std::pow (obs[m].obs.range () / dz, 2);
             for (int q : same[m]) {
               if (taken[q])
@@ -478,8 +480,8 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
               const double e2 = ex * ex + ey * ey;
               const double tol = opt.gate_chi2 * (var[m] + lm_var[q]
                   + lever * (var[i] + var[j]));
-              if (e2 < tol && e2 < best) {
-                best = e2;
+              if (e2 < tol && e2 < nearest_e2) {
+                nearest_e2 = e2;
                 h.assign[m] = q;
               }
             }
@@ -713,6 +715,8 @@ Slam::update (const std::vector<SlamObservation> & obs)
       for (const Pairing & pr : found)
         best.push_back (&pr);
       best_nis = best.empty ()? 0 : joint_nis (best);
+      if (best.empty ())
+        s_ = prior;             /* nothing to update with: as predicted */
     }
   }
 

@@ -43,20 +43,20 @@ PoseFilter::predict (double dt)
  * a measurement of M values: innovation innov, Jacobian H, noise R and the
  * inverse innovation covariance Si. Joseph form keeps P symmetric and
  * positive. */
-template <int M>
+template <int M, int N = kMotionStates>
 static void
-kalman_correct (double s[6], double p[36], const cv::Matx<double, 6, 6> & P,
-    const cv::Matx<double, M, 6> & H, const cv::Matx<double, M, M> & R,
+kalman_correct (double s[N], double p[N * N], const cv::Matx<double, N, N> & P,
+    const cv::Matx<double, M, N> & H, const cv::Matx<double, M, M> & R,
     const cv::Matx<double, M, M> & Si, const cv::Vec<double, M> & innov)
 {
-  const cv::Matx<double, 6, M> K = P * H.t () * Si;
-  const cv::Vec<double, 6> ds = K * innov;
-  for (int i = 0; i < 6; i++)
+  const cv::Matx<double, N, M> K = P * H.t () * Si;
+  const cv::Vec<double, N> ds = K * innov;
+  for (int i = 0; i < N; i++)
     s[i] += ds[i];
-  s[2] = wrap_angle (s[2]);
-  const cv::Matx<double, 6, 6> IKH = cv::Matx<double, 6, 6>::eye () - K * H;
-  const cv::Matx<double, 6, 6> corrected = IKH * P * IKH.t () + K * R * K.t ();
-  for (int i = 0; i < 36; i++)
+  s[kMotionHeading] = wrap_angle (s[kMotionHeading]);
+  const cv::Matx<double, N, N> IKH = cv::Matx<double, N, N>::eye () - K * H;
+  const cv::Matx<double, N, N> corrected = IKH * P * IKH.t () + K * R * K.t ();
+  for (int i = 0; i < N * N; i++)
     p[i] = corrected.val[i];
 }
 
@@ -68,23 +68,23 @@ PoseFilter::update (const std::vector<Correspondence> & cs, double gate_chi2)
   int used = 0;
   for (const auto & c : cs) {
     /* sequential updates: one landmark's range and bearing at a time */
-    const double dx = c.lx - s_[0], dy = c.ly - s_[1];
+    const double dx = c.lx - s_[kMotionX], dy = c.ly - s_[kMotionY];
     const double r2 = dx * dx + dy * dy;
     if (r2 < 1e-12)
       continue;
     const double r = std::sqrt (r2);
-    cv::Matx<double, 2, 6> H = cv::Matx<double, 2, 6>::zeros ();
-    H (0, 0) = -dx / r;
-    H (0, 1) = -dy / r;
-    H (1, 0) = dy / r2;
-    H (1, 1) = -dx / r2;
-    H (1, 2) = -1;
+    cv::Matx<double, 2, N> H = cv::Matx<double, 2, N>::zeros ();
+    H (0, kMotionX) = -dx / r;
+    H (0, kMotionY) = -dy / r;
+    H (1, kMotionX) = dy / r2;
+    H (1, kMotionY) = -dx / r2;
+    H (1, kMotionHeading) = -1;
     const cv::Vec2d innov (c.obs.range () - r,
-        wrap_angle (c.obs.bearing () - (std::atan2 (dy, dx) - s_[2])));
+        wrap_angle (c.obs.bearing () - (std::atan2 (dy, dx) - s_[kMotionHeading])));
     const double sr = c.obs.range_sigma_used ();
     const double sb = c.obs.bearing_sigma_used ();
     const cv::Matx22d R (sr * sr, 0, 0, sb * sb);
-    cv::Matx<double, 6, 6> P (p_);
+    cv::Matx<double, N, N> P (p_);
     const cv::Matx22d S = H * P * H.t () + R;
     cv::Matx22d Si;
     if (cv::invert (S, Si, cv::DECOMP_CHOLESKY) == 0)
@@ -124,16 +124,16 @@ PoseFilter::update_pose (const Pose2 & p, const double cov[9])
     init (p, cov);
     return;
   }
-  cv::Matx<double, 3, 6> H = cv::Matx<double, 3, 6>::zeros ();
-  H (0, 0) = H (1, 1) = H (2, 2) = 1;
+  cv::Matx<double, 3, N> H = cv::Matx<double, 3, N>::zeros ();
+  H (0, kMotionX) = H (1, kMotionY) = H (2, kMotionHeading) = 1;
   const cv::Matx33d R (cov);
-  cv::Matx<double, 6, 6> P (p_);
+  cv::Matx<double, N, N> P (p_);
   const cv::Matx33d S = H * P * H.t () + R;
   cv::Matx33d Si;
   if (cv::invert (S, Si, cv::DECOMP_SVD) == 0)
     return;
-  const cv::Vec3d innov (p.x - s_[0], p.y - s_[1],
-      wrap_angle (p.heading - s_[2]));
+  const cv::Vec3d innov (p.x - s_[kMotionX], p.y - s_[kMotionY],
+      wrap_angle (p.heading - s_[kMotionHeading]));
   kalman_correct (s_, p_, P, H, R, Si, innov);
 }
 
@@ -141,9 +141,9 @@ Pose2
 PoseFilter::pose () const
 {
   Pose2 p;
-  p.x = s_[0];
-  p.y = s_[1];
-  p.heading = wrap_angle (s_[2]);
+  p.x = s_[kMotionX];
+  p.y = s_[kMotionY];
+  p.heading = wrap_angle (s_[kMotionHeading]);
   return p;
 }
 

@@ -33,8 +33,8 @@ public:
       double gate_chi2 = 16.0);
   /* Whether a solution from three or more landmarks (`cs` its pairings)
    * shows the filter lost: it disagrees with the prediction (chi-square,
-   * 3 dof, 99.9 %) and most of its pairings fail the gate one by one.
-   * When most pass, the solution is the one off (a biased range pulling
+   * 3 dof, 99.9 %) and half of its pairings or more fail the gate of a
+   * trial sequential update. When more pass, the solution is the one off (a biased range pulling
    * the least squares, its covariance too small). */
   bool lost (const PoseSolution & sol,
       const std::vector<Correspondence> & cs) const;

@@ -26,8 +26,8 @@
  *   merged), 0 without it;
  * - `rim-range-sigma`, `rim-bearing-sigma`: the part of the sigmas from the
  *   outline lying off the marker's edge (blur, the colour threshold): an
- *   error that repeats in every view of a pass, so a filter must not
- *   average it away (docs/ranging.md);
+ *   error that repeats in every view of a pass, for a filter that would
+ *   not average it away (docs/ranging.md);
  * - `no-floor`: true when the ray never meets the marker's plane (above
  *   the horizon); then no range fields, never a negative or infinite one.
  *

@@ -210,11 +210,16 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
       const double h = 0.5;
       if (m.diameter > 0 && fit_disc (h, &gx, &gy, &grown)
           && grown > radius) {
-        const double offset = (m.diameter / 2 - radius) / (grown - radius);
-        const double r0 = std::hypot (ox, oy);
-        out.rim_range = std::fabs (offset * (std::hypot (gx, gy) - r0));
-        out.rim_bearing = std::fabs (offset * std::remainder (
-                std::atan2 (gy, gx) - std::atan2 (oy, ox), 2 * M_PI));
+        /* the offset in pixels (positive: eroded), times the centre's
+         * move per pixel of growth */
+        const double offset_px = h * (m.diameter / 2 - radius)
+            / (grown - radius);
+        const double range_per_px = (std::hypot (gx, gy)
+            - std::hypot (ox, oy)) / h;
+        const double bearing_per_px = std::remainder (std::atan2 (gy, gx)
+            - std::atan2 (oy, ox), 2 * M_PI) / h;
+        out.rim_range = std::fabs (offset_px * range_per_px);
+        out.rim_bearing = std::fabs (offset_px * bearing_per_px);
       }
       if (m.diameter > 0) {
         /* the plane's distance below the camera scales the circle: the

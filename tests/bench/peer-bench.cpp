@@ -10,7 +10,8 @@
  * chain (trilaterate) is left out of the peer, in its favour.
  *
  * Reads the raw BGRx frames chain-bench reads; prints one JSON line with
- * the median and p90 milliseconds per frame and what it found. */
+ * the median and p90 milliseconds per frame and what it found (the
+ * detections, those ranged, their median range). */
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -132,6 +133,8 @@ main (int argc, char **argv)
   cv::Mat labels (o.height, o.width, CV_8U), mask (o.height, o.width, CV_8U);
   std::vector<std::vector<cv::Point>> contours;
   std::vector<gint64> times;
+  std::vector<double> ranges;   /* of the timed frames, reserved */
+  ranges.reserve ((size_t) o.frames * 16);
   long detections = 0, ranged = 0;
   for (int f = 0; f < o.warmup + o.frames; f++) {
     const uint8_t *src = raw.data () + (size_t) (f % distinct) * frame_bytes;
@@ -143,6 +146,7 @@ main (int argc, char **argv)
         l[x] = table[((p[0] >> 2) << 12) | ((p[1] >> 2) << 6) | (p[2] >> 2)];
     }
     long found = 0, on_floor = 0;
+    const bool timed = f >= o.warmup;
     for (int label : markers) {
       cv::compare (labels, label, mask, cv::CMP_EQ);
       cv::findContours (mask, contours, cv::RETR_EXTERNAL,
@@ -165,13 +169,16 @@ main (int argc, char **argv)
         if (down > 1e-9) {
           const double s = o.camera_height / down;
           const double range = std::hypot (s * forward, s * rx);
-          if (std::isfinite (range))
+          if (std::isfinite (range)) {
             on_floor++;
+            if (timed && ranges.size () < ranges.capacity ())
+              ranges.push_back (range);
+          }
         }
       }
     }
     const gint64 t1 = now_ns ();
-    if (f >= o.warmup) {
+    if (timed) {
       times.push_back (t1 - t0);
       detections += found;
       ranged += on_floor;
@@ -180,8 +187,11 @@ main (int argc, char **argv)
   std::sort (times.begin (), times.end ());
   const double median = percentile (times.data (), times.size (), 0.5) / 1e6;
   const double p90 = percentile (times.data (), times.size (), 0.9) / 1e6;
+  std::sort (ranges.begin (), ranges.end ());
+  const double median_range = ranges.empty () ? 0 : ranges[ranges.size () / 2];
   std::printf ("{\"type\": \"peer\", \"median_ms\": %.6f, \"p90_ms\": %.6f, "
-      "\"frames\": %d, \"detections\": %ld, \"ranged\": %ld}\n", median, p90,
-      o.frames, detections, ranged);
+      "\"frames\": %d, \"detections\": %ld, \"ranged\": %ld, "
+      "\"median_range_m\": %.6f}\n", median, p90, o.frames, detections, ranged,
+      median_range);
   return 0;
 }

@@ -177,7 +177,18 @@ def test_rejected_shapes_and_reasons(gst):
             assert not nearest(dets, SCENE[1][4]).blob["kept"]
 
 
-def test_vector_run_search_matches_scalar(gst, monkeypatch):
+def _cpu_has_avx2():
+    try:
+        with open("/proc/cpuinfo") as f:
+            return any(line.startswith("flags") and " avx2" in line
+                       for line in f)
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not _cpu_has_avx2(),
+                    reason="the processor has no AVX2: best is SSE2")
+def test_avx2_run_search_matches_sse2(gst, monkeypatch):
     """The run search's AVX2 path (the default where the processor has it)
     finds the blobs the SSE2 path finds (LANDMARK_SIMD=sse2), on a width
     that is no multiple of its 32-pixel steps, with discs cut by the last

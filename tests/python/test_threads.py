@@ -86,7 +86,8 @@ def test_labsegment_threads_identical(gst, fmt, rare):
 
 
 def palette_of(n, tmp_path):
-    """A palette of n classes: the default one's 7, then grey levels."""
+    """A palette of n classes: the default one's first n (7 at most), then
+    grey levels."""
     classes = json.loads(palette.default_palette_text())["classes"][:n]
     for i in range(len(classes), n):
         classes.append({"name": f"grey{i}", "lab": [5.0 + 90.0 * i / n,
@@ -97,9 +98,10 @@ def palette_of(n, tmp_path):
     return path
 
 
-# 7 classes: the packed 4-byte gathers count the labels as they go; 12:
-# they count afterwards (two AVX2 passes)
-@pytest.mark.parametrize("classes", [7, 12])
+# 4 and 7 classes: the packed 4-byte gathers count the labels as they go
+# (nibble counters, half of them or all used); 12: they count afterwards
+# (two AVX2 passes)
+@pytest.mark.parametrize("classes", [4, 7, 12])
 @pytest.mark.parametrize("fmt", F.ALL_FORMATS)
 def test_simd_levels_identical(gst, fmt, classes, monkeypatch, tmp_path):
     """The AVX2 gathers and class histogram, the SSE2 histogram and the
@@ -108,8 +110,8 @@ def test_simd_levels_identical(gst, fmt, classes, monkeypatch, tmp_path):
     tail."""
     rng = np.random.default_rng(seed_of(fmt, "scalar", classes))
     pal = palette_of(classes, tmp_path)
-    # 320x64: 640 steps of 32 pixels, past the 255 after which the
-    # gathers' 8-bit counters must be summed
+    # 320x64: 640 steps of 32 pixels, past the 15 after which the
+    # gathers' 4-bit counters must be summed
     for width, height in SIZES + [(320, 64)]:
         caps, payloads = payloads_for(fmt, width, height, rng)
         element = (f"labsegment output=labels palette={pal} "

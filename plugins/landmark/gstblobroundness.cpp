@@ -80,7 +80,7 @@
 
 #include "blobshape.h"
 #include "elementsettings.h"
-#include "labsegmentpixels.h"
+#include "simdlevel.h"
 #include "landmarkmeta.h"
 #include "markerevidence.h"
 

@@ -3,9 +3,8 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
-#if defined(__x86_64__) && defined(__GNUC__)
+#ifdef LANDMARK_HAVE_AVX2_PATH
 #include <immintrin.h>
-#define LANDMARK_HAVE_AVX2_PATH 1
 #endif
 
 #include <algorithm>
@@ -681,25 +680,6 @@ draw_false_colour (GstVideoFrame * f, const FrameLayout & layout,
     draw_rows (f, layout, labels, display, black, y0, y1);
   };
   pool.run_slices (GST_VIDEO_FRAME_HEIGHT (f), slice);
-}
-
-SimdLevel
-simd_level ()
-{
-  SimdLevel best = SimdLevel::NONE;
-#ifdef __SSE2__
-  best = SimdLevel::SSE2;
-#endif
-#ifdef LANDMARK_HAVE_AVX2_PATH
-  if (__builtin_cpu_supports ("avx2"))
-    best = SimdLevel::AVX2;
-#endif
-  const gchar *want = g_getenv ("LANDMARK_SIMD");
-  if (want && g_str_equal (want, "none"))
-    return SimdLevel::NONE;
-  if (want && g_str_equal (want, "sse2") && best != SimdLevel::NONE)
-    return SimdLevel::SSE2;
-  return best;
 }
 
 FrameLayout

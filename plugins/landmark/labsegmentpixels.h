@@ -13,15 +13,10 @@
 #include "classtable.h"
 #include "colourdrift.h"
 #include "frameformat.h"
+#include "simdlevel.h"
 #include "workerpool.h"
 
 namespace landmark {
-
-/* The vector instructions the pixel loops use: the best the processor
- * has, or less when LANDMARK_SIMD is "sse2" or "none" (to compare the
- * loops; every level gives identical results). */
-enum class SimdLevel { NONE, SSE2, AVX2 };
-SimdLevel simd_level ();
 
 /* How the three components of a pixel are laid out in a frame. */
 enum class PixelLayout { PACKED3, PACKED4, YUV420, YUY2 };

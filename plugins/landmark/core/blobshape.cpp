@@ -1,4 +1,5 @@
 #include "blobshape.h"
+#include "simdlevel.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -10,9 +11,8 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
-#if defined(__x86_64__) && defined(__GNUC__)
+#ifdef LANDMARK_HAVE_AVX2_PATH
 #include <immintrin.h>
-#define LANDMARK_BLOB_AVX2 1
 #endif
 
 namespace landmark {
@@ -269,7 +269,7 @@ add_run (std::vector<BlobRun> & out, int y, int x, int e, int slot)
     out.push_back ({y, x, e - 1, slot});
 }
 
-#ifdef LANDMARK_BLOB_AVX2
+#ifdef LANDMARK_HAVE_AVX2_PATH
 /* The run search 64 labels a step. Whether a label is selected is a
  * byte-shuffle table look-up, whatever the number of selected labels.
  * When they are all under 16 (palettes up to 15 classes): a saturating
@@ -429,7 +429,7 @@ blob_perimeter (const cv::Point * contour, int n, double eps,
 bool
 BlobAnalyzer::cpu_has_avx2 ()
 {
-#ifdef LANDMARK_BLOB_AVX2
+#ifdef LANDMARK_HAVE_AVX2_PATH
   return __builtin_cpu_supports ("avx2");
 #else
   return false;
@@ -457,7 +457,7 @@ BlobAnalyzer::find_runs (const uint8_t * plane, size_t stride, int width,
       sel[nsel++] = (uint8_t) l;
   if (nsel == 0 || width == 0)
     return;
-#ifdef LANDMARK_BLOB_AVX2
+#ifdef LANDMARK_HAVE_AVX2_PATH
   if (avx2 && width >= 32 && sel[nsel - 1] < 128) {
     find_runs_avx2 (plane, stride, width, y0, y1, slot_of, out);
     return;

@@ -1,0 +1,19 @@
+/* The vector instructions the pixel loops use (labsegment's passes,
+ * blobroundness's run search): one choice for every element, so that
+ * LANDMARK_SIMD selects the same level everywhere. No GStreamer types. */
+#pragma once
+
+/* Where the compiler can build an AVX2 loop beside the baseline one,
+ * chosen at run time (__builtin_cpu_supports). */
+#if defined(__x86_64__) && defined(__GNUC__)
+#define LANDMARK_HAVE_AVX2_PATH 1
+#endif
+
+namespace landmark {
+
+/* The best level the processor has, or less when LANDMARK_SIMD is "sse2"
+ * or "none" (to compare the loops; every level gives identical results). */
+enum class SimdLevel { NONE, SSE2, AVX2 };
+SimdLevel simd_level ();
+
+}  // namespace landmark

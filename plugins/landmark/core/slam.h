@@ -74,10 +74,10 @@ struct SlamOptions {
    * are states: random walks over the distance driven and the angle
    * turned, a step's variance sigma^2 * length, whatever the odometry's
    * rate; good wheel odometry on a hard floor: 2 mm and 0.1 degree of
-   * heading after a metre, 0.7 degrees after a turn in place
+   * heading after a metre, 0.3 degrees after a turn in place
    * (docs/landmarkslam.md, "Odometry noise") */
   double odo_trans_sigma = 0.002; /* m per sqrt(m) */
-  double odo_rot_sigma = 0.005;   /* rad per sqrt(rad) */
+  double odo_rot_sigma = 0.002;   /* rad per sqrt(rad) */
   double odo_rot_per_m = 0.002;   /* rad per sqrt(m) */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
 };

@@ -241,18 +241,17 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   rows.copyTo (P.rowRange (0, 3));
   cv::Mat cols = P * Fp.t ();
   cols.copyTo (P.colRange (0, 3));
-  const double st = opt.odo_trans_sigma * d + 1e-4;
-  const double sr = opt.odo_rot_sigma * std::fabs (dth)
-      + opt.odo_rot_per_m * d + 1e-4;
-  cv::Mat G = cv::Mat::eye (3, 3, CV_64F);
-  G.at<double> (0, 0) = c;
-  G.at<double> (0, 1) = -s;
-  G.at<double> (1, 0) = s;
-  G.at<double> (1, 1) = c;
-  cv::Mat Qd = cv::Mat::diag ((cv::Mat_<double> (3, 1) << st * st, st * st,
-          sr * sr));
-  cv::Mat Q = G * Qd * G.t ();
-  P (cv::Rect (0, 0, 3, 3)) += Q;
+  /* The white part, slip: a wheel's travel error is a random walk over
+   * the distance it rolls, so a step's variance is proportional to its
+   * length (not its square) and the sigma after a given distance does not
+   * depend on how often increments arrive. Isotropic in x and y: a
+   * rotation leaves it as it is. */
+  const double vt = opt.odo_trans_sigma * opt.odo_trans_sigma * d;
+  const double vr = opt.odo_rot_per_m * opt.odo_rot_per_m * d
+      + opt.odo_rot_sigma * opt.odo_rot_sigma * std::fabs (dth);
+  P.at<double> (0, 0) += vt;
+  P.at<double> (1, 1) += vt;
+  P.at<double> (2, 2) += vr;
   s_[0] += c * dx - s * dy;
   s_[1] += s * dx + c * dy;
   s_[2] = wrap_angle (s_[2] + dth);

@@ -70,12 +70,15 @@ struct SlamOptions {
    * by about 3 degrees of turn per metre)... */
   double odo_scale_sigma = 0.05;
   double odo_drift_sigma = 0.05;  /* rad per m */
-  /* ...and the white noise of each step, slip only now that the
-   * systematic errors are states: 1 % of the distance and of the turn,
-   * 0.01 rad per metre (synth's default slip; docs/landmarkslam.md) */
-  double odo_trans_sigma = 0.01;  /* m per m */
-  double odo_rot_sigma = 0.01;    /* rad per rad */
-  double odo_rot_per_m = 0.01;    /* rad per m */
+  /* ...and the white noise, slip only now that the systematic errors
+   * are states: random walks over the distance driven and the angle
+   * turned, a step's variance sigma^2 * length, whatever the odometry's
+   * rate; good wheel odometry on a hard floor: 2 mm and 0.1 degree of
+   * heading after a metre, 0.3 degrees after a turn in place
+   * (docs/landmarkslam.md, "Odometry noise") */
+  double odo_trans_sigma = 0.002; /* m per sqrt(m) */
+  double odo_rot_sigma = 0.002;   /* rad per sqrt(rad) */
+  double odo_rot_per_m = 0.002;   /* rad per sqrt(m) */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
 };
 

@@ -368,7 +368,8 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
     } else {
       if (res.ok && used.size () >= 3 && st.ekf.lost (res.solution, used)) {
         /* three or more landmarks place the robot by themselves; a filter
-         * whose prediction they reject, most of them one by one, has
+         * whose prediction they reject, half of them or more in a trial
+         * update, has
          * drifted beyond its own covariance (a turn bridged on one
          * landmark): updated, it would be pulled by the few that pass; it
          * restarts from their pose */

@@ -3,11 +3,12 @@
  * OpenCV program"): what an expert writes without our elements. A 6-bit
  * colour lookup table (64^3 cells, each the palette class nearest in
  * L*a*b* to the cell's centre colour, built once), then per frame the
- * table lookup into a preallocated label image, and per marker class a
- * mask, cv::findContours, cv::fitEllipse on the contours of at least
- * --min-area pixels that are round enough, and the ellipse centre's ray
- * to the floor (pinhole, no distortion). No pose solve: that part of the
- * chain (trilaterate) is left out of the peer, in its favour.
+ * table lookup into a preallocated label image and a mask of every
+ * marker class's pixels (one pass), one cv::findContours over the mask,
+ * each contour's class read at its first point, cv::fitEllipse on the
+ * contours of at least 30 pixels that are round enough, and the ellipse
+ * centre's ray to the floor (pinhole, no distortion). No pose solve: that
+ * part of the chain (trilaterate) is left out of the peer, in its favour.
  *
  * Reads the raw BGRx frames chain-bench reads; prints one JSON line with
  * the median and p90 milliseconds per frame and what it found (the
@@ -120,10 +121,12 @@ main (int argc, char **argv)
   }
   const int distinct = (int) (raw.size () / frame_bytes);
   const std::vector<uint8_t> table = build_table (palette);
-  std::vector<int> markers;
+  /* 255 for the labels of marker classes: the mask written with the
+   * labels */
+  uint8_t marker_mask[256] = { 0 };
   for (size_t k = 0; k < palette.classes.size (); k++)
     if (palette.classes[k].role == landmark::PaletteRole::Marker)
-      markers.push_back ((int) k + 1);
+      marker_mask[k + 1] = 255;
 
   const double fx = (o.width / 2.0) / std::tan (o.hfov_deg * M_PI / 360);
   const double cx = (o.width - 1) / 2.0, cy = (o.height - 1) / 2.0;
@@ -141,18 +144,23 @@ main (int argc, char **argv)
     const gint64 t0 = now_ns ();
     for (int y = 0; y < o.height; y++) {
       const uint8_t *p = src + (size_t) y * o.width * 4;
-      uint8_t *l = labels.ptr<uint8_t> (y);
-      for (int x = 0; x < o.width; x++, p += 4)
+      uint8_t *l = labels.ptr<uint8_t> (y), *m = mask.ptr<uint8_t> (y);
+      for (int x = 0; x < o.width; x++, p += 4) {
         l[x] = table[((p[0] >> 2) << 12) | ((p[1] >> 2) << 6) | (p[2] >> 2)];
+        m[x] = marker_mask[l[x]];
+      }
     }
     long found = 0, on_floor = 0;
     const bool timed = f >= o.warmup;
-    for (int label : markers) {
-      cv::compare (labels, label, mask, cv::CMP_EQ);
-      cv::findContours (mask, contours, cv::RETR_EXTERNAL,
-          cv::CHAIN_APPROX_NONE);
+    cv::findContours (mask, contours, cv::RETR_EXTERNAL,
+        cv::CHAIN_APPROX_NONE);
+    {
       for (const auto & c : contours) {
         if (c.size () < 5)
+          continue;
+        /* the detection's class: the label under its outline */
+        const uint8_t label = labels.at<uint8_t> (c[0].y, c[0].x);
+        if (!marker_mask[label])
           continue;
         const double area = cv::contourArea (c);
         if (area < o.min_area)

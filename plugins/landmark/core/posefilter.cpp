@@ -152,7 +152,7 @@ PoseFilter::pose_cov (double cov[9]) const
 {
   for (int r = 0; r < 3; r++)
     for (int c = 0; c < 3; c++)
-      cov[r * 3 + c] = p_[r * 6 + c];
+      cov[r * 3 + c] = p_[r * N + c];
 }
 
 }  // namespace landmark

@@ -1,6 +1,8 @@
 /* The vector instructions the pixel loops use (labsegment's passes,
- * blobroundness's run search): one choice for every element, so that
- * LANDMARK_SIMD selects the same level everywhere. No GStreamer types. */
+ * blobroundness's run search), one choice read from LANDMARK_SIMD:
+ * labsegment has scalar, SSE2 and AVX2 loops; blobroundness's run search
+ * has SSE2 and AVX2 ones, so "none" leaves it on SSE2. No GStreamer
+ * types. */
 #pragma once
 
 /* Where the compiler can build an AVX2 loop beside the baseline one,

@@ -214,7 +214,6 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
     return;
   const int N = (int) n ();
   const double c = std::cos (s_[2]), s = std::sin (s_[2]);
-  cv::Mat P (N, N, CV_64F, p_.data ());
   /* The odometry's own systematic errors, in the state: the increment
    * corrected for its scale error k and heading drift g per metre is
    * d = m / (1 + k), dth = mdth - g |d|. Modelled as white noise per step
@@ -226,21 +225,27 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   const double d = std::hypot (dx, dy);
   const double dth = mdth - g * d;
   /* Jacobian of the pose part, its three rows (the others are the
-   * identity): x' = x + R(th) d */
-  cv::Mat Fp = cv::Mat::zeros (3, N, CV_64F);
-  for (int i = 0; i < 3; i++)
-    Fp.at<double> (i, i) = 1;
-  Fp.at<double> (0, 2) = -s * dx - c * dy;
-  Fp.at<double> (1, 2) = c * dx - s * dy;
-  /* d(d)/dk = -d / (1 + k) */
-  Fp.at<double> (0, kScale) = -(c * dx - s * dy) / (1 + k);
-  Fp.at<double> (1, kScale) = -(s * dx + c * dy) / (1 + k);
-  Fp.at<double> (2, kScale) = g * d / (1 + k);
-  Fp.at<double> (2, kDrift) = -d;
-  cv::Mat rows = Fp * P;
-  rows.copyTo (P.rowRange (0, 3));
-  cv::Mat cols = P * Fp.t ();
-  cols.copyTo (P.colRange (0, 3));
+   * identity): x' = x + R(th) d, with d(d)/dk = -d / (1 + k). Each row is
+   * the identity's plus two entries, so F P F^T changes rows and columns
+   * 0-2 only, in place */
+  const double a02 = -s * dx - c * dy, a12 = c * dx - s * dy;
+  const double a0k = -(c * dx - s * dy) / (1 + k),
+      a1k = -(s * dx + c * dy) / (1 + k), a2k = g * d / (1 + k), a2g = -d;
+  double *P = p_.data ();
+  for (int j = 0; j < N; j++) {
+    const double p2 = P[2 * N + j], pk = P[kScale * N + j],
+        pg = P[kDrift * N + j];
+    P[0 * N + j] += a02 * p2 + a0k * pk;
+    P[1 * N + j] += a12 * p2 + a1k * pk;
+    P[2 * N + j] += a2k * pk + a2g * pg;
+  }
+  for (int i = 0; i < N; i++) {
+    double *row = P + i * N;
+    const double p2 = row[2], pk = row[kScale], pg = row[kDrift];
+    row[0] += a02 * p2 + a0k * pk;
+    row[1] += a12 * p2 + a1k * pk;
+    row[2] += a2k * pk + a2g * pg;
+  }
   /* The white part, slip: a wheel's travel error is a random walk over
    * the distance it rolls, so a step's variance is proportional to its
    * length (not its square) and the sigma after a given distance does not
@@ -249,9 +254,9 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   const double vt = opt.odo_trans_sigma * opt.odo_trans_sigma * d;
   const double vr = opt.odo_rot_per_m * opt.odo_rot_per_m * d
       + opt.odo_rot_sigma * opt.odo_rot_sigma * std::fabs (dth);
-  P.at<double> (0, 0) += vt;
-  P.at<double> (1, 1) += vt;
-  P.at<double> (2, 2) += vr;
+  P[0 * N + 0] += vt;
+  P[1 * N + 1] += vt;
+  P[2 * N + 2] += vr;
   s_[0] += c * dx - s * dy;
   s_[1] += s * dx + c * dy;
   s_[2] = wrap_angle (s_[2] + dth);

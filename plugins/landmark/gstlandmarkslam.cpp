@@ -119,6 +119,7 @@ struct State {
   landmark::Slam slam;
   GstClockTime last_time = GST_CLOCK_TIME_NONE;
   size_t odometry_next = 0;
+  bool odometry_ended = false;          /* said once */
   guint64 frames = 0;
   landmark::RangedDetections ranged;  /* reused */
   std::vector<landmark::SlamObservation> obs;   /* reused */
@@ -232,6 +233,7 @@ slam_restart (State & st)
 {
   st.slam.set_map (st.applied.config.map);
   st.odometry_next = 0;
+  st.odometry_ended = false;
   st.last_time = GST_CLOCK_TIME_NONE;
   std::lock_guard<std::mutex> lk (st.live_lock);
   st.live = landmark::OdometrySum ();
@@ -460,14 +462,26 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
   /* motion since the previous frame */
   if (GST_CLOCK_TIME_IS_VALID (st.last_time) && now > st.last_time) {
     const double dt = (double) (now - st.last_time) / GST_SECOND;
-    if (!st.applied.config.odometry.empty ()) {
-      GstSegment *seg = &GST_BASE_TRANSFORM_CAST (self)->segment;
-      const guint64 a = gst_segment_to_stream_time (seg, GST_FORMAT_TIME,
-          st.last_time), b = gst_segment_to_stream_time (seg,
-          GST_FORMAT_TIME, now);
+    const std::vector<landmark::OdometryStep> & log =
+        st.applied.config.odometry;
+    GstSegment *seg = &GST_BASE_TRANSFORM_CAST (self)->segment;
+    const double a = (double) gst_segment_to_stream_time (seg,
+        GST_FORMAT_TIME, st.last_time) / GST_SECOND;
+    if (!log.empty () && a >= log.back ().t) {
+      /* past the log's end no increment would read as standing still,
+       * certain: the motion model carries the pose instead */
+      if (!st.odometry_ended)
+        GST_ELEMENT_WARNING (self, STREAM, FAILED, ("The odometry file "
+                "'%s' ends at %.3f s; later frames use the motion model.",
+                st.applied.config.s.odometry.c_str (), log.back ().t), (nullptr));
+      st.odometry_ended = true;
+      slam.predict (dt);
+    } else if (!log.empty ()) {
+      const double b = (double) gst_segment_to_stream_time (seg,
+          GST_FORMAT_TIME, now) / GST_SECOND;
       double dx, dy, dh;
-      landmark::odometry_between (st.applied.config.odometry, (double) a / GST_SECOND,
-          (double) b / GST_SECOND, &st.odometry_next, &dx, &dy, &dh);
+      landmark::odometry_between (log, a, b, &st.odometry_next, &dx, &dy,
+          &dh);
       slam.predict_odometry (dx, dy, dh, dt);
     } else {
       std::unique_lock<std::mutex> lk (st.live_lock);

@@ -171,6 +171,51 @@ def test_odometry_file(gst, clip, slam_run, tmp_path):
     assert np.percentile(errs, 95) < 0.015, np.percentile(errs, 95)
 
 
+def test_odometry_file_that_ends_early(gst, clip, slam_run, tmp_path):
+    """Past the end of the odometry file the motion model carries the pose
+    (no increment would read as standing still with a certain pose): the
+    frames after it are as good as a run without odometry; one warning
+    names the file."""
+    frames_none, _, truth, _ = slam_run
+    odo = str(tmp_path / "odometry.jsonl")
+    write_odometry(truth[:FRAMES // 3], odo)
+    frames, _ = run_chain(gst, clip, f"landmarkslam odometry={odo}",
+                          str(tmp_path / "slam-short.jsonl"))
+    to_truth = to_truth_frame(truth[0]["robot"], frames[0]["pose"])
+    late = path_errors(frames[FRAMES // 2:], truth[FRAMES // 2:], to_truth)
+    to_truth_none = to_truth_frame(truth[0]["robot"], frames_none[0]["pose"])
+    late_none = path_errors(frames_none[FRAMES // 2:], truth[FRAMES // 2:],
+                            to_truth_none)
+    assert len(late) == len(late_none) > 0
+    # measured: late median 1.0 cm with or without the short file; a pose
+    # held still while the robot drives on loses its landmarks
+    assert np.median(late) < 3 * max(np.median(late_none), 0.005), \
+        (np.median(late), np.median(late_none))
+
+    caps = "video/x-raw,width=64,height=48,framerate=30/1"
+    # 90 frames, 3 s: past the file's end (its 50 increments, 1.7 s)
+    pipe = gst.parse_launch(f"videotestsrc num-buffers=90 ! {caps} ! "
+                            f"landmarkslam name=s odometry={odo} ! "
+                            f"fakesink sync=false")
+    bus = pipe.get_bus()
+    kinds = gst.MessageType.WARNING | gst.MessageType.ERROR | \
+        gst.MessageType.EOS
+    warnings = []
+    try:
+        pipe.set_state(gst.State.PLAYING)
+        while True:
+            msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+            assert msg is not None and msg.type != gst.MessageType.ERROR
+            if msg.type == gst.MessageType.EOS:
+                break
+            err, debug = msg.parse_warning()
+            warnings.append(err.message)
+    finally:
+        pipe.set_state(gst.State.NULL)
+    assert len(warnings) == 1, warnings
+    assert "odometry.jsonl" in warnings[0] and "ends at" in warnings[0]
+
+
 def test_bad_value_while_playing_keeps_previous_settings(gst, tmp_path):
     """A bad odometry file set while playing, together with a new anchor
     map, is one warning naming 'odometry' and the previous settings stay

@@ -474,19 +474,21 @@ label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
       counts);
 }
 
-/* Pass 1 for 4-byte pixels without gathers: two pixels a 8-byte load,
- * each key one bit-field extract (BMI1), a table byte load each, the two
- * labels stored as one 16-bit word; then the row, still in L1, counted 32
- * labels at a time (FoldedCounts). About 4 instructions a pixel against
- * about one cycle a pixel for the gathers on the AMD EPYC measured
- * (docs/performance.md). */
-__attribute__ ((target ("avx2,bmi"))) void
+/* Pass 1 for 4-byte pixels without gathers: the colour bytes at bit
+ * kShift of each 4-byte pixel, two pixels an 8-byte load, each key one
+ * bit-field extract (BMI1/BMI2), a table byte load each, two labels stored
+ * as one 16-bit word; then the row, still in L1, counted 32 labels at a
+ * time (FoldedCounts). About 4 instructions a pixel, faster than the
+ * gathers on the AMD EPYC measured (docs/performance.md). The loop is
+ * sensitive to its code: the four words of a step loaded first, then used
+ * (other schedules GCC chose, a load folded into both extracts of its word
+ * or each load next to its lookups, were 12-16% slower). */
+template <unsigned kShift> __attribute__ ((target ("avx2,bmi,bmi2"))) void
 label_rows_packed4 (const ClassTable & table, PixelReader & reader,
     guint width, guint y0, guint y1, guint8 * labels, guint n,
     guint32 counts[256])
 {
   const guint8 *t = table.labels ();
-  const unsigned shift = reader.layout.key_shift;
   FoldedCounts folded (n);
   for (guint y = y0; y < y1; y++) {
     reader.set_row (y);
@@ -494,20 +496,24 @@ label_rows_packed4 (const ClassTable & table, PixelReader & reader,
     guint8 *out = labels + (gsize) y * width;
     guint x = 0;
     for (; x + 8 <= width; x += 8) {
+      guint64 w[4];
+#pragma GCC unroll 4
+      for (guint i = 0; i < 4; i++)
+        w[i] = load64 (row + x * 4 + 8 * i);
+      /* in registers, loaded once */
+      __asm__ ("" : "+r" (w[0]), "+r" (w[1]), "+r" (w[2]), "+r" (w[3]));
 #pragma GCC unroll 4
       for (guint i = 0; i < 4; i++) {
-        guint64 w = load64 (row + (gsize) x * 4 + 8 * i);
-        /* in a register: GCC would otherwise fold the load into both
-         * extracts, two loads of the same word (0.119 against 0.101 ms) */
-        __asm__ ("" : "+r" (w));
-        const guint16 two = t[_bextr_u64 (w, shift, 24)] |
-            (t[_bextr_u64 (w, shift + 32, 24)] << 8);
+        const guint64 low = kShift == 0 ? _bzhi_u64 (w[i], 24) :
+            _bextr_u64 (w[i], kShift, 24);
+        const guint16 two = t[low] | (t[_bextr_u64 (w[i], kShift + 32, 24)]
+            << 8);
         const guint16 le = GUINT16_TO_LE (two);
         memcpy (out + x + 2 * i, &le, 2);
       }
     }
     for (; x < width; x++)
-      out[x] = t[(load32 (row + x * 4) >> shift) & 0xffffff];
+      out[x] = t[(load32 (row + x * 4) >> kShift) & 0xffffff];
     x = 0;
     for (; x + 32 <= width; x += 32)
       folded.add (_mm256_loadu_si256 ((const __m256i *) (out + x)));
@@ -804,7 +810,8 @@ label_frame (ClassTable & table, const GstVideoFrame * frame,
 #ifdef LANDMARK_HAVE_AVX2_PATH
     if (layout.simd == SimdLevel::AVX2) {
       if (layout.layout == PixelLayout::PACKED4 && !layout.packed4_gathers)
-        label_rows_packed4 (table, rows, w, y0, y1, labels, n,
+        (layout.key_shift == 0 ? label_rows_packed4<0> :
+            label_rows_packed4<8>) (table, rows, w, y0, y1, labels, n,
             workers.slice_counts[i].data ());
       else
         label_rows_gather (table, rows, w, y0, y1, labels, n,

@@ -18,9 +18,9 @@ enum class SimdLevel { NONE, SSE2, AVX2 };
 SimdLevel simd_level ();
 
 /* At the AVX2 level, whether labsegment looks up 4-byte pixels with the
- * AVX2 gathers rather than scalar table loads (faster here): only when the
- * processor lacks BMI1 or LANDMARK_SIMD is "avx2-gather" (to compare the
- * two loops). */
+ * AVX2 gathers rather than scalar table loads (faster here): only when
+ * the processor lacks BMI1 or BMI2, or LANDMARK_SIMD is "avx2-gather" (to
+ * compare the two loops). */
 bool packed4_gathers ();
 
 }  // namespace landmark

@@ -195,6 +195,14 @@ load32 (const guint8 * p)
   return GUINT32_FROM_LE (w);
 }
 
+inline guint64
+load64 (const guint8 * p)
+{
+  guint64 w;
+  memcpy (&w, p, 8);
+  return GUINT64_FROM_LE (w);
+}
+
 void
 classify_packed4 (const guint8 * table, const guint8 * row, int shift,
     guint width, guint8 * labels)
@@ -377,14 +385,60 @@ struct NibbleCounts {
   }
 };
 
+/* counts[v] of a slice's labels as count_labels gives it, from 32 labels
+ * at a time as a loop writes them: up to 7 classes are counted as the
+ * labels go by (NibbleCounts), in place of a second pass over the plane,
+ * and a running maximum tells whether any kPending went by (they are
+ * counted at the end, only then); larger palettes count at the end. */
+struct FoldedCounts {
+  NibbleCounts classes;
+  __m256i largest;
+  bool tail_pending = false;
+  guint n;
+  bool fold;
+
+  __attribute__ ((target ("avx2"))) explicit FoldedCounts (guint classes_n)
+      : classes (classes_n), largest (_mm256_setzero_si256 ()), n (classes_n),
+      fold (classes_n <= 7) {}
+
+  __attribute__ ((target ("avx2"))) void add (__m256i bytes)
+  {
+    if (!fold)
+      return;
+    classes.add (bytes);
+    largest = _mm256_max_epu8 (largest, bytes);
+  }
+
+  /* one label of a row end (under 32 labels) */
+  void add_one (guint8 label, guint32 counts[256])
+  {
+    if (fold && label >= 1 && label <= n)
+      counts[label]++;
+    tail_pending |= label == ClassTable::kPending;
+  }
+
+  /* the slice's labels, first..first+size */
+  __attribute__ ((target ("avx2"))) void total (const guint8 * first,
+      gsize size, guint32 counts[256])
+  {
+    if (!fold) {
+      count_labels (first, size, n, SimdLevel::AVX2, counts);
+      return;
+    }
+    classes.total (n, counts);
+    const __m256i pending = _mm256_set1_epi8 ((char) ClassTable::kPending);
+    if (tail_pending || _mm256_movemask_epi8 (_mm256_cmpeq_epi8 (largest,
+                pending)))
+      counts[ClassTable::kPending] += (guint32) std::count (first,
+          first + size, ClassTable::kPending);
+  }
+};
+
 /* Pass 1 for rows y0..y1-1 of a slice with gathers, 32 pixels (four
  * gathers packed to 32 labels, one store) a step, and counts[v] as
- * count_labels gives it. Up to 7 classes are counted as the labels go by
- * (NibbleCounts), in place of a second pass over the plane, and a running
- * maximum tells whether any kPending went by (they are counted afterwards,
- * only then); larger palettes count afterwards. The table holds kPending
- * for cells not computed yet, as the scalar loops read it: label_frame
- * resolves them. Row ends (under 32 pixels) go pixel by pixel. */
+ * count_labels gives it (FoldedCounts). The table holds kPending for cells
+ * not computed yet, as the scalar loops read it: label_frame resolves
+ * them. Row ends (under 32 pixels) go pixel by pixel. */
 template <class Keys> __attribute__ ((target ("avx2"))) void
 label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
     guint width, guint y0, guint y1, guint8 * labels, guint n,
@@ -394,10 +448,7 @@ label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
   /* packs work within 128-bit lanes: this puts the 8-byte groups back in
    * pixel order */
   const __m256i order = _mm256_setr_epi32 (0, 4, 1, 5, 2, 6, 3, 7);
-  const bool fold = n <= 7;
-  NibbleCounts classes (n);
-  __m256i largest = _mm256_setzero_si256 ();
-  bool tail_pending = false;
+  FoldedCounts folded (n);
   for (guint y = y0; y < y1; y++) {
     reader.set_row (y);
     guint8 *out = labels + (gsize) y * width;
@@ -410,32 +461,67 @@ label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
       const __m256i bytes = _mm256_permutevar8x32_epi32 (_mm256_packus_epi16
           (_mm256_packus_epi32 (a, b), _mm256_packus_epi32 (c, d)), order);
       _mm256_storeu_si256 ((__m256i *) (out + x), bytes);
-      if (!fold)
-        continue;
-      classes.add (bytes);
-      largest = _mm256_max_epu8 (largest, bytes);
+      folded.add (bytes);
     }
     for (; x < width; x++) {
       guint8 c[3] = { 0, 0, 0 };
       reader.get (x, c);
       out[x] = table.lookup (c[0], c[1], c[2]);
-      if (fold && out[x] >= 1 && out[x] <= n)
-        counts[out[x]]++;
-      tail_pending |= out[x] == ClassTable::kPending;
+      folded.add_one (out[x], counts);
     }
   }
-  const guint8 *first = labels + (gsize) y0 * width;
-  const gsize size = (gsize) (y1 - y0) * width;
-  if (!fold) {
-    count_labels (first, size, n, SimdLevel::AVX2, counts);
-    return;
+  folded.total (labels + (gsize) y0 * width, (gsize) (y1 - y0) * width,
+      counts);
+}
+
+/* Pass 1 for 4-byte pixels without gathers: the colour bytes at bit
+ * kShift of each 4-byte pixel, two pixels an 8-byte load, each key one
+ * bit-field extract (BMI1/BMI2), a table byte load each, two labels stored
+ * as one 16-bit word; then the row, still in L1, counted 32 labels at a
+ * time (FoldedCounts). About 4 instructions a pixel, faster than the
+ * gathers on the AMD EPYC measured (docs/performance.md). The loop is
+ * sensitive to its code: the four words of a step loaded first, then used
+ * (other schedules GCC chose, a load folded into both extracts of its word
+ * or each load next to its lookups, were 12-16% slower). */
+template <unsigned kShift> __attribute__ ((target ("avx2,bmi,bmi2"))) void
+label_rows_packed4 (const ClassTable & table, PixelReader & reader,
+    guint width, guint y0, guint y1, guint8 * labels, guint n,
+    guint32 counts[256])
+{
+  const guint8 *t = table.labels ();
+  FoldedCounts folded (n);
+  for (guint y = y0; y < y1; y++) {
+    reader.set_row (y);
+    const guint8 *row = reader.row0;
+    guint8 *out = labels + (gsize) y * width;
+    guint x = 0;
+    for (; x + 8 <= width; x += 8) {
+      guint64 w[4];
+#pragma GCC unroll 4
+      for (guint i = 0; i < 4; i++)
+        w[i] = load64 (row + x * 4 + 8 * i);
+      /* in registers, loaded once */
+      __asm__ ("" : "+r" (w[0]), "+r" (w[1]), "+r" (w[2]), "+r" (w[3]));
+#pragma GCC unroll 4
+      for (guint i = 0; i < 4; i++) {
+        const guint64 low = kShift == 0 ? _bzhi_u64 (w[i], 24) :
+            _bextr_u64 (w[i], kShift, 24);
+        const guint16 two = t[low] | (t[_bextr_u64 (w[i], kShift + 32, 24)]
+            << 8);
+        const guint16 le = GUINT16_TO_LE (two);
+        memcpy (out + x + 2 * i, &le, 2);
+      }
+    }
+    for (; x < width; x++)
+      out[x] = t[(load32 (row + x * 4) >> kShift) & 0xffffff];
+    x = 0;
+    for (; x + 32 <= width; x += 32)
+      folded.add (_mm256_loadu_si256 ((const __m256i *) (out + x)));
+    for (; x < width; x++)
+      folded.add_one (out[x], counts);
   }
-  classes.total (n, counts);
-  const __m256i pending = _mm256_set1_epi8 ((char) ClassTable::kPending);
-  if (tail_pending || _mm256_movemask_epi8 (_mm256_cmpeq_epi8 (largest,
-              pending)))
-    counts[ClassTable::kPending] += (guint32) std::count (first, first + size,
-        ClassTable::kPending);
+  folded.total (labels + (gsize) y0 * width, (gsize) (y1 - y0) * width,
+      counts);
 }
 
 /* label_rows_avx2 with the layout's keys. */
@@ -706,6 +792,7 @@ frame_layout (const LandmarkFrameFormat & format)
       break;
   }
   layout.simd = simd_level ();
+  layout.packed4_gathers = packed4_gathers ();
   return layout;
 }
 
@@ -722,8 +809,13 @@ label_frame (ClassTable & table, const GstVideoFrame * frame,
     PixelReader rows { frame, layout };
 #ifdef LANDMARK_HAVE_AVX2_PATH
     if (layout.simd == SimdLevel::AVX2) {
-      label_rows_gather (table, rows, w, y0, y1, labels, n,
-          workers.slice_counts[i].data ());
+      if (layout.layout == PixelLayout::PACKED4 && !layout.packed4_gathers)
+        (layout.key_shift == 0 ? label_rows_packed4<0> :
+            label_rows_packed4<8>) (table, rows, w, y0, y1, labels, n,
+            workers.slice_counts[i].data ());
+      else
+        label_rows_gather (table, rows, w, y0, y1, labels, n,
+            workers.slice_counts[i].data ());
       return;
     }
 #endif

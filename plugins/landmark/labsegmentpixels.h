@@ -27,6 +27,7 @@ struct FrameLayout {
   int key_shift = 0;            /* bits to drop from a 4-byte pixel */
   KeyOrder order = KeyOrder::C0_LOW;
   SimdLevel simd = SimdLevel::NONE;   /* simd_level () */
+  bool packed4_gathers = false;       /* packed4_gathers () */
 };
 
 /* The layout of a negotiated format, and the byte order of its table keys. */

@@ -104,10 +104,11 @@ def palette_of(n, tmp_path):
 @pytest.mark.parametrize("classes", [4, 7, 12])
 @pytest.mark.parametrize("fmt", F.ALL_FORMATS)
 def test_simd_levels_identical(gst, fmt, classes, monkeypatch, tmp_path):
-    """The AVX2 gathers and class histogram, the SSE2 histogram and the
-    SSE2 YUV keys against the scalar loops (LANDMARK_SIMD, read when caps
-    are set), on widths with a vector part (32 pixels a gather step) and a
-    tail."""
+    """The AVX2 gathers and class histogram, the scalar table loads of
+    4-byte pixels at the AVX2 level (8 pixels a step, counted 32 at a
+    time), the SSE2 histogram and the SSE2 YUV keys against the scalar loops
+    (LANDMARK_SIMD, read when caps are set), on widths with a vector part
+    (32 pixels a gather step) and a tail."""
     rng = np.random.default_rng(seed_of(fmt, "scalar", classes))
     pal = palette_of(classes, tmp_path)
     # 320x64: 640 steps of 32 pixels, past the 15 after which the
@@ -117,12 +118,14 @@ def test_simd_levels_identical(gst, fmt, classes, monkeypatch, tmp_path):
         element = (f"labsegment output=labels palette={pal} "
                    f"min-class-pixels={width}")
         results = {}
-        for level in ("none", "sse2", "best"):
+        for level in ("none", "sse2", "avx2-gather", "best"):
             monkeypatch.setenv("LANDMARK_SIMD", level)
             results[level] = labsegment_results(pipeline.process_frames(
                 element, payloads, caps))
         monkeypatch.delenv("LANDMARK_SIMD")
         assert results["sse2"] == results["none"], f"{fmt} {width}x{height}"
+        assert results["avx2-gather"] == results["none"], \
+            f"{fmt} {width}x{height}"
         assert results["best"] == results["none"], f"{fmt} {width}x{height}"
 
 

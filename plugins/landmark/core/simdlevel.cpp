@@ -25,4 +25,16 @@ simd_level ()
   return best;
 }
 
+bool
+packed4_gathers ()
+{
+#ifdef LANDMARK_HAVE_AVX2_PATH
+  const char *want = std::getenv ("LANDMARK_SIMD");
+  return !__builtin_cpu_supports ("bmi") || !__builtin_cpu_supports ("bmi2")
+      || (want && std::strcmp (want, "avx2-gather") == 0);
+#else
+  return true;
+#endif
+}
+
 }  // namespace landmark

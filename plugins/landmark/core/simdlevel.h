@@ -14,8 +14,15 @@
 namespace landmark {
 
 /* The best level the processor has, or less when LANDMARK_SIMD is "sse2"
- * or "none" (to compare the loops; every level gives identical results). */
+ * or "none" (to compare the loops; every level gives identical results;
+ * "avx2-gather" is the best level, see packed4_gathers). */
 enum class SimdLevel { NONE, SSE2, AVX2 };
 SimdLevel simd_level ();
+
+/* At the AVX2 level, whether labsegment looks up 4-byte pixels with the
+ * AVX2 gathers rather than scalar table loads (faster here): only when
+ * the processor lacks BMI1 or BMI2, or LANDMARK_SIMD is "avx2-gather" (to
+ * compare the two loops). */
+bool packed4_gathers ();
 
 }  // namespace landmark

@@ -315,13 +315,19 @@ struct Avx2Selection {
   }
 };
 
-/* bit i: row[i] != l, i in 0..31 */
-__attribute__ ((target ("avx2"))) inline uint32_t
-differs_avx2 (const uint8_t * p, __m256i l)
-{
-  return ~(uint32_t) _mm256_movemask_epi8 (_mm256_cmpeq_epi8
-      (_mm256_loadu_si256 ((const __m256i *) p), l));
-}
+/* bit i: p[i] != the label, i in 0..31. A struct rather than a lambda
+ * capturing the vector: a lambda's call operator does not inherit the
+ * AVX2 target, and clang refuses the vector argument without it. */
+struct Avx2Differs {
+  __m256i label;
+
+  __attribute__ ((target ("avx2"))) uint32_t
+  operator() (const uint8_t * p) const
+  {
+    return ~(uint32_t) _mm256_movemask_epi8 (_mm256_cmpeq_epi8
+        (_mm256_loadu_si256 ((const __m256i *) p), label));
+  }
+};
 
 /* The 32 bits of what (a look at 32 labels) for pixels x..x+31 of a row of
  * w >= 32 pixels: the last 32 pixels are read again for a row's end, and
@@ -365,8 +371,7 @@ find_runs_avx2 (const uint8_t * plane, size_t stride, int w, int y0, int y1,
       x += __builtin_ctz (m);
       /* the run of this label */
       const uint8_t l = row[x];
-      const __m256i vl = _mm256_set1_epi8 ((char) l);
-      auto other = [&](const uint8_t * p) { return differs_avx2 (p, vl); };
+      const Avx2Differs other { _mm256_set1_epi8 ((char) l) };
       int e = x + 1;
       while (e < w) {
         const uint32_t d = look32 (row, e, w, other);

@@ -1,12 +1,5 @@
 #include "labsegmentpixels.h"
 
-#ifdef __SSE2__
-#include <emmintrin.h>
-#endif
-#ifdef LANDMARK_HAVE_AVX2_PATH
-#include <immintrin.h>
-#endif
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>

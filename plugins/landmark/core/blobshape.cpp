@@ -8,13 +8,6 @@
 #include <cstring>
 #include <utility>
 
-#ifdef __SSE2__
-#include <emmintrin.h>
-#endif
-#ifdef LANDMARK_HAVE_AVX2_PATH
-#include <immintrin.h>
-#endif
-
 namespace landmark {
 
 namespace {

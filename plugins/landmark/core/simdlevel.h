@@ -11,6 +11,14 @@
 #define LANDMARK_HAVE_AVX2_PATH 1
 #endif
 
+/* the intrinsics of the levels the build has */
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+#ifdef LANDMARK_HAVE_AVX2_PATH
+#include <immintrin.h>
+#endif
+
 namespace landmark {
 
 /* The best level the processor has, or less when LANDMARK_SIMD is "sse2"

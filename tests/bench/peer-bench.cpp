@@ -41,7 +41,11 @@ struct Options {
 bool
 parse (int argc, char **argv, Options * o)
 {
-  for (int i = 1; i + 1 < argc; i += 2) {
+  for (int i = 1; i < argc; i += 2) {
+    if (i + 1 >= argc) {
+      std::fprintf (stderr, "peer-bench: %s needs a value\n", argv[i]);
+      return false;
+    }
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--input") o->input = v;
     else if (k == "--palette") o->palette = v;

@@ -27,7 +27,9 @@
  *
  * `odometry=PATH` reads a JSON-lines file of robot-frame increments
  * (`{"t": s, "dx": m, "dy": m, "dheading": rad}`, stream time) in place of
- * the constant-velocity model. Live odometry comes from the application as
+ * the constant-velocity model; `camera-forward` says how far ahead of the
+ * point whose motion the odometry reports (a wheeled robot's turning
+ * centre) the camera is. Live odometry comes from the application as
  * `landmark-odometry` custom downstream events (serialized or
  * out-of-band) with the increment since the previous one, `dx`, `dy`,
  * `dheading` (landmark_odometry_event_new, docs/embedding.md): those
@@ -91,6 +93,7 @@ struct Settings {
   gdouble confirm_baseline = 0;
   gdouble confirm_sigma = 0.03;
   gdouble gate = 13.82;
+  gdouble camera_forward = 0;
   gboolean post_messages = FALSE;
 };
 
@@ -177,6 +180,11 @@ slam_properties ()
           "JSON lines of robot-frame increments {\"t\", \"dx\", \"dy\", "
           "\"dheading\"} (seconds of stream time, metres, radians); none: "
           "constant-velocity model", &Settings::odometry)
+      .number ("camera-forward", "Camera forward",
+          "Metres the camera's floor point is ahead of the point whose "
+          "motion the odometry reports (the turning centre, the middle of a "
+          "differential drive's axle); 0: the odometry reports the camera's "
+          "own motion", &Settings::camera_forward, -10.0, 10.0)
       .number ("confirm-views", "Confirm views",
           "Frames a landmark must be paired in (views, counted from poses "
           "confirm-baseline apart) before it is confirmed: that it exists",
@@ -247,6 +255,7 @@ slam_apply_options (State & st)
   st.slam.opt.confirm_baseline = s.confirm_baseline;
   st.slam.opt.confirm_sigma = s.confirm_sigma;
   st.slam.opt.gate_chi2 = s.gate;
+  st.slam.opt.odo_camera_forward = s.camera_forward;
 }
 
 /* Brings the state up to date with settings changed while playing (a bad

@@ -531,6 +531,7 @@ NON_FINITE = [
     ("ipmrange", "tilt"), ("ipmrange", "hfov"), ("ipmrange", "fx"),
     ("ipmrange", "marker-height"), ("ipmrange", "marker-diameter"),
     ("ipmrange", "pixel-sigma"), ("trilaterate", "gate"),
+    ("landmarkslam", "camera-forward"),
     ("landmarkoverlay", "text-scale"),
 ]
 

@@ -3,7 +3,10 @@
 robot-frame steps independently of the module, it gives back the true
 path when every error is 0; a scale error s lengthens the path by
 exactly 1 + s; a heading drift of d degrees per metre turns it by d times
-the length; the noise has the stated spread and follows the seed."""
+the length; the slip is a random walk over the distance, its spread
+after a straight drive the closed form's at 30 and at 100 steps a second,
+and follows the seed; the turning centre's log composes to the path
+behind the camera."""
 
 import json
 import math
@@ -13,8 +16,9 @@ import pytest
 
 from gstlandmark.commands import cli
 from gstlandmark.synth.odometry import (OdometryErrors, frame_time,
-                                        odometry_steps, scene_odometry)
-from gstlandmark.synth.scenarios import build_scenario
+                                        no_errors, odometry_steps,
+                                        scene_odometry)
+from gstlandmark.synth.scenarios import Offset, build_scenario
 
 FRAMES = 600  # two loops of the path scenario at 30 frames/s
 
@@ -40,11 +44,6 @@ def integrate(start, steps):
 
 def true_poses(scene, n):
     return [scene.trajectory.pose(i / scene.fps) for i in range(n)]
-
-
-def no_errors(**kw):
-    return OdometryErrors(**{"scale": 0.0, "drift_deg_per_m": 0.0,
-                             "noise": 0.0, **kw})
 
 
 def test_exact_log_integrates_to_the_true_path(path_scene):
@@ -123,24 +122,97 @@ def test_heading_drift_per_metre(path_scene):
     assert [s["dx"] for s in drifted] == [s["dx"] for s in exact]
 
 
-def test_noise_spread_and_seed(path_scene):
+class Line:
+    """A straight drive along x at 0.5 m/s."""
+    def __init__(self, t):
+        self.x, self.y, self.heading = 0.5 * t, 0.0, 0.0
+
+
+def test_slip_is_a_random_walk_over_distance():
+    """A straight drive of 2 m, 300 seeds, at 30 and at 100 steps a
+    second: the composed end pose's spread is the closed form's whatever
+    the rate (along: slip sqrt(L); across: slip^2 L plus the heading's
+    random walk integrated, heading_slip^2 L^3 / 3; heading: heading_slip
+    sqrt(L)). A per-step slip proportional to the step would spread
+    sqrt(30 / 100) = 0.55 times as much at 100 Hz."""
+    slip, heading_slip, length, runs = 0.004, 0.003, 2.0, 300
+    errors = no_errors(slip=slip, heading_slip=heading_slip,
+                       turn_slip=0.01)
+    exact = (slip * math.sqrt(length),
+             math.sqrt(slip ** 2 * length + heading_slip ** 2 *
+                       length ** 3 / 3),
+             heading_slip * math.sqrt(length))
+    spread = {}
+    for rate in (30, 100):
+        n = int(round(length / 0.5 * rate))
+        times = [k / rate for k in range(n + 1)]
+        poses = [Line(t) for t in times]
+        ends = np.array([integrate((0, 0, 0), odometry_steps(
+            poses, times, errors, seed=s))[-1] for s in range(runs)])
+        ends[:, 0] -= length
+        spread[rate] = np.sqrt(np.mean(ends ** 2, axis=0))
+        # 300 runs: a sigma's sampling error is about 4 %
+        assert spread[rate] == pytest.approx(exact, rel=0.15), rate
+    assert spread[100] == pytest.approx(spread[30], rel=0.2)
+
+
+def test_turn_slip_per_radian():
+    """A turn in place of one revolution at 30 steps a second: the heading
+    spreads as turn_slip sqrt(2 pi) (200 seeds, within 15 %), and the
+    position not at all."""
+    class Spin:
+        def __init__(self, t):
+            self.x, self.y, self.heading = 0.0, 0.0, 0.5 * t
+    times = [k / 30 for k in range(int(round(2 * math.pi / 0.5 * 30)) + 1)]
+    poses = [Spin(t) for t in times]
+    errors = no_errors(slip=0.004, turn_slip=0.01)
+    ends = np.array([integrate((0, 0, 0), odometry_steps(
+        poses, times, errors, seed=s))[-1] for s in range(200)])
+    turned = poses[-1].heading
+    assert np.sqrt(np.mean((ends[:, 2] - turned) ** 2)) == pytest.approx(
+        0.01 * math.sqrt(turned), rel=0.15)
+    assert np.abs(ends[:, :2]).max() < 1e-12
+
+
+def test_slip_follows_the_seed(path_scene):
     scene, n = path_scene
+    noisy = scene_odometry(scene, n, no_errors(slip=0.01))
     exact = scene_odometry(scene, n, no_errors())
-    noisy = scene_odometry(scene, n, no_errors(noise=0.05))
-    ratio = np.array([math.hypot(a["dx"], a["dy"]) /
-                      math.hypot(b["dx"], b["dy"])
-                      for a, b in zip(noisy, exact)])
-    # 599 draws of N(1, 0.05): the sample spread within 15 %
-    assert np.std(ratio) == pytest.approx(0.05, rel=0.15)
-    assert abs(np.mean(ratio) - 1) < 3 * 0.05 / math.sqrt(len(ratio))
+    assert [s["dx"] for s in noisy] != [s["dx"] for s in exact]
     # the scene's seed fixes the draws: the same again, another differs
-    assert scene_odometry(scene, n, no_errors(noise=0.05)) == noisy
+    assert scene_odometry(scene, n, no_errors(slip=0.01)) == noisy
     scene.seed += 1
     try:
-        other = scene_odometry(scene, n, no_errors(noise=0.05))
+        other = scene_odometry(scene, n, no_errors(slip=0.01))
     finally:
         scene.seed -= 1
     assert [s["dx"] for s in other] != [s["dx"] for s in noisy]
+
+
+def test_turning_centre_log(path_scene):
+    """With the camera 0.12 m ahead of the turning centre, the
+    turning-centre log composes to the inner path (not the camera's, which
+    swings out on the turns); without an offset it is the camera's log."""
+    scene, n = path_scene
+    camera = scene_odometry(scene, n, no_errors())
+    assert scene_odometry(scene, n, no_errors(frame="turning-centre")) \
+        == camera
+    inner = scene.trajectory
+    scene.trajectory = Offset(inner, 0.12)
+    try:
+        steps = scene_odometry(scene, n, no_errors(frame="turning-centre"))
+        swung = scene_odometry(scene, n, no_errors())
+    finally:
+        scene.trajectory = inner
+    t0 = inner.pose(0.0)
+    for (x, y, h), i in zip(integrate((t0.x, t0.y, t0.heading), steps),
+                            range(1, n)):
+        p = inner.pose(i / scene.fps)
+        assert abs(x - p.x) < 1e-9 and abs(y - p.y) < 1e-9
+    # the camera's own log differs by the swing: up to a few cm a step
+    assert max(abs(a["dy"] - b["dy"]) for a, b in zip(steps, swung)) > 1e-3
+    with pytest.raises(ValueError, match="--odometry-frame"):
+        scene_odometry(scene, n, no_errors(frame="axle"))
 
 
 def test_frame_time_matches_the_truth_pts():
@@ -157,16 +229,21 @@ def test_cli_writes_the_log_and_its_options(tmp_path, capsys):
             "--no-progress", "--out"]
     assert cli.main(args + [str(tmp_path / "a"),
                             "--odometry-scale", "0", "--odometry-drift",
-                            "0", "--odometry-noise", "0"]) == 0
+                            "0", "--odometry-slip", "0",
+                            "--odometry-heading-slip", "0",
+                            "--odometry-turn-slip", "0"]) == 0
     assert "odometry.jsonl" in capsys.readouterr().out
     exact = read_lines(tmp_path / "a" / "odometry.jsonl")
     truth = read_lines(tmp_path / "a" / "truth.jsonl")
     assert [s["t"] for s in exact] == [t["pts"] / 1e9 for t in truth[1:]]
     scene = json.loads((tmp_path / "a" / "scene.json").read_text())
     assert scene["odometry"] == {"file": "odometry.jsonl", "scale": 0.0,
-                                 "drift_deg_per_m": 0.0, "noise": 0.0,
-                                 "rate_hz": None}
-    # the default: 2 % scale, 1 degree per metre, 1 % noise
+                                 "drift_deg_per_m": 0.0,
+                                 "slip_m_per_sqrt_m": 0.0,
+                                 "heading_slip_rad_per_sqrt_m": 0.0,
+                                 "turn_slip_rad_per_sqrt_rad": 0.0,
+                                 "rate_hz": None, "frame": "camera"}
+    # the default: 2 % scale, 1 degree per metre, slip 1 mm per sqrt(m)
     assert cli.main(args + [str(tmp_path / "b")]) == 0
     default = read_lines(tmp_path / "b" / "odometry.jsonl")
     assert path_length(default) == pytest.approx(1.02 * path_length(exact),
@@ -179,4 +256,7 @@ def test_cli_writes_the_log_and_its_options(tmp_path, capsys):
     assert cli.main(args + [str(tmp_path / "d"), "--odometry-scale",
                             "-1.5"]) == 1
     assert "--odometry-scale" in capsys.readouterr().err
+    assert cli.main(args + [str(tmp_path / "e"), "--odometry-slip",
+                            "-0.1"]) == 1
+    assert "--odometry-slip" in capsys.readouterr().err
     assert not (tmp_path / "d" / "truth.jsonl").exists()

@@ -224,41 +224,64 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   const double dx = mdx / (1 + k), dy = mdy / (1 + k);
   const double d = std::hypot (dx, dy);
   const double dth = mdth - g * d;
+  /* Wheel odometry reports its turning centre's motion; the pose is the
+   * camera's, a ahead of it, which a turn swings round: the camera moves
+   * by e = d + a (cos dth - 1, sin dth) in the robot frame at the start
+   * (exact for any rigid increment, so also for a frame's sum of them).
+   * a is a setting, not a state: as a state with a prior of 0.1 m it let
+   * the bridged odometry wander (docs/landmarkslam.md) */
+  const double a = opt.odo_camera_forward;
+  const double co = std::cos (dth), so = std::sin (dth);
+  const double ex = dx + a * (co - 1), ey = dy + a * so;
   /* Jacobian of the pose part, its three rows (the others are the
-   * identity): x' = x + R(th) d, with d(d)/dk = -d / (1 + k). Each row is
-   * the identity's plus two entries, so F P F^T changes rows and columns
-   * 0-2 only, in place */
-  const double a02 = -s * dx - c * dy, a12 = c * dx - s * dy;
-  const double a0k = -(c * dx - s * dy) / (1 + k),
-      a1k = -(s * dx + c * dy) / (1 + k), a2k = g * d / (1 + k), a2g = -d;
+   * identity): x' = x + R(th) e, th' = th + dth, through the heading, the
+   * scale error k (d(d)/dk = -d / (1 + k), d(dth)/dk = g |d| / (1 + k))
+   * and the drift g (d(dth)/dg = -|d|), de/d(dth) = a (-sin dth, cos dth).
+   * Each row is the identity's plus three entries, so F P F^T changes
+   * rows and columns 0-2 only, in place */
+  const double tk = g * d / (1 + k);
+  const double exk = -dx / (1 + k) - a * so * tk,
+      eyk = -dy / (1 + k) + a * co * tk;
+  const double exg = a * so * d, eyg = -a * co * d;
+  const double a02 = -s * ex - c * ey, a12 = c * ex - s * ey;
+  const double a0k = c * exk - s * eyk, a1k = s * exk + c * eyk, a2k = tk;
+  const double a0g = c * exg - s * eyg, a1g = s * exg + c * eyg, a2g = -d;
   double *P = p_.data ();
   for (int j = 0; j < N; j++) {
     const double p2 = P[2 * N + j], pk = P[kScale * N + j],
         pg = P[kDrift * N + j];
-    P[0 * N + j] += a02 * p2 + a0k * pk;
-    P[1 * N + j] += a12 * p2 + a1k * pk;
+    P[0 * N + j] += a02 * p2 + a0k * pk + a0g * pg;
+    P[1 * N + j] += a12 * p2 + a1k * pk + a1g * pg;
     P[2 * N + j] += a2k * pk + a2g * pg;
   }
   for (int i = 0; i < N; i++) {
     double *row = P + i * N;
     const double p2 = row[2], pk = row[kScale], pg = row[kDrift];
-    row[0] += a02 * p2 + a0k * pk;
-    row[1] += a12 * p2 + a1k * pk;
+    row[0] += a02 * p2 + a0k * pk + a0g * pg;
+    row[1] += a12 * p2 + a1k * pk + a1g * pg;
     row[2] += a2k * pk + a2g * pg;
   }
   /* The white part, slip: a wheel's travel error is a random walk over
    * the distance it rolls, so a step's variance is proportional to its
    * length (not its square) and the sigma after a given distance does not
    * depend on how often increments arrive. Isotropic in x and y: a
-   * rotation leaves it as it is. */
+   * rotation leaves it as it is. The heading's slip also swings the
+   * camera, by u = R(th) a (-sin dth, cos dth) per radian. */
   const double vt = opt.odo_trans_sigma * opt.odo_trans_sigma * d;
   const double vr = opt.odo_rot_per_m * opt.odo_rot_per_m * d
       + opt.odo_rot_sigma * opt.odo_rot_sigma * std::fabs (dth);
-  P[0 * N + 0] += vt;
-  P[1 * N + 1] += vt;
+  const double u0 = -a * (c * so + s * co), u1 = a * (c * co - s * so);
+  P[0 * N + 0] += vt + u0 * u0 * vr;
+  P[1 * N + 1] += vt + u1 * u1 * vr;
+  P[0 * N + 1] += u0 * u1 * vr;
+  P[1 * N + 0] += u0 * u1 * vr;
+  P[0 * N + 2] += u0 * vr;
+  P[2 * N + 0] += u0 * vr;
+  P[1 * N + 2] += u1 * vr;
+  P[2 * N + 1] += u1 * vr;
   P[2 * N + 2] += vr;
-  s_[0] += c * dx - s * dy;
-  s_[1] += s * dx + c * dy;
+  s_[0] += c * ex - s * ey;
+  s_[1] += s * ex + c * ey;
   s_[2] = wrap_angle (s_[2] + dth);
   if (dt > 0) {
     /* the speed and turn rate follow the odometry, for a later

@@ -79,6 +79,11 @@ struct SlamOptions {
   double odo_trans_sigma = 0.002; /* m per sqrt(m) */
   double odo_rot_sigma = 0.002;   /* rad per sqrt(rad) */
   double odo_rot_per_m = 0.002;   /* rad per sqrt(m) */
+  /* the camera's floor point is this far ahead of the point whose motion
+   * the odometry reports (a differential drive's turning centre, the
+   * middle of its axle); 0: the odometry reports the camera's own motion
+   * (docs/landmarkslam.md, "The odometry's frame") */
+  double odo_camera_forward = 0;  /* m */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
 };
 
@@ -143,8 +148,9 @@ public:
 
   /* Constant-velocity prediction over dt seconds. */
   void predict (double dt);
-  /* Odometry: a robot-frame increment (forward, left, turn) replaces the
-   * motion model for that interval; velocities follow it over dt. */
+  /* Odometry: a robot-frame increment (forward, left, turn) of the point
+   * opt.odo_camera_forward behind the camera replaces the motion model for
+   * that interval; velocities follow it over dt. */
   void predict_odometry (double dx, double dy, double dheading, double dt);
   /* One frame of observations: associate, update, add landmarks. */
   SlamFrame update (const std::vector<SlamObservation> & obs);

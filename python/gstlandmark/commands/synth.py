@@ -6,7 +6,7 @@ import os
 
 from ..palette import PaletteError
 from ..synth.floors import FLOOR_NAMES
-from ..synth.odometry import OdometryErrors
+from ..synth.odometry import FRAMES, OdometryErrors
 from ..synth.scenarios import DEFAULT_ROBOT, ROBOTS, SCENARIOS
 from .common import CliError, size_type
 
@@ -22,7 +22,7 @@ every palette class under frame 0's camera and lighting, for
 the histogram of frames by landmarks visible with >= 150 pixels;
 camera.yml, the true camera as a camera file for ipmrange calibration=;
 and odometry.jsonl, wheel odometry from the true path with a scale
-error, heading drift and per-step slip, for landmarkslam odometry=.
+error, heading drift and slip, for landmarkslam odometry=.
 
 The default robot is the seed's: a 54-degree 640x480 webcam 0.2 m above
 the floor, tilted 18 degrees down, with 10 cm discs and 8 cm balls.
@@ -163,11 +163,22 @@ def add_synth_parser(subparsers):
     odo.add_argument("--odometry-drift", type=float, default=1.0,
                      metavar="DEG_PER_M",
                      help="heading drift per metre travelled (default 1)")
-    odo.add_argument("--odometry-noise", type=float, default=0.01,
-                     metavar="FRACTION",
-                     help="per-step slip and noise: relative sigma of "
-                          "each step's translation and turn, and radians "
-                          "of heading per metre (default 0.01)")
+    odo.add_argument("--odometry-slip", type=float, default=0.001,
+                     metavar="M_PER_SQRT_M",
+                     help="slip along and across, a random walk over the "
+                          "distance: sigma after 1 m (default 0.001)")
+    odo.add_argument("--odometry-heading-slip", type=float, default=0.001,
+                     metavar="RAD_PER_SQRT_M",
+                     help="heading slip per sqrt(metre) driven (default "
+                          "0.001)")
+    odo.add_argument("--odometry-turn-slip", type=float, default=0.0015,
+                     metavar="RAD_PER_SQRT_RAD",
+                     help="heading slip per sqrt(radian) turned (default "
+                          "0.0015)")
+    odo.add_argument("--odometry-frame", choices=FRAMES, default="camera",
+                     help="whose motion the log reports: the camera's "
+                          "floor point (default) or the turning centre "
+                          "the camera is camera_forward_m ahead of")
     odo.add_argument("--odometry-rate", type=float, metavar="HZ",
                      help="steps at this rate, between frames as a real "
                           "encoder's (default: one per frame)")
@@ -218,8 +229,10 @@ def _handle(args):
         args.parser.error("the custom scenario needs --map FILE")
     out = args.out or os.path.join("out", "synth", args.scenario)
     odometry = args.odometry and OdometryErrors(
-        args.odometry_scale, args.odometry_drift, args.odometry_noise,
-        args.odometry_rate)
+        scale=args.odometry_scale, drift_deg_per_m=args.odometry_drift,
+        slip=args.odometry_slip, heading_slip=args.odometry_heading_slip,
+        turn_slip=args.odometry_turn_slip, rate_hz=args.odometry_rate,
+        frame=args.odometry_frame)
     overrides = {k: getattr(args, k) for k in OVERRIDE_ARGS
                  if getattr(args, k) is not None}
     try:

@@ -7,16 +7,23 @@ stamped with the later frame's stream time (or, at a ``rate_hz`` of its
 own, between two encoder readings, which then fall between frames as a
 real robot's do): ``dx`` forward and ``dy``
 left in metres, ``dheading`` counter-clockwise in radians, in the robot
-frame at the start of the step.  Errors, each optional:
+frame at the start of the step.  The motion is the camera's floor point's
+(``frame`` "camera"), or that of the turning centre the camera is
+``camera_forward_m`` ahead of (``frame`` "turning-centre", what a
+differential drive's wheel odometry reports; the same as the camera's for
+a trajectory without an offset).  Errors, each optional:
 
 - **scale**: every step's translation is ``1 + scale`` times the true one
   (wheel radius or encoder resolution off);
 - **heading drift**: ``drift`` radians are added per metre travelled
   (one wheel slightly larger than the other);
-- **slip and noise**: per step, the translation and the turn are each
-  multiplied by ``1 + N(0, noise)`` and the heading gains
-  ``N(0, noise)`` radians per metre of the step; drawn from a generator
-  seeded by the scenario's seed, so a clip and its log are reproducible.
+- **slip**: random walks over the distance driven and the angle turned,
+  so that the spread after a given path does not depend on how often the
+  encoders are read: per step of length ``L`` turning ``dth``, the
+  translation gains ``N(0, slip^2 L)`` metres along the step and as much
+  across it, the heading ``N(0, turn_slip^2 |dth| + heading_slip^2 L)``
+  radians; drawn from a generator seeded by the scenario's seed, so a
+  clip and its log are reproducible.
 """
 
 import json
@@ -30,37 +37,61 @@ import numpy as np
 # and does not shift when the scene draws more numbers.
 SEED_STREAM = 0x0D0
 
+# What the odometry reports the motion of (docs/synth.md).
+FRAMES = ("camera", "turning-centre")
+
 
 @dataclass
 class OdometryErrors:
     """The error model; the defaults are those of docs/synth.md."""
     scale: float = 0.02          # relative translation error
     drift_deg_per_m: float = 1.0  # heading drift, degrees per metre
-    noise: float = 0.01          # per-step relative slip / noise
+    slip: float = 0.001          # m per sqrt(m), along and across
+    heading_slip: float = 0.001  # rad per sqrt(m) driven
+    turn_slip: float = 0.0015    # rad per sqrt(rad) turned
     rate_hz: Optional[float] = None  # None: one step per frame
+    frame: str = "camera"        # or "turning-centre"
 
     def check(self):
         """ValueError naming the option when a value is out of range."""
         for name, value in (("scale", self.scale),
                             ("drift", self.drift_deg_per_m),
-                            ("noise", self.noise)):
+                            ("slip", self.slip),
+                            ("heading-slip", self.heading_slip),
+                            ("turn-slip", self.turn_slip)):
             if not math.isfinite(value):
                 raise ValueError(f"--odometry-{name} must be finite, got "
                                  f"{value!r}")
         if self.scale <= -1:
             raise ValueError(f"--odometry-scale must be > -1 (a fraction: "
                              f"0.02 is 2 %), got {self.scale!r}")
-        if self.noise < 0:
-            raise ValueError(f"--odometry-noise must be >= 0, got "
-                             f"{self.noise!r}")
+        for name, value in (("slip", self.slip),
+                            ("heading-slip", self.heading_slip),
+                            ("turn-slip", self.turn_slip)):
+            if value < 0:
+                raise ValueError(f"--odometry-{name} must be >= 0, got "
+                                 f"{value!r}")
         if self.rate_hz is not None and not (
                 math.isfinite(self.rate_hz) and self.rate_hz > 0):
             raise ValueError(f"--odometry-rate must be a positive number "
                              f"of Hz, got {self.rate_hz!r}")
+        if self.frame not in FRAMES:
+            raise ValueError(f"--odometry-frame must be one of "
+                             f"{', '.join(FRAMES)}, got {self.frame!r}")
 
     def to_json(self):
         return {"scale": self.scale, "drift_deg_per_m": self.drift_deg_per_m,
-                "noise": self.noise, "rate_hz": self.rate_hz}
+                "slip_m_per_sqrt_m": self.slip,
+                "heading_slip_rad_per_sqrt_m": self.heading_slip,
+                "turn_slip_rad_per_sqrt_rad": self.turn_slip,
+                "rate_hz": self.rate_hz, "frame": self.frame}
+
+
+def no_errors(**kw):
+    """Odometry without any error (exact), or with only those of ``kw``."""
+    return OdometryErrors(**{"scale": 0.0, "drift_deg_per_m": 0.0,
+                             "slip": 0.0, "heading_slip": 0.0,
+                             "turn_slip": 0.0, **kw})
 
 
 def relative_motion(a, b):
@@ -76,20 +107,29 @@ def odometry_steps(poses, times, errors=None, seed=0):
     """One increment per pair of consecutive ``poses`` (objects with
     ``x``, ``y``, ``heading``), stamped with the later of ``times``
     (seconds), with ``errors`` (``OdometryErrors``; default: none)."""
-    errors = errors or OdometryErrors(0.0, 0.0, 0.0)
+    errors = errors or no_errors()
     errors.check()
     rng = np.random.default_rng((int(seed), SEED_STREAM))
     drift = math.radians(errors.drift_deg_per_m)
+    noisy = errors.slip > 0 or errors.heading_slip > 0 or \
+        errors.turn_slip > 0
     steps = []
     for a, b, t in zip(poses, poses[1:], times[1:]):
         dx, dy, dh = relative_motion(a, b)
         dist = math.hypot(dx, dy)
-        slip, turn, wobble = (rng.standard_normal(3) * errors.noise
-                              if errors.noise > 0 else (0.0, 0.0, 0.0))
-        k = (1.0 + errors.scale) * (1.0 + slip)
-        steps.append({"t": t, "dx": dx * k, "dy": dy * k,
-                      "dheading": dh * (1.0 + turn)
-                      + (drift + wobble) * dist})
+        along, across, turn = (rng.standard_normal(3) if noisy
+                               else (0.0, 0.0, 0.0))
+        # slip: sigma^2 per metre (per radian turned), whatever the rate
+        along *= errors.slip * math.sqrt(dist)
+        across *= errors.slip * math.sqrt(dist)
+        turn *= math.sqrt(errors.turn_slip ** 2 * abs(dh)
+                          + errors.heading_slip ** 2 * dist)
+        ux, uy = (dx / dist, dy / dist) if dist > 0 else (1.0, 0.0)
+        k = 1.0 + errors.scale
+        steps.append({"t": t,
+                      "dx": dx * k + along * ux - across * uy,
+                      "dy": dy * k + along * uy + across * ux,
+                      "dheading": dh + drift * dist + turn})
     return steps
 
 
@@ -101,12 +141,17 @@ def frame_time(frame, fps):
 
 def scene_odometry(scene, frames, errors=None):
     """The odometry steps of ``frames`` frames of ``scene``'s path (the
-    poses the renderer used), seeded by the scene's seed: one per frame,
-    or at ``errors.rate_hz`` from 0 to the last frame's time."""
-    from .scenarios import Static
+    poses the renderer used, or with ``errors.frame`` "turning-centre"
+    those of the turning centre behind the camera), seeded by the scene's
+    seed: one per frame, or at ``errors.rate_hz`` from 0 to the last
+    frame's time."""
+    from .scenarios import Offset, Static
     trajectory = scene.trajectory or Static()
     if errors is not None:
         errors.check()
+        if errors.frame == "turning-centre" and isinstance(trajectory,
+                                                           Offset):
+            trajectory = trajectory.inner
     rate = errors.rate_hz if errors is not None else None
     if rate is None:
         times = [frame_time(i, scene.fps) for i in range(frames)]

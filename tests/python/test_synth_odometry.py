@@ -243,7 +243,7 @@ def test_cli_writes_the_log_and_its_options(tmp_path, capsys):
                                  "heading_slip_rad_per_sqrt_m": 0.0,
                                  "turn_slip_rad_per_sqrt_rad": 0.0,
                                  "rate_hz": None, "frame": "camera"}
-    # the default: 2 % scale, 1 degree per metre, slip 1 mm per sqrt(m)
+    # the default: 2 % scale, 1 degree per metre, slip 1.1 mm per sqrt(m)
     assert cli.main(args + [str(tmp_path / "b")]) == 0
     default = read_lines(tmp_path / "b" / "odometry.jsonl")
     assert path_length(default) == pytest.approx(1.02 * path_length(exact),

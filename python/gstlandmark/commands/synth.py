@@ -163,18 +163,16 @@ def add_synth_parser(subparsers):
     odo.add_argument("--odometry-drift", type=float, default=1.0,
                      metavar="DEG_PER_M",
                      help="heading drift per metre travelled (default 1)")
-    odo.add_argument("--odometry-slip", type=float, default=0.001,
-                     metavar="M_PER_SQRT_M",
-                     help="slip along and across, a random walk over the "
-                          "distance: sigma after 1 m (default 0.001)")
-    odo.add_argument("--odometry-heading-slip", type=float, default=0.001,
-                     metavar="RAD_PER_SQRT_M",
-                     help="heading slip per sqrt(metre) driven (default "
-                          "0.001)")
-    odo.add_argument("--odometry-turn-slip", type=float, default=0.0015,
-                     metavar="RAD_PER_SQRT_RAD",
-                     help="heading slip per sqrt(radian) turned (default "
-                          "0.0015)")
+    # slip: random walks, sigma per square root of the distance or turn
+    for name, default, unit, what in (
+            ("slip", 0.0011, "M_PER_SQRT_M",
+             "slip along and across per sqrt(metre) driven"),
+            ("heading-slip", 0.0011, "RAD_PER_SQRT_M",
+             "heading slip per sqrt(metre) driven"),
+            ("turn-slip", 0.0018, "RAD_PER_SQRT_RAD",
+             "heading slip per sqrt(radian) turned")):
+        odo.add_argument(f"--odometry-{name}", type=float, default=default,
+                         metavar=unit, help=f"{what} (default {default})")
     odo.add_argument("--odometry-frame", choices=FRAMES, default="camera",
                      help="whose motion the log reports: the camera's "
                           "floor point (default) or the turning centre "

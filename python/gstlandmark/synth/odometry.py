@@ -46,9 +46,9 @@ class OdometryErrors:
     """The error model; the defaults are those of docs/synth.md."""
     scale: float = 0.02          # relative translation error
     drift_deg_per_m: float = 1.0  # heading drift, degrees per metre
-    slip: float = 0.001          # m per sqrt(m), along and across
-    heading_slip: float = 0.001  # rad per sqrt(m) driven
-    turn_slip: float = 0.0015    # rad per sqrt(rad) turned
+    slip: float = 0.0011         # m per sqrt(m), along and across
+    heading_slip: float = 0.0011  # rad per sqrt(m) driven
+    turn_slip: float = 0.0018    # rad per sqrt(rad) turned
     rate_hz: Optional[float] = None  # None: one step per frame
     frame: str = "camera"        # or "turning-centre"
 

@@ -209,7 +209,7 @@ def test_turning_centre_log(path_scene):
                             range(1, n)):
         p = inner.pose(i / scene.fps)
         assert abs(x - p.x) < 1e-9 and abs(y - p.y) < 1e-9
-    # the camera's own log differs by the swing: up to a few cm a step
+    # the camera's own log differs by the swing: a few mm a step
     assert max(abs(a["dy"] - b["dy"]) for a, b in zip(steps, swung)) > 1e-3
     with pytest.raises(ValueError, match="--odometry-frame"):
         scene_odometry(scene, n, no_errors(frame="axle"))

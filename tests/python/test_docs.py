@@ -188,7 +188,8 @@ def test_index_links_every_page_and_the_dashboard():
             assert os.path.exists(os.path.join(DOCS, target)), target
 
 
-@pytest.mark.parametrize("page", ["index.md", "tutorial.md", "embedding.md"])
+@pytest.mark.parametrize("page", ["index.md", "tutorial.md", "embedding.md",
+                                  "slam.md"])
 def test_relative_links_resolve(page):
     for target in re.findall(r"\]\(([^)#\s]+)", read(page)):
         if "://" not in target:

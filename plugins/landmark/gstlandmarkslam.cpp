@@ -474,9 +474,16 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     const std::vector<landmark::OdometryStep> & log =
         st.applied.config.odometry;
     GstSegment *seg = &GST_BASE_TRANSFORM_CAST (self)->segment;
-    const double a = (double) gst_segment_to_stream_time (seg,
-        GST_FORMAT_TIME, st.last_time) / GST_SECOND;
-    if (!log.empty () && a >= log.back ().t) {
+    const guint64 ta = gst_segment_to_stream_time (seg, GST_FORMAT_TIME,
+        st.last_time), tb = gst_segment_to_stream_time (seg,
+        GST_FORMAT_TIME, now);
+    const double a = (double) ta / GST_SECOND;
+    if (!log.empty () && (!GST_CLOCK_TIME_IS_VALID (ta)
+            || !GST_CLOCK_TIME_IS_VALID (tb))) {
+      /* outside the segment the frames have no stream time to look the
+       * file up at (they are clipped downstream): the motion model */
+      slam.predict (dt);
+    } else if (!log.empty () && a >= log.back ().t) {
       /* past the log's end no increment would read as standing still,
        * certain: the motion model carries the pose instead */
       if (!st.odometry_ended)
@@ -486,8 +493,7 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
       st.odometry_ended = true;
       slam.predict (dt);
     } else if (!log.empty ()) {
-      const double b = (double) gst_segment_to_stream_time (seg,
-          GST_FORMAT_TIME, now) / GST_SECOND;
+      const double b = (double) tb / GST_SECOND;
       double dx, dy, dh;
       landmark::odometry_between (log, a, b, &st.odometry_next, &dx, &dy,
           &dh);

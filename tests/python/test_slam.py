@@ -216,6 +216,53 @@ def test_odometry_file_that_ends_early(gst, clip, slam_run, tmp_path):
     assert "odometry.jsonl" in warnings[0] and "ends at" in warnings[0]
 
 
+def test_frames_before_the_segment_are_not_past_the_odometry(gst, tmp_path):
+    """Frames before the segment's start (a decoder's frames before an
+    accurate seek point) have no stream time: the motion model carries
+    them, and the file, which covers the segment's frames, is not said to
+    have ended (it was: their invalid time read as past the file's end)."""
+    odo = tmp_path / "odometry.jsonl"
+    odo.write_text("".join(json.dumps({"t": k / 30, "dx": 0.01, "dy": 0.0,
+                                       "dheading": 0.0}) + "\n"
+                           for k in range(1, 61)))
+    caps = "video/x-raw,width=64,height=48,framerate=30/1"
+    # 60 frames (0 to 2 s) in a segment that starts at 1 s: the last ones
+    # at stream time 0.97 s, inside the file's 2 s
+    pipe = gst.parse_launch(f"videotestsrc num-buffers=60 ! {caps} ! "
+                            f"landmarkslam name=s odometry={odo} ! "
+                            f"fakesink sync=false")
+    sink_pad = pipe.get_by_name("s").get_static_pad("sink")
+    moved = []
+
+    def move_segment(pad, info):
+        event = info.get_event()
+        if event.type != gst.EventType.SEGMENT or moved:
+            return gst.PadProbeReturn.OK
+        moved.append(True)
+        segment = gst.Segment()
+        segment.init(gst.Format.TIME)
+        segment.start = gst.SECOND
+        pad.send_event(gst.Event.new_segment(segment))
+        return gst.PadProbeReturn.DROP
+
+    sink_pad.add_probe(gst.PadProbeType.EVENT_DOWNSTREAM, move_segment)
+    bus = pipe.get_bus()
+    kinds = gst.MessageType.WARNING | gst.MessageType.ERROR | \
+        gst.MessageType.EOS
+    warnings = []
+    try:
+        pipe.set_state(gst.State.PLAYING)
+        while True:
+            msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+            assert msg is not None and msg.type != gst.MessageType.ERROR
+            if msg.type == gst.MessageType.EOS:
+                break
+            warnings.append(msg.parse_warning()[0].message)
+    finally:
+        pipe.set_state(gst.State.NULL)
+    assert moved and warnings == []
+
+
 def test_bad_value_while_playing_keeps_previous_settings(gst, tmp_path):
     """A bad odometry file set while playing, together with a new anchor
     map, is one warning naming 'odometry' and the previous settings stay

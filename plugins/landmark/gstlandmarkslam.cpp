@@ -208,7 +208,7 @@ slam_properties ()
 }
 
 /* The part of the disagreement of ipmrange's floor and size ranges that
- * their sigmas do not explain (docs/landmarkslam.md, "Measurement noise"):
+ * their sigmas do not explain (docs/landmarkslam.md, "Blobs segmented in part"):
  * ipmrange's `size-excess`, signed as `range-size - range-ground`; 0
  * without it. ipmrange has added it once to range-sigma and bearing-sigma;
  * the filter adds it once per view of the pass (slam_observation_sigmas),

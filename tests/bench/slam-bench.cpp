@@ -10,7 +10,7 @@
  * and the last 300 frames apart), the resident memory after 300, 1,500 and
  * 3,000 frames, the landmarks estimated and the path error against the
  * truth in the map frame (the first pose's). It asserts nothing about
- * speed; docs/landmarkslam.md quotes it.
+ * speed; docs/performance.md quotes it.
  *
  *   build/tests/bench/slam-bench [FRAMES]
  */

@@ -394,6 +394,40 @@ struct FoldedCounts {
     largest = _mm256_max_epu8 (largest, bytes);
   }
 
+  /* add() for labels[0..32 * blocks), with the counters in locals
+   * between flushes: as a loop of add() calls GCC tested fold and the
+   * flush count every 32 labels and copied each counter once more (22
+   * instructions against 12) */
+  __attribute__ ((target ("avx2"))) void add_blocks (const guint8 * labels,
+      guint blocks)
+  {
+    if (!fold)
+      return;
+    while (blocks > 0) {
+      const guint run = MIN (blocks, 15 - classes.steps);
+      __m256i a0 = classes.acc[0], a1 = classes.acc[1], a2 = classes.acc[2],
+          a3 = classes.acc[3], most = largest;
+      const guint8 *end = labels + 32 * run;
+      for (; labels < end; labels += 32) {
+        const __m256i v = _mm256_loadu_si256 ((const __m256i *) labels);
+        a0 = _mm256_add_epi8 (a0, _mm256_shuffle_epi8 (classes.lut[0], v));
+        a1 = _mm256_add_epi8 (a1, _mm256_shuffle_epi8 (classes.lut[1], v));
+        a2 = _mm256_add_epi8 (a2, _mm256_shuffle_epi8 (classes.lut[2], v));
+        a3 = _mm256_add_epi8 (a3, _mm256_shuffle_epi8 (classes.lut[3], v));
+        most = _mm256_max_epu8 (most, v);
+      }
+      classes.acc[0] = a0;
+      classes.acc[1] = a1;
+      classes.acc[2] = a2;
+      classes.acc[3] = a3;
+      largest = most;
+      classes.steps += run;
+      if (classes.steps == 15)
+        classes.flush ();
+      blocks -= run;
+    }
+  }
+
   /* one label of a row end (under 32 labels) */
   void add_one (guint8 label, guint32 counts[256])
   {
@@ -540,10 +574,8 @@ label_rows_packed4 (const ClassTable & table, PixelReader & reader,
     guint x = width & ~15u;
     for (; x < width; x++)
       out[x] = t[(load32 (row + x * 4) >> kShift) & 0xffffff];
-    x = 0;
-    for (; x + 32 <= width; x += 32)
-      folded.add (_mm256_loadu_si256 ((const __m256i *) (out + x)));
-    for (; x < width; x++)
+    folded.add_blocks (out, width / 32);
+    for (x = width & ~31u; x < width; x++)
       folded.add_one (out[x], counts);
   }
   folded.total (labels + (gsize) y0 * width, (gsize) (y1 - y0) * width,

@@ -397,7 +397,7 @@ struct FoldedCounts {
   /* add() for labels[0..32 * blocks), with the counters in locals
    * between flushes: as a loop of add() calls GCC tested fold and the
    * flush count every 32 labels and copied each counter once more (22
-   * instructions against 12) */
+   * instructions against 13) */
   __attribute__ ((target ("avx2"))) void add_blocks (const guint8 * labels,
       guint blocks)
   {
@@ -527,8 +527,9 @@ label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
  * shift and an or, and GCC's loop counting): written in assembly because
  * no C form gets the compiler to load a label into a high byte register
  * (docs/performance.md has the variants measured). The frame is
- * prefetched 2,560 bytes (a 640-pixel row) ahead, one cache line a step:
- * the hardware prefetcher alone left the loop waiting on it. */
+ * prefetched 2,560 bytes (a 640-pixel row) ahead, one cache line a step
+ * (a prefetch past the frame's end never faults): the hardware prefetcher
+ * alone left the loop waiting on it. */
 template <unsigned kShift> __attribute__ ((target ("avx2,bmi,bmi2"))) void
 label_row_packed4 (const guint8 * table, const guint8 * row, guint8 * out,
     guint steps)

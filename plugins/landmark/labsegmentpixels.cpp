@@ -188,14 +188,6 @@ load32 (const guint8 * p)
   return GUINT32_FROM_LE (w);
 }
 
-inline guint64
-load64 (const guint8 * p)
-{
-  guint64 w;
-  memcpy (&w, p, 8);
-  return GUINT64_FROM_LE (w);
-}
-
 void
 classify_packed4 (const guint8 * table, const guint8 * row, int shift,
     guint width, guint8 * labels)
@@ -402,6 +394,40 @@ struct FoldedCounts {
     largest = _mm256_max_epu8 (largest, bytes);
   }
 
+  /* add() for labels[0..32 * blocks), with the counters in locals
+   * between flushes: as a loop of add() calls GCC tested fold and the
+   * flush count every 32 labels and copied each counter once more (22
+   * instructions against 13) */
+  __attribute__ ((target ("avx2"))) void add_blocks (const guint8 * labels,
+      guint blocks)
+  {
+    if (!fold)
+      return;
+    while (blocks > 0) {
+      const guint run = MIN (blocks, 15 - classes.steps);
+      __m256i a0 = classes.acc[0], a1 = classes.acc[1], a2 = classes.acc[2],
+          a3 = classes.acc[3], most = largest;
+      const guint8 *end = labels + 32 * run;
+      for (; labels < end; labels += 32) {
+        const __m256i v = _mm256_loadu_si256 ((const __m256i *) labels);
+        a0 = _mm256_add_epi8 (a0, _mm256_shuffle_epi8 (classes.lut[0], v));
+        a1 = _mm256_add_epi8 (a1, _mm256_shuffle_epi8 (classes.lut[1], v));
+        a2 = _mm256_add_epi8 (a2, _mm256_shuffle_epi8 (classes.lut[2], v));
+        a3 = _mm256_add_epi8 (a3, _mm256_shuffle_epi8 (classes.lut[3], v));
+        most = _mm256_max_epu8 (most, v);
+      }
+      classes.acc[0] = a0;
+      classes.acc[1] = a1;
+      classes.acc[2] = a2;
+      classes.acc[3] = a3;
+      largest = most;
+      classes.steps += run;
+      if (classes.steps == 15)
+        classes.flush ();
+      blocks -= run;
+    }
+  }
+
   /* one label of a row end (under 32 labels) */
   void add_one (guint8 label, guint32 counts[256])
   {
@@ -467,15 +493,76 @@ label_rows_avx2 (const ClassTable & table, PixelReader & reader, Keys keys,
       counts);
 }
 
+/* One label pair of label_row_packed4: the two keys of word w (the low
+ * one by LOW into r?x, the high one into rsi), a zero-extending table load
+ * for the low label and a load straight into the high byte of the same
+ * register for the high one (no shift, no or), one 16-bit store. The high
+ * byte registers (ah, bh) cannot be used with a REX prefix: the table
+ * pointer is in rdi and the keys in rax/rbx and rsi. */
+#define P4_PAIR(LOW, w, a, off) \
+  LOW (w, r##a##x) \
+  "bextr %[high], %[" #w "], %%rsi\n\t" \
+  "movzbl (%%rdi,%%r" #a "x), %%e" #a "x\n\t" \
+  "movb (%%rdi,%%rsi), %%" #a "h\n\t" \
+  "movw %%" #a "x, " #off "(%[out],%[i])\n\t"
+#define P4_LOW_BZHI(w, k) "bzhi %[low], %[" #w "], %%" #k "\n\t"
+#define P4_LOW_BEXTR(w, k) "bextr %[low], %[" #w "], %%" #k "\n\t"
+#define P4_WORDS(off) \
+  "mov " #off "(%[row],%[i],4), %[w0]\n\t" \
+  "mov " #off "+8(%[row],%[i],4), %[w1]\n\t"
+#define P4_STEP(LOW) \
+  "1:\n\t" \
+  "prefetcht0 2560(%[row],%[i],4)\n\t" \
+  P4_WORDS (0) P4_PAIR (LOW, w0, a, 0) P4_PAIR (LOW, w1, b, 2) \
+  P4_WORDS (16) P4_PAIR (LOW, w0, a, 4) P4_PAIR (LOW, w1, b, 6) \
+  P4_WORDS (32) P4_PAIR (LOW, w0, a, 8) P4_PAIR (LOW, w1, b, 10) \
+  P4_WORDS (48) P4_PAIR (LOW, w0, a, 12) P4_PAIR (LOW, w1, b, 14) \
+  "add $16, %[i]\n\t" \
+  "jnz 1b\n\t"
+
+/* The labels of a row's first 16 * steps 4-byte pixels, 16 a step: two
+ * pixels an 8-byte load, each key one bit-field extract (BMI1/BMI2), one
+ * table byte load a pixel, two labels a 16-bit store. 3.1 instructions a
+ * pixel against 4.9 for the same loop in C (the label pairs joined by a
+ * shift and an or, and GCC's loop counting): written in assembly because
+ * no C form gets the compiler to load a label into a high byte register
+ * (docs/performance.md has the variants measured). The frame is
+ * prefetched 2,560 bytes (a 640-pixel row) ahead, one cache line a step
+ * (a prefetch past the frame's end never faults): the hardware prefetcher
+ * alone left the loop waiting on it. */
+template <unsigned kShift> __attribute__ ((target ("avx2,bmi,bmi2"))) void
+label_row_packed4 (const guint8 * table, const guint8 * row, guint8 * out,
+    guint steps)
+{
+  if (steps == 0)
+    return;
+  /* counts up to 0: pixel i of the row is row[4 * i], label out[i] */
+  gint64 i = -(gint64) steps * 16;
+  const guint8 *row_end = row + (gsize) steps * 64;
+  guint8 *out_end = out + (gsize) steps * 16;
+  /* bextr controls: start bit | length << 8 */
+  const guint64 low = kShift == 0 ? 24 : (kShift | (24 << 8));
+  const guint64 high = (kShift + 32) | (24 << 8);
+  guint64 w0, w1;
+  if (kShift == 0)
+    __asm__ volatile (P4_STEP (P4_LOW_BZHI)
+        : [i] "+r" (i), [w0] "=&r" (w0), [w1] "=&r" (w1)
+        : [row] "r" (row_end), [out] "r" (out_end), [low] "r" (low),
+          [high] "r" (high), "D" (table)
+        : "rax", "rbx", "rsi", "memory", "cc");
+  else
+    __asm__ volatile (P4_STEP (P4_LOW_BEXTR)
+        : [i] "+r" (i), [w0] "=&r" (w0), [w1] "=&r" (w1)
+        : [row] "r" (row_end), [out] "r" (out_end), [low] "r" (low),
+          [high] "r" (high), "D" (table)
+        : "rax", "rbx", "rsi", "memory", "cc");
+}
+
 /* Pass 1 for 4-byte pixels without gathers: the colour bytes at bit
- * kShift of each 4-byte pixel, two pixels an 8-byte load, each key one
- * bit-field extract (BMI1/BMI2), a table byte load each, two labels stored
- * as one 16-bit word; then the row, still in L1, counted 32 labels at a
- * time (FoldedCounts). About 4 instructions a pixel, faster than the
- * gathers on the AMD EPYC measured (docs/performance.md). The loop is
- * sensitive to its code: the four words of a step loaded first, then used
- * (other schedules GCC chose, a load folded into both extracts of its word
- * or each load next to its lookups, were 12-16% slower). */
+ * kShift of each 4-byte pixel looked up 16 a step (label_row_packed4), the
+ * row end pixel by pixel; then the row, still in L1, counted 32 labels at
+ * a time (FoldedCounts). Faster than the gathers on the AMD EPYC measured
+ * (docs/performance.md). */
 template <unsigned kShift> __attribute__ ((target ("avx2,bmi,bmi2"))) void
 label_rows_packed4 (const ClassTable & table, PixelReader & reader,
     guint width, guint y0, guint y1, guint8 * labels, guint n,
@@ -487,30 +574,12 @@ label_rows_packed4 (const ClassTable & table, PixelReader & reader,
     reader.set_row (y);
     const guint8 *row = reader.row0;
     guint8 *out = labels + (gsize) y * width;
-    guint x = 0;
-    for (; x + 8 <= width; x += 8) {
-      guint64 w[4];
-#pragma GCC unroll 4
-      for (guint i = 0; i < 4; i++)
-        w[i] = load64 (row + x * 4 + 8 * i);
-      /* in registers, loaded once */
-      __asm__ ("" : "+r" (w[0]), "+r" (w[1]), "+r" (w[2]), "+r" (w[3]));
-#pragma GCC unroll 4
-      for (guint i = 0; i < 4; i++) {
-        const guint64 low = kShift == 0 ? _bzhi_u64 (w[i], 24) :
-            _bextr_u64 (w[i], kShift, 24);
-        const guint16 two = t[low] | (t[_bextr_u64 (w[i], kShift + 32, 24)]
-            << 8);
-        const guint16 le = GUINT16_TO_LE (two);
-        memcpy (out + x + 2 * i, &le, 2);
-      }
-    }
+    label_row_packed4<kShift> (t, row, out, width / 16);
+    guint x = width & ~15u;
     for (; x < width; x++)
       out[x] = t[(load32 (row + x * 4) >> kShift) & 0xffffff];
-    x = 0;
-    for (; x + 32 <= width; x += 32)
-      folded.add (_mm256_loadu_si256 ((const __m256i *) (out + x)));
-    for (; x < width; x++)
+    folded.add_blocks (out, width / 32);
+    for (x = width & ~31u; x < width; x++)
       folded.add_one (out[x], counts);
   }
   folded.total (labels + (gsize) y0 * width, (gsize) (y1 - y0) * width,

@@ -105,7 +105,7 @@ def palette_of(n, tmp_path):
 @pytest.mark.parametrize("fmt", F.ALL_FORMATS)
 def test_simd_levels_identical(gst, fmt, classes, monkeypatch, tmp_path):
     """The AVX2 gathers and class histogram, the scalar table loads of
-    4-byte pixels at the AVX2 level (8 pixels a step, counted 32 at a
+    4-byte pixels at the AVX2 level (16 pixels a step, counted 32 at a
     time), the SSE2 histogram and the SSE2 YUV keys against the scalar loops
     (LANDMARK_SIMD, read when caps are set), on widths with a vector part
     (32 pixels a gather step) and a tail."""

@@ -31,9 +31,17 @@ def test_bad_arguments_name_the_option(argv, message, capsys):
 
 
 def test_summary_row():
+    """Median and range of each figure; the NEES target on the median
+    draw (91.0 %), the accuracy target only on the draw without a
+    spurious landmark and with the map within 3 cm (1 of 3)."""
     draws = [{"inside": i, "mean": m, "ate": 0.1, "rms": r,
               "duplicated": 0, "spurious": s}
              for i, m, r, s in ((91.0, 2.0, 0.2, 0), (85.5, 3.0, 0.4, 2),
-                                (97.25, 1.0, 0.3, 0))]
-    assert odometrydraws.summary_row("v1", draws) == \
-        "| v1 | 91.0 % (85.5..97.2) | 2.00 | 0.10 cm | 0.30 cm | 0, 2 |"
+                                (97.25, 1.0, 3.5, 0))]
+    assert odometrydraws.summary_row("v1", draws) == (
+        "| v1 | 91.0 % (85.5..97.2) | 2.00 (1.00..3.00) | 0.10 (0.10..0.10)"
+        " cm | 0.40 (0.20..3.50) cm | 0, 2 | met | 1 of 3 |")
+    draws[0]["inside"] = 89.9
+    assert "| not met |" in odometrydraws.summary_row("v1", draws)
+    assert odometrydraws.HEADER.count("|") == \
+        odometrydraws.summary_row("v1", draws).count("|")

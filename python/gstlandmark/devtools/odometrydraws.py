@@ -88,8 +88,8 @@ def scores(slam: Dict[str, Any]) -> Dict[str, float]:
 # the accuracy target of docs/landmarkslam.md (cm) and the NEES one (%)
 TARGET_RMS_CM, TARGET_ATE_CM, TARGET_INSIDE = 3.0, 2.0, 90.0
 
-HEADER = ("| clip | pose NEES inside: median draw (min..max) | mean pose NEES: "
-          "median (min..max) | ATE median: median (min..max) | landmark "
+HEADER = ("| clip | pose NEES inside: median draw (min..max) | mean pose "
+          "NEES: median (min..max) | ATE median: median (min..max) | landmark "
           "RMS: median (min..max) | duplicated, spurious (most in one "
           "draw) | NEES >= 90 % on the median draw | accuracy target "
           "(draws) |")

@@ -85,6 +85,12 @@ struct SlamOptions {
    * (docs/landmarkslam.md, "The odometry's frame") */
   double odo_camera_forward = 0;  /* m */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
+  /* relocalisation: landmark comparisons per frame (about 1 ms), and the
+   * chance that a hypothesis accepted on the detections it explains
+   * explains them by chance, over all its hypotheses (docs/landmarkslam.md,
+   * "A lost pose") */
+  long reloc_max_comparisons = 40000;
+  double reloc_chance = 0.01;
 };
 
 /* A map landmark (id, class, position, and the marker: the given map's,

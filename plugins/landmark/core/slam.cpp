@@ -623,10 +623,13 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
     };
     near_range (i, &cand_i);
     near_range (j, &cand_j);
-    size_t a = 0;
+    /* pairs (cand_i[a], cand_j[b]) in order; the budget is checked
+     * before each */
+    size_t a = 0, b = 0;
     for (; a < cand_i.size () && work < budget; a++) {
       const int k = cand_i[a];
-      for (int l : cand_j) {
+      for (b = 0; b < cand_j.size () && work < budget; b++) {
+        const int l = cand_j[b];
         work++;
         compared++;
         if (k == l)
@@ -677,9 +680,11 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
         }
       }
     }
-    /* the seed pair's landmark pairs left when the budget ran out */
-    if (a < cand_i.size ())
-      untried += (double) (cand_i.size () - a) * cand_j.size ();
+    /* the seed pair's landmark pairs left when the budget ran out (the
+     * row cut short, and the rows after it) */
+    if (a > 0 && b < cand_j.size ())
+      untried += (double) (cand_j.size () - b);
+    untried += (double) (cand_i.size () - a) * cand_j.size ();
   }
   for (; s < seeds.size (); s++)
     untried += (double) same[seeds[s].i].size () * same[seeds[s].j].size ();

@@ -1232,7 +1232,7 @@ test_relocalise_among_many ()
       "pairings", clutter_relocalised, clutter_paired);
   CHECK (fb.n_matched >= (int) seen.size () - 2, "%d of %zu paired",
       fb.n_matched, seen.size ());
-  CHECK (pos_err < 0.05 && head_err < 0.03, "pose %f %f %f, truth %f %f %f",
+  CHECK (pos_err < 0.015 && head_err < 0.01, "pose %f %f %f, truth %f %f %f",
       p.x, p.y, p.heading, robot.x, robot.y, robot.heading);
 }
 

@@ -86,9 +86,9 @@ struct SlamOptions {
   double odo_camera_forward = 0;  /* m */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
   /* relocalisation: landmark comparisons per frame (about 1 ms), and the
-   * chance that a hypothesis accepted on the detections it explains
-   * explains them by chance, over all its hypotheses (docs/landmarkslam.md,
-   * "A lost pose") */
+   * largest probability, over all the hypotheses of a frame, that chance
+   * alone explains as many detections as the accepted one does
+   * (docs/landmarkslam.md, "A lost pose") */
   long reloc_max_comparisons = 40000;
   double reloc_chance = 0.01;
 };

@@ -1033,6 +1033,29 @@ Slam::update (const std::vector<SlamObservation> & obs)
   for (size_t i = 0; i < obs.size (); i++) {
     if (f.match[i] >= 0)
       continue;
+    double wx, wy;
+    robot_to_world (pose (), obs[i].obs.gx, obs[i].obs.gy, &wx, &wy);
+    bool near = false;
+    for (const auto & l : lm_)
+      near |= l.class_name == obs[i].class_name
+          && std::hypot (l.x - wx, l.y - wy) < opt.min_separation;
+    if (near) {
+      f.reasons[i] = "ambiguous";
+      continue;
+    }
+    /* A landmark starts from the pose: its position is off by
+     * r (1 - cos e) ~ r e^2 / 2 for a heading error e, which the
+     * linearised covariance leaves out. With the heading's sigma at
+     * tens of degrees (after a turn bridged on no landmark) that is
+     * decimetres at 2 m: the copy would be confirmed where the pose
+     * was wrong and later pull the pose there. Wait until that error
+     * is within the map accuracy asked for (confirm_sigma); tested
+     * before the gates below, which cost a pairing per landmark of the
+     * class (on a lost frame among many, most of its time) */
+    if (0.5 * obs[i].obs.range () * p_[2 * n () + 2] > opt.confirm_sigma) {
+      f.reasons[i] = "uncertain-heading";
+      continue;
+    }
     double d2 = std::numeric_limits<double>::infinity ();
     {
       const int N2 = (int) n ();
@@ -1047,25 +1070,8 @@ Slam::update (const std::vector<SlamObservation> & obs)
           d2 = 0;
       }
     }
-    double wx, wy;
-    robot_to_world (pose (), obs[i].obs.gx, obs[i].obs.gy, &wx, &wy);
-    for (const auto & l : lm_)
-      if (l.class_name == obs[i].class_name
-          && std::hypot (l.x - wx, l.y - wy) < opt.min_separation)
-        d2 = 0;
     if (d2 < opt.new_chi2) {
       f.reasons[i] = "ambiguous";
-      continue;
-    }
-    /* A landmark starts from the pose: its position is off by
-     * r (1 - cos e) ~ r e^2 / 2 for a heading error e, which the
-     * linearised covariance leaves out. With the heading's sigma at
-     * tens of degrees (after a turn bridged on no landmark) that is
-     * decimetres at 2 m: the copy would be confirmed where the pose
-     * was wrong and later pull the pose there. Wait until that error
-     * is within the map accuracy asked for (confirm_sigma). */
-    if (0.5 * obs[i].obs.range () * p_[2 * n () + 2] > opt.confirm_sigma) {
-      f.reasons[i] = "uncertain-heading";
       continue;
     }
     if (lm_.size () >= opt.max_landmarks) {

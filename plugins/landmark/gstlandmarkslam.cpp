@@ -474,9 +474,15 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     const std::vector<landmark::OdometryStep> & log =
         st.applied.config.odometry;
     GstSegment *seg = &GST_BASE_TRANSFORM_CAST (self)->segment;
-    const guint64 ta = gst_segment_to_stream_time (seg, GST_FORMAT_TIME,
-        st.last_time), tb = gst_segment_to_stream_time (seg,
-        GST_FORMAT_TIME, now);
+    guint64 ta = gst_segment_to_stream_time (seg, GST_FORMAT_TIME,
+        st.last_time);
+    const guint64 tb = gst_segment_to_stream_time (seg, GST_FORMAT_TIME,
+        now);
+    /* the first frame inside the segment: the file from the segment's
+     * start on */
+    if (!GST_CLOCK_TIME_IS_VALID (ta) && GST_CLOCK_TIME_IS_VALID (tb)
+        && st.last_time < seg->start)
+      ta = gst_segment_to_stream_time (seg, GST_FORMAT_TIME, seg->start);
     const double a = (double) ta / GST_SECOND;
     if (!log.empty () && (!GST_CLOCK_TIME_IS_VALID (ta)
             || !GST_CLOCK_TIME_IS_VALID (tb))) {

@@ -8,7 +8,9 @@ Per clip (a ``path`` clip ``gst-landmark synth`` rendered; ``--variant N``
 for a variant rendered with the seed camera, as the Accuracy commands
 give it): rebuild its scene (checked against its ``scene.json``), write
 ``--draws`` odometry logs with synth's default errors, camera frame,
-odometry seeds 0, 1, ... (0 is the clip's own log: the scenario's seed),
+odometry seeds 0, 1, ... (0 is the log synth wrote beside a clip made
+with its default odometry options and scenario seed 0, as the Accuracy
+clips are),
 run the Accuracy chain with each (``landmarkslam odometry=...``, no map
 anchor) and score it as ``gst-landmark evaluate`` does; print the median
 and range over the draws.

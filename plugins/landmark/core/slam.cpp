@@ -745,7 +745,11 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
               * (std::pow (obs[m].obs.gx - zx, 2)
                   + std::pow (obs[m].obs.gy - zy, 2));
         });
-    if (fit.inliers < 3)
+    /* the refitted pose answers to the prediction as the seeds' did */
+    const cv::Vec3d e (fit.pose.x - s_[0], fit.pose.y - s_[1],
+        wrap_angle (fit.pose.heading - s_[2]));
+    fit.d2 = e.dot (Pinv * e);
+    if (fit.inliers < 3 || !(fit.d2 < plausible))
       return false;
     best = fit;
   }

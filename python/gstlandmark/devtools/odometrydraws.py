@@ -33,7 +33,7 @@ from ..landmarkmap import read_map
 from ..synth.odometry import OdometryErrors, scene_odometry, write_odometry
 from ..synth.scenarios import build_scenario
 from ..synth.variants import draw_variant
-from .mapreuse import SEED_CAMERA
+from .mapreuse import SEED_CAMERA, chain_head
 
 
 def rebuild_scene(clip: str, variant: Optional[int]):
@@ -62,9 +62,7 @@ def run_draw(clip: str, palette: str, odometry: str, out: str
     os.makedirs(out, exist_ok=True)
     log = os.path.join(out, "log.jsonl")
     pipeline.run_to_eos(
-        f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
-        f"labsegment palette={palette} min-class-pixels=50 ! "
-        f"blobroundness min-area=30 ! ipmrange "
+        f"{chain_head(clip, palette)} ! ipmrange "
         f"calibration={clip}/camera.yml map={clip}/map.json ! "
         f"landmarkslam map-out={out}/built.json odometry={odometry} ! "
         f"landmarklog location={log} ! fakesink", timeout_s=900)

@@ -6,7 +6,8 @@
  * (NEES), a partial map anchoring the frame, odometry, a stationary robot,
  * the confirmation rule, biased ranges, a spurious detection, sharp turns
  * with one or two landmarks in view, a new landmark waiting for the
- * heading, and relocalisation among many landmarks of one colour. */
+ * heading, and relocalisation among many landmarks of one colour and
+ * where the map repeats. */
 #include "slam.h"
 #include "corecheck.h"
 
@@ -1237,6 +1238,86 @@ test_relocalise_among_many ()
       p.x, p.y, p.heading, robot.x, robot.y, robot.heading);
 }
 
+/* A lost pose where the map repeats: four red discs in view and a copy of
+ * their pattern turned about the robot, so that two poses (the true one,
+ * turned 2.2 rad while blind, and the predicted heading) each explain all
+ * four. Whether the search runs to the end or its work bound cuts it
+ * short, the copy must not win: the frame is refused, or relocalised on
+ * the truth. Without the copy the same detections relocalise it. */
+static void
+test_relocalise_repeated_pattern ()
+{
+  std::mt19937 rng (27);
+  std::normal_distribution<double> g (0, 1);
+  const Pose2 first { 8.0, 8.0, 0.3 }, truth { 8.0, 8.0, 0.3 + 2.2 };
+  auto world = [](const Pose2 & p, double r, double b, double *x,
+      double *y) {
+    *x = p.x + r * std::cos (p.heading + b);
+    *y = p.y + r * std::sin (p.heading + b);
+  };
+  const int np = 7;
+  const char *pc[np] = { "red", "red", "red", "orange", "orange", "purple",
+    "cyan" };
+  const double pr[np] = { 1.1, 1.6, 2.3, 1.9, 2.8, 1.4, 2.6 },
+      pb[np] = { -0.4, 0.05, -0.15, 0.42, 0.3, 0.3, -0.38 };
+  const char *unique[3] = { "blue", "green", "yellow" };
+  const double ur[3] = { 1.2, 1.8, 1.5 }, ub[3] = { -0.3, 0.1, 0.35 };
+  auto build = [&](bool copy) {
+    std::vector<MapPoint> map;
+    auto add = [&](const char *cls, const Pose2 & p, double r, double b) {
+      MapPoint m;
+      m.id = "L" + std::to_string (map.size ());
+      m.class_name = cls;
+      world (p, r, b, &m.x, &m.y);
+      map.push_back (m);
+    };
+    for (int k = 0; k < 3; k++)
+      add (unique[k], first, ur[k], ub[k]);
+    for (int k = 0; k < np; k++) {
+      add (pc[k], truth, pr[k], pb[k]);
+      /* the pattern as seen from the predicted heading */
+      if (copy)
+        add (pc[k], first, pr[k], pb[k]);
+    }
+    return map;
+  };
+  auto obs_of = [&](const char *cls, double r, double b) {
+    const double sr = 0.005 + 0.01 * r, sb = 0.01;
+    SlamObservation o = red_obs (r + sr * g (rng), b + sb * g (rng), sr, sb);
+    o.class_name = cls;
+    return o;
+  };
+  for (bool copy : { true, false }) {
+    for (long budget : { 60L, 120L, 250L, 500L, 1000L, 40000L }) {
+      Slam slam;
+      slam.opt.reloc_max_comparisons = budget;
+      slam.set_map (build (copy));
+      std::vector<SlamObservation> o;
+      for (int k = 0; k < 3; k++)
+        o.push_back (obs_of (unique[k], ur[k], ub[k]));
+      CHECK (slam.update (o).ok, "the first pose not placed");
+      for (int k = 0; k < 30; k++) {
+        slam.predict (1 / 30.0);
+        slam.update ({});
+      }
+      slam.predict (1 / 30.0);
+      o.clear ();
+      for (int k = 0; k < np; k++)
+        o.push_back (obs_of (pc[k], pr[k], pb[k]));
+      const SlamFrame f = slam.update (o);
+      const Pose2 p = slam.pose ();
+      const bool at_truth = std::hypot (p.x - truth.x, p.y - truth.y) < 0.03
+          && std::fabs (wrap_angle (p.heading - truth.heading)) < 0.02;
+      if (copy)
+        CHECK (f.n_matched == 0 || at_truth, "budget %ld: relocalised on "
+            "the copy, pose %f %f %f", budget, p.x, p.y, p.heading);
+      else
+        CHECK (f.n_matched == np && at_truth, "no copy, budget %ld: %d paired, "
+            "pose %f %f %f", budget, f.n_matched, p.x, p.y, p.heading);
+    }
+  }
+}
+
 int
 main ()
 {
@@ -1257,5 +1338,6 @@ main ()
   test_new_waits_for_heading ();
   test_blind_stretch_new_landmark ();
   test_relocalise_among_many ();
+  test_relocalise_repeated_pattern ();
   return corecheck_summary ();
 }

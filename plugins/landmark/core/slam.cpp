@@ -441,8 +441,8 @@ poisson_tail (double lambda, int x)
  * pairs first (the best heading). Each hypothesis places the robot (the
  * rigid motion taking the two detections onto the two landmarks) and is
  * scored by the detections it then explains; the most, then the nearest
- * to the predicted pose, wins, if the prediction allows it and, when
- * every hypothesis was tried, no other explains as many. Explained
+ * to the predicted pose, wins, if the prediction allows it and no other
+ * that places the robot elsewhere explains as many. Explained
  * detections beyond the two seeds must be unlikely by chance: each
  * detection's chance of some landmark of its class within its tolerance,
  * from the class's density over the mapped area, summed to a Poisson mean;
@@ -527,10 +527,16 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
     double lambda = 0;  /* chance inliers beyond the seeds, expected */
     int seeds[2] = { -1, -1 };
   };
-  /* the best hypothesis, and whether another explains as many detections
-   * with other pairings (ambiguous); buffers reused */
+  /* the best hypothesis, and the others that explain as many detections
+   * with other pairings (rivals: the pose they place and its seeds'
+   * lever); buffers reused */
   Hyp best, h;
-  bool ambiguous = false;
+  struct Rival {
+    Pose2 pose;
+    double seed_var, lever;
+  };
+  std::vector<Rival> rivals;
+  double best_seed_var = 0, best_lever = 0;
   std::vector<bool> taken (nl);
   std::vector<int> cand_i, cand_j, near;
   /* work: landmark pairs compared and landmarks scored; hypotheses: those
@@ -684,13 +690,21 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
          * known to within their separation */
         if (!(h.inliers >= 3 || (h.inliers == 2 && pos_sigma <= dz)))
           continue;
+        const Rival mine { h.pose, var[i] + var[j], lever };
         if (h.inliers > best.inliers) {
           best = h;
-          ambiguous = false;
-        } else if (h.inliers == best.inliers) {
-          ambiguous |= h.assign != best.assign;
-          if (h.d2 < best.d2)
+          rivals.clear ();
+          best_seed_var = mine.seed_var;
+          best_lever = mine.lever;
+        } else if (h.inliers == best.inliers && h.assign != best.assign) {
+          if (h.d2 < best.d2) {
+            rivals.push_back ({ best.pose, best_seed_var, best_lever });
             best = h;
+            best_seed_var = mine.seed_var;
+            best_lever = mine.lever;
+          } else {
+            rivals.push_back (mine);
+          }
         }
       }
     }
@@ -703,6 +717,31 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
   for (; s < seeds.size (); s++)
     untried += (double) same[seeds[s].i].size () * same[seeds[s].j].size ();
   const bool complete = untried == 0;
+  /* a rival refuses the winner when it places the robot elsewhere: some
+   * detection lands beyond the two poses' joint tolerance (each pose's
+   * error at that detection, from its seeds' lever); one within is the
+   * same place paired a little differently (near-duplicate pairings of
+   * one pose), no evidence against it */
+  auto elsewhere = [&](const Rival & r) {
+    const double cb = std::cos (best.pose.heading),
+        sb = std::sin (best.pose.heading), cr = std::cos (r.pose.heading),
+        sr = std::sin (r.pose.heading);
+    for (size_t m = 0; m < no; m++) {
+      const double gx = obs[m].obs.gx, gy = obs[m].obs.gy,
+          r2 = obs[m].obs.range () * obs[m].obs.range ();
+      const double dx = best.pose.x + cb * gx - sb * gy
+          - (r.pose.x + cr * gx - sr * gy),
+          dy = best.pose.y + sb * gx + cb * gy
+          - (r.pose.y + sr * gx + cr * gy);
+      const double tol = opt.gate_chi2 * ((1 + r2 * best_lever)
+          * best_seed_var + (1 + r2 * r.lever) * r.seed_var);
+      if (dx * dx + dy * dy > tol)
+        return true;
+    }
+    return false;
+  };
+  const bool ambiguous = std::any_of (rivals.begin (), rivals.end (),
+      elsewhere);
   /* the hypotheses not tried, at the rate the compared pairs gave them */
   const double all_hypotheses = hypotheses + untried * (hypotheses + 1)
       / std::max<long> (compared, 1);
@@ -755,7 +794,7 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
   }
   const double chance = poisson_tail (best.lambda, best.inliers - 2)
       * all_hypotheses;
-  if (best.inliers < 2 || (complete && ambiguous))
+  if (best.inliers < 2 || ambiguous)
     return false;
   /* two: the prediction's word, taken only when every rival was tried;
    * more: those beyond the seeds unlikely by chance */

@@ -94,6 +94,10 @@ struct Settings {
   gdouble confirm_sigma = 0.03;
   gdouble gate = 13.82;
   gdouble camera_forward = 0;
+  /* the odometry's slip, as gst-landmark synth states it (random walks) */
+  gdouble odometry_slip = 0.002;
+  gdouble odometry_heading_slip = 0.002;
+  gdouble odometry_turn_slip = 0.002;
   gboolean post_messages = FALSE;
 };
 
@@ -185,6 +189,16 @@ slam_properties ()
           "motion the odometry reports (the turning centre, the middle of a "
           "differential drive's axle); 0: the odometry reports the camera's "
           "own motion", &Settings::camera_forward, -10.0, 10.0)
+      .number ("odometry-slip", "Odometry slip",
+          "Metres per square root of metre: the odometry's translation "
+          "slip, a random walk over the distance (the sigma after one "
+          "metre, along and across)", &Settings::odometry_slip, 0.0, 1.0)
+      .number ("odometry-heading-slip", "Odometry heading slip",
+          "Radians per square root of metre: the odometry's heading slip "
+          "per distance driven", &Settings::odometry_heading_slip, 0.0, 1.0)
+      .number ("odometry-turn-slip", "Odometry turn slip",
+          "Radians per square root of radian: the odometry's heading slip "
+          "per angle turned", &Settings::odometry_turn_slip, 0.0, 1.0)
       .number ("confirm-views", "Confirm views",
           "Frames a landmark must be paired in (views, counted from poses "
           "confirm-baseline apart) before it is confirmed: that it exists",
@@ -256,6 +270,9 @@ slam_apply_options (State & st)
   st.slam.opt.confirm_sigma = s.confirm_sigma;
   st.slam.opt.gate_chi2 = s.gate;
   st.slam.opt.odo_camera_forward = s.camera_forward;
+  st.slam.opt.odo_trans_sigma = s.odometry_slip;
+  st.slam.opt.odo_rot_per_m = s.odometry_heading_slip;
+  st.slam.opt.odo_rot_sigma = s.odometry_turn_slip;
 }
 
 /* Brings the state up to date with settings changed while playing (a bad

@@ -98,6 +98,7 @@ struct Settings {
   gdouble odometry_slip = 0.002;
   gdouble odometry_heading_slip = 0.002;
   gdouble odometry_turn_slip = 0.002;
+  gboolean odometry_slip_adapt = TRUE;
   gboolean post_messages = FALSE;
 };
 
@@ -199,6 +200,11 @@ slam_properties ()
       .number ("odometry-turn-slip", "Odometry turn slip",
           "Radians per square root of radian: the odometry's heading slip "
           "per angle turned", &Settings::odometry_turn_slip, 0.0, 1.0)
+      .boolean ("odometry-slip-adapt", "Odometry slip adapt",
+          "Learn the slip actually met: one scale of the three slip sigmas "
+          "(0.25 to 4), from how far the landmarks correct the pose after "
+          "odometry predictions, starting from the stated values",
+          &Settings::odometry_slip_adapt)
       .number ("confirm-views", "Confirm views",
           "Frames a landmark must be paired in (views, counted from poses "
           "confirm-baseline apart) before it is confirmed: that it exists",
@@ -273,6 +279,7 @@ slam_apply_options (State & st)
   st.slam.opt.odo_trans_sigma = s.odometry_slip;
   st.slam.opt.odo_rot_per_m = s.odometry_heading_slip;
   st.slam.opt.odo_rot_sigma = s.odometry_turn_slip;
+  st.slam.opt.odo_slip_adapt = s.odometry_slip_adapt;
 }
 
 /* Brings the state up to date with settings changed while playing (a bad
@@ -419,6 +426,12 @@ gst_landmark_slam_sink_event (GstBaseTransform * trans, GstEvent * event)
   State & st = self->priv->state;
   switch (GST_EVENT_TYPE (event)) {
     case GST_EVENT_EOS:
+      {
+        std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
+        GST_INFO_OBJECT (self, "odometry slip scale %.3f (measurements' "
+            "scale %.3f)", st.slam.odometry_slip_scale (),
+            st.slam.measurement_scale ());
+      }
       if (!gst_landmark_slam_write_map (self, nullptr, true)) {
         gst_event_unref (event);
         return FALSE;
@@ -598,6 +611,7 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     GstStructure *m = landmark_frame_message_new ("landmark-map", buf,
         &GST_BASE_TRANSFORM_CAST (self)->segment);
     gst_structure_set (m, "has-pose", G_TYPE_BOOLEAN, (gboolean) f.ok,
+        "odometry-slip-scale", G_TYPE_DOUBLE, slam.odometry_slip_scale (),
         nullptr);
     set_map_fields (m, slam.landmarks ());
     /* posted once slam_lock is released (transform_ip): a sync handler

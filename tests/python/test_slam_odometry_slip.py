@@ -71,6 +71,7 @@ def test_defaults(gst):
     for name in ("odometry-slip", "odometry-heading-slip",
                  "odometry-turn-slip"):
         assert s.get_property(name) == 0.002, name
+    assert s.get_property("odometry-slip-adapt") is True
 
 
 def test_turn_slip_in_place(gst, tmp_path):

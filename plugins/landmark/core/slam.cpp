@@ -195,8 +195,8 @@ Slam::init_pose (const Pose2 & p, const double cov[9])
   p_[5 * kPose + 5] = 1.0;
   p_[kScale * kPose + kScale] = opt.odo_scale_sigma * opt.odo_scale_sigma;
   p_[kDrift * kPose + kDrift] = opt.odo_drift_sigma * opt.odo_drift_sigma;
-  for (auto & d : dp_)
-    d.assign (kPose * kPose, 0);
+  dp_[0].clear ();
+  dp_[1].clear ();
   init_ = true;
 }
 
@@ -279,6 +279,21 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
       row[2] += a2k * pk + a2g * pg;
     }
   };
+  /* the slip's evidence is gathered from the first odometry on, while
+   * adapting (without odometry it costs nothing): the slip has had no
+   * share in P yet, and what P holds on the pose and the landmarks is
+   * taken as the measurements' */
+  if (!opt.odo_slip_adapt) {
+    dp_[0].clear ();
+    dp_[1].clear ();
+  } else if (!slip_tracked ()) {
+    dp_[0].assign (p_.size (), 0);
+    dp_[1] = p_;
+    for (int i = 0; i < N; i++)
+      for (int j = 0; j < N; j++)
+        if ((i >= 3 && i < kPose) || (j >= 3 && j < kPose))
+          dp_[1][i * N + j] = 0;
+  }
   propagate (p_.data ());
   const bool tracked = slip_tracked ();
   if (tracked)

@@ -1282,7 +1282,7 @@ test_odometry_slip_learnt ()
   } cases[] = { { 0.5, 1 }, { 2, 1 }, { 1, 1.5 } };
   for (const Case & c : cases) {
     const int runs = 8;
-    std::vector<double> scales, nees_median (2);
+    std::vector<double> scales, meas_scales, nees_median (2);
     for (int adapt = 1; adapt >= 0; adapt--) {
       std::vector<double> bridged;
       for (int run_no = 0; run_no < runs; run_no++) {
@@ -1302,8 +1302,10 @@ test_odometry_slip_learnt ()
         for (size_t k = 0; k < r.nees.size (); k++)
           if (k % 90 >= 30)
             bridged.push_back (r.nees[k]);
-        if (adapt)
+        if (adapt) {
           scales.push_back (r.slam.odometry_slip_scale ());
+          meas_scales.push_back (r.slam.measurement_scale ());
+        }
       }
       nees_median[adapt] = percentile (bridged, 0.5);
     }
@@ -1311,9 +1313,10 @@ test_odometry_slip_learnt ()
     const double lo = *std::min_element (scales.begin (), scales.end ()),
         hi = *std::max_element (scales.begin (), scales.end ());
     std::printf ("slip learnt, truth %.2f x, measurements %.1f x: scale "
-        "median %.3f (%.3f..%.3f) over %d runs; bridged frames' median "
-        "pose NEES %.2f learnt, %.2f as stated (chi-square %.2f)\n", c.slip,
-        c.meas, median, lo, hi, runs, nees_median[1], nees_median[0],
+        "median %.3f (%.3f..%.3f) over %d runs, measurements' %.2f; bridged "
+        "frames' median pose NEES %.2f learnt, %.2f as stated (chi-square "
+        "%.2f)\n", c.slip, c.meas, median, lo, hi, runs,
+        percentile (meas_scales, 0.5), nees_median[1], nees_median[0],
         chi2_median);
     CHECK (std::fabs (median / c.slip - 1) < 0.25, "truth %.2f: median "
         "scale %.3f", c.slip, median);

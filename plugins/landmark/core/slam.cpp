@@ -42,30 +42,25 @@ constexpr int kPassGap = 15;
 constexpr double kMaxScaleError = 0.5;
 
 /* P <- F P F^T for F the identity but for its first kMotionStates rows
- * (the motion states, F's kMotionStates^2 block) */
+ * (the motion states, F's kMotionStates^2 block): F P over each column,
+ * then (F P) F^T over each row */
 void
 apply_motion_jacobian (double *P, int N, const double *F)
 {
   constexpr int M = kMotionStates;
   double moved[M];
-  for (int j = 0; j < N; j++) {
-    for (int i = 0; i < M; i++) {
-      moved[i] = 0;
-      for (int k = 0; k < M; k++)
-        moved[i] += F[i * M + k] * P[k * N + j];
+  for (int pass = 0; pass < 2; pass++)
+    for (int j = 0; j < N; j++) {
+      double *v = pass ? P + j * N : P + j;
+      const int step = pass ? 1 : N;
+      for (int i = 0; i < M; i++) {
+        moved[i] = 0;
+        for (int k = 0; k < M; k++)
+          moved[i] += F[i * M + k] * v[k * step];
+      }
+      for (int i = 0; i < M; i++)
+        v[i * step] = moved[i];
     }
-    for (int i = 0; i < M; i++)
-      P[i * N + j] = moved[i];
-  }
-  for (int i = 0; i < N; i++) {
-    for (int j = 0; j < M; j++) {
-      moved[j] = 0;
-      for (int k = 0; k < M; k++)
-        moved[j] += P[i * N + k] * F[j * M + k];
-    }
-    for (int j = 0; j < M; j++)
-      P[i * N + j] = moved[j];
-  }
 }
 
 }  // namespace

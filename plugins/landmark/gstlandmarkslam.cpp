@@ -29,7 +29,12 @@
  * (`{"t": s, "dx": m, "dy": m, "dheading": rad}`, stream time) in place of
  * the constant-velocity model; `camera-forward` says how far ahead of the
  * point whose motion the odometry reports (a wheeled robot's turning
- * centre) the camera is. Live odometry comes from the application as
+ * centre) the camera is; `odometry-slip`, `odometry-heading-slip` and
+ * `odometry-turn-slip` state its slip (random walks, synth's units), and
+ * `odometry-slip-adapt` (default on) learns one scale of them from how
+ * far the landmarks correct the pose after odometry predictions (its
+ * value in use: `odometry-slip-scale` of the landmark-map message). Live
+ * odometry comes from the application as
  * `landmark-odometry` custom downstream events (serialized or
  * out-of-band) with the increment since the previous one, `dx`, `dy`,
  * `dheading` (landmark_odometry_event_new, docs/embedding.md): those

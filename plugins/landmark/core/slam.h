@@ -5,7 +5,9 @@
  * - Motion: constant velocity of a ground robot (it drives along its
  *   heading; the camera ahead of the turning centre), or robot-frame
  *   odometry increments whose
- *   scale error and heading drift are part of the state.
+ *   scale error and heading drift are part of the state, and whose slip
+ *   (white noise) is stated and, optionally, scaled by what the updates'
+ *   innovations show of it (odo_slip_adapt).
  * - A landmark starts from one range and bearing, with the covariance that
  *   the pose's and the measurement's uncertainties give it. It is
  *   confirmed once it exists (paired in `confirm_views` frames, from poses

@@ -29,7 +29,12 @@
  * (`{"t": s, "dx": m, "dy": m, "dheading": rad}`, stream time) in place of
  * the constant-velocity model; `camera-forward` says how far ahead of the
  * point whose motion the odometry reports (a wheeled robot's turning
- * centre) the camera is. Live odometry comes from the application as
+ * centre) the camera is; `odometry-slip`, `odometry-heading-slip` and
+ * `odometry-turn-slip` state its slip (random walks, synth's units), and
+ * `odometry-slip-adapt` (default on) learns one scale of them from how
+ * far the landmarks correct the pose after odometry predictions (its
+ * value in use: `odometry-slip-scale` of the landmark-map message). Live
+ * odometry comes from the application as
  * `landmark-odometry` custom downstream events (serialized or
  * out-of-band) with the increment since the previous one, `dx`, `dy`,
  * `dheading` (landmark_odometry_event_new, docs/embedding.md): those
@@ -94,6 +99,11 @@ struct Settings {
   gdouble confirm_sigma = 0.03;
   gdouble gate = 13.82;
   gdouble camera_forward = 0;
+  /* the odometry's slip, as gst-landmark synth states it (random walks) */
+  gdouble odometry_slip = 0.002;
+  gdouble odometry_heading_slip = 0.002;
+  gdouble odometry_turn_slip = 0.002;
+  gboolean odometry_slip_adapt = TRUE;
   gboolean post_messages = FALSE;
 };
 
@@ -185,6 +195,21 @@ slam_properties ()
           "motion the odometry reports (the turning centre, the middle of a "
           "differential drive's axle); 0: the odometry reports the camera's "
           "own motion", &Settings::camera_forward, -10.0, 10.0)
+      .number ("odometry-slip", "Odometry slip",
+          "Metres per square root of metre: the odometry's translation "
+          "slip, a random walk over the distance (the sigma after one "
+          "metre, along and across)", &Settings::odometry_slip, 0.0, 1.0)
+      .number ("odometry-heading-slip", "Odometry heading slip",
+          "Radians per square root of metre: the odometry's heading slip "
+          "per distance driven", &Settings::odometry_heading_slip, 0.0, 1.0)
+      .number ("odometry-turn-slip", "Odometry turn slip",
+          "Radians per square root of radian: the odometry's heading slip "
+          "per angle turned", &Settings::odometry_turn_slip, 0.0, 1.0)
+      .boolean ("odometry-slip-adapt", "Odometry slip adapt",
+          "Learn the slip actually met: one scale of the three slip sigmas "
+          "(0.25 to 4), from how far the landmarks correct the pose after "
+          "odometry predictions, starting from the stated values",
+          &Settings::odometry_slip_adapt)
       .number ("confirm-views", "Confirm views",
           "Frames a landmark must be paired in (views, counted from poses "
           "confirm-baseline apart) before it is confirmed: that it exists",
@@ -256,6 +281,10 @@ slam_apply_options (State & st)
   st.slam.opt.confirm_sigma = s.confirm_sigma;
   st.slam.opt.gate_chi2 = s.gate;
   st.slam.opt.odo_camera_forward = s.camera_forward;
+  st.slam.opt.odo_trans_sigma = s.odometry_slip;
+  st.slam.opt.odo_rot_per_m = s.odometry_heading_slip;
+  st.slam.opt.odo_rot_sigma = s.odometry_turn_slip;
+  st.slam.opt.odo_slip_adapt = s.odometry_slip_adapt;
 }
 
 /* Brings the state up to date with settings changed while playing (a bad
@@ -402,6 +431,12 @@ gst_landmark_slam_sink_event (GstBaseTransform * trans, GstEvent * event)
   State & st = self->priv->state;
   switch (GST_EVENT_TYPE (event)) {
     case GST_EVENT_EOS:
+      {
+        std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
+        GST_INFO_OBJECT (self, "odometry slip scale %.3f (measurements' "
+            "scale %.3f)", st.slam.odometry_slip_scale (),
+            st.slam.measurement_scale ());
+      }
       if (!gst_landmark_slam_write_map (self, nullptr, true)) {
         gst_event_unref (event);
         return FALSE;
@@ -581,6 +616,7 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     GstStructure *m = landmark_frame_message_new ("landmark-map", buf,
         &GST_BASE_TRANSFORM_CAST (self)->segment);
     gst_structure_set (m, "has-pose", G_TYPE_BOOLEAN, (gboolean) f.ok,
+        "odometry-slip-scale", G_TYPE_DOUBLE, slam.odometry_slip_scale (),
         nullptr);
     set_map_fields (m, slam.landmarks ());
     /* posted once slam_lock is released (transform_ip): a sync handler

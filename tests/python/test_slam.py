@@ -394,13 +394,14 @@ def test_malformed_live_odometry_is_a_warning(gst):
 
 def test_map_messages(gst, clip, tmp_path):
     """post-messages=true: one landmark-map message per frame with the
-    map meta's landmarks."""
+    map meta's landmarks, and the odometry slip scale in use (1, as
+    stated: without odometry nothing is learnt)."""
     desc = (f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
             f"labsegment palette={clip}/palette.json min-class-pixels=0 ! "
             f"blobroundness ! ipmrange calibration={clip}/camera.yml "
             f"map={clip}/map.json ! landmarkslam post-messages=true ! "
             f"fakesink name=sink")
-    metas, messages = [], []
+    metas, messages, scales = [], [], set()
     pipeline.init()
     pipe = gst.parse_launch(desc)
     pipe.get_by_name("sink").get_static_pad("sink").add_probe(
@@ -420,8 +421,10 @@ def test_map_messages(gst, clip, tmp_path):
             st = msg.get_structure()
             if st.get_name() == "landmark-map":
                 messages.append(list(st.get_value("ids")))
+                scales.add(st.get_value("odometry-slip-scale"))
     finally:
         pipe.set_state(gst.State.NULL)
     assert len(messages) == len(metas) == FRAMES
     assert messages == metas
     assert len(messages[-1]) >= 5
+    assert scales == {1.0}

@@ -41,6 +41,28 @@ constexpr int kPassGap = 15;
  * near -1 would divide by zero */
 constexpr double kMaxScaleError = 0.5;
 
+/* P <- F P F^T for F the identity but for its first kMotionStates rows
+ * (the motion states, F's kMotionStates^2 block): F P over each column,
+ * then (F P) F^T over each row */
+void
+apply_motion_jacobian (double *P, int N, const double *F)
+{
+  constexpr int M = kMotionStates;
+  double moved[M];
+  for (int pass = 0; pass < 2; pass++)
+    for (int j = 0; j < N; j++) {
+      double *v = pass ? P + j * N : P + j;
+      const int step = pass ? 1 : N;
+      for (int i = 0; i < M; i++) {
+        moved[i] = 0;
+        for (int k = 0; k < M; k++)
+          moved[i] += F[i * M + k] * v[k * step];
+      }
+      for (int i = 0; i < M; i++)
+        v[i * step] = moved[i];
+    }
+}
+
 }  // namespace
 
 void
@@ -108,6 +130,7 @@ Slam::reset ()
     if (l.anchor)
       keep.push_back (l);
   lm_ = keep;
+  slip_reset ();
   slot_.assign (lm_.size (), -1);
   last_view_.assign (lm_.size (), Pose2 ());
   unseen_.assign (lm_.size (), 0);
@@ -167,6 +190,8 @@ Slam::init_pose (const Pose2 & p, const double cov[9])
   p_[5 * kPose + 5] = 1.0;
   p_[kScale * kPose + kScale] = opt.odo_scale_sigma * opt.odo_scale_sigma;
   p_[kDrift * kPose + kDrift] = opt.odo_drift_sigma * opt.odo_drift_sigma;
+  dp_[0].clear ();
+  dp_[1].clear ();
   init_ = true;
 }
 
@@ -182,26 +207,12 @@ Slam::predict (double dt)
   const int N = (int) n ();
   const GroundMotionStep step = ground_motion_predict (s_.data (), dt,
       opt.motion);
+  apply_motion_jacobian (p_.data (), N, step.F);
+  /* the slip's share of P is not the motion model's: carried only */
+  if (slip_tracked ())
+    for (auto & d : dp_)
+      apply_motion_jacobian (d.data (), N, step.F);
   double *P = p_.data ();
-  double moved[M];
-  for (int j = 0; j < N; j++) {
-    for (int i = 0; i < M; i++) {
-      moved[i] = 0;
-      for (int k = 0; k < M; k++)
-        moved[i] += step.F[i * M + k] * P[k * N + j];
-    }
-    for (int i = 0; i < M; i++)
-      P[i * N + j] = moved[i];
-  }
-  for (int i = 0; i < N; i++) {
-    for (int j = 0; j < M; j++) {
-      moved[j] = 0;
-      for (int k = 0; k < M; k++)
-        moved[j] += P[i * N + k] * step.F[j * M + k];
-    }
-    for (int j = 0; j < M; j++)
-      P[i * N + j] = moved[j];
-  }
   for (int i = 0; i < M; i++)
     for (int j = 0; j < M; j++)
       P[i * N + j] += step.Q[i * M + j];
@@ -247,40 +258,70 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   const double a02 = -s * ex - c * ey, a12 = c * ex - s * ey;
   const double a0k = c * exk - s * eyk, a1k = s * exk + c * eyk, a2k = tk;
   const double a0g = c * exg - s * eyg, a1g = s * exg + c * eyg, a2g = -d;
-  double *P = p_.data ();
-  for (int j = 0; j < N; j++) {
-    const double p2 = P[2 * N + j], pk = P[kScale * N + j],
-        pg = P[kDrift * N + j];
-    P[0 * N + j] += a02 * p2 + a0k * pk + a0g * pg;
-    P[1 * N + j] += a12 * p2 + a1k * pk + a1g * pg;
-    P[2 * N + j] += a2k * pk + a2g * pg;
+  auto propagate = [&](double *P) {
+    for (int j = 0; j < N; j++) {
+      const double p2 = P[2 * N + j], pk = P[kScale * N + j],
+          pg = P[kDrift * N + j];
+      P[0 * N + j] += a02 * p2 + a0k * pk + a0g * pg;
+      P[1 * N + j] += a12 * p2 + a1k * pk + a1g * pg;
+      P[2 * N + j] += a2k * pk + a2g * pg;
+    }
+    for (int i = 0; i < N; i++) {
+      double *row = P + i * N;
+      const double p2 = row[2], pk = row[kScale], pg = row[kDrift];
+      row[0] += a02 * p2 + a0k * pk + a0g * pg;
+      row[1] += a12 * p2 + a1k * pk + a1g * pg;
+      row[2] += a2k * pk + a2g * pg;
+    }
+  };
+  /* the slip's evidence is gathered from the first odometry on, while
+   * adapting (without odometry it costs nothing): the slip has had no
+   * share in P yet, and what P holds on the pose and the landmarks is
+   * taken as the measurements' */
+  if (!opt.odo_slip_adapt) {
+    dp_[0].clear ();
+    dp_[1].clear ();
+  } else if (!slip_tracked ()) {
+    dp_[0].assign (p_.size (), 0);
+    dp_[1] = p_;
+    for (int i = 0; i < N; i++)
+      for (int j = 0; j < N; j++)
+        if ((i >= 3 && i < kPose) || (j >= 3 && j < kPose))
+          dp_[1][i * N + j] = 0;
   }
-  for (int i = 0; i < N; i++) {
-    double *row = P + i * N;
-    const double p2 = row[2], pk = row[kScale], pg = row[kDrift];
-    row[0] += a02 * p2 + a0k * pk + a0g * pg;
-    row[1] += a12 * p2 + a1k * pk + a1g * pg;
-    row[2] += a2k * pk + a2g * pg;
-  }
+  propagate (p_.data ());
+  const bool tracked = slip_tracked ();
+  if (tracked)
+    for (auto & dp : dp_)
+      propagate (dp.data ());
   /* The white part, slip: a wheel's travel error is a random walk over
    * the distance it rolls, so a step's variance is proportional to its
    * length (not its square) and the sigma after a given distance does not
    * depend on how often increments arrive. Isotropic in x and y: a
    * rotation leaves it as it is. The heading's slip also swings the
-   * camera, by u = R(th) a (-sin dth, cos dth) per radian. */
+   * camera, by u = R(th) a (-sin dth, cos dth) per radian. The stated
+   * sigmas times the slip scale in use (1 unless learnt); dp_[0] gathers
+   * the stated ones. */
   const double vt = opt.odo_trans_sigma * opt.odo_trans_sigma * d;
   const double vr = opt.odo_rot_per_m * opt.odo_rot_per_m * d
       + opt.odo_rot_sigma * opt.odo_rot_sigma * std::fabs (dth);
   const double u0 = -a * (c * so + s * co), u1 = a * (c * co - s * so);
-  P[0 * N + 0] += vt + u0 * u0 * vr;
-  P[1 * N + 1] += vt + u1 * u1 * vr;
-  P[0 * N + 1] += u0 * u1 * vr;
-  P[1 * N + 0] += u0 * u1 * vr;
-  P[0 * N + 2] += u0 * vr;
-  P[2 * N + 0] += u0 * vr;
-  P[1 * N + 2] += u1 * vr;
-  P[2 * N + 1] += u1 * vr;
-  P[2 * N + 2] += vr;
+  auto add_slip = [&](double *P, double f) {
+    P[0 * N + 0] += f * (vt + u0 * u0 * vr);
+    P[1 * N + 1] += f * (vt + u1 * u1 * vr);
+    P[0 * N + 1] += f * (u0 * u1 * vr);
+    P[1 * N + 0] += f * (u0 * u1 * vr);
+    P[0 * N + 2] += f * (u0 * vr);
+    P[2 * N + 0] += f * (u0 * vr);
+    P[1 * N + 2] += f * (u1 * vr);
+    P[2 * N + 1] += f * (u1 * vr);
+    P[2 * N + 2] += f * vr;
+  };
+  add_slip (p_.data (), opt.odo_slip_adapt ? slip_var_ : 1.0);
+  if (tracked) {
+    add_slip (dp_[0].data (), 1);
+    slip_forget (d, std::fabs (dth));
+  }
   s_[0] += c * ex - s * ey;
   s_[1] += s * ex + c * ey;
   s_[2] = wrap_angle (s_[2] + dth);
@@ -316,6 +357,24 @@ Slam::add_landmark (const SlamObservation & o, SlamLandmark lm)
   Pxl.copyTo (Pn (cv::Rect (N, 0, 2, N)));
   Pll.copyTo (Pn (cv::Rect (N, N, 2, 2)));
   p_.assign ((double *) Pn.data, (double *) Pn.data + (N + 2) * (N + 2));
+  for (int c = 0; c < 2 && p_.size () == (size_t) ((N + 2) * (N + 2))
+      && dp_[c].size () == (size_t) (N * N); c++) {
+    /* the derivatives of P reach the landmark through the pose, and the
+     * measurement's own through its R */
+    cv::Mat D (N, N, CV_64F, dp_[c].data ());
+    cv::Mat Dlx = Gx * D.rowRange (0, 3);
+    cv::Mat Dn = cv::Mat::zeros (N + 2, N + 2, CV_64F);
+    D.copyTo (Dn (cv::Rect (0, 0, N, N)));
+    Dlx.copyTo (Dn (cv::Rect (0, N, N, 2)));
+    cv::Mat Dxl = Dlx.t ();
+    Dxl.copyTo (Dn (cv::Rect (N, 0, 2, N)));
+    cv::Mat Dll = Gx * D (cv::Rect (0, 0, 3, 3)) * Gx.t ();
+    if (c == 1)
+      Dll += Gz * R * Gz.t ();
+    Dll.copyTo (Dn (cv::Rect (N, N, 2, 2)));
+    dp_[c].assign ((double *) Dn.data, (double *) Dn.data
+        + (N + 2) * (N + 2));
+  }
   s_.push_back (lm.x);
   s_.push_back (lm.y);
   lm.views = 1;
@@ -349,14 +408,20 @@ Slam::remove_landmark (size_t k)
     for (int i = 0; i < N; i++)
       if (i != sl && i != sl + 1)
         keep.push_back (i);
-    std::vector<double> s2, p2;
+    const bool tracked = slip_tracked ();
+    std::vector<double> s2, p2, d2[2];
     for (int i : keep) {
       s2.push_back (s_[i]);
-      for (int j : keep)
+      for (int j : keep) {
         p2.push_back (p_[i * N + j]);
+        for (int c = 0; c < 2 && tracked; c++)
+          d2[c].push_back (dp_[c][i * N + j]);
+      }
     }
     s_ = s2;
     p_ = p2;
+    dp_[0] = d2[0];
+    dp_[1] = d2[1];
     for (auto & o : slot_)
       if (o > sl)
         o -= 2;
@@ -410,6 +475,123 @@ Slam::confirm_known ()
       C.at<double> (1, 0), C.at<double> (1, 1) };
     if (max_sigma_2x2 (c) <= opt.confirm_sigma)
       l.confirmed = true;
+  }
+}
+
+void
+Slam::slip_reset ()
+{
+  dp_[0].clear ();
+  dp_[1].clear ();
+  slip_a_[0] = slip_a_[1] = slip_a_[2] = 0;
+  slip_b_[0] = slip_b_[1] = 0;
+  slip_var_ = 1;
+}
+
+void
+Slam::slip_forget (double distance, double turned)
+{
+  const double keep = std::exp (-(distance + turned)
+      / std::max (opt.odo_slip_window, 1e-9));
+  for (double &a : slip_a_)
+    a *= keep;
+  for (double &b : slip_b_)
+    b *= keep;
+}
+
+/* The slip's and the measurements' variance scales (lambda, beta) that
+ * the evidence gives, each drawn to 1, the stated value, by a prior of
+ * the information (1/2) of odo_slip_prior scalar innovations that one
+ * component alone makes: (A + w I) (lambda, beta) = b + w (1, 1). */
+double
+Slam::slip_scales (double *meas_var) const
+{
+  const double w = 0.5 * std::max (opt.odo_slip_prior, 1e-9);
+  const double a00 = slip_a_[0] + w, a01 = slip_a_[1], a11 = slip_a_[2] + w;
+  const double b0 = slip_b_[0] + w, b1 = slip_b_[1] + w;
+  const double det = a00 * a11 - a01 * a01;
+  if (meas_var)
+    *meas_var = (a00 * b1 - a01 * b0) / det;
+  return (a11 * b0 - a01 * b1) / det;
+}
+
+double
+Slam::measurement_scale () const
+{
+  double beta;
+  slip_scales (&beta);
+  return std::sqrt (std::max (0.0, beta));
+}
+
+/* Evidence of the slip from one update (Sinv empty: none), and dp_ carried
+ * through it. Two variance components of the innovation nu of the update,
+ * S = H P H^T + R: the slip's, scaled by lambda (the filter's
+ * slip_var_), and the measurements', scaled by beta (the filter's 1),
+ * G_i = H dP/d(scale_i) H^T (+ R for the measurements'): what each scale
+ * puts in S, through the pose and the landmarks alike (a landmark mapped
+ * from a mis-stated measurement carries the mis-statement). Were the
+ * true scales lambda*, beta*, to first order
+ *   E[nu nu^T] = S + G1 (lambda* - lambda) + G2 (beta* - 1),
+ * so u_i = nu^T S^-1 G_i S^-1 nu - tr(S^-1 G_i) + sum_j T_ij theta_j, with
+ * T_ij = tr(S^-1 G_i S^-1 G_j) and theta = (lambda, 1), has the mean
+ * sum_j T_ij theta*_j: Fisher scoring of the Gaussian likelihood, T / 2
+ * its information (the variance-component estimation of Koch and Kusche
+ * 2002; Mohamed and Schwarz 1999 estimate Q from the corrections K nu
+ * alike). Each projects the innovation on its own component: the frames
+ * after odometry bridged a stretch weigh for the slip, those seen all
+ * along for the measurements, so a mis-stated measurement is not taken
+ * for slip. A wrong pairing passed JCBB's joint gate, so its NIS is
+ * bounded; a frame whose NIS is beyond 3 sigma of what the estimate
+ * expects weighs less all the same (Huber). */
+void
+Slam::slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
+    const cv::Mat & R, const cv::Mat & nu, const cv::Mat & K)
+{
+  const int N = (int) n ();
+  if (!slip_tracked ())
+    return;
+  cv::Mat D1 (N, N, CV_64F, dp_[0].data ()), D2 (N, N, CV_64F,
+      dp_[1].data ());
+  if (opt.odo_slip_adapt && !Sinv.empty ()) {
+    const cv::Mat G1 = H * D1 * H.t (), G2 = H * D2 * H.t () + R;
+    const cv::Mat SG1 = Sinv * G1, SG2 = Sinv * G2;
+    const cv::Mat w = Sinv * nu;            /* S^-1 nu */
+    const double t11 = cv::trace (SG1 * SG1)[0],
+        t12 = cv::trace (SG1 * SG2)[0], t22 = cv::trace (SG2 * SG2)[0];
+    const double dof = nu.rows, q = cv::trace (SG1)[0],
+        r = cv::trace (SG2)[0];
+    const double u1 = cv::Mat (w.t () * G1 * w).at<double> (0) - q
+        + t11 * slip_var_ + t12;
+    const double u2 = cv::Mat (w.t () * G2 * w).at<double> (0) - r
+        + t12 * slip_var_ + t22;
+    double beta;
+    const double lambda = slip_scales (&beta);
+    const double nis = cv::Mat (nu.t () * w).at<double> (0);
+    const double e = nis - dof - q * (lambda - slip_var_) - r * (beta - 1);
+    const double c = 3 * std::sqrt (2 * dof);
+    const double k = 0.5 * std::min (1.0, c / std::max (std::fabs (e),
+            1e-300));
+    if (q > 0 && std::isfinite (u1) && std::isfinite (u2)) {
+      slip_a_[0] += k * t11;
+      slip_a_[1] += k * t12;
+      slip_a_[2] += k * t22;
+      slip_b_[0] += k * u1;
+      slip_b_[1] += k * u2;
+      slip_var_ = std::clamp (slip_scales (nullptr),
+          opt.odo_slip_scale_min * opt.odo_slip_scale_min,
+          opt.odo_slip_scale_max * opt.odo_slip_scale_max);
+    }
+  }
+  /* dP+ = (I - K H) dP- (I - K H)^T (+ K R K^T for the measurements'):
+   * the gain's own derivative drops out at the optimal gain */
+  const cv::Mat IKH = cv::Mat::eye (N, N, CV_64F) - K * H;
+  for (int c = 0; c < 2; c++) {
+    cv::Mat D (N, N, CV_64F, dp_[c].data ());
+    cv::Mat Dn = IKH * D * IKH.t ();
+    if (c == 1)
+      Dn += K * R * K.t ();
+    Dn = 0.5 * (Dn + Dn.t ());
+    Dn.copyTo (D);
   }
 }
 
@@ -1028,7 +1210,8 @@ Slam::update (const std::vector<SlamObservation> & obs)
     dev.at<double> (2) = wrap_angle (dev.at<double> (2));
     cv::Mat PHt = P * H.t ();
     cv::Mat S = H * PHt + R;
-    cv::Mat K = PHt * S.inv (cv::DECOMP_CHOLESKY);
+    cv::Mat Sinv = S.inv (cv::DECOMP_CHOLESKY);
+    cv::Mat K = PHt * Sinv;
     cv::Mat dx = K * (nu - H * dev);
     for (int i = 0; i < N; i++)
       s_[i] = prior[i] + dx.at<double> (i);
@@ -1038,6 +1221,9 @@ Slam::update (const std::vector<SlamObservation> & obs)
     cv::Mat Pn = IKH * P * IKH.t () + K * R * K.t ();
     Pn = 0.5 * (Pn + Pn.t ());
     Pn.copyTo (P);
+    /* a relocalised frame's innovation is the relocalisation's, not the
+     * prediction's: no evidence of the slip */
+    slip_evidence (H, lost ? cv::Mat () : Sinv, R, nu, K);
     f.joint_nis = best_nis;
     for (const Pairing *pr : best) {
       f.match[pr->obs] = pr->lm;

@@ -5,7 +5,9 @@
  * - Motion: constant velocity of a ground robot (it drives along its
  *   heading; the camera ahead of the turning centre), or robot-frame
  *   odometry increments whose
- *   scale error and heading drift are part of the state.
+ *   scale error and heading drift are part of the state, and whose slip
+ *   (white noise) is stated and, optionally, scaled by what the updates'
+ *   innovations show of it (odo_slip_adapt).
  * - A landmark starts from one range and bearing, with the covariance that
  *   the pose's and the measurement's uncertainties give it. It is
  *   confirmed once it exists (paired in `confirm_views` frames, from poses
@@ -35,8 +37,11 @@
  * docs/conventions.md. */
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "groundmotion.h"
 #include "posesolver.h"
@@ -79,6 +84,18 @@ struct SlamOptions {
   double odo_trans_sigma = 0.002; /* m per sqrt(m) */
   double odo_rot_sigma = 0.002;   /* rad per sqrt(rad) */
   double odo_rot_per_m = 0.002;   /* rad per sqrt(m) */
+  /* the slip actually met, learnt while running: one scale of the three
+   * sigmas above, from the landmarks' innovations after odometry
+   * predictions (a variance-component estimate beside one of the
+   * measurements' scale, which it must not absorb), bounded to
+   * odo_slip_scale_min..max, its evidence forgotten over
+   * odo_slip_window metres (plus as many radians turned); prior weight:
+   * odo_slip_prior frames whose innovation the slip alone would make
+   * (docs/landmarkslam.md, "Odometry slip, stated or learned") */
+  bool odo_slip_adapt = true;
+  double odo_slip_scale_min = 0.25, odo_slip_scale_max = 4.0;
+  double odo_slip_window = 50.0;
+  double odo_slip_prior = 1.0;
   /* the camera's floor point is this far ahead of the point whose motion
    * the odometry reports (a differential drive's turning centre, the
    * middle of its axle); 0: the odometry reports the camera's own motion
@@ -160,6 +177,13 @@ public:
   void predict_odometry (double dx, double dy, double dheading, double dt);
   /* One frame of observations: associate, update, add landmarks. */
   SlamFrame update (const std::vector<SlamObservation> & obs);
+  /* The scale of the odometry's slip sigmas in use (1: as stated; learnt
+   * with opt.odo_slip_adapt) and of the measurements' sigmas the same
+   * evidence gives (not applied: what keeps the first honest). */
+  double odometry_slip_scale () const {
+    return opt.odo_slip_adapt ? std::sqrt (slip_var_) : 1.0;
+  }
+  double measurement_scale () const;
 
 private:
   bool init_ = false;
@@ -172,6 +196,20 @@ private:
   std::vector<int> unseen_;       /* per landmark: updates since seen */
   std::vector<int> pass_views_;   /* per landmark: views in this pass */
   int next_id_ = 1;
+  /* slip adaptation: dp_[0] = dP / d(slip variance scale), dp_[1] =
+   * dP / d(measurement variance scale), n x n like p_; the weighted
+   * normal equations of the two scales and the slip variance scale in
+   * use */
+  std::vector<double> dp_[2];
+  double slip_a_[3] = { 0, 0, 0 };  /* A00 A01 A11 */
+  double slip_b_[2] = { 0, 0 };
+  double slip_var_ = 1;
+  void slip_reset ();
+  void slip_forget (double distance, double turned);
+  bool slip_tracked () const { return dp_[0].size () == p_.size (); }
+  void slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
+      const cv::Mat & R, const cv::Mat & nu, const cv::Mat & K);
+  double slip_scales (double *meas_var) const;
 
   size_t n () const { return s_.size (); }
   void init_pose (const Pose2 & p, const double cov[9]);

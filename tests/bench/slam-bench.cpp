@@ -4,7 +4,11 @@
  * 0.3 m/s, 30 frames per second, 3,000 frames (about five laps); each frame
  * the landmarks within 3.5 m and 27 degrees of the heading (the seed's
  * 54-degree camera), ranged with 1 % and 0.002 rad of Gaussian noise, one
- * in twenty missed. No map, no odometry: the constant-velocity model.
+ * in twenty missed. No map; without --odometry the constant-velocity
+ * model, with it wheel odometry of the camera's motion, 2 % long and
+ * slipping 1 mm per sqrt(m) and 0.001 rad per sqrt(m) (the filter states
+ * 0.002 and learns the slip; --stated: keeps it, to show the learning's
+ * cost).
  *
  * Prints the CPU time of this thread per frame (median, p95, max; the first
  * and the last 300 frames apart), the resident memory after 300, 1,500 and
@@ -12,7 +16,7 @@
  * truth in the map frame (the first pose's). It asserts nothing about
  * speed; docs/performance.md quotes it.
  *
- *   build/tests/bench/slam-bench [FRAMES]
+ *   build/tests/bench/slam-bench [FRAMES] [--odometry [--stated]]
  */
 #include <algorithm>
 #include <cmath>
@@ -70,7 +74,16 @@ struct Truth {
 int
 main (int argc, char **argv)
 {
-  const int frames = argc > 1 ? std::max (1, std::atoi (argv[1])) : 3000;
+  int frames = 3000;
+  bool odometry = false, stated = false;
+  for (int a = 1; a < argc; a++) {
+    if (std::string (argv[a]) == "--odometry")
+      odometry = true;
+    else if (std::string (argv[a]) == "--stated")
+      stated = true;
+    else
+      frames = std::max (1, std::atoi (argv[a]));
+  }
   const double fps = 30, speed = 0.3, rx = 1.1, ry = 0.8;
   const double fov = 27 * M_PI / 180, max_range = 3.5;
   const char *colours[] = { "red", "green", "yellow", "pink", "blue" };
@@ -87,10 +100,11 @@ main (int argc, char **argv)
   }
 
   Slam slam;
+  slam.opt.odo_slip_adapt = !stated;
   std::vector<double> cost;
   std::vector<double> error;
   long rss[3] = { 0, 0, 0 };
-  Pose2 first {};
+  Pose2 first {}, last_truth {};
   double t = 0;
   /* the ellipse's parameter advances so that the robot keeps its speed */
   double phase = 0;
@@ -120,8 +134,25 @@ main (int argc, char **argv)
       o.marker_diameter = 0.1;
       obs.push_back (o);
     }
+    /* the increment since the last frame in its robot frame, with the
+     * odometry's errors */
+    double odo[3] = { 0, 0, 0 };
+    if (odometry && f > 0) {
+      const double c = std::cos (last_truth.heading),
+          s = std::sin (last_truth.heading);
+      const double wx = truth.x - last_truth.x, wy = truth.y - last_truth.y;
+      const double d = std::hypot (wx, wy);
+      odo[0] = 1.02 * (c * wx + s * wy) + 0.001 * std::sqrt (d) * unit (rng);
+      odo[1] = 1.02 * (-s * wx + c * wy) + 0.001 * std::sqrt (d)
+          * unit (rng);
+      odo[2] = std::remainder (truth.heading - last_truth.heading,
+          2 * M_PI) + 0.001 * std::sqrt (d) * unit (rng);
+    }
+    last_truth = truth;
     const double t0 = thread_ms ();
-    if (f > 0)
+    if (f > 0 && odometry)
+      slam.predict_odometry (odo[0], odo[1], odo[2], 1 / fps);
+    else if (f > 0)
       slam.predict (1 / fps);
     const SlamFrame out = slam.update (obs);
     cost.push_back (thread_ms () - t0);
@@ -150,7 +181,11 @@ main (int argc, char **argv)
   const std::vector<double> head (cost.begin (), cost.begin () + tail);
   const std::vector<double> last (cost.end () - tail, cost.end ());
   std::printf ("slam-bench: %d frames (%.0f s, %.1f laps), 15 landmarks, "
-      "no map, no odometry\n", frames, t, phase / (2 * M_PI));
+      "no map, %s", frames, t, phase / (2 * M_PI), odometry ? "odometry"
+      : "no odometry\n");
+  if (odometry)
+    std::printf (" (slip %s, scale %.2f)\n", stated ? "as stated" : "learnt",
+        slam.odometry_slip_scale ());
   std::printf ("cost per frame, CPU ms: median %.3f, p95 %.3f, max %.3f; "
       "first 300: median %.3f; last 300: median %.3f, p95 %.3f\n",
       quantile (cost, 0.5), quantile (cost, 0.95), quantile (cost, 1.0),

@@ -15,6 +15,11 @@ def test_arguments():
     args = odometrydraws.parse_args(["c", "--draws", "3", "--palette",
                                      "p.json", "--out", "o"])
     assert (args.variant, args.draws, args.palette) == (None, 3, "p.json")
+    assert args.slam == []
+    args = odometrydraws.parse_args(["c", "--out", "o", "--slam",
+                                     "odometry-slip-adapt=false", "--slam",
+                                     "odometry-slip=0.0011"])
+    assert args.slam == ["odometry-slip-adapt=false", "odometry-slip=0.0011"]
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -22,6 +27,8 @@ def test_arguments():
     (["c", "--out", "o", "--draws", "0"], "--draws must be >= 1"),
     (["c", "--out", "o", "--variant", "-2"], "--variant must be >= 0"),
     (["c", "--out", "o", "--draws", "two"], "--draws"),
+    (["c", "--out", "o", "--slam", "odometry-slip"], "--slam 'odometry-slip'"),
+    (["c", "--out", "o", "--slam", "gate=1 ! fakesink"], "NAME=VALUE"),
 ])
 def test_bad_arguments_name_the_option(argv, message, capsys):
     with pytest.raises(SystemExit) as exit_:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 from typing import Any, Dict, List, Optional, Sequence
 
@@ -56,15 +57,17 @@ def rebuild_scene(clip: str, variant: Optional[int]):
     return scene, frames
 
 
-def run_draw(clip: str, palette: str, odometry: str, out: str
-             ) -> Dict[str, Any]:
-    """The Accuracy chain with one odometry log; its ``slam`` scores."""
+def run_draw(clip: str, palette: str, odometry: str, out: str,
+             slam_properties: Sequence[str] = ()) -> Dict[str, Any]:
+    """The Accuracy chain with one odometry log (``landmarkslam`` with
+    ``slam_properties`` too, ``name=value`` each); its ``slam`` scores."""
     os.makedirs(out, exist_ok=True)
     log = os.path.join(out, "log.jsonl")
     pipeline.run_to_eos(
         f"{chain_head(clip, palette)} ! ipmrange "
         f"calibration={clip}/camera.yml map={clip}/map.json ! "
-        f"landmarkslam map-out={out}/built.json odometry={odometry} ! "
+        f"landmarkslam map-out={out}/built.json odometry={odometry} "
+        f"{' '.join(slam_properties)} ! "
         f"landmarklog location={log} ! fakesink", timeout_s=900)
     slam = slam_evaluation(read_jsonl(log),
                            read_jsonl(os.path.join(clip, "truth.jsonl")),
@@ -134,7 +137,15 @@ def parse_args(argv: Optional[List[str]] = None) -> argparse.Namespace:
                         "palette.json, the renderer's)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="logs, runs and their eval.json")
+    p.add_argument("--slam", action="append", default=[],
+                   metavar="NAME=VALUE",
+                   help="a landmarkslam property for every draw, e.g. "
+                        "odometry-slip-adapt=false (repeatable)")
     args = p.parse_args(argv)
+    for prop in args.slam:
+        if not re.fullmatch(r"[a-z][a-z0-9-]*=[^\s!]+", prop):
+            p.error(f"--slam {prop!r}: give NAME=VALUE, a landmarkslam "
+                    "property and a value without spaces or '!'")
     if args.draws < 1:
         p.error(f"--draws must be >= 1, got {args.draws}")
     if args.variant is not None and args.variant < 0:
@@ -157,7 +168,8 @@ def main(argv: Optional[List[str]] = None) -> int:
         write_odometry(odometry, scene_odometry(scene, frames,
                                                 OdometryErrors(), seed=seed))
         d = scores(run_draw(args.clip, palette, odometry,
-                            os.path.join(args.out, f"draw-{seed}")))
+                            os.path.join(args.out, f"draw-{seed}"),
+                            args.slam))
         print(f"draw {seed}: pose NEES inside {d['inside']:.1f} %, mean "
               f"{d['mean']:.2f}, ATE median {d['ate']:.2f} cm, landmark "
               f"RMS {d['rms']:.2f} cm, duplicated {d['duplicated']}, "

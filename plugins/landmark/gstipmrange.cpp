@@ -92,6 +92,7 @@
 #include "cameraprops.h"
 #include "elementsettings.h"
 #include "fileutil.h"
+#include "frameformat.h"
 #include "camerasetup.h"
 #include "landmarkmeta.h"
 #include "markerclasses.h"
@@ -129,6 +130,13 @@ struct State {
   landmark::CameraGeometry geometry;
   gint geometry_w = 0, geometry_h = 0;    /* what geometry was built for */
   gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
+  /* the frame's pixels, for a ball's outline (measure_end_offsets):
+   * readable when the caps are of a format the plugin reads */
+  GstVideoInfo info;
+  LandmarkFrameFormat format;
+  bool readable = false;
+  GstVideoFrame frame;
+  bool mapped = false;
   std::vector<double> outline;            /* size test scratch */
   std::vector<GstVideoRegionOfInterestMeta *> rois;
   bool map_classes_checked = false;       /* against the first labels */
@@ -346,6 +354,7 @@ gst_ipm_range_stop (GstBaseTransform * trans)
 {
   State & st = GST_IPM_RANGE (trans)->priv->state;
   st.geometry_w = st.geometry_h = 0;
+  st.readable = false;
   return TRUE;
 }
 
@@ -361,10 +370,25 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
   if (!gst_video_info_from_caps (&info, incaps)) {
     /* no frame size: built from the detections' frame size instead */
     st.caps_w = st.caps_h = 0;
+    st.readable = false;
     return TRUE;
   }
   st.caps_w = GST_VIDEO_INFO_WIDTH (&info);
   st.caps_h = GST_VIDEO_INFO_HEIGHT (&info);
+  st.info = info;
+  switch (GST_VIDEO_INFO_FORMAT (&info)) {
+    case GST_VIDEO_FORMAT_RGB: case GST_VIDEO_FORMAT_BGR:
+    case GST_VIDEO_FORMAT_RGBx: case GST_VIDEO_FORMAT_BGRx:
+    case GST_VIDEO_FORMAT_xRGB: case GST_VIDEO_FORMAT_xBGR:
+    case GST_VIDEO_FORMAT_RGBA: case GST_VIDEO_FORMAT_BGRA:
+    case GST_VIDEO_FORMAT_I420: case GST_VIDEO_FORMAT_NV12:
+    case GST_VIDEO_FORMAT_YUY2:
+      st.readable = landmark_frame_format (&info, &st.format);
+      break;
+    default:
+      /* any other format is ranged from the blobs' ellipses alone */
+      st.readable = false;
+  }
   if (st.caps_w < 2 || st.caps_h < 2) {
     /* no camera geometry for a single row or column (the seed model
      * divides by width - 1): pass such frames unmeasured rather than
@@ -378,6 +402,43 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 }
 
 /* ---- streaming ------------------------------------------------------ */
+
+/* The frame's light at (u, v), pixel centres at integers: bilinear in each
+ * component's plane (chroma planes at their own resolution), then sRGB
+ * decoded to linear light. False where a neighbour is outside. */
+static bool
+gst_ipm_range_light_at (const State & st, double u, double v, double rgb[3])
+{
+  const GstVideoFrame *f = &st.frame;
+  const GstVideoFormatInfo *finfo = f->info.finfo;
+  double comp[3];
+  for (int c = 0; c < 3; c++) {
+    const int ws = GST_VIDEO_FORMAT_INFO_W_SUB (finfo, c);
+    const int hs = GST_VIDEO_FORMAT_INFO_H_SUB (finfo, c);
+    const double x = (u + 0.5) / (1 << ws) - 0.5;
+    const double y = (v + 0.5) / (1 << hs) - 0.5;
+    const int x0 = (int) std::floor (x), y0 = (int) std::floor (y);
+    if (x0 < 0 || y0 < 0 || x0 + 1 >= GST_VIDEO_FRAME_COMP_WIDTH (f, c)
+        || y0 + 1 >= GST_VIDEO_FRAME_COMP_HEIGHT (f, c))
+      return false;
+    const guint8 *data = (const guint8 *) GST_VIDEO_FRAME_COMP_DATA (f, c);
+    const int stride = GST_VIDEO_FRAME_COMP_STRIDE (f, c);
+    const int ps = GST_VIDEO_FRAME_COMP_PSTRIDE (f, c);
+    auto at = [&](int xi, int yi) {
+      return (double) data[yi * stride + xi * ps];
+    };
+    const double fx = x - x0, fy = y - y0;
+    comp[c] = (1 - fy) * ((1 - fx) * at (x0, y0) + fx * at (x0 + 1, y0))
+        + fy * ((1 - fx) * at (x0, y0 + 1) + fx * at (x0 + 1, y0 + 1));
+  }
+  st.format.model.to_srgb (comp[0], comp[1], comp[2], rgb);
+  for (int c = 0; c < 3; c++) {
+    const double e = std::min (1.0, std::max (0.0, rgb[c]));
+    rgb[c] = e <= 0.04045 ? e / 12.92 : std::pow ((e + 0.055) / 1.055, 2.4);
+  }
+  return true;
+}
+
 
 /* How well the blob's ellipse agrees with the image a marker m has at the
  * floor position e placed it (docs/detection.md): 0..1, or -1 when it
@@ -534,6 +595,19 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (marker.z >= cfg.camera.e.camera_height)
     marker.z = 0;   /* cannot range it; treat as on the floor */
 
+  /* a ball's outline from the frame's pixels, where they are those the
+   * blob was measured on */
+  bool maybe_ball = marker.ball;
+  if (hypotheses)
+    for (const landmark::MarkerSpec & h : *hypotheses)
+      maybe_ball = maybe_ball || h.ball;
+  if (maybe_ball && obs.has_ellipse && st.mapped
+      && (gint) fw == GST_VIDEO_FRAME_WIDTH (&st.frame)
+      && (gint) fh == GST_VIDEO_FRAME_HEIGHT (&st.frame))
+    landmark::measure_end_offsets (&obs, landmark::ball_axis_angle
+        (st.geometry, obs), [&st](double u, double v, double rgb[3]) {
+          return gst_ipm_range_light_at (st, u, v, rgb); });
+
   landmark::MountingSigma mounting;
   mounting.height_rel = cfg.s.height_sigma;
   mounting.tilt = cfg.s.tilt_sigma * M_PI / 180;
@@ -686,6 +760,16 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   return landmark::run_frame (GST_ELEMENT (self), "Ranging failed.", [&] {
         /* collect first: adding parameters adds metas to the buffer */
         landmark_detections_collect (buf, &st.rois);
+        st.mapped = !st.rois.empty () && st.readable
+            && gst_video_frame_map (&st.frame, &st.info, buf, GST_MAP_READ);
+        struct Unmap {
+          State & st;
+          ~Unmap () {
+            if (st.mapped)
+              gst_video_frame_unmap (&st.frame);
+            st.mapped = false;
+          }
+        } unmap {st};
         for (GstVideoRegionOfInterestMeta * roi : st.rois)
           gst_ipm_range_measure (self, buf, roi);
         return GST_FLOW_OK;

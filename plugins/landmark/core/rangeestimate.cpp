@@ -48,6 +48,139 @@ fit_circle (const std::vector<double> & xy, double *cx, double *cy,
   return true;
 }
 
+bool
+outline_offset (const std::vector<double> & linear, double inside,
+    double step, int plateau, double *offset)
+{
+  const int n = (int) linear.size () / 3;
+  if (plateau < 2 || n < 2 * plateau + 2 || !(step > 0))
+    return false;
+  /* the marker's and the background's light as lines fitted to each end's
+   * samples, so that a gradient (the shading across a ball) is carried to
+   * the outline rather than taken where it was sampled */
+  double in0[3], in1[3], out0[3], out1[3];
+  auto fit = [&](int first, double c0[3], double c1[3]) {
+    double ms = 0;
+    for (int i = first; i < first + plateau; i++)
+      ms += (inside + step * i) / plateau;
+    for (int c = 0; c < 3; c++) {
+      double mc = 0, sxy = 0, sxx = 0;
+      for (int i = first; i < first + plateau; i++)
+        mc += linear[3 * i + c] / plateau;
+      for (int i = first; i < first + plateau; i++) {
+        const double ds = inside + step * i - ms;
+        sxy += ds * (linear[3 * i + c] - mc);
+        sxx += ds * ds;
+      }
+      c1[c] = sxy / sxx;
+      c0[c] = mc - c1[c] * ms;
+    }
+  };
+  fit (0, in0, in1);
+  fit (n - plateau, out0, out1);
+  /* the share of the marker's light in each sample, along the contrast
+   * there */
+  std::vector<double> f (n);
+  for (int i = 0; i < n; i++) {
+    const double si = inside + step * i;
+    double d[3], dd = 0, num = 0;
+    for (int c = 0; c < 3; c++) {
+      const double o = out0[c] + out1[c] * si;
+      d[c] = in0[c] + in1[c] * si - o;
+      dd += d[c] * d[c];
+      num += (linear[3 * i + c] - o) * d[c];
+    }
+    /* a few percent of full scale: less is noise, not an outline */
+    if (!(dd > 1e-3))
+      return false;
+    f[i] = num / dd;
+  }
+  bool found = false;
+  for (int i = 0; i + 1 < n; i++) {
+    if ((f[i] >= 0.5) == (f[i + 1] >= 0.5))
+      continue;
+    const double s = inside + step * (i + (f[i] - 0.5) / (f[i] - f[i + 1]));
+    if (!found || std::fabs (s) < std::fabs (*offset))
+      *offset = s;
+    found = true;
+  }
+  return found;
+}
+
+namespace {
+
+/* the distance from an ellipse's centre to its outline along direction
+ * phi: semi-axes a, b, the major at angle */
+double
+ellipse_radius (double a, double b, double angle, double phi)
+{
+  const double c = std::cos (phi - angle), s = std::sin (phi - angle);
+  return 1 / std::sqrt (c * c / (a * a) + s * s / (b * b));
+}
+
+}  // namespace
+
+double
+ball_axis_angle (const CameraGeometry & g, const BlobObservation & blob)
+{
+  const CameraParams & p = g.params ();
+  const bool seed = p.model == CameraModel::Seed;
+  const double cx = seed ? (p.width - 1) / 2.0 : p.cx;
+  const double cy = seed ? (p.height - 1) / 2.0 : p.cy;
+  /* in the geometry's pixels, then back to the blob's */
+  const double du = ((blob.eu + 0.5) * blob.sx - 0.5 - cx) / blob.sx;
+  const double dv = ((blob.ev + 0.5) * blob.sy - 0.5 - cy) / blob.sy;
+  if (std::hypot (du, dv) < 1)
+    return blob.angle;
+  return std::atan2 (dv, du);
+}
+
+void
+measure_end_offsets (BlobObservation * blob, double angle,
+    const std::function<bool (double, double, double[3])> & light)
+{
+  const double a = blob->major / 2, b = blob->minor / 2;
+  if (!blob->has_ellipse || !(b >= 3) || !(a >= b))
+    return;
+  const double reach = 4, step = 0.25;
+  const int n = (int) (2 * reach / step) + 1, plateau = 8;
+  std::vector<double> profile;
+  double found[4];
+  /* along the axis both ways, then across it both ways */
+  for (int end = 0; end < 4; end++) {
+    const double phi = angle + (end < 2 ? end * M_PI : (end - 1.5) * M_PI);
+    const double r = ellipse_radius (a, b, blob->angle, phi);
+    const double w = ellipse_radius (a, b, blob->angle, phi + M_PI / 2);
+    const int lines = std::min (2, (int) (w / 5));
+    const double ca = std::cos (phi), sa = std::sin (phi);
+    profile.assign (3 * n, 0.0);
+    bool inside = true;
+    for (int k = -lines; k <= lines && inside; k++) {
+      /* the outline a pixel across the line is nearer the centre */
+      const double along = r * std::sqrt (std::max (0.0, 1 - (double) (k * k)
+              / (w * w)));
+      for (int i = 0; i < n; i++) {
+        const double t = along - reach + i * step;
+        double rgb[3];
+        inside = light (blob->eu + t * ca - k * sa, blob->ev + t * sa + k * ca,
+            rgb);
+        if (!inside)
+          break;
+        for (int c = 0; c < 3; c++)
+          profile[3 * i + c] += rgb[c] / (2 * lines + 1);
+      }
+    }
+    /* beyond a couple of pixels it is another edge, not this outline */
+    if (!inside || !outline_offset (profile, -reach, step, plateau,
+            &found[end]) || !(std::fabs (found[end]) < 2))
+      return;
+  }
+  blob->has_ends = true;
+  blob->end_angle = angle;
+  for (int end = 0; end < 4; end++)
+    blob->end_offset[end] = found[end];
+}
+
 double
 RangeEstimate::range_sigma_total (double sigma) const
 {
@@ -156,10 +289,24 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
   double size_rel_sigma = 0;
   double centre_u, centre_v;    /* for derivatives, geometry pixels */
 
+  /* a ball's major axis between the outline's ends where the frame showed
+   * them (measure_end_offsets), else the ellipse's */
+  const bool ends = ellipse && blob.has_ends;
+  const double ra = ends ? ellipse_radius (a, b, blob.angle,
+      blob.end_angle) : a;
+  const double a_plus = ra + (ends ? blob.end_offset[0] : 0);
+  const double a_minus = ra + (ends ? blob.end_offset[1] : 0);
+  const double ea = ends ? std::cos (blob.end_angle) : ca;
+  const double eb = ends ? std::sin (blob.end_angle) : sa;
+  /* the axis through the middle of the outline's width, not the blob's */
+  const double across = ends ? (blob.end_offset[2] - blob.end_offset[3]) / 2
+      : 0;
+  const double mu = blob.eu - across * eb, mv = blob.ev + across * ea;
+  const double major = a_plus + a_minus;
   if (ellipse && m.ball) {
     std::vector<double> uv;
-    to_geom (blob.eu + a * ca, blob.ev + a * sa, &uv);
-    to_geom (blob.eu - a * ca, blob.ev - a * sa, &uv);
+    to_geom (mu + a_plus * ea, mv + a_plus * eb, &uv);
+    to_geom (mu - a_minus * ea, mv - a_minus * eb, &uv);
     std::vector<Vec3> d;
     g.rays (uv, &d);
     const Vec3 d1 = unit (d[0]), d2 = unit (d[1]);
@@ -170,7 +317,7 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     const double half = std::acos (cosang) / 2;
     if (m.diameter > 0 && half > 0) {
       size_distance = (m.diameter / 2) / std::sin (half);
-      size_rel_sigma = pixel_sigma / blob.major;
+      size_rel_sigma = pixel_sigma / major;
     }
     centre_u = (uv[0] + uv[2]) / 2;
     centre_v = (uv[1] + uv[3]) / 2;
@@ -273,7 +420,7 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
   double cov[3];
   centre_covariance (blob, pixel_sigma, cov);
   if (m.ball) {
-    const double shade = kBallShadeShare * (ellipse ? blob.major :
+    const double shade = kBallShadeShare * (ellipse ? major :
         blob.equivalent_diameter);
     cov[0] += shade * shade * blob.sx * blob.sx;
     cov[2] += shade * shade * blob.sy * blob.sy;
@@ -333,10 +480,19 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
    * per side), but the shading takes it from the underside rather than all
    * round, so the centre may move down the image by as much */
   if (m.ball && ellipse && out.has_size && out.range_ground > 0) {
-    const double offset = blob.major / 2 *
+    const double offset = major / 2 *
         (out.range_size / out.range_ground - 1) * blob.sy;
     out.rim_range = std::fabs (offset * range_v);
     out.rim_bearing = std::fabs (offset * bearing_v);
+  }
+  /* a blob cut or merged shows in its own ellipse as much as in the
+   * frame's outline, which may agree with a wrong centre (the outline
+   * found ends where the blob ended): the larger excess of the two */
+  if (m.ball && ends) {
+    BlobObservation own = blob;
+    own.has_ends = false;
+    out.size_excess = std::max (out.size_excess, estimate_range (g, own, m,
+            pixel_sigma, mounting).size_excess);
   }
   /* a disagreement beyond the bound is a cut or merged blob, not a rim:
    * size_excess stands for it */

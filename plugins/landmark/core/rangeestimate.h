@@ -4,6 +4,7 @@
  * from a known diameter. No GStreamer types. */
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "camerageometry.h"
@@ -27,6 +28,14 @@ struct BlobObservation {
   double angle = 0;                    /* radians, +u towards +v */
   double equivalent_diameter = 0;      /* 0: unknown */
   double sx = 1, sy = 1;
+  /* a ball's outline from the frame's colours (measure_end_offsets): how
+   * far it lies beyond the ellipse where the lines through the ellipse's
+   * centre along end_angle (radians, +u towards +v) and across it meet
+   * it: [0] along end_angle, [1] the other way, [2] at end_angle + pi/2,
+   * [3] at end_angle - pi/2; pixels. Not measured: has_ends false */
+  bool has_ends = false;
+  double end_angle = 0;
+  double end_offset[4] = {0, 0, 0, 0};
 };
 
 /* What the detection is: a disc lying flat with its centre at height z
@@ -82,6 +91,41 @@ struct RangeEstimate {
  * its equivalent diameter, else one pixel. In the geometry's pixels. */
 void centre_covariance (const BlobObservation & blob, double edge_sigma,
     double cov[3]);
+
+/* Where an outline lies along a line across it, from the frame's colours:
+ * `linear` holds 3 linear-light components per sample, taken every `step`
+ * pixels from `inside` to `outside` of the outline (relative to where the
+ * blob puts it). Area coverage mixes the marker's and the background's
+ * light linearly, so the outline is where the colour is half-way between
+ * the marker's (a line fitted to the first `plateau` samples, carried to
+ * each sample) and the background's (the last's), whatever colour
+ * threshold made the blob: a ball's shaded underside is no longer cut
+ * short. The crossing nearest the blob's outline, in pixels outward; false
+ * without contrast or a crossing. */
+bool outline_offset (const std::vector<double> & linear, double inside,
+    double step, int plateau, double *offset);
+
+/* The direction of a ball's image's major axis, radians (+u towards +v),
+ * in the blob's pixels: the cone tangent to a sphere projects to an
+ * ellipse whose major axis lies on the line through the principal point
+ * (the image centre for the seed's model), where the ends' rays' bisector
+ * is the cone's axis; the blob's own angle where the blob sits on that
+ * point. */
+double ball_axis_angle (const CameraGeometry & geometry,
+    const BlobObservation & blob);
+
+/* Where a ball's outline lies along `angle` (ball_axis_angle) and across
+ * it through its ellipse's centre, from the frame (outline_offset), into
+ * blob's end_*:
+ * the colour threshold that made the blob cuts the shaded underside
+ * shorter than the lit top, which moves the centre up the image and the
+ * range out (docs/ranging.md, "Uncertainty"). Per end, the light across
+ * the outline, 4 px either side, averaged over lines a pixel apart, each
+ * aligned on the ellipse's outline there. `light` gives the frame's linear
+ * light at a point of the blob's frame (pixel centres at integers), false
+ * outside it. Blobs under 6 px across are left alone. */
+void measure_end_offsets (BlobObservation * blob, double angle,
+    const std::function<bool (double u, double v, double rgb[3])> & light);
 
 /* A ball's shaded underside is segmented alike frame after frame, so its
  * centre carries a bias that grows with its image, not noise that shrinks:

@@ -760,8 +760,11 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   return landmark::run_frame (GST_ELEMENT (self), "Ranging failed.", [&] {
         /* collect first: adding parameters adds metas to the buffer */
         landmark_detections_collect (buf, &st.rois);
+        /* no reference taken: the buffer must stay writable for the
+         * parameters added to its metas */
         st.mapped = !st.rois.empty () && st.readable
-            && gst_video_frame_map (&st.frame, &st.info, buf, GST_MAP_READ);
+            && gst_video_frame_map (&st.frame, &st.info, buf, (GstMapFlags)
+            (GST_MAP_READ | GST_VIDEO_FRAME_MAP_FLAG_NO_REF));
         struct Unmap {
           State & st;
           ~Unmap () {

@@ -140,9 +140,12 @@ measure_end_offsets (BlobObservation * blob, double angle,
     const std::function<bool (double, double, double[3])> & light)
 {
   const double a = blob->major / 2, b = blob->minor / 2;
-  if (!blob->has_ellipse || !(b >= 3) || !(a >= b))
-    return;
   const double reach = 4, step = 0.25;
+  /* the profile reaches 4 px inside: at most half way to the centre, or
+   * the ball's colour there is its other side's (and, in a subsampled
+   * format, the far edge's chroma) */
+  if (!blob->has_ellipse || !(b >= 2 * reach) || !(a >= b))
+    return;
   const int n = (int) (2 * reach / step) + 1, plateau = 8;
   std::vector<double> profile;
   double found[4];

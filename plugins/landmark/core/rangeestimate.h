@@ -123,7 +123,8 @@ double ball_axis_angle (const CameraGeometry & geometry,
  * the outline, 4 px either side, averaged over lines a pixel apart, each
  * aligned on the ellipse's outline there. `light` gives the frame's linear
  * light at a point of the blob's frame (pixel centres at integers), false
- * outside it. Blobs under 6 px across are left alone. */
+ * outside it. Balls under 16 px across (the profile would reach past half
+ * their radius) are left alone. */
 void measure_end_offsets (BlobObservation * blob, double angle,
     const std::function<bool (double u, double v, double rgb[3])> & light);
 

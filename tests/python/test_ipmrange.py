@@ -446,22 +446,28 @@ def render_and_range(gst, tmp_path, landmarks, ipm_props):
             read_jsonl(str(out / "truth.jsonl"))[0]["landmarks"])
 
 
+def spread_colours(rng, ranges, bearing_deg, gap):
+    """One landmark of each marker colour at a random range and bearing,
+    none within gap of another: [(class, x, y)]."""
+    out = []
+    for cls in ["red", "green", "yellow", "pink", "blue"]:
+        while True:
+            r = rng.uniform(*ranges)
+            b = math.radians(rng.uniform(-bearing_deg, bearing_deg))
+            x, y = r * math.cos(b), r * math.sin(b)
+            if all(math.hypot(x - px, y - py) >= gap for _, px, py in out):
+                break
+        out.append((cls, x, y))
+    return out
+
+
 def test_rendered_discs_at_random_floor_points(gst, tmp_path):
     """Small discs drawn by the synthetic renderer at random floor
     points: labsegment ! blobroundness ! ipmrange finds their centres."""
-    rng = np.random.default_rng(11)
-    colours = ["red", "green", "yellow", "pink", "blue"]
-    landmarks, placed = [], []
-    while len(landmarks) < len(colours):
-        r = rng.uniform(0.45, 1.5)
-        b = rng.uniform(-22, 22)
-        x, y = r * math.cos(math.radians(b)), r * math.sin(math.radians(b))
-        if any(math.hypot(x - px, y - py) < 0.25 for px, py in placed):
-            continue
-        placed.append((x, y))
-        landmarks.append({"id": f"D{len(landmarks)}",
-                          "class": colours[len(landmarks)], "x": x, "y": y,
-                          "z": 0.0, "diameter": 0.12, "kind": "disc"})
+    landmarks = [{"id": f"D{i}", "class": cls, "x": x, "y": y, "z": 0.0,
+                  "diameter": 0.12, "kind": "disc"}
+                 for i, (cls, x, y) in enumerate(spread_colours(
+                     np.random.default_rng(11), (0.45, 1.5), 22, 0.25))]
     dets, truth = render_and_range(gst, tmp_path, landmarks,
                                    "marker-diameter=0.12")
     by_class = {d["class"]: d["range"] for d in dets if "range" in d}
@@ -542,19 +548,10 @@ def test_rendered_balls_ranged_from_the_frames_outline(gst, tmp_path, seed):
     the frame's outline (docs/ranging.md, "Uncertainty", item 8) the mean
     is within 0.6 mm. Bound: 3x the tuning clips' mean beyond 1.2 m (0.4 mm,
     ranging.md)."""
-    rng = np.random.default_rng(seed)
-    colours = ["red", "green", "yellow", "pink", "blue"]
-    landmarks, placed = [], []
-    while len(landmarks) < len(colours):
-        r = rng.uniform(1.0, 1.8)
-        b = rng.uniform(-20, 20)
-        x, y = r * math.cos(math.radians(b)), r * math.sin(math.radians(b))
-        if any(math.hypot(x - px, y - py) < 0.3 for px, py in placed):
-            continue
-        placed.append((x, y))
-        landmarks.append({"id": f"B{len(landmarks)}",
-                          "class": colours[len(landmarks)], "x": x, "y": y,
-                          "z": 0.0678, "diameter": 0.1356, "kind": "ball"})
+    landmarks = [{"id": f"B{i}", "class": cls, "x": x, "y": y, "z": 0.0678,
+                  "diameter": 0.1356, "kind": "ball"}
+                 for i, (cls, x, y) in enumerate(spread_colours(
+                     np.random.default_rng(seed), (1.0, 1.8), 20, 0.3))]
     dets, truth = render_and_range(gst, tmp_path, landmarks,
                                    f"map={tmp_path / 'map.json'}")
     whole = {t["class"] for t in truth if not t["cut"] and not t["occluded"]

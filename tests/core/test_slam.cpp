@@ -5,14 +5,15 @@
  * or duplicated landmark, bearings beyond +-90 degrees, consistency
  * (NEES), a partial map anchoring the frame, odometry, a stationary robot,
  * the confirmation rule, biased ranges, a spurious detection, sharp turns
- * with one or two landmarks in view, and a new landmark waiting for the
- * heading. */
+ * with one or two landmarks in view, a new landmark waiting for the
+ * heading, and relocalisation among many landmarks of one colour. */
 #include "slam.h"
 #include "corecheck.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <random>
 #include <string>
 #include <vector>
@@ -1109,6 +1110,133 @@ test_blind_stretch_new_landmark ()
       "pose %f %f %f, truth %f 0 0", p.x, p.y, p.heading, x);
 }
 
+/* Relocalisation among many landmarks of one colour: 250 red discs mapped
+ * over a 16 m x 16 m field (0.3 m apart or more) and a blue, a green and a
+ * yellow one that place the first pose; the robot stands at the centre
+ * and sees nothing for two seconds (the heading lost). Then, from that
+ * state, 30 red detections of no mapped landmark (clutter in the view,
+ * 0.5 to 3.5 m, 54 degrees): relocalising them would put the robot where
+ * some of them fall near mapped discs by chance, so they are not paired;
+ * or the mapped red discs in the view, seen: relocalised on them. The
+ * worst frame's CPU time is printed (not asserted). */
+static void
+test_relocalise_among_many ()
+{
+  /* CPU time of the process (one thread here), ms */
+  auto cpu_ms = [] { return std::clock () * 1e3 / CLOCKS_PER_SEC; };
+  std::mt19937 rng (26);
+  std::uniform_real_distribution<double> u (0, 16);
+  std::normal_distribution<double> g (0, 1);
+  std::vector<MapPoint> map;
+  auto add = [&](const char *cls, double x, double y) {
+    MapPoint m;
+    m.id = "L" + std::to_string (map.size ());
+    m.class_name = cls;
+    m.x = x;
+    m.y = y;
+    map.push_back (m);
+  };
+  const Pose2 robot { 8.0, 8.0, 0.3 };
+  const double c = std::cos (robot.heading), s = std::sin (robot.heading);
+  auto world = [&](double r, double b, double *x, double *y) {
+    *x = robot.x + r * (c * std::cos (b) - s * std::sin (b));
+    *y = robot.y + r * (s * std::cos (b) + c * std::sin (b));
+  };
+  const char *unique[3] = { "blue", "green", "yellow" };
+  const double ur[3] = { 1.2, 1.8, 1.5 }, ub[3] = { -0.3, 0.1, 0.35 };
+  for (int k = 0; k < 3; k++) {
+    double x, y;
+    world (ur[k], ub[k], &x, &y);
+    add (unique[k], x, y);
+  }
+  while (map.size () < 253) {
+    const double x = u (rng), y = u (rng);
+    bool free = true;
+    for (const auto & m : map)
+      free &= std::hypot (m.x - x, m.y - y) >= 0.3;
+    if (free)
+      add ("red", x, y);
+  }
+  auto see = [&](double wx, double wy, const std::string & cls) {
+    const double dx = wx - robot.x, dy = wy - robot.y;
+    const double r = std::hypot (dx, dy),
+        b = std::atan2 (-s * dx + c * dy, c * dx + s * dy);
+    const double sr = 0.005 + 0.01 * r, sb = 0.01;
+    SlamObservation o = red_obs (r + sr * g (rng), b + sb * g (rng), sr, sb);
+    o.class_name = cls;
+    return o;
+  };
+  Slam slam;
+  slam.set_map (map);
+  std::vector<SlamObservation> first;
+  for (int k = 0; k < 3; k++)
+    first.push_back (see (map[k].x, map[k].y, unique[k]));
+  CHECK (slam.update (first).ok, "the first pose not placed");
+  for (int k = 0; k < 30; k++) {
+    slam.predict (1 / 30.0);
+    slam.update ({});
+  }
+  double cov[9];
+  slam.pose_cov (cov);
+  CHECK (std::sqrt (cov[8]) * std::sqrt (slam.opt.gate_chi2) > M_PI,
+      "heading sigma %f rad: not lost", std::sqrt (cov[8]));
+  slam.predict (1 / 30.0);
+
+  /* clutter: no detection within 0.3 m of a mapped red disc */
+  std::uniform_real_distribution<double> ur_ (0.5, 4.0), ub_ (-1.05, 1.05);
+  /* ten frames of clutter from that state */
+  int clutter_paired = 0, clutter_relocalised = 0;
+  double ms_clutter = 0;
+  for (int trial = 0; trial < 10; trial++) {
+    std::vector<SlamObservation> clutter;
+    while (clutter.size () < 30) {
+      double x, y;
+      world (ur_ (rng), ub_ (rng), &x, &y);
+      bool free = true;
+      for (const auto & m : map)
+        free &= std::hypot (m.x - x, m.y - y) >= 0.3;
+      if (free)
+        clutter.push_back (see (x, y, "red"));
+    }
+    Slam a = slam;
+    const double t0 = cpu_ms ();
+    const SlamFrame fa = a.update (clutter);
+    ms_clutter = std::max (ms_clutter, cpu_ms () - t0);
+    clutter_paired += fa.n_matched;
+    clutter_relocalised += fa.n_matched > 0;
+  }
+  /* the mapped red discs in the view */
+  std::vector<SlamObservation> seen;
+  for (const auto & m : map) {
+    const double dx = m.x - robot.x, dy = m.y - robot.y;
+    const double b = std::atan2 (-s * dx + c * dy, c * dx + s * dy);
+    if (m.class_name == "red" && std::hypot (dx, dy) <= 4.0
+        && std::hypot (dx, dy) >= 0.5 && std::fabs (b) <= 1.05)
+      seen.push_back (see (m.x, m.y, "red"));
+  }
+  Slam b = slam;
+  const double t0 = cpu_ms ();
+  const SlamFrame fb = b.update (seen);
+  const double ms_seen = cpu_ms () - t0;
+  const Pose2 p = b.pose ();
+  const double pos_err = std::hypot (p.x - robot.x, p.y - robot.y),
+      head_err = std::fabs (p.heading - robot.heading);
+  std::printf ("relocalise among 250 red discs (heading sigma %.0f deg, "
+      "position sigma %.2f m): 30 clutter detections, ten frames: %d "
+      "relocalised, %d pairings (worst %.2f ms); "
+      "%zu mapped discs in view: %d paired, pose error %.3f m, %.2f deg "
+      "(%.2f ms)\n", std::sqrt (cov[8]) * 180 / M_PI,
+      std::sqrt (std::max (cov[0], cov[4])), clutter_relocalised,
+      clutter_paired, ms_clutter,
+      seen.size (), fb.n_matched, pos_err, head_err * 180 / M_PI, ms_seen);
+  CHECK (clutter_relocalised == 0, "clutter relocalised %d times, %d "
+      "pairings", clutter_relocalised, clutter_paired);
+  CHECK (fb.n_matched >= (int) seen.size () - 2, "%d of %zu paired",
+      fb.n_matched, seen.size ());
+  CHECK (pos_err < 0.015 && head_err < 0.01, "pose %f %f %f, truth %f %f %f",
+      p.x, p.y, p.heading, robot.x, robot.y, robot.heading);
+}
+
 int
 main ()
 {
@@ -1128,5 +1256,6 @@ main ()
   test_sharp_turns ();
   test_new_waits_for_heading ();
   test_blind_stretch_new_landmark ();
+  test_relocalise_among_many ();
   return corecheck_summary ();
 }

@@ -187,6 +187,13 @@ def test_slip_follows_the_seed(path_scene):
     finally:
         scene.seed -= 1
     assert [s["dx"] for s in other] != [s["dx"] for s in noisy]
+    # an odometry seed of its own: another draw on the same scene, the
+    # same again with the same seed, given as argument or in the errors
+    drawn = scene_odometry(scene, n, no_errors(slip=0.01), seed=7)
+    assert [s["dx"] for s in drawn] != [s["dx"] for s in noisy]
+    assert scene_odometry(scene, n, no_errors(slip=0.01, seed=7)) == drawn
+    assert scene_odometry(scene, n, no_errors(slip=0.01),
+                          seed=scene.seed) == noisy
 
 
 def test_turning_centre_log(path_scene):
@@ -260,3 +267,30 @@ def test_cli_writes_the_log_and_its_options(tmp_path, capsys):
                             "-0.1"]) == 1
     assert "--odometry-slip" in capsys.readouterr().err
     assert not (tmp_path / "d" / "truth.jsonl").exists()
+
+
+def test_cli_odometry_seed(tmp_path, capsys):
+    """--odometry-seed draws another log for the same clip: the truth is
+    the same, the log another, recorded in scene.json; a negative seed
+    is refused, naming the option."""
+    args = ["synth", "path", "--frames", "6", "--size", "96x72",
+            "--no-progress", "--out"]
+    assert cli.main(args + [str(tmp_path / "a")]) == 0
+    assert cli.main(args + [str(tmp_path / "b"), "--odometry-seed",
+                            "5"]) == 0
+    assert (tmp_path / "a" / "truth.jsonl").read_text() == \
+        (tmp_path / "b" / "truth.jsonl").read_text()
+    first = read_lines(tmp_path / "a" / "odometry.jsonl")
+    other = read_lines(tmp_path / "b" / "odometry.jsonl")
+    assert [s["t"] for s in first] == [s["t"] for s in other]
+    assert [s["dx"] for s in first] != [s["dx"] for s in other]
+    scene, n = build_scenario("path", seed=0, frames=6)
+    assert other == scene_odometry(scene, n, OdometryErrors(), seed=5)
+    assert json.loads((tmp_path / "b" / "scene.json").read_text())[
+        "odometry"]["seed"] == 5
+    assert "seed" not in json.loads(
+        (tmp_path / "a" / "scene.json").read_text())["odometry"]
+    capsys.readouterr()
+    assert cli.main(args + [str(tmp_path / "c"), "--odometry-seed",
+                            "-1"]) == 1
+    assert "--odometry-seed" in capsys.readouterr().err

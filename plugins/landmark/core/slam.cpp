@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <unordered_map>
 
 namespace landmark {
 
@@ -412,18 +413,49 @@ Slam::confirm_known ()
   }
 }
 
+namespace {
+
+/* P(X >= x) for X Poisson with mean lambda, summed upward (the tail is
+ * tiny where it matters, and 1 - cdf would lose it) */
+double
+poisson_tail (double lambda, int x)
+{
+  if (x <= 0)
+    return 1;
+  double term = std::exp (-lambda);
+  for (int k = 1; k <= x; k++)
+    term *= lambda / k;
+  double sum = 0;
+  for (int k = x; k < x + 200 && term > 1e-300; k++) {
+    sum += term;
+    term *= lambda / (k + 1);
+  }
+  return std::min (1.0, sum);
+}
+
+}  // namespace
+
 /* Relocalisation of a lost pose. Pairings are hypothesised from what does
  * not depend on the pose: the distance between two detections against the
- * distance between two landmarks of their classes. Each hypothesis places
- * the robot (the rigid motion taking the two detections onto the two
- * landmarks) and is scored by the detections it then explains; the most,
- * then the nearest to the predicted pose, wins, if the prediction allows
- * it and no other hypothesis explains as many. */
+ * distance between two landmarks of their classes, the widest detection
+ * pairs first (the best heading). Each hypothesis places the robot (the
+ * rigid motion taking the two detections onto the two landmarks) and is
+ * scored by the detections it then explains; the most, then the nearest
+ * to the predicted pose, wins, if the prediction allows it and, when
+ * every hypothesis was tried, no other explains as many. Explained
+ * detections beyond the two seeds must be unlikely by chance: each
+ * detection's chance of some landmark of its class within its tolerance,
+ * from the class's density over the mapped area, summed to a Poisson mean;
+ * its tail times the hypotheses (those not tried counted) must stay under
+ * opt.reloc_chance. The work (landmark comparisons) is bounded per frame;
+ * a search cut short accepts only on that chance test. */
 bool
 Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
     std::vector<int> *assign) const
 {
   const size_t N = n (), no = obs.size (), nl = lm_.size ();
+  if (nl < 2)
+    return false;
   std::vector<double> var (no);    /* detection's position variance */
   for (size_t i = 0; i < no; i++) {
     double sr, sb;
@@ -431,14 +463,39 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
     var[i] = sr * sr + std::pow (obs[i].obs.range () * sb, 2);
   }
   std::vector<double> lm_var (nl);
-  for (size_t k = 0; k < nl; k++)
+  double x0 = lm_[0].x, x1 = x0, y0 = lm_[0].y, y1 = y0;
+  for (size_t k = 0; k < nl; k++) {
     lm_var[k] = std::pow (max_sigma_2x2 (lm_[k].cov), 2);
-  /* per detection, the landmarks of its class */
+    x0 = std::min (x0, lm_[k].x);
+    x1 = std::max (x1, lm_[k].x);
+    y0 = std::min (y0, lm_[k].y);
+    y1 = std::max (y1, lm_[k].y);
+  }
+  /* per detection, the landmarks of its class and their mean variance */
   std::vector<std::vector<int>> same (no);
-  for (size_t i = 0; i < no; i++)
+  std::vector<double> same_var (no, 0);
+  for (size_t i = 0; i < no; i++) {
     for (size_t k = 0; k < nl; k++)
-      if (lm_[k].class_name == obs[i].class_name)
+      if (lm_[k].class_name == obs[i].class_name) {
         same[i].push_back ((int) k);
+        same_var[i] += lm_var[k];
+      }
+    if (!same[i].empty ())
+      same_var[i] /= same[i].size ();
+  }
+  double lm_var_max = 0;
+  for (double v : lm_var)
+    lm_var_max = std::max (lm_var_max, v);
+  /* the landmarks on a grid, so that a detection is scored against those
+   * near where a hypothesis puts it, not against all of its class */
+  const double cell = 0.5;
+  std::unordered_map<long long, std::vector<int>> grid;
+  auto cell_key = [&](long long cx, long long cy) {
+    return cx * 2000003LL + cy;
+  };
+  for (size_t k = 0; k < nl; k++)
+    grid[cell_key ((long long) std::floor ((lm_[k].x - x0) / cell),
+            (long long) std::floor ((lm_[k].y - y0) / cell))].push_back ((int) k);
   cv::Matx33d Pxx;
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++)
@@ -447,97 +504,244 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
   const double plausible = chi2_quantile (opt.joint_probability, 3);
   const double pc[4] = { Pxx (0, 0), Pxx (0, 1), Pxx (1, 0), Pxx (1, 1) };
   const double pos_sigma = max_sigma_2x2 (pc);
+  /* seed pairs, widest first */
+  struct Seed {
+    int i, j;
+    double dz;
+  };
+  std::vector<Seed> seeds;
+  for (size_t i = 0; i < no; i++)
+    for (size_t j = i + 1; j < no; j++) {
+      const double dz = std::hypot (obs[j].obs.gx - obs[i].obs.gx,
+          obs[j].obs.gy - obs[i].obs.gy);
+      if (dz >= opt.min_separation && !same[i].empty () && !same[j].empty ())
+        seeds.push_back ({ (int) i, (int) j, dz });
+    }
+  std::stable_sort (seeds.begin (), seeds.end (),
+      [](const Seed & a, const Seed & b) { return a.dz > b.dz; });
   struct Hyp {
     std::vector<int> assign;
     Pose2 pose;
     int inliers = 0;
     double d2 = 0;
+    double lambda = 0;  /* chance inliers beyond the seeds, expected */
+    int seeds[2] = { -1, -1 };
   };
   /* the best hypothesis, and whether another explains as many detections
    * with other pairings (ambiguous); buffers reused */
   Hyp best, h;
   bool ambiguous = false;
   std::vector<bool> taken (nl);
-  /* each hypothesis scores every detection: bounded as JCBB's search,
-   * keeping what was found when the budget runs out */
-  int tried = 0;
-  const int budget = opt.max_jcbb_nodes;
-  for (size_t i = 0; i < no && tried < budget; i++)
-    for (size_t j = i + 1; j < no && tried < budget; j++) {
-      const auto & zi = obs[i].obs, &zj = obs[j].obs;
-      const double dz = std::hypot (zj.gx - zi.gx, zj.gy - zi.gy);
-      if (dz < opt.min_separation)
-        continue;
-      for (int k : same[i])
-        for (int l : same[j]) {
-          if (tried >= budget)
-            break;
-          if (k == l)
-            continue;
-          const double dl = std::hypot (lm_[l].x - lm_[k].x,
-              lm_[l].y - lm_[k].y);
-          const double v = var[i] + var[j] + lm_var[k] + lm_var[l];
-          if ((dz - dl) * (dz - dl) > opt.gate_chi2 * v)
-            continue;
-          tried++;
-          h.inliers = 0;
-          h.pose.heading = wrap_angle (std::atan2 (lm_[l].y - lm_[k].y,
-                  lm_[l].x - lm_[k].x) - std::atan2 (zj.gy - zi.gy,
-                  zj.gx - zi.gx));
-          const double c = std::cos (h.pose.heading),
-              s = std::sin (h.pose.heading);
-          h.pose.x = 0.5 * (lm_[k].x + lm_[l].x - c * (zi.gx + zj.gx)
-              + s * (zi.gy + zj.gy));
-          h.pose.y = 0.5 * (lm_[k].y + lm_[l].y - s * (zi.gx + zj.gx)
-              - c * (zi.gy + zj.gy));
-          /* the detections it explains, each with its nearest free
-           * landmark of its class; the two's heading error grows with
-           * the range over their separation */
-          h.assign.assign (no, -1);
-          taken.assign (nl, false);
-          for (size_t m = 0; m < no; m++) {
-            double nearest_e2 = std::numeric_limits<double>::infinity ();
-            const double lever = 1 + std::pow (obs[m].obs.range () / dz, 2);
-            for (int q : same[m]) {
-              if (taken[q])
-                continue;
-              const double wx = lm_[q].x - h.pose.x, wy = lm_[q].y - h.pose.y;
-              const double ex = c * wx + s * wy - obs[m].obs.gx,
-                  ey = -s * wx + c * wy - obs[m].obs.gy;
-              const double e2 = ex * ex + ey * ey;
-              const double tol = opt.gate_chi2 * (var[m] + lm_var[q]
-                  + lever * (var[i] + var[j]));
-              if (e2 < tol && e2 < nearest_e2) {
-                nearest_e2 = e2;
-                h.assign[m] = q;
-              }
-            }
-            if (h.assign[m] >= 0) {
-              taken[h.assign[m]] = true;
-              h.inliers++;
-            }
-          }
-          const cv::Vec3d e (h.pose.x - s_[0], h.pose.y - s_[1],
-              wrap_angle (h.pose.heading - s_[2]));
-          h.d2 = e.dot (Pinv * e);
-          /* two detections give one distance to check, weak evidence
-           * among repeated colours (a spurious or unmapped one matches
-           * some pair by chance): only while the predicted position is
-           * known to within their separation */
-          if (!(h.d2 < plausible && (h.inliers >= 3
-                      || (h.inliers == 2 && pos_sigma <= dz))))
-            continue;
-          if (h.inliers > best.inliers) {
-            best = h;
-            ambiguous = false;
-          } else if (h.inliers == best.inliers) {
-            ambiguous |= h.assign != best.assign;
-            if (h.d2 < best.d2)
-              best = h;
-          }
+  std::vector<int> cand_i, cand_j, near;
+  /* work: landmark pairs compared and landmarks scored; hypotheses: those
+   * the prediction allows, each scored */
+  const long budget = opt.reloc_max_comparisons;
+  long work = 0, compared = 0, hypotheses = 0;
+  double untried = 0;   /* landmark pairs not compared */
+  /* the detections a hypothesis explains, each with its nearest free
+   * landmark of its class within a tolerance that adds `pose_var` (the
+   * variance the hypothesis' own error adds at that detection), and the
+   * inliers chance alone would give it */
+  auto score = [&](Hyp * h, const std::function<double (size_t)> & pose_var) {
+    const double c = std::cos (h->pose.heading),
+        sn = std::sin (h->pose.heading);
+    h->inliers = 0;
+    h->lambda = 0;
+    h->assign.assign (no, -1);
+    taken.assign (nl, false);
+    for (size_t m = 0; m < no; m++) {
+      double nearest_e2 = std::numeric_limits<double>::infinity ();
+      const double extra = pose_var (m);
+      /* where the hypothesis puts the detection, and the cells its
+       * widest tolerance reaches */
+      const double px = h->pose.x + c * obs[m].obs.gx - sn * obs[m].obs.gy,
+          py = h->pose.y + sn * obs[m].obs.gx + c * obs[m].obs.gy;
+      const double reach = std::sqrt (opt.gate_chi2 * (var[m] + lm_var_max
+              + extra));
+      near.clear ();
+      for (long long cx = (long long) std::floor ((px - reach - x0) / cell);
+          cx <= (long long) std::floor ((px + reach - x0) / cell); cx++)
+        for (long long cy = (long long) std::floor ((py - reach - y0) / cell);
+            cy <= (long long) std::floor ((py + reach - y0) / cell); cy++) {
+          work++;
+          const auto it = grid.find (cell_key (cx, cy));
+          if (it != grid.end ())
+            near.insert (near.end (), it->second.begin (), it->second.end ());
         }
+      /* in index order, as a scan of the class would meet them */
+      std::sort (near.begin (), near.end ());
+      for (int q : near) {
+        work++;
+        if (lm_[q].class_name != obs[m].class_name || taken[q])
+          continue;
+        const double wx = lm_[q].x - h->pose.x, wy = lm_[q].y - h->pose.y;
+        const double ex = c * wx + sn * wy - obs[m].obs.gx,
+            ey = -sn * wx + c * wy - obs[m].obs.gy;
+        const double e2 = ex * ex + ey * ey;
+        const double tol = opt.gate_chi2 * (var[m] + lm_var[q] + extra);
+        if (e2 < tol && e2 < nearest_e2) {
+          nearest_e2 = e2;
+          h->assign[m] = q;
+        }
+      }
+      if (h->assign[m] >= 0) {
+        taken[h->assign[m]] = true;
+        h->inliers++;
+      }
+      /* by chance: some landmark of its class within its tolerance disk,
+       * the class spread over the mapped area grown by it */
+      if ((int) m != h->seeds[0] && (int) m != h->seeds[1]
+          && !same[m].empty ()) {
+        const double tol = opt.gate_chi2 * (var[m] + same_var[m] + extra);
+        const double grow = 2 * std::sqrt (tol);
+        const double area = (x1 - x0 + grow) * (y1 - y0 + grow);
+        h->lambda += 1 - std::exp (-(double) same[m].size () * M_PI * tol
+            / area);
+      }
     }
-  if (best.inliers == 0 || ambiguous)
+  };
+  size_t s = 0;
+  for (; s < seeds.size () && work < budget; s++) {
+    const int i = seeds[s].i, j = seeds[s].j;
+    const double dz = seeds[s].dz;
+    const auto & zi = obs[i].obs, &zj = obs[j].obs;
+    const double lever = 1 / (dz * dz);
+    /* a seed's landmark at the detection's range from the predicted
+     * position, within what the prediction allows (whatever the heading)
+     * and half the distance mismatch the pair may have */
+    const double slack = std::sqrt (plausible) * pos_sigma
+        + std::sqrt (opt.gate_chi2 * (var[i] + var[j] + 2 * lm_var_max));
+    auto near_range = [&](int d, std::vector<int> *out) {
+      out->clear ();
+      const double r = obs[d].obs.range ();
+      for (int k : same[d]) {
+        work++;
+        const double e = std::hypot (lm_[k].x - s_[0], lm_[k].y - s_[1]) - r;
+        if (e * e <= std::pow (slack + std::sqrt (lm_var[k] + var[d]), 2))
+          out->push_back (k);
+      }
+    };
+    near_range (i, &cand_i);
+    near_range (j, &cand_j);
+    /* pairs (cand_i[a], cand_j[b]) in order; the budget is checked
+     * before each */
+    size_t a = 0, b = 0;
+    for (; a < cand_i.size () && work < budget; a++) {
+      const int k = cand_i[a];
+      for (b = 0; b < cand_j.size () && work < budget; b++) {
+        const int l = cand_j[b];
+        work++;
+        compared++;
+        if (k == l)
+          continue;
+        const double dl = std::hypot (lm_[l].x - lm_[k].x,
+            lm_[l].y - lm_[k].y);
+        const double v = var[i] + var[j] + lm_var[k] + lm_var[l];
+        if ((dz - dl) * (dz - dl) > opt.gate_chi2 * v)
+          continue;
+        h.pose.heading = wrap_angle (std::atan2 (lm_[l].y - lm_[k].y,
+                lm_[l].x - lm_[k].x) - std::atan2 (zj.gy - zi.gy,
+                zj.gx - zi.gx));
+        const double c = std::cos (h.pose.heading),
+            sn = std::sin (h.pose.heading);
+        h.pose.x = 0.5 * (lm_[k].x + lm_[l].x - c * (zi.gx + zj.gx)
+            + sn * (zi.gy + zj.gy));
+        h.pose.y = 0.5 * (lm_[k].y + lm_[l].y - sn * (zi.gx + zj.gx)
+            - c * (zi.gy + zj.gy));
+        const cv::Vec3d e (h.pose.x - s_[0], h.pose.y - s_[1],
+            wrap_angle (h.pose.heading - s_[2]));
+        h.d2 = e.dot (Pinv * e);
+        /* one the prediction rules out can not be accepted: neither
+         * scored nor counted */
+        if (!(h.d2 < plausible))
+          continue;
+        hypotheses++;
+        /* the two's heading error grows with the range over their
+         * separation */
+        h.seeds[0] = i;
+        h.seeds[1] = j;
+        score (&h, [&](size_t m) {
+              return (1 + std::pow (obs[m].obs.range (), 2) * lever)
+                  * (var[i] + var[j]);
+            });
+        /* two detections give one distance to check, weak evidence
+         * among repeated colours (a spurious or unmapped one matches
+         * some pair by chance): only while the predicted position is
+         * known to within their separation */
+        if (!(h.inliers >= 3 || (h.inliers == 2 && pos_sigma <= dz)))
+          continue;
+        if (h.inliers > best.inliers) {
+          best = h;
+          ambiguous = false;
+        } else if (h.inliers == best.inliers) {
+          ambiguous |= h.assign != best.assign;
+          if (h.d2 < best.d2)
+            best = h;
+        }
+      }
+    }
+    /* the seed pair's landmark pairs left when the budget ran out (the
+     * row cut short, and the rows after it) */
+    if (a > 0 && b < cand_j.size ())
+      untried += (double) (cand_j.size () - b);
+    untried += (double) (cand_i.size () - a) * cand_j.size ();
+  }
+  for (; s < seeds.size (); s++)
+    untried += (double) same[seeds[s].i].size () * same[seeds[s].j].size ();
+  const bool complete = untried == 0;
+  /* the hypotheses not tried, at the rate the compared pairs gave them */
+  const double all_hypotheses = hypotheses + untried * (hypotheses + 1)
+      / std::max<long> (compared, 1);
+  /* the best refitted on all it explains (a rigid fit), scored again
+   * with the fit's error in place of the seeds' lever: the tolerance
+   * chance is judged at, and the pose accepted */
+  if (best.inliers >= 3) {
+    double zx = 0, zy = 0, lx = 0, ly = 0, v = 0;
+    for (size_t m = 0; m < no; m++)
+      if (best.assign[m] >= 0) {
+        zx += obs[m].obs.gx;
+        zy += obs[m].obs.gy;
+        lx += lm_[best.assign[m]].x;
+        ly += lm_[best.assign[m]].y;
+        v += var[m] + lm_var[best.assign[m]];
+      }
+    const double nin = best.inliers;
+    zx /= nin;
+    zy /= nin;
+    lx /= nin;
+    ly /= nin;
+    v /= nin;
+    double sc = 0, ss = 0, spread = 0;
+    for (size_t m = 0; m < no; m++)
+      if (best.assign[m] >= 0) {
+        const double ax = obs[m].obs.gx - zx, ay = obs[m].obs.gy - zy,
+            bx = lm_[best.assign[m]].x - lx, by = lm_[best.assign[m]].y - ly;
+        sc += ax * bx + ay * by;
+        ss += ax * by - ay * bx;
+        spread += ax * ax + ay * ay;
+      }
+    Hyp fit = best;
+    fit.pose.heading = std::atan2 (ss, sc);
+    const double c = std::cos (fit.pose.heading),
+        sn = std::sin (fit.pose.heading);
+    fit.pose.x = lx - (c * zx - sn * zy);
+    fit.pose.y = ly - (sn * zx + c * zy);
+    score (&fit, [&](size_t m) {
+          return v / nin + v / std::max (spread, 1e-9)
+              * (std::pow (obs[m].obs.gx - zx, 2)
+                  + std::pow (obs[m].obs.gy - zy, 2));
+        });
+    if (fit.inliers < 3)
+      return false;
+    best = fit;
+  }
+  const double chance = poisson_tail (best.lambda, best.inliers - 2)
+      * all_hypotheses;
+  if (best.inliers < 2 || (complete && ambiguous))
+    return false;
+  /* two: the prediction's word, taken only when every rival was tried;
+   * more: those beyond the seeds unlikely by chance */
+  if (best.inliers == 2 ? !complete : chance >= opt.reloc_chance)
     return false;
   *at = best.pose;
   *assign = best.assign;
@@ -633,11 +837,15 @@ Slam::update (const std::vector<SlamObservation> & obs)
     return true;
   };
 
-  /* individually compatible pairings, by class */
+  /* lost: below, "A lost pose" */
+  const bool lost = std::sqrt (std::max (0.0, p_[2 * N + 2]))
+      * std::sqrt (opt.gate_chi2) > M_PI;
+
+  /* individually compatible pairings, by class (a lost frame uses none) */
   std::vector<std::vector<Pairing>> cand (obs.size ());
   std::vector<double> min_d2 (obs.size (),
       std::numeric_limits<double>::infinity ());
-  for (size_t i = 0; i < obs.size (); i++) {
+  for (size_t i = 0; i < obs.size () && !lost; i++) {
     for (size_t k = 0; k < lm_.size (); k++) {
       if (lm_[k].class_name != obs[i].class_name)
         continue;
@@ -710,8 +918,6 @@ Slam::update (const std::vector<SlamObservation> & obs)
     if (cur.size () + remaining - (cand[i].empty ()? 0 : 1) >= best.size ())
       search (i + 1, nis);
   };
-  const bool lost = std::sqrt (std::max (0.0, p_[2 * N + 2]))
-      * std::sqrt (opt.gate_chi2) > M_PI;
   if (!lost)
     search (0, 0);
 
@@ -827,6 +1033,29 @@ Slam::update (const std::vector<SlamObservation> & obs)
   for (size_t i = 0; i < obs.size (); i++) {
     if (f.match[i] >= 0)
       continue;
+    double wx, wy;
+    robot_to_world (pose (), obs[i].obs.gx, obs[i].obs.gy, &wx, &wy);
+    bool near = false;
+    for (const auto & l : lm_)
+      near |= l.class_name == obs[i].class_name
+          && std::hypot (l.x - wx, l.y - wy) < opt.min_separation;
+    if (near) {
+      f.reasons[i] = "ambiguous";
+      continue;
+    }
+    /* A landmark starts from the pose: its position is off by
+     * r (1 - cos e) ~ r e^2 / 2 for a heading error e, which the
+     * linearised covariance leaves out. With the heading's sigma at
+     * tens of degrees (after a turn bridged on no landmark) that is
+     * decimetres at 2 m: the copy would be confirmed where the pose
+     * was wrong and later pull the pose there. Wait until that error
+     * is within the map accuracy asked for (confirm_sigma); tested
+     * before the gates below, which cost a pairing per landmark of the
+     * class (on a lost frame among many, most of its time) */
+    if (0.5 * obs[i].obs.range () * p_[2 * n () + 2] > opt.confirm_sigma) {
+      f.reasons[i] = "uncertain-heading";
+      continue;
+    }
     double d2 = std::numeric_limits<double>::infinity ();
     {
       const int N2 = (int) n ();
@@ -841,25 +1070,8 @@ Slam::update (const std::vector<SlamObservation> & obs)
           d2 = 0;
       }
     }
-    double wx, wy;
-    robot_to_world (pose (), obs[i].obs.gx, obs[i].obs.gy, &wx, &wy);
-    for (const auto & l : lm_)
-      if (l.class_name == obs[i].class_name
-          && std::hypot (l.x - wx, l.y - wy) < opt.min_separation)
-        d2 = 0;
     if (d2 < opt.new_chi2) {
       f.reasons[i] = "ambiguous";
-      continue;
-    }
-    /* A landmark starts from the pose: its position is off by
-     * r (1 - cos e) ~ r e^2 / 2 for a heading error e, which the
-     * linearised covariance leaves out. With the heading's sigma at
-     * tens of degrees (after a turn bridged on no landmark) that is
-     * decimetres at 2 m: the copy would be confirmed where the pose
-     * was wrong and later pull the pose there. Wait until that error
-     * is within the map accuracy asked for (confirm_sigma). */
-    if (0.5 * obs[i].obs.range () * p_[2 * n () + 2] > opt.confirm_sigma) {
-      f.reasons[i] = "uncertain-heading";
       continue;
     }
     if (lm_.size () >= opt.max_landmarks) {

@@ -85,6 +85,12 @@ struct SlamOptions {
    * (docs/landmarkslam.md, "The odometry's frame") */
   double odo_camera_forward = 0;  /* m */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
+  /* relocalisation: landmark comparisons per frame (about 1 ms), and the
+   * largest probability, over all the hypotheses of a frame, that chance
+   * alone explains as many detections as the accepted one does
+   * (docs/landmarkslam.md, "A lost pose") */
+  long reloc_max_comparisons = 40000;
+  double reloc_chance = 0.01;
 };
 
 /* A map landmark (id, class, position, and the marker: the given map's,

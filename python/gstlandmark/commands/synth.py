@@ -180,6 +180,10 @@ def add_synth_parser(subparsers):
     odo.add_argument("--odometry-rate", type=float, metavar="HZ",
                      help="steps at this rate, between frames as a real "
                           "encoder's (default: one per frame)")
+    odo.add_argument("--odometry-seed", type=int, metavar="N",
+                     help="seed of the odometry's slip draws (default: "
+                          "the scenario's seed): another draw of the log "
+                          "for the same clip")
     odo.add_argument("--no-odometry", dest="odometry", action="store_false",
                      help="write no odometry log")
 
@@ -230,7 +234,7 @@ def _handle(args):
         scale=args.odometry_scale, drift_deg_per_m=args.odometry_drift,
         slip=args.odometry_slip, heading_slip=args.odometry_heading_slip,
         turn_slip=args.odometry_turn_slip, rate_hz=args.odometry_rate,
-        frame=args.odometry_frame)
+        frame=args.odometry_frame, seed=args.odometry_seed)
     overrides = {k: getattr(args, k) for k in OVERRIDE_ARGS
                  if getattr(args, k) is not None}
     try:

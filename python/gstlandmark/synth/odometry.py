@@ -23,7 +23,9 @@ a trajectory without an offset).  Errors, each optional:
   translation gains ``N(0, slip^2 L)`` metres along the step and as much
   across it, the heading ``N(0, turn_slip^2 |dth| + heading_slip^2 L)``
   radians; drawn from a generator seeded by the scenario's seed, so a
-  clip and its log are reproducible.
+  clip and its log are reproducible, or by a seed of the odometry's own
+  (``seed``, ``--odometry-seed``): other draws of the same errors on the
+  same clip.
 """
 
 import json
@@ -51,6 +53,7 @@ class OdometryErrors:
     turn_slip: float = 0.0018    # rad per sqrt(rad) turned
     rate_hz: Optional[float] = None  # None: one step per frame
     frame: str = "camera"        # or "turning-centre"
+    seed: Optional[int] = None   # None: the scenario's seed
 
     def check(self):
         """ValueError naming the option when a value is out of range."""
@@ -78,13 +81,21 @@ class OdometryErrors:
         if self.frame not in FRAMES:
             raise ValueError(f"--odometry-frame must be one of "
                              f"{', '.join(FRAMES)}, got {self.frame!r}")
+        if self.seed is not None and not (
+                isinstance(self.seed, int) and self.seed >= 0):
+            raise ValueError(f"--odometry-seed must be an integer >= 0, "
+                             f"got {self.seed!r}")
 
     def to_json(self):
-        return {"scale": self.scale, "drift_deg_per_m": self.drift_deg_per_m,
-                "slip_m_per_sqrt_m": self.slip,
-                "heading_slip_rad_per_sqrt_m": self.heading_slip,
-                "turn_slip_rad_per_sqrt_rad": self.turn_slip,
-                "rate_hz": self.rate_hz, "frame": self.frame}
+        out = {"scale": self.scale, "drift_deg_per_m": self.drift_deg_per_m,
+               "slip_m_per_sqrt_m": self.slip,
+               "heading_slip_rad_per_sqrt_m": self.heading_slip,
+               "turn_slip_rad_per_sqrt_rad": self.turn_slip,
+               "rate_hz": self.rate_hz, "frame": self.frame}
+        # only when set, so the scene.json of a default clip is as before
+        if self.seed is not None:
+            out["seed"] = self.seed
+        return out
 
 
 def no_errors(**kw):
@@ -139,12 +150,12 @@ def frame_time(frame, fps):
     return (int(frame) * 1_000_000_000 // int(fps)) / 1e9
 
 
-def scene_odometry(scene, frames, errors=None):
+def scene_odometry(scene, frames, errors=None, seed=None):
     """The odometry steps of ``frames`` frames of ``scene``'s path (the
     poses the renderer used, or with ``errors.frame`` "turning-centre"
-    those of the turning centre behind the camera), seeded by the scene's
-    seed: one per frame, or at ``errors.rate_hz`` from 0 to the last
-    frame's time."""
+    those of the turning centre behind the camera): one per frame, or at
+    ``errors.rate_hz`` from 0 to the last frame's time.  Seeded by
+    ``seed``, else ``errors.seed``, else the scene's seed."""
     from .scenarios import Offset, Static
     trajectory = scene.trajectory or Static()
     if errors is not None:
@@ -160,7 +171,10 @@ def scene_odometry(scene, frames, errors=None):
         end = (frames - 1) / scene.fps
         times = [k / rate for k in range(int(math.floor(end * rate)) + 1)]
         poses = [trajectory.pose(t) for t in times]
-    return odometry_steps(poses, times, errors, seed=scene.seed)
+    if seed is None:
+        seed = errors.seed if errors is not None and \
+            errors.seed is not None else scene.seed
+    return odometry_steps(poses, times, errors, seed=seed)
 
 
 def write_odometry(path, steps):

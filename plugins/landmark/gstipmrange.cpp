@@ -85,11 +85,13 @@
 #include <gst/video/video.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
 
 #include "cameraprops.h"
+#include "colourdrift.h"
 #include "elementsettings.h"
 #include "fileutil.h"
 #include "frameformat.h"
@@ -137,6 +139,11 @@ struct State {
   bool readable = false;
   GstVideoFrame frame;
   bool mapped = false;
+  /* the mapped frame's component planes, read once per frame */
+  struct Plane {
+    const guint8 *data;
+    int stride, pstride, wsub, hsub, width, height;
+  } planes[3];
   std::vector<double> outline;            /* size test scratch */
   std::vector<GstVideoRegionOfInterestMeta *> rois;
   bool map_classes_checked = false;       /* against the first labels */
@@ -403,39 +410,73 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 
 /* ---- streaming ------------------------------------------------------ */
 
+/* sRGB in [0, 1] to linear light, as a table interpolated linearly
+ * (within 4e-7 of the formula; std::pow per sample was most of a ball's
+ * outline's cost) */
+static constexpr int kDecodeSteps = 1024;
+
+static double
+gst_ipm_range_decode (double e)
+{
+  static const std::array<double, kDecodeSteps + 2> table = [] {
+    std::array<double, kDecodeSteps + 2> t;
+    for (int i = 0; i <= kDecodeSteps; i++)
+      t[i] = landmark::srgb_to_linear ((double) i / kDecodeSteps);
+    t[kDecodeSteps + 1] = t[kDecodeSteps];
+    return t;
+  }();
+  const double x = std::min (1.0, std::max (0.0, e)) * kDecodeSteps;
+  const int i = (int) x;
+  return table[i] + (x - i) * (table[i + 1] - table[i]);
+}
+
+/* The mapped frame's planes into st.planes. */
+static void
+gst_ipm_range_read_planes (State & st)
+{
+  const GstVideoFrame *f = &st.frame;
+  const GstVideoFormatInfo *finfo = f->info.finfo;
+  for (int c = 0; c < 3; c++)
+    st.planes[c] = {(const guint8 *) GST_VIDEO_FRAME_COMP_DATA (f, c),
+      GST_VIDEO_FRAME_COMP_STRIDE (f, c), GST_VIDEO_FRAME_COMP_PSTRIDE (f, c),
+      (int) GST_VIDEO_FORMAT_INFO_W_SUB (finfo, c),
+      (int) GST_VIDEO_FORMAT_INFO_H_SUB (finfo, c),
+      GST_VIDEO_FRAME_COMP_WIDTH (f, c), GST_VIDEO_FRAME_COMP_HEIGHT (f, c)};
+}
+
 /* The frame's light at (u, v), pixel centres at integers: bilinear in each
  * component's plane (chroma planes at their own resolution), then sRGB
  * decoded to linear light. False where a neighbour is outside. */
 static bool
 gst_ipm_range_light_at (const State & st, double u, double v, double rgb[3])
 {
-  const GstVideoFrame *f = &st.frame;
-  const GstVideoFormatInfo *finfo = f->info.finfo;
   double comp[3];
+  int x0 = 0, y0 = 0;
+  double fx = 0, fy = 0;
   for (int c = 0; c < 3; c++) {
-    const int ws = GST_VIDEO_FORMAT_INFO_W_SUB (finfo, c);
-    const int hs = GST_VIDEO_FORMAT_INFO_H_SUB (finfo, c);
-    const double x = (u + 0.5) / (1 << ws) - 0.5;
-    const double y = (v + 0.5) / (1 << hs) - 0.5;
-    const int x0 = (int) std::floor (x), y0 = (int) std::floor (y);
-    if (x0 < 0 || y0 < 0 || x0 + 1 >= GST_VIDEO_FRAME_COMP_WIDTH (f, c)
-        || y0 + 1 >= GST_VIDEO_FRAME_COMP_HEIGHT (f, c))
+    const State::Plane & p = st.planes[c];
+    /* a plane subsampled as the previous one is read where it was */
+    if (c == 0 || p.wsub != st.planes[c - 1].wsub
+        || p.hsub != st.planes[c - 1].hsub) {
+      const double x = p.wsub ? (u + 0.5) / (1 << p.wsub) - 0.5 : u;
+      const double y = p.hsub ? (v + 0.5) / (1 << p.hsub) - 0.5 : v;
+      if (!(x >= 0) || !(y >= 0))
+        return false;
+      x0 = (int) x;
+      y0 = (int) y;
+      fx = x - x0;
+      fy = y - y0;
+    }
+    if (x0 + 1 >= p.width || y0 + 1 >= p.height)
       return false;
-    const guint8 *data = (const guint8 *) GST_VIDEO_FRAME_COMP_DATA (f, c);
-    const int stride = GST_VIDEO_FRAME_COMP_STRIDE (f, c);
-    const int ps = GST_VIDEO_FRAME_COMP_PSTRIDE (f, c);
-    auto at = [&](int xi, int yi) {
-      return (double) data[yi * stride + xi * ps];
-    };
-    const double fx = x - x0, fy = y - y0;
-    comp[c] = (1 - fy) * ((1 - fx) * at (x0, y0) + fx * at (x0 + 1, y0))
-        + fy * ((1 - fx) * at (x0, y0 + 1) + fx * at (x0 + 1, y0 + 1));
+    const guint8 *row0 = p.data + y0 * p.stride + x0 * p.pstride;
+    const guint8 *row1 = row0 + p.stride;
+    comp[c] = (1 - fy) * (row0[0] + fx * (row0[p.pstride] - row0[0]))
+        + fy * (row1[0] + fx * (row1[p.pstride] - row1[0]));
   }
   st.format.model.to_srgb (comp[0], comp[1], comp[2], rgb);
-  for (int c = 0; c < 3; c++) {
-    const double e = std::min (1.0, std::max (0.0, rgb[c]));
-    rgb[c] = e <= 0.04045 ? e / 12.92 : std::pow ((e + 0.055) / 1.055, 2.4);
-  }
+  for (int c = 0; c < 3; c++)
+    rgb[c] = gst_ipm_range_decode (rgb[c]);
   return true;
 }
 
@@ -765,6 +806,8 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         st.mapped = !st.rois.empty () && st.readable
             && gst_video_frame_map (&st.frame, &st.info, buf, (GstMapFlags)
             (GST_MAP_READ | GST_VIDEO_FRAME_MAP_FLAG_NO_REF));
+        if (st.mapped)
+          gst_ipm_range_read_planes (st);
         struct Unmap {
           State & st;
           ~Unmap () {

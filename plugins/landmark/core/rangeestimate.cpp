@@ -49,10 +49,9 @@ fit_circle (const std::vector<double> & xy, double *cx, double *cy,
 }
 
 bool
-outline_offset (const std::vector<double> & linear, double inside,
-    double step, int plateau, double *offset)
+outline_offset (const double *linear, int n, double inside, double step,
+    int plateau, double *offset)
 {
-  const int n = (int) linear.size () / 3;
   if (plateau < 2 || n < 2 * plateau + 2 || !(step > 0))
     return false;
   /* the marker's and the background's light as lines fitted to each end's
@@ -79,8 +78,9 @@ outline_offset (const std::vector<double> & linear, double inside,
   fit (0, in0, in1);
   fit (n - plateau, out0, out1);
   /* the share of the marker's light in each sample, along the contrast
-   * there */
-  std::vector<double> f (n);
+   * there; a crossing of one half between two samples is an outline */
+  bool found = false;
+  double before = 0;
   for (int i = 0; i < n; i++) {
     const double si = inside + step * i;
     double d[3], dd = 0, num = 0;
@@ -93,16 +93,14 @@ outline_offset (const std::vector<double> & linear, double inside,
     /* a few percent of full scale: less is noise, not an outline */
     if (!(dd > 1e-3))
       return false;
-    f[i] = num / dd;
-  }
-  bool found = false;
-  for (int i = 0; i + 1 < n; i++) {
-    if ((f[i] >= 0.5) == (f[i + 1] >= 0.5))
-      continue;
-    const double s = inside + step * (i + (f[i] - 0.5) / (f[i] - f[i + 1]));
-    if (!found || std::fabs (s) < std::fabs (*offset))
-      *offset = s;
-    found = true;
+    const double f = num / dd;
+    if (i > 0 && (before >= 0.5) != (f >= 0.5)) {
+      const double s = inside + step * (i - 1 + (before - 0.5) / (before - f));
+      if (!found || std::fabs (s) < std::fabs (*offset))
+        *offset = s;
+      found = true;
+    }
+    before = f;
   }
   return found;
 }
@@ -140,14 +138,14 @@ measure_end_offsets (BlobObservation * blob, double angle,
     const std::function<bool (double, double, double[3])> & light)
 {
   const double a = blob->major / 2, b = blob->minor / 2;
-  const double reach = 4, step = 0.25;
+  constexpr double reach = 4, step = 0.25;
   /* the profile reaches 4 px inside: at most half way to the centre, or
    * the ball's colour there is its other side's (and, in a subsampled
    * format, the far edge's chroma) */
   if (!blob->has_ellipse || !(b >= 2 * reach) || !(a >= b))
     return;
-  const int n = (int) (2 * reach / step) + 1, plateau = 8;
-  std::vector<double> profile;
+  constexpr int n = (int) (2 * reach / step) + 1, plateau = 8;
+  double profile[3 * n];
   double found[4];
   /* along the axis both ways, then across it both ways */
   for (int end = 0; end < 4; end++) {
@@ -156,7 +154,7 @@ measure_end_offsets (BlobObservation * blob, double angle,
     const double w = ellipse_radius (a, b, blob->angle, phi + M_PI / 2);
     const int lines = std::min (2, (int) (w / 5));
     const double ca = std::cos (phi), sa = std::sin (phi);
-    profile.assign (3 * n, 0.0);
+    std::fill (profile, profile + 3 * n, 0.0);
     bool inside = true;
     for (int k = -lines; k <= lines && inside; k++) {
       /* the outline a pixel across the line is nearer the centre */
@@ -174,7 +172,7 @@ measure_end_offsets (BlobObservation * blob, double angle,
       }
     }
     /* beyond a couple of pixels it is another edge, not this outline */
-    if (!inside || !outline_offset (profile, -reach, step, plateau,
+    if (!inside || !outline_offset (profile, n, -reach, step, plateau,
             &found[end]) || !(std::fabs (found[end]) < 2))
       return;
   }

@@ -93,16 +93,16 @@ void centre_covariance (const BlobObservation & blob, double edge_sigma,
     double cov[3]);
 
 /* Where an outline lies along a line across it, from the frame's colours:
- * `linear` holds 3 linear-light components per sample, taken every `step`
- * pixels from `inside` to `outside` of the outline (relative to where the
- * blob puts it). Area coverage mixes the marker's and the background's
+ * `linear` holds 3 linear-light components for each of n samples, taken
+ * every `step` pixels from `inside` to `outside` of the outline (relative
+ * to where the blob puts it). Area coverage mixes the marker's and the background's
  * light linearly, so the outline is where the colour is half-way between
  * the marker's (a line fitted to the first `plateau` samples, carried to
  * each sample) and the background's (the last's), whatever colour
  * threshold made the blob: a ball's shaded underside is no longer cut
  * short. The crossing nearest the blob's outline, in pixels outward; false
  * without contrast or a crossing. */
-bool outline_offset (const std::vector<double> & linear, double inside,
+bool outline_offset (const double *linear, int n, double inside,
     double step, int plateau, double *offset);
 
 /* The direction of a ball's image's major axis, radians (+u towards +v),

@@ -144,6 +144,8 @@ struct State {
     const guint8 *data;
     int stride, pstride, wsub, hsub, width, height;
   } planes[3];
+  /* the format's components to sRGB, an affine map (before clipping) */
+  double to_srgb[3][4];
   std::vector<double> outline;            /* size test scratch */
   std::vector<GstVideoRegionOfInterestMeta *> rois;
   bool map_classes_checked = false;       /* against the first labels */
@@ -365,6 +367,27 @@ gst_ipm_range_stop (GstBaseTransform * trans)
   return TRUE;
 }
 
+/* The model's components to sRGB as m[row] = (3 coefficients, offset):
+ * the conversion is affine until it clips, so its differences at mid-grey
+ * (unclipped in every model) give it exactly */
+static void
+gst_ipm_range_affine_srgb (const landmark::InputModel & model,
+    double m[3][4])
+{
+  const double mid = 128;
+  double at[3];
+  model.to_srgb (mid, mid, mid, at);
+  for (int k = 0; k < 3; k++) {
+    double c[3] = {mid, mid, mid}, step[3];
+    c[k] += 1;
+    model.to_srgb (c[0], c[1], c[2], step);
+    for (int r = 0; r < 3; r++)
+      m[r][k] = step[r] - at[r];
+  }
+  for (int r = 0; r < 3; r++)
+    m[r][3] = at[r] - mid * (m[r][0] + m[r][1] + m[r][2]);
+}
+
 static gboolean
 gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
     GstCaps * outcaps)
@@ -391,6 +414,7 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
     case GST_VIDEO_FORMAT_I420: case GST_VIDEO_FORMAT_NV12:
     case GST_VIDEO_FORMAT_YUY2:
       st.readable = landmark_frame_format (&info, &st.format);
+      gst_ipm_range_affine_srgb (st.format.model, st.to_srgb);
       break;
     default:
       /* any other format is ranged from the blobs' ellipses alone */
@@ -474,9 +498,11 @@ gst_ipm_range_light_at (const State & st, double u, double v, double rgb[3])
     comp[c] = (1 - fy) * (row0[0] + fx * (row0[p.pstride] - row0[0]))
         + fy * (row1[0] + fx * (row1[p.pstride] - row1[0]));
   }
-  st.format.model.to_srgb (comp[0], comp[1], comp[2], rgb);
-  for (int c = 0; c < 3; c++)
-    rgb[c] = gst_ipm_range_decode (rgb[c]);
+  for (int c = 0; c < 3; c++) {
+    const double *m = st.to_srgb[c];
+    rgb[c] = gst_ipm_range_decode (m[0] * comp[0] + m[1] * comp[1]
+        + m[2] * comp[2] + m[3]);
+  }
   return true;
 }
 
@@ -645,9 +671,15 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (maybe_ball && obs.has_ellipse && st.mapped
       && (gint) fw == GST_VIDEO_FRAME_WIDTH (&st.frame)
       && (gint) fh == GST_VIDEO_FRAME_HEIGHT (&st.frame))
-    landmark::measure_end_offsets (&obs, landmark::ball_axis_angle
-        (st.geometry, obs), [&st](double u, double v, double rgb[3]) {
-          return gst_ipm_range_light_at (st, u, v, rgb); });
+    landmark::measure_end_offsets_by_line (&obs, landmark::ball_axis_angle
+        (st.geometry, obs), [&st](double u, double v, double du, double dv,
+            int n, double *rgb) {
+          for (int i = 0; i < n; i++)
+            if (!gst_ipm_range_light_at (st, u + i * du, v + i * dv,
+                    rgb + 3 * i))
+              return false;
+          return true;
+        });
 
   landmark::MountingSigma mounting;
   mounting.height_rel = cfg.s.height_sigma;

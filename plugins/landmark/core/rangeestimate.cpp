@@ -137,6 +137,19 @@ void
 measure_end_offsets (BlobObservation * blob, double angle,
     const std::function<bool (double, double, double[3])> & light)
 {
+  measure_end_offsets_by_line (blob, angle, [&](double u, double v,
+          double du, double dv, int n, double *rgb) {
+        for (int i = 0; i < n; i++)
+          if (!light (u + i * du, v + i * dv, rgb + 3 * i))
+            return false;
+        return true;
+      });
+}
+
+void
+measure_end_offsets_by_line (BlobObservation * blob, double angle,
+    const LineLight & line)
+{
   const double a = blob->major / 2, b = blob->minor / 2;
   constexpr double reach = 4, step = 0.25;
   /* the profile reaches 4 px inside: at most half way to the centre, or
@@ -145,7 +158,7 @@ measure_end_offsets (BlobObservation * blob, double angle,
   if (!blob->has_ellipse || !(b >= 2 * reach) || !(a >= b))
     return;
   constexpr int n = (int) (2 * reach / step) + 1, plateau = 8;
-  double profile[3 * n];
+  double profile[3 * n], sampled[3 * n];
   double found[4];
   /* along the axis both ways, then across it both ways */
   for (int end = 0; end < 4; end++) {
@@ -160,17 +173,14 @@ measure_end_offsets (BlobObservation * blob, double angle,
       /* the outline a pixel across the line is nearer the centre */
       const double along = r * std::sqrt (std::max (0.0, 1 - (double) (k * k)
               / (w * w)));
-      for (int i = 0; i < n; i++) {
-        const double t = along - reach + i * step;
-        double rgb[3];
-        inside = light (blob->eu + t * ca - k * sa, blob->ev + t * sa + k * ca,
-            rgb);
-        if (!inside)
-          break;
-        for (int c = 0; c < 3; c++)
-          profile[3 * i + c] += rgb[c] / (2 * lines + 1);
-      }
+      const double t = along - reach;
+      inside = line (blob->eu + t * ca - k * sa, blob->ev + t * sa + k * ca,
+          step * ca, step * sa, n, sampled);
+      for (int i = 0; inside && i < 3 * n; i++)
+        profile[i] += sampled[i];
     }
+    for (double & x : profile)
+      x /= 2 * lines + 1;
     /* beyond a couple of pixels it is another edge, not this outline */
     if (!inside || !outline_offset (profile, n, -reach, step, plateau,
             &found[end]) || !(std::fabs (found[end]) < 2))

@@ -128,6 +128,15 @@ double ball_axis_angle (const CameraGeometry & geometry,
 void measure_end_offsets (BlobObservation * blob, double angle,
     const std::function<bool (double u, double v, double rgb[3])> & light);
 
+/* The same, the light taken a line at a time (one call per line of
+ * samples, which keeps the frame's reading in the caller's loop): n points
+ * from (u, v), each (du, dv) from the last, into rgb (3 per point); false
+ * when one is outside the frame. */
+using LineLight = std::function<bool (double u, double v, double du,
+        double dv, int n, double *rgb)>;
+void measure_end_offsets_by_line (BlobObservation * blob, double angle,
+    const LineLight & line);
+
 /* A ball's shaded underside is segmented alike frame after frame, so its
  * centre carries a bias that grows with its image, not noise that shrinks:
  * one-sigma, per axis, this share of its diameter in pixels (fitted on the

@@ -171,6 +171,24 @@ def test_odometry_file(gst, clip, slam_run, tmp_path):
     assert np.percentile(errs, 95) < 0.015, np.percentile(errs, 95)
 
 
+def warnings_until_eos(gst, pipe):
+    """Plays ``pipe`` to EOS (no error) and returns its warnings' texts."""
+    bus = pipe.get_bus()
+    kinds = gst.MessageType.WARNING | gst.MessageType.ERROR | \
+        gst.MessageType.EOS
+    warnings = []
+    try:
+        pipe.set_state(gst.State.PLAYING)
+        while True:
+            msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
+            assert msg is not None and msg.type != gst.MessageType.ERROR
+            if msg.type == gst.MessageType.EOS:
+                return warnings
+            warnings.append(msg.parse_warning()[0].message)
+    finally:
+        pipe.set_state(gst.State.NULL)
+
+
 def test_odometry_file_that_ends_early(gst, clip, slam_run, tmp_path):
     """Past the end of the odometry file the motion model carries the pose
     (no increment would read as standing still with a certain pose): the
@@ -197,21 +215,7 @@ def test_odometry_file_that_ends_early(gst, clip, slam_run, tmp_path):
     pipe = gst.parse_launch(f"videotestsrc num-buffers=90 ! {caps} ! "
                             f"landmarkslam name=s odometry={odo} ! "
                             f"fakesink sync=false")
-    bus = pipe.get_bus()
-    kinds = gst.MessageType.WARNING | gst.MessageType.ERROR | \
-        gst.MessageType.EOS
-    warnings = []
-    try:
-        pipe.set_state(gst.State.PLAYING)
-        while True:
-            msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
-            assert msg is not None and msg.type != gst.MessageType.ERROR
-            if msg.type == gst.MessageType.EOS:
-                break
-            err, debug = msg.parse_warning()
-            warnings.append(err.message)
-    finally:
-        pipe.set_state(gst.State.NULL)
+    warnings = warnings_until_eos(gst, pipe)
     assert len(warnings) == 1, warnings
     assert "odometry.jsonl" in warnings[0] and "ends at" in warnings[0]
 
@@ -246,20 +250,7 @@ def test_frames_before_the_segment_are_not_past_the_odometry(gst, tmp_path):
         return gst.PadProbeReturn.DROP
 
     sink_pad.add_probe(gst.PadProbeType.EVENT_DOWNSTREAM, move_segment)
-    bus = pipe.get_bus()
-    kinds = gst.MessageType.WARNING | gst.MessageType.ERROR | \
-        gst.MessageType.EOS
-    warnings = []
-    try:
-        pipe.set_state(gst.State.PLAYING)
-        while True:
-            msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
-            assert msg is not None and msg.type != gst.MessageType.ERROR
-            if msg.type == gst.MessageType.EOS:
-                break
-            warnings.append(msg.parse_warning()[0].message)
-    finally:
-        pipe.set_state(gst.State.NULL)
+    warnings = warnings_until_eos(gst, pipe)
     assert moved and warnings == []
 
 

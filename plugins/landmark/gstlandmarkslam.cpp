@@ -474,31 +474,17 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     const std::vector<landmark::OdometryStep> & log =
         st.applied.config.odometry;
     GstSegment *seg = &GST_BASE_TRANSFORM_CAST (self)->segment;
-    const guint64 ta = gst_segment_to_stream_time (seg, GST_FORMAT_TIME,
-        st.last_time), tb = gst_segment_to_stream_time (seg,
-        GST_FORMAT_TIME, now);
+    guint64 ta = gst_segment_to_stream_time (seg, GST_FORMAT_TIME,
+        st.last_time);
+    const guint64 tb = gst_segment_to_stream_time (seg, GST_FORMAT_TIME,
+        now);
+    /* the first frame inside the segment: the file from the segment's
+     * start on */
+    if (!GST_CLOCK_TIME_IS_VALID (ta) && GST_CLOCK_TIME_IS_VALID (tb)
+        && st.last_time < seg->start)
+      ta = gst_segment_to_stream_time (seg, GST_FORMAT_TIME, seg->start);
     const double a = (double) ta / GST_SECOND;
-    if (!log.empty () && (!GST_CLOCK_TIME_IS_VALID (ta)
-            || !GST_CLOCK_TIME_IS_VALID (tb))) {
-      /* outside the segment the frames have no stream time to look the
-       * file up at (they are clipped downstream): the motion model */
-      slam.predict (dt);
-    } else if (!log.empty () && a >= log.back ().t) {
-      /* past the log's end no increment would read as standing still,
-       * certain: the motion model carries the pose instead */
-      if (!st.odometry_ended)
-        GST_ELEMENT_WARNING (self, STREAM, FAILED, ("The odometry file "
-                "'%s' ends at %.3f s; later frames use the motion model.",
-                st.applied.config.s.odometry.c_str (), log.back ().t), (nullptr));
-      st.odometry_ended = true;
-      slam.predict (dt);
-    } else if (!log.empty ()) {
-      const double b = (double) tb / GST_SECOND;
-      double dx, dy, dh;
-      landmark::odometry_between (log, a, b, &st.odometry_next, &dx, &dy,
-          &dh);
-      slam.predict_odometry (dx, dy, dh, dt);
-    } else {
+    if (log.empty ()) {
       std::unique_lock<std::mutex> lk (st.live_lock);
       const landmark::OdometrySum live = st.live;
       const bool live_seen = st.live_seen;
@@ -508,6 +494,25 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
         slam.predict_odometry (live.dx, live.dy, live.dheading, dt);
       else
         slam.predict (dt);
+    } else if (!GST_CLOCK_TIME_IS_VALID (ta)
+        || !GST_CLOCK_TIME_IS_VALID (tb)) {
+      /* outside the segment the frames have no stream time to look the
+       * file up at (they are clipped downstream): the motion model */
+      slam.predict (dt);
+    } else if (a >= log.back ().t) {
+      /* past the log's end no increment would read as standing still,
+       * certain: the motion model carries the pose instead */
+      if (!st.odometry_ended)
+        GST_ELEMENT_WARNING (self, STREAM, FAILED, ("The odometry file "
+                "'%s' ends at %.3f s; later frames use the motion model.",
+                st.applied.config.s.odometry.c_str (), log.back ().t), (nullptr));
+      st.odometry_ended = true;
+      slam.predict (dt);
+    } else {
+      double dx, dy, dh;
+      landmark::odometry_between (log, a, (double) tb / GST_SECOND,
+          &st.odometry_next, &dx, &dy, &dh);
+      slam.predict_odometry (dx, dy, dh, dt);
     }
   }
   st.last_time = now;

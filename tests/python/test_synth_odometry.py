@@ -294,3 +294,8 @@ def test_cli_odometry_seed(tmp_path, capsys):
     assert cli.main(args + [str(tmp_path / "c"), "--odometry-seed",
                             "-1"]) == 1
     assert "--odometry-seed" in capsys.readouterr().err
+    # from the API: a numpy integer is a seed, a boolean is not
+    assert scene_odometry(scene, n, OdometryErrors(seed=np.int64(5))) == \
+        other
+    with pytest.raises(ValueError, match="--odometry-seed"):
+        OdometryErrors(seed=True).check()

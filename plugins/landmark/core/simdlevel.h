@@ -7,7 +7,9 @@
 
 /* Where the compiler can build an AVX2 loop beside the baseline one,
  * chosen at run time (__builtin_cpu_supports). */
-#if defined(__x86_64__) && defined(__GNUC__)
+/* x86-64 with 64-bit pointers (not the x32 ABI): labsegment's assembly
+ * loop addresses through 64-bit registers */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__ILP32__)
 #define LANDMARK_HAVE_AVX2_PATH 1
 #endif
 

@@ -559,10 +559,24 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
       const double reach = std::sqrt (opt.gate_chi2 * (var[m] + lm_var_max
               + extra));
       near.clear ();
-      for (long long cx = (long long) std::floor ((px - reach - x0) / cell);
-          cx <= (long long) std::floor ((px + reach - x0) / cell); cx++)
-        for (long long cy = (long long) std::floor ((py - reach - y0) / cell);
-            cy <= (long long) std::floor ((py + reach - y0) / cell); cy++) {
+      /* only the cells that hold landmarks: a wide tolerance (a detection
+       * far beyond two close seeds) must not walk empty space */
+      auto cell_range = [&](double p, double lo, double hi, long long *a,
+          long long *b) {
+        const double last = std::floor ((hi - lo) / cell);
+        *a = (long long) std::clamp (std::floor ((p - reach - lo) / cell),
+            0.0, last);
+        *b = (long long) std::clamp (std::floor ((p + reach - lo) / cell),
+            0.0, last);
+        return std::isfinite (p) && std::isfinite (reach)
+            && p + reach >= lo && p - reach <= hi + cell;
+      };
+      long long cx0, cx1, cy0, cy1;
+      if (!cell_range (px, x0, x1, &cx0, &cx1)
+          || !cell_range (py, y0, y1, &cy0, &cy1))
+        cx1 = cx0 - 1;          /* nothing within reach */
+      for (long long cx = cx0; cx <= cx1; cx++)
+        for (long long cy = cy0; cy <= cy1; cy++) {
           work++;
           const auto it = grid.find (cell_key (cx, cy));
           if (it != grid.end ())
@@ -731,7 +745,11 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
               * (std::pow (obs[m].obs.gx - zx, 2)
                   + std::pow (obs[m].obs.gy - zy, 2));
         });
-    if (fit.inliers < 3)
+    /* the refitted pose answers to the prediction as the seeds' did */
+    const cv::Vec3d e (fit.pose.x - s_[0], fit.pose.y - s_[1],
+        wrap_angle (fit.pose.heading - s_[2]));
+    fit.d2 = e.dot (Pinv * e);
+    if (fit.inliers < 3 || !(fit.d2 < plausible))
       return false;
     best = fit;
   }

@@ -36,9 +36,12 @@ FRAMES, MAPPED = 900, 600
 SEED_CAMERA = {"hfov_deg": 54.0, "height_m": 0.2, "tilt_deg": 18.0}
 
 
-def chain_head(clip: str) -> str:
+def chain_head(clip: str, palette: Optional[str] = None) -> str:
+    """The Accuracy chain up to blobroundness on the clip, with its
+    palette (the renderer's) or ``palette``."""
+    palette = palette or f"{clip}/palette.json"
     return (f"filesrc location={clip}/clip.avi ! avidemux ! jpegdec ! "
-            f"videoconvert ! labsegment palette={clip}/palette.json "
+            f"videoconvert ! labsegment palette={palette} "
             "min-class-pixels=50 ! blobroundness min-area=30")
 
 

@@ -8,7 +8,9 @@ Per clip (a ``path`` clip ``gst-landmark synth`` rendered; ``--variant N``
 for a variant rendered with the seed camera, as the Accuracy commands
 give it): rebuild its scene (checked against its ``scene.json``), write
 ``--draws`` odometry logs with synth's default errors, camera frame,
-odometry seeds 0, 1, ... (0 is the clip's own log: the scenario's seed),
+odometry seeds 0, 1, ... (0 is the log synth wrote beside a clip made
+with its default odometry options and scenario seed 0, as the Accuracy
+clips are),
 run the Accuracy chain with each (``landmarkslam odometry=...``, no map
 anchor) and score it as ``gst-landmark evaluate`` does; print the median
 and range over the draws.
@@ -31,7 +33,7 @@ from ..landmarkmap import read_map
 from ..synth.odometry import OdometryErrors, scene_odometry, write_odometry
 from ..synth.scenarios import build_scenario
 from ..synth.variants import draw_variant
-from .mapreuse import SEED_CAMERA
+from .mapreuse import SEED_CAMERA, chain_head
 
 
 def rebuild_scene(clip: str, variant: Optional[int]):
@@ -60,9 +62,7 @@ def run_draw(clip: str, palette: str, odometry: str, out: str
     os.makedirs(out, exist_ok=True)
     log = os.path.join(out, "log.jsonl")
     pipeline.run_to_eos(
-        f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
-        f"labsegment palette={palette} min-class-pixels=50 ! "
-        f"blobroundness min-area=30 ! ipmrange "
+        f"{chain_head(clip, palette)} ! ipmrange "
         f"calibration={clip}/camera.yml map={clip}/map.json ! "
         f"landmarkslam map-out={out}/built.json odometry={odometry} ! "
         f"landmarklog location={log} ! fakesink", timeout_s=900)

@@ -30,6 +30,7 @@ a trajectory without an offset).  Errors, each optional:
 
 import json
 import math
+import numbers
 from dataclasses import dataclass
 from typing import Optional
 
@@ -82,7 +83,8 @@ class OdometryErrors:
             raise ValueError(f"--odometry-frame must be one of "
                              f"{', '.join(FRAMES)}, got {self.frame!r}")
         if self.seed is not None and not (
-                isinstance(self.seed, int) and self.seed >= 0):
+                isinstance(self.seed, numbers.Integral)
+                and not isinstance(self.seed, bool) and self.seed >= 0):
             raise ValueError(f"--odometry-seed must be an integer >= 0, "
                              f"got {self.seed!r}")
 
@@ -94,7 +96,7 @@ class OdometryErrors:
                "rate_hz": self.rate_hz, "frame": self.frame}
         # only when set, so the scene.json of a default clip is as before
         if self.seed is not None:
-            out["seed"] = self.seed
+            out["seed"] = int(self.seed)
         return out
 
 

@@ -468,44 +468,30 @@ gst_ipm_range_read_planes (State & st)
       GST_VIDEO_FRAME_COMP_WIDTH (f, c), GST_VIDEO_FRAME_COMP_HEIGHT (f, c)};
 }
 
-/* The frame's light at (u, v), pixel centres at integers: bilinear in each
- * component's plane (chroma planes at their own resolution), then sRGB
- * decoded to linear light. False where a neighbour is outside. */
+/* The frame's linear light of n pixels of row y from column x: each
+ * component from its plane (a subsampled one at the sample covering the
+ * pixel), then sRGB decoded. False where one is outside. */
 static bool
-gst_ipm_range_light_at (const State & st, double u, double v, double rgb[3])
+gst_ipm_range_row_light (const State & st, int x, int y, int n, double *rgb)
 {
-  double comp[3];
-  int x0 = 0, y0 = 0;
-  double fx = 0, fy = 0;
-  for (int c = 0; c < 3; c++) {
-    const State::Plane & p = st.planes[c];
-    /* a plane subsampled as the previous one is read where it was */
-    if (c == 0 || p.wsub != st.planes[c - 1].wsub
-        || p.hsub != st.planes[c - 1].hsub) {
-      const double x = p.wsub ? (u + 0.5) / (1 << p.wsub) - 0.5 : u;
-      const double y = p.hsub ? (v + 0.5) / (1 << p.hsub) - 0.5 : v;
-      if (!(x >= 0) || !(y >= 0))
-        return false;
-      x0 = (int) x;
-      y0 = (int) y;
-      fx = x - x0;
-      fy = y - y0;
+  const State::Plane *p = st.planes;
+  if (x < 0 || y < 0 || x + n > p[0].width || y >= p[0].height)
+    return false;
+  const guint8 *row[3];
+  for (int c = 0; c < 3; c++)
+    row[c] = p[c].data + (y >> p[c].hsub) * p[c].stride;
+  for (int i = 0; i < n; i++) {
+    double comp[3];
+    for (int c = 0; c < 3; c++)
+      comp[c] = row[c][((x + i) >> p[c].wsub) * p[c].pstride];
+    for (int c = 0; c < 3; c++) {
+      const double *m = st.to_srgb[c];
+      rgb[3 * i + c] = gst_ipm_range_decode (m[0] * comp[0] + m[1] * comp[1]
+          + m[2] * comp[2] + m[3]);
     }
-    if (x0 + 1 >= p.width || y0 + 1 >= p.height)
-      return false;
-    const guint8 *row0 = p.data + y0 * p.stride + x0 * p.pstride;
-    const guint8 *row1 = row0 + p.stride;
-    comp[c] = (1 - fy) * (row0[0] + fx * (row0[p.pstride] - row0[0]))
-        + fy * (row1[0] + fx * (row1[p.pstride] - row1[0]));
-  }
-  for (int c = 0; c < 3; c++) {
-    const double *m = st.to_srgb[c];
-    rgb[c] = gst_ipm_range_decode (m[0] * comp[0] + m[1] * comp[1]
-        + m[2] * comp[2] + m[3]);
   }
   return true;
 }
-
 
 /* How well the blob's ellipse agrees with the image a marker m has at the
  * floor position e placed it (docs/detection.md): 0..1, or -1 when it
@@ -671,14 +657,9 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (maybe_ball && obs.has_ellipse && st.mapped
       && (gint) fw == GST_VIDEO_FRAME_WIDTH (&st.frame)
       && (gint) fh == GST_VIDEO_FRAME_HEIGHT (&st.frame))
-    landmark::measure_end_offsets_by_line (&obs, landmark::ball_axis_angle
-        (st.geometry, obs), [&st](double u, double v, double du, double dv,
-            int n, double *rgb) {
-          for (int i = 0; i < n; i++)
-            if (!gst_ipm_range_light_at (st, u + i * du, v + i * dv,
-                    rgb + 3 * i))
-              return false;
-          return true;
+    landmark::measure_end_offsets_by_row (&obs, landmark::ball_axis_angle
+        (st.geometry, obs), [&st](int x, int y, int n, double *rgb) {
+          return gst_ipm_range_row_light (st, x, y, n, rgb);
         });
 
   landmark::MountingSigma mounting;

@@ -681,6 +681,72 @@ test_shaded_ball ()
         "(the blob's %g)", e1, e0);
     CHECK (after.size_excess == 0, "no excess for a whole ball: %g",
         after.size_excess);
+    if (&p != &pos[1])
+      continue;
+    /* the ends' sigmas against their scatter over frames of independent
+     * noise per pixel and component (the analytic frame's light at pixel
+     * centres, the noise bilinear between them), and through the range:
+     * with no pixel term the range's sigma is the ends' alone. Pure noise
+     * also makes the light about each crossing uneven, which the sigma
+     * takes for an edge's shape: about 1.6x the scatter */
+    int left = 1 << 20, up = 1 << 20;
+    for (const cv::Point2f & q : exact) {
+      left = std::min (left, (int) q.x - 8);
+      up = std::min (up, (int) q.y - 8);
+    }
+    const int gw = (int) (2 * ea) + 24, gh = (int) (2 * ea) + 24;
+    std::vector<double> grain (3 * gw * gh);
+    std::mt19937 rng (11);
+    std::normal_distribution<double> normal (0, 0.02);
+    auto noisy = [&](double u, double v, double rgb[3]) {
+      light (u, v, rgb);
+      const double x = u - left, y = v - up;
+      const int i = (int) x, j = (int) y;
+      const double fx = x - i, fy = y - j;
+      for (int k = 0; k < 3; k++) {
+        auto at = [&](int di, int dj) {
+          return grain[3 * ((j + dj) * gw + i + di) + k];
+        };
+        rgb[k] += (1 - fy) * ((1 - fx) * at (0, 0) + fx * at (1, 0))
+            + fy * ((1 - fx) * at (0, 1) + fx * at (1, 1));
+      }
+      return x >= 0 && y >= 0 && i + 1 < gw && j + 1 < gh;
+    };
+    const int trials = 60;
+    double sum[4] = {0, 0, 0, 0}, sum2[4] = {0, 0, 0, 0}, sigma2 = 0;
+    double r_sum = 0, r_sum2 = 0, r_sigma2 = 0;
+    for (int t = 0; t < trials; t++) {
+      for (double & x : grain)
+        x = normal (rng);
+      BlobObservation b = blob_of (moved_outline (exact,
+              [](double, double nv) { return -0.3 * (1 + nv); }));
+      measure_end_offsets (&b, ball_axis_angle (g, b), noisy);
+      CHECK (b.has_ends, "ends with noise, trial %d", t);
+      for (int k = 0; k < 4; k++) {
+        sum[k] += b.end_offset[k];
+        sum2[k] += b.end_offset[k] * b.end_offset[k];
+        sigma2 += b.end_sigma[k] * b.end_sigma[k] / 4;
+      }
+      const RangeEstimate r = estimate_range (g, b, spec, 1e-9);
+      r_sum += r.range_ground;
+      r_sum2 += r.range_ground * r.range_ground;
+      r_sigma2 += r.range_ground_sigma * r.range_ground_sigma;
+    }
+    double scatter2 = 0;
+    for (int k = 0; k < 4; k++)
+      scatter2 += (sum2[k] / trials - std::pow (sum[k] / trials, 2)) / 4;
+    const double scatter = std::sqrt (scatter2);
+    const double said = std::sqrt (sigma2 / trials);
+    const double r_scatter = std::sqrt (r_sum2 / trials - std::pow (r_sum /
+            trials, 2));
+    const double r_said = std::sqrt (r_sigma2 / trials);
+    std::printf ("shaded ball at %.3f m with noise: ends scatter %.4f px, "
+        "sigma %.4f px; range scatter %.4f mm, sigma %.4f mm\n", want,
+        scatter, said, 1e3 * r_scatter, 1e3 * r_said);
+    CHECK (said > 0.9 * scatter && said < 2.5 * scatter, "ends' sigma %g "
+        "for a scatter of %g px", said, scatter);
+    CHECK (r_said > 0.9 * r_scatter && r_said < 2.5 * r_scatter, "range "
+        "sigma %g for a scatter of %g", r_said, r_scatter);
   }
   /* no contrast, or the ends off the frame: the blob's ellipse stays */
   BlobObservation flat = blob_of (ball_outline (g, 1.0, 0.3, br));

@@ -50,9 +50,10 @@ fit_circle (const std::vector<double> & xy, double *cx, double *cy,
 
 bool
 outline_offset (const double *linear, int n, double inside, double step,
-    int plateau, double *offset)
+    int plateau, double *offset, double *sigma)
 {
-  if (plateau < 2 || n < 2 * plateau + 2 || !(step > 0))
+  constexpr int most = 128;
+  if (plateau < 2 || n < 2 * plateau + 2 || n > most || !(step > 0))
     return false;
   /* the marker's and the background's light as lines fitted to each end's
    * samples, so that a gradient (the shading across a ball) is carried to
@@ -80,7 +81,10 @@ outline_offset (const double *linear, int n, double inside, double step,
   /* the share of the marker's light in each sample, along the contrast
    * there; a crossing of one half between two samples is an outline */
   bool found = false;
-  double before = 0;
+  double before = 0, slope = 0;
+  /* for the sigma: the share's scatter about the fitted lines at both ends
+   * (1 inside, 0 outside), and the shares */
+  double scatter = 0, share[most];
   for (int i = 0; i < n; i++) {
     const double si = inside + step * i;
     double d[3], dd = 0, num = 0;
@@ -94,13 +98,41 @@ outline_offset (const double *linear, int n, double inside, double step,
     if (!(dd > 1e-3))
       return false;
     const double f = num / dd;
+    if (i < plateau)
+      scatter += (f - 1) * (f - 1);
+    else if (i >= n - plateau)
+      scatter += f * f;
+    share[i] = f;
     if (i > 0 && (before >= 0.5) != (f >= 0.5)) {
       const double s = inside + step * (i - 1 + (before - 0.5) / (before - f));
-      if (!found || std::fabs (s) < std::fabs (*offset))
+      if (!found || std::fabs (s) < std::fabs (*offset)) {
         *offset = s;
+        slope = std::fabs (before - f) / step;
+      }
       found = true;
     }
     before = f;
+  }
+  if (found && sigma) {
+    /* a level crossing moves by the noise over the gradient; an edge
+     * whose light is not symmetric about its half-way point (shading
+     * that curves near the limb, another edge close by) has the half-way
+     * crossing off the middle of its area, within a window about it, by
+     * about its own error: that window's area less its half-width */
+    const double noise = std::sqrt (scatter / (2 * plateau - 4));
+    auto at = [&](double s) {
+      const double x = std::min ((double) n - 1, std::max (0.0,
+              (s - inside) / step));
+      const int i = std::min (n - 2, (int) x);
+      return share[i] + (x - i) * (share[i + 1] - share[i]);
+    };
+    constexpr double window = 1.5;
+    const int parts = (int) std::ceil (2 * window / step);
+    double area = (at (*offset - window) + at (*offset + window)) / 2;
+    for (int j = 1; j < parts; j++)
+      area += at (*offset - window + 2 * window * j / parts);
+    const double skew = area * 2 * window / parts - window;
+    *sigma = std::hypot (noise / slope, skew);
   }
   return found;
 }
@@ -137,18 +169,37 @@ void
 measure_end_offsets (BlobObservation * blob, double angle,
     const std::function<bool (double, double, double[3])> & light)
 {
-  measure_end_offsets_by_line (blob, angle, [&](double u, double v,
-          double du, double dv, int n, double *rgb) {
+  measure_end_offsets_by_row (blob, angle, [&](int x, int y, int n,
+          double *rgb) {
         for (int i = 0; i < n; i++)
-          if (!light (u + i * du, v + i * dv, rgb + 3 * i))
+          if (!light (x + i, y, rgb + 3 * i))
             return false;
         return true;
       });
 }
 
+namespace {
+
+/* Where lo <= slope * x + at <= hi, into [*x0, *x1]; false if nowhere. */
+bool
+clip_to_band (double slope, double at, double lo, double hi, double *x0,
+    double *x1)
+{
+  if (std::fabs (slope) < 1e-12)
+    return at >= lo && at <= hi;
+  double a = (lo - at) / slope, b = (hi - at) / slope;
+  if (a > b)
+    std::swap (a, b);
+  *x0 = std::max (*x0, a);
+  *x1 = std::min (*x1, b);
+  return *x0 <= *x1;
+}
+
+}  // namespace
+
 void
-measure_end_offsets_by_line (BlobObservation * blob, double angle,
-    const LineLight & line)
+measure_end_offsets_by_row (BlobObservation * blob, double angle,
+    const RowLight & row)
 {
   const double a = blob->major / 2, b = blob->minor / 2;
   constexpr double reach = 4, step = 0.25;
@@ -158,38 +209,92 @@ measure_end_offsets_by_line (BlobObservation * blob, double angle,
   if (!blob->has_ellipse || !(b >= 2 * reach) || !(a >= b))
     return;
   constexpr int n = (int) (2 * reach / step) + 1, plateau = 8;
-  double profile[3 * n], sampled[3 * n];
-  double found[4];
+  /* a row crosses the band over at most its diagonal */
+  constexpr int widest = 32;
+  double profile[3 * n], weight[n], light[3 * widest];
+  double found[4], sigma[4];
   /* along the axis both ways, then across it both ways */
   for (int end = 0; end < 4; end++) {
     const double phi = angle + (end < 2 ? end * M_PI : (end - 1.5) * M_PI);
     const double r = ellipse_radius (a, b, blob->angle, phi);
     const double w = ellipse_radius (a, b, blob->angle, phi + M_PI / 2);
-    const int lines = std::min (2, (int) (w / 5));
+    /* the band: up to 2.5 px either side of the line through the centre,
+     * each pixel binned by its distance across the outline, the outline
+     * a pixel off the line being nearer the centre */
+    const double half = std::min (2, (int) (w / 5)) + 0.5;
     const double ca = std::cos (phi), sa = std::sin (phi);
+    const double t0 = r * std::sqrt (1 - half * half / (w * w)) - reach
+        - step, t1 = r + reach + step;
+    double vmin = 1e300, vmax = -1e300;
+    for (double t : {t0, t1})
+      for (double k : {-half, half}) {
+        vmin = std::min (vmin, blob->ev + t * sa + k * ca);
+        vmax = std::max (vmax, blob->ev + t * sa + k * ca);
+      }
     std::fill (profile, profile + 3 * n, 0.0);
-    bool inside = true;
-    for (int k = -lines; k <= lines && inside; k++) {
-      /* the outline a pixel across the line is nearer the centre */
-      const double along = r * std::sqrt (std::max (0.0, 1 - (double) (k * k)
-              / (w * w)));
-      const double t = along - reach;
-      inside = line (blob->eu + t * ca - k * sa, blob->ev + t * sa + k * ca,
-          step * ca, step * sa, n, sampled);
-      for (int i = 0; inside && i < 3 * n; i++)
-        profile[i] += sampled[i];
+    std::fill (weight, weight + n, 0.0);
+    for (int y = (int) std::ceil (vmin); y <= (int) std::floor (vmax); y++) {
+      const double dv = y - blob->ev;
+      /* the row's pixels inside the band: t0 <= t <= t1, |k| <= half */
+      double x0 = -1e300, x1 = 1e300;
+      if (!clip_to_band (ca, dv * sa, t0, t1, &x0, &x1)
+          || !clip_to_band (-sa, dv * ca, -half, half, &x0, &x1))
+        continue;
+      const int first = (int) std::ceil (x0 + blob->eu);
+      const int count = (int) std::floor (x1 + blob->eu) - first + 1;
+      if (count <= 0)
+        continue;
+      if (count > widest || !row (first, y, count, light))
+        return;
+      for (int i = 0; i < count; i++) {
+        const double du = first + i - blob->eu;
+        const double k = -du * sa + dv * ca;
+        const double s = du * ca + dv * sa - r * std::sqrt (std::max (0.0,
+                1 - k * k / (w * w)));
+        /* shared between the two nearest bins */
+        const double at = (s + reach) / step;
+        const int bin = (int) std::floor (at);
+        const double f = at - bin;
+        for (int j = bin; j <= bin + 1; j++) {
+          const double wt = j == bin ? 1 - f : f;
+          if (j < 0 || j >= n || !(wt > 0))
+            continue;
+          weight[j] += wt;
+          for (int c = 0; c < 3; c++)
+            profile[3 * j + c] += wt * light[3 * i + c];
+        }
+      }
     }
-    for (double & x : profile)
-      x /= 2 * lines + 1;
+    /* bins no pixel reached (an edge along the pixel grid puts its pixels
+     * a pixel apart): linear between their neighbours, as sampling would */
+    int last = -1;
+    for (int j = 0; j < n; j++) {
+      if (!(weight[j] > 0))
+        continue;
+      for (int c = 0; c < 3; c++) {
+        const double now = profile[3 * j + c] /= weight[j];
+        for (int e = last + 1; e < j; e++)
+          profile[3 * e + c] = last < 0 ? now : profile[3 * last + c] +
+              (now - profile[3 * last + c]) * (e - last) / (j - last);
+      }
+      last = j;
+    }
+    if (last < 0)
+      return;
+    for (int e = last + 1; e < n; e++)
+      for (int c = 0; c < 3; c++)
+        profile[3 * e + c] = profile[3 * last + c];
     /* beyond a couple of pixels it is another edge, not this outline */
-    if (!inside || !outline_offset (profile, n, -reach, step, plateau,
-            &found[end]) || !(std::fabs (found[end]) < 2))
+    if (!outline_offset (profile, n, -reach, step, plateau, &found[end],
+            &sigma[end]) || !(std::fabs (found[end]) < 2))
       return;
   }
   blob->has_ends = true;
   blob->end_angle = angle;
-  for (int end = 0; end < 4; end++)
+  for (int end = 0; end < 4; end++) {
     blob->end_offset[end] = found[end];
+    blob->end_sigma[end] = sigma[end];
+  }
 }
 
 double
@@ -328,7 +433,9 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     const double half = std::acos (cosang) / 2;
     if (m.diameter > 0 && half > 0) {
       size_distance = (m.diameter / 2) / std::sin (half);
-      size_rel_sigma = pixel_sigma / major;
+      /* with the frame's ends, their own errors too */
+      size_rel_sigma = (ends ? std::hypot (pixel_sigma, std::hypot
+              (blob.end_sigma[0], blob.end_sigma[1])) : pixel_sigma) / major;
     }
     centre_u = (uv[0] + uv[2]) / 2;
     centre_v = (uv[1] + uv[3]) / 2;
@@ -430,7 +537,20 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
    * range and bearing at the centre (central differences) */
   double cov[3];
   centre_covariance (blob, pixel_sigma, cov);
-  if (m.ball) {
+  if (m.ball && ends) {
+    /* the ends' own errors (outline_offset's sigmas): the centre along the
+     * axis is the mean of the two ends along it, across it of the two
+     * across; in place of the shading's share, which the frame's outline
+     * measures */
+    const double s_along = std::hypot (blob.end_sigma[0], blob.end_sigma[1])
+        / 2;
+    const double s_across = std::hypot (blob.end_sigma[2],
+        blob.end_sigma[3]) / 2;
+    const double al = s_along * s_along, ac = s_across * s_across;
+    cov[0] += (al * ea * ea + ac * eb * eb) * blob.sx * blob.sx;
+    cov[1] += (al - ac) * ea * eb * blob.sx * blob.sy;
+    cov[2] += (al * eb * eb + ac * ea * ea) * blob.sy * blob.sy;
+  } else if (m.ball) {
     const double shade = kBallShadeShare * (ellipse ? major :
         blob.equivalent_diameter);
     cov[0] += shade * shade * blob.sx * blob.sx;
@@ -490,7 +610,7 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
    * range gives (the major axis against the one the floor range predicts,
    * per side), but the shading takes it from the underside rather than all
    * round, so the centre may move down the image by as much */
-  if (m.ball && ellipse && out.has_size && out.range_ground > 0) {
+  if (m.ball && ellipse && !ends && out.has_size && out.range_ground > 0) {
     const double offset = major / 2 *
         (out.range_size / out.range_ground - 1) * blob.sy;
     out.rim_range = std::fabs (offset * range_v);

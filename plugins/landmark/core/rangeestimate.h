@@ -32,10 +32,12 @@ struct BlobObservation {
    * far it lies beyond the ellipse where the lines through the ellipse's
    * centre along end_angle (radians, +u towards +v) and across it meet
    * it: [0] along end_angle, [1] the other way, [2] at end_angle + pi/2,
-   * [3] at end_angle - pi/2; pixels. Not measured: has_ends false */
+   * [3] at end_angle - pi/2; pixels; end_sigma their one-sigma errors
+   * (outline_offset). Not measured: has_ends false */
   bool has_ends = false;
   double end_angle = 0;
   double end_offset[4] = {0, 0, 0, 0};
+  double end_sigma[4] = {0, 0, 0, 0};
 };
 
 /* What the detection is: a disc lying flat with its centre at height z
@@ -101,9 +103,13 @@ void centre_covariance (const BlobObservation & blob, double edge_sigma,
  * each sample) and the background's (the last's), whatever colour
  * threshold made the blob: a ball's shaded underside is no longer cut
  * short. The crossing nearest the blob's outline, in pixels outward; false
- * without contrast or a crossing. */
+ * without contrast or a crossing. `sigma` (optional): its one-sigma error,
+ * pixels: the scatter of the light about the two fitted lines over the
+ * gradient at the crossing (a level crossing's noise), with the distance
+ * from the crossing to where the profile's area puts a symmetric edge
+ * (what the half-way point cannot tell of an edge's shape). */
 bool outline_offset (const double *linear, int n, double inside,
-    double step, int plateau, double *offset);
+    double step, int plateau, double *offset, double *sigma = nullptr);
 
 /* The direction of a ball's image's major axis, radians (+u towards +v),
  * in the blob's pixels: the cone tangent to a sphere projects to an
@@ -120,22 +126,21 @@ double ball_axis_angle (const CameraGeometry & geometry,
  * the colour threshold that made the blob cuts the shaded underside
  * shorter than the lit top, which moves the centre up the image and the
  * range out (docs/ranging.md, "Uncertainty"). Per end, the light across
- * the outline, 4 px either side, averaged over lines a pixel apart, each
- * aligned on the ellipse's outline there. `light` gives the frame's linear
- * light at a point of the blob's frame (pixel centres at integers), false
+ * the outline, 4 px either side, from the pixels of a band 5 px wide
+ * across it, each read once and binned by its distance across the
+ * ellipse's outline (0.25 px bins). `light` gives the frame's linear
+ * light at a pixel of the blob's frame (centres at integers), false
  * outside it. Balls under 16 px across (the profile would reach past half
  * their radius) are left alone. */
 void measure_end_offsets (BlobObservation * blob, double angle,
     const std::function<bool (double u, double v, double rgb[3])> & light);
 
-/* The same, the light taken a line at a time (one call per line of
- * samples, which keeps the frame's reading in the caller's loop): n points
- * from (u, v), each (du, dv) from the last, into rgb (3 per point); false
- * when one is outside the frame. */
-using LineLight = std::function<bool (double u, double v, double du,
-        double dv, int n, double *rgb)>;
-void measure_end_offsets_by_line (BlobObservation * blob, double angle,
-    const LineLight & line);
+/* The same, the light taken a run of pixels at a time (which keeps the
+ * frame's reading in the caller's loop): n pixels of row y from column x,
+ * into rgb (3 per pixel); false when one is outside the frame. */
+using RowLight = std::function<bool (int x, int y, int n, double *rgb)>;
+void measure_end_offsets_by_row (BlobObservation * blob, double angle,
+    const RowLight & row);
 
 /* A ball's shaded underside is segmented alike frame after frame, so its
  * centre carries a bias that grows with its image, not noise that shrinks:

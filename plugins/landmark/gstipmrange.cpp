@@ -146,6 +146,11 @@ struct State {
   } planes[3];
   /* the format's components to sRGB, an affine map (before clipping) */
   double to_srgb[3][4];
+  /* where each of sRGB's components is one of the format's alone (the
+   * RGB formats): that component, and its linear light per byte value */
+  bool by_byte = false;
+  int byte_of[3];
+  double byte_light[3][256];
   std::vector<double> outline;            /* size test scratch */
   std::vector<GstVideoRegionOfInterestMeta *> rois;
   bool map_classes_checked = false;       /* against the first labels */
@@ -388,6 +393,8 @@ gst_ipm_range_affine_srgb (const landmark::InputModel & model,
     m[r][3] = at[r] - mid * (m[r][0] + m[r][1] + m[r][2]);
 }
 
+static void gst_ipm_range_byte_light (State & st);
+
 static gboolean
 gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
     GstCaps * outcaps)
@@ -415,6 +422,7 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
     case GST_VIDEO_FORMAT_YUY2:
       st.readable = landmark_frame_format (&info, &st.format);
       gst_ipm_range_affine_srgb (st.format.model, st.to_srgb);
+      gst_ipm_range_byte_light (st);
       break;
     default:
       /* any other format is ranged from the blobs' ellipses alone */
@@ -468,6 +476,28 @@ gst_ipm_range_read_planes (State & st)
       GST_VIDEO_FRAME_COMP_WIDTH (f, c), GST_VIDEO_FRAME_COMP_HEIGHT (f, c)};
 }
 
+/* st.byte_light where each sRGB component is one of the format's,
+ * scaled: a byte's light by one table look-up, not the affine map and the
+ * decoding per pixel. */
+static void
+gst_ipm_range_byte_light (State & st)
+{
+  st.by_byte = true;
+  for (int r = 0; r < 3 && st.by_byte; r++) {
+    int from = -1;
+    for (int k = 0; k < 3; k++)
+      if (st.to_srgb[r][k] != 0)
+        from = from < 0 ? k : 3;
+    st.by_byte = from >= 0 && from < 3;
+    if (!st.by_byte)
+      break;
+    st.byte_of[r] = from;
+    for (int v = 0; v < 256; v++)
+      st.byte_light[r][v] = gst_ipm_range_decode (st.to_srgb[r][from] * v
+          + st.to_srgb[r][3]);
+  }
+}
+
 /* The frame's linear light of n pixels of row y from column x: each
  * component from its plane (a subsampled one at the sample covering the
  * pixel), then sRGB decoded. False where one is outside. */
@@ -480,6 +510,16 @@ gst_ipm_range_row_light (const State & st, int x, int y, int n, double *rgb)
   const guint8 *row[3];
   for (int c = 0; c < 3; c++)
     row[c] = p[c].data + (y >> p[c].hsub) * p[c].stride;
+  if (st.by_byte) {
+    for (int c = 0; c < 3; c++) {
+      const State::Plane & q = p[st.byte_of[c]];
+      const guint8 *from = row[st.byte_of[c]];
+      for (int i = 0; i < n; i++)
+        rgb[3 * i + c] = st.byte_light[c][from[((x + i) >> q.wsub)
+                * q.pstride]];
+    }
+    return true;
+  }
   for (int i = 0; i < n; i++) {
     double comp[3];
     for (int c = 0; c < 3; c++)

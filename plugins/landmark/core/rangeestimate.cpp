@@ -4,6 +4,7 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace landmark {
@@ -324,13 +325,23 @@ centre_covariance (const BlobObservation & blob, double edge_sigma,
     const double a = std::max (blob.major, 1.0) / 2;
     const double b = std::max (blob.minor, 1.0) / 2;
     const double ca = std::cos (blob.angle), sa = std::sin (blob.angle);
-    const int n = 64;
+    constexpr int n = 64;
+    /* the points' cosines and sines once (per call they cost more than
+     * the sum) */
+    static const std::array<std::array<double, 2>, n> unit = [] {
+      std::array<std::array<double, 2>, n> u;
+      for (int i = 0; i < n; i++) {
+        const double t = 2 * M_PI * (i + 0.5) / n;
+        u[i] = {std::cos (t), std::sin (t)};
+      }
+      return u;
+    }();
     double ixx = 0, ixy = 0, iyy = 0;
     for (int i = 0; i < n; i++) {
-      const double t = 2 * M_PI * (i + 0.5) / n;
-      const double x = a * std::cos (t), y = b * std::sin (t);
-      const double dl = std::hypot (a * std::sin (t), b * std::cos (t))
-          * 2 * M_PI / n;
+      const double ct = unit[i][0], st = unit[i][1];
+      const double x = a * ct, y = b * st;
+      const double du = a * st, dv = b * ct;
+      const double dl = std::sqrt (du * du + dv * dv) * 2 * M_PI / n;
       const double pu = x * ca - y * sa, pv = x * sa + y * ca;
       ixx += pu * pu * dl;
       ixy += pu * pv * dl;

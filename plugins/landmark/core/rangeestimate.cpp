@@ -212,7 +212,7 @@ measure_end_offsets_by_row (BlobObservation * blob, double angle,
   constexpr int n = (int) (2 * reach / step) + 1, plateau = 8;
   /* a row crosses the band over at most its diagonal */
   constexpr int widest = 32;
-  double profile[3 * n], weight[n], light[3 * widest];
+  double profile[3 * n], weight[n], at[n], even[3 * n], light[3 * widest];
   double found[4], sigma[4];
   /* along the axis both ways, then across it both ways */
   for (int end = 0; end < 4; end++) {
@@ -234,6 +234,7 @@ measure_end_offsets_by_row (BlobObservation * blob, double angle,
       }
     std::fill (profile, profile + 3 * n, 0.0);
     std::fill (weight, weight + n, 0.0);
+    std::fill (at, at + n, 0.0);
     for (int y = (int) std::ceil (vmin); y <= (int) std::floor (vmax); y++) {
       const double dv = y - blob->ev;
       /* the row's pixels inside the band: t0 <= t <= t1, |k| <= half */
@@ -252,41 +253,42 @@ measure_end_offsets_by_row (BlobObservation * blob, double angle,
         const double k = -du * sa + dv * ca;
         const double s = du * ca + dv * sa - r * std::sqrt (std::max (0.0,
                 1 - k * k / (w * w)));
-        /* shared between the two nearest bins */
-        const double at = (s + reach) / step;
-        const int bin = (int) std::floor (at);
-        const double f = at - bin;
-        for (int j = bin; j <= bin + 1; j++) {
-          const double wt = j == bin ? 1 - f : f;
-          if (j < 0 || j >= n || !(wt > 0))
-            continue;
-          weight[j] += wt;
-          for (int c = 0; c < 3; c++)
-            profile[3 * j + c] += wt * light[3 * i + c];
-        }
+        /* the nearest bin, which keeps its pixels' mean distance too */
+        const int bin = (int) std::lround ((s + reach) / step);
+        if (bin < 0 || bin >= n)
+          continue;
+        weight[bin] += 1;
+        at[bin] += s;
+        for (int c = 0; c < 3; c++)
+          profile[3 * bin + c] += light[3 * i + c];
       }
     }
-    /* bins no pixel reached (an edge along the pixel grid puts its pixels
-     * a pixel apart): linear between their neighbours, as sampling would */
-    int last = -1;
+    /* the bins' means at their pixels' mean distance, the profile taken
+     * at even steps between them (a bin's pixels need not sit at its
+     * middle; an edge along the pixel grid leaves bins empty) */
+    int m = 0;
     for (int j = 0; j < n; j++) {
       if (!(weight[j] > 0))
         continue;
-      for (int c = 0; c < 3; c++) {
-        const double now = profile[3 * j + c] /= weight[j];
-        for (int e = last + 1; e < j; e++)
-          profile[3 * e + c] = last < 0 ? now : profile[3 * last + c] +
-              (now - profile[3 * last + c]) * (e - last) / (j - last);
-      }
-      last = j;
-    }
-    if (last < 0)
-      return;
-    for (int e = last + 1; e < n; e++)
+      at[m] = at[j] / weight[j];
       for (int c = 0; c < 3; c++)
-        profile[3 * e + c] = profile[3 * last + c];
+        profile[3 * m + c] = profile[3 * j + c] / weight[j];
+      m++;
+    }
+    if (m < 2)
+      return;
+    for (int e = 0, j = 0; e < n; e++) {
+      const double s = -reach + step * e;
+      while (j < m - 2 && at[j + 1] < s)
+        j++;
+      const double f = std::min (1.0, std::max (0.0, (s - at[j]) /
+              (at[j + 1] - at[j])));
+      for (int c = 0; c < 3; c++)
+        even[3 * e + c] = profile[3 * j + c] + f * (profile[3 * (j + 1) + c]
+            - profile[3 * j + c]);
+    }
     /* beyond a couple of pixels it is another edge, not this outline */
-    if (!outline_offset (profile, n, -reach, step, plateau, &found[end],
+    if (!outline_offset (even, n, -reach, step, plateau, &found[end],
             &sigma[end]) || !(std::fabs (found[end]) < 2))
       return;
   }

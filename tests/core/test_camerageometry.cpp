@@ -681,12 +681,26 @@ test_shaded_ball ()
         "(the blob's %g)", e1, e0);
     CHECK (after.size_excess == 0, "no excess for a whole ball: %g",
         after.size_excess);
+    /* an end run off into a blur or a neighbour puts the frame's outline
+     * at odds with its floor range: the blob's ellipse ranges it */
+    BlobObservation off = blob;
+    off.end_offset[0] += 1.5;
+    BlobObservation own = off;
+    own.has_ends = false;
+    const RangeEstimate r_off = estimate_range (g, off, spec, 0.5);
+    const RangeEstimate r_own = estimate_range (g, own, spec, 0.5);
+    CHECK (r_off.range_ground == r_own.range_ground
+        && r_off.range_ground_sigma == r_own.range_ground_sigma,
+        "an end 1.5 px off: range %g (sigma %g), the blob's %g (%g)",
+        r_off.range_ground, r_off.range_ground_sigma, r_own.range_ground,
+        r_own.range_ground_sigma);
     if (&p != &pos[1])
       continue;
     /* the ends' sigmas against their scatter over frames of independent
      * noise per pixel and component (the analytic frame's light at pixel
-     * centres, the noise bilinear between them), and through the range:
-     * with no pixel term the range's sigma is the ends' alone. Pure noise
+     * centres, the noise bilinear between them), and through the range
+     * (the range's sigma less the pixel term's, which this blob's whole
+     * outline does not move: the ends' part). Pure noise
      * also makes the light about each crossing uneven, which the sigma
      * takes for an edge's shape: about 1.6x the scatter */
     int left = 1 << 20, up = 1 << 20;
@@ -727,10 +741,16 @@ test_shaded_ball ()
         sum2[k] += b.end_offset[k] * b.end_offset[k];
         sigma2 += b.end_sigma[k] * b.end_sigma[k] / 4;
       }
-      const RangeEstimate r = estimate_range (g, b, spec, 1e-9);
+      /* the ends' part of the range's sigma: less the same ends' without
+       * their sigmas (the pixel term's alone) */
+      const RangeEstimate r = estimate_range (g, b, spec, 0.5);
+      BlobObservation exact_ends = b;
+      std::fill (exact_ends.end_sigma, exact_ends.end_sigma + 4, 0.0);
+      const RangeEstimate r0 = estimate_range (g, exact_ends, spec, 0.5);
       r_sum += r.range_ground;
       r_sum2 += r.range_ground * r.range_ground;
-      r_sigma2 += r.range_ground_sigma * r.range_ground_sigma;
+      r_sigma2 += r.range_ground_sigma * r.range_ground_sigma
+          - r0.range_ground_sigma * r0.range_ground_sigma;
     }
     double scatter2 = 0;
     for (int k = 0; k < 4; k++)

@@ -629,14 +629,18 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     out.rim_range = std::fabs (offset * range_v);
     out.rim_bearing = std::fabs (offset * bearing_v);
   }
-  /* a blob cut or merged shows in its own ellipse as much as in the
-   * frame's outline, which may agree with a wrong centre (the outline
-   * found ends where the blob ended): the larger excess of the two */
+  /* a blob cut or merged shows in its own ellipse, or in the frame's
+   * outline (which may agree with a wrong centre where the outline found
+   * ends where the blob ended, or run off into a blur or a neighbour):
+   * then the frame's ends are no better than the blob's, and the blob's
+   * ellipse ranges it, with its excess */
   if (m.ball && ends) {
     BlobObservation own = blob;
     own.has_ends = false;
-    out.size_excess = std::max (out.size_excess, estimate_range (g, own, m,
-            pixel_sigma, mounting).size_excess);
+    const RangeEstimate by_blob = estimate_range (g, own, m, pixel_sigma,
+        mounting);
+    if (out.size_excess > 0 || by_blob.size_excess > 0)
+      return by_blob;
   }
   /* a disagreement beyond the bound is a cut or merged blob, not a rim:
    * size_excess stands for it */

@@ -75,8 +75,9 @@ struct RangeEstimate {
    * offset the known diameter gives: a disc's all round, through the shift
    * of the plane circle's centre it makes; a ball's from its shaded
    * underside, the centre moved down the image by as much. Metres and
-   * radians (docs/ranging.md, "Uncertainty"); 0 without a diameter and
-   * when size_excess stands for a cut or merged blob */
+   * radians (docs/ranging.md, "Uncertainty"); 0 without a diameter, when
+   * size_excess stands for a cut or merged blob, and for a ball whose
+   * outline came from the frame (its ends' sigmas stand in its place) */
   double rim_range = 0, rim_bearing = 0;
   /* the sigmas with size_excess, the kind spreads and the rim added (to
    * the range, and over the range to the bearing): what ipmrange reports */
@@ -105,9 +106,10 @@ void centre_covariance (const BlobObservation & blob, double edge_sigma,
  * short. The crossing nearest the blob's outline, in pixels outward; false
  * without contrast or a crossing. `sigma` (optional): its one-sigma error,
  * pixels: the scatter of the light about the two fitted lines over the
- * gradient at the crossing (a level crossing's noise), with the distance
- * from the crossing to where the profile's area puts a symmetric edge
- * (what the half-way point cannot tell of an edge's shape). */
+ * gradient at the crossing (a level crossing's noise), with the edge's
+ * asymmetry about the crossing (the profile's area over 1.5 px either
+ * side of it less 1.5 px: what the half-way point cannot tell of an
+ * edge's shape); n at most 128. */
 bool outline_offset (const double *linear, int n, double inside,
     double step, int plateau, double *offset, double *sigma = nullptr);
 
@@ -127,8 +129,10 @@ double ball_axis_angle (const CameraGeometry & geometry,
  * shorter than the lit top, which moves the centre up the image and the
  * range out (docs/ranging.md, "Uncertainty"). Per end, the light across
  * the outline, 4 px either side, from the pixels of a band 5 px wide
- * across it, each read once and binned by its distance across the
- * ellipse's outline (0.25 px bins). `light` gives the frame's linear
+ * across it (3 px under 20 px of width), each read once and put in the
+ * 0.25 px bin of its distance across the ellipse's outline, the bins'
+ * means at their pixels' mean distance taken at even steps; with each
+ * end's sigma (end_sigma). `light` gives the frame's linear
  * light at a pixel of the blob's frame (centres at integers), false
  * outside it. Balls under 16 px across (the profile would reach past half
  * their radius) are left alone. */
@@ -152,7 +156,9 @@ constexpr double kBallShadeShare = 0.00064;
  * to the marker's plane, its centre by a circle fit; size range from the
  * fitted circle's radius against the known diameter (the plane's distance
  * scaled). Balls: the axis of the cone tangent to the ball bisects the rays
- * of the ellipse's major-axis ends; its half angle gives the distance.
+ * of the ellipse's major-axis ends (the frame's, blob.has_ends, with their
+ * sigmas in place of the shading share and the rim; the blob's ellipse
+ * when either gives a size_excess); its half angle gives the distance.
  * Without an ellipse, the centroid's ray. pixel_sigma: one-sigma error of
  * a point of the blob's outline, pixels (centre_covariance; the axis
  * lengths for the size range); propagated to range and bearing through the

@@ -85,13 +85,16 @@
 #include <gst/video/video.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
 
 #include "cameraprops.h"
+#include "colourdrift.h"
 #include "elementsettings.h"
 #include "fileutil.h"
+#include "frameformat.h"
 #include "camerasetup.h"
 #include "landmarkmeta.h"
 #include "markerclasses.h"
@@ -129,6 +132,25 @@ struct State {
   landmark::CameraGeometry geometry;
   gint geometry_w = 0, geometry_h = 0;    /* what geometry was built for */
   gint caps_w = 0, caps_h = 0;            /* from the caps, 0: unknown */
+  /* the frame's pixels, for a ball's outline (measure_end_offsets):
+   * readable when the caps are of a format the plugin reads */
+  GstVideoInfo info;
+  LandmarkFrameFormat format;
+  bool readable = false;
+  GstVideoFrame frame;
+  bool mapped = false;
+  /* the mapped frame's component planes, read once per frame */
+  struct Plane {
+    const guint8 *data;
+    int stride, pstride, wsub, hsub, width, height;
+  } planes[3];
+  /* the format's components to sRGB, an affine map (before clipping) */
+  double to_srgb[3][4];
+  /* where each of sRGB's components is one of the format's alone (the
+   * RGB formats): that component, and its linear light per byte value */
+  bool by_byte = false;
+  int byte_of[3];
+  double byte_light[3][256];
   std::vector<double> outline;            /* size test scratch */
   std::vector<GstVideoRegionOfInterestMeta *> rois;
   bool map_classes_checked = false;       /* against the first labels */
@@ -346,8 +368,32 @@ gst_ipm_range_stop (GstBaseTransform * trans)
 {
   State & st = GST_IPM_RANGE (trans)->priv->state;
   st.geometry_w = st.geometry_h = 0;
+  st.readable = false;
   return TRUE;
 }
+
+/* The model's components to sRGB as m[row] = (3 coefficients, offset):
+ * the conversion is affine until it clips, so its differences at mid-grey
+ * (unclipped in every model) give it exactly */
+static void
+gst_ipm_range_affine_srgb (const landmark::InputModel & model,
+    double m[3][4])
+{
+  const double mid = 128;
+  double at[3];
+  model.to_srgb (mid, mid, mid, at);
+  for (int k = 0; k < 3; k++) {
+    double c[3] = {mid, mid, mid}, step[3];
+    c[k] += 1;
+    model.to_srgb (c[0], c[1], c[2], step);
+    for (int r = 0; r < 3; r++)
+      m[r][k] = step[r] - at[r];
+  }
+  for (int r = 0; r < 3; r++)
+    m[r][3] = at[r] - mid * (m[r][0] + m[r][1] + m[r][2]);
+}
+
+static void gst_ipm_range_byte_light (State & st);
 
 static gboolean
 gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
@@ -361,10 +407,27 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
   if (!gst_video_info_from_caps (&info, incaps)) {
     /* no frame size: built from the detections' frame size instead */
     st.caps_w = st.caps_h = 0;
+    st.readable = false;
     return TRUE;
   }
   st.caps_w = GST_VIDEO_INFO_WIDTH (&info);
   st.caps_h = GST_VIDEO_INFO_HEIGHT (&info);
+  st.info = info;
+  switch (GST_VIDEO_INFO_FORMAT (&info)) {
+    case GST_VIDEO_FORMAT_RGB: case GST_VIDEO_FORMAT_BGR:
+    case GST_VIDEO_FORMAT_RGBx: case GST_VIDEO_FORMAT_BGRx:
+    case GST_VIDEO_FORMAT_xRGB: case GST_VIDEO_FORMAT_xBGR:
+    case GST_VIDEO_FORMAT_RGBA: case GST_VIDEO_FORMAT_BGRA:
+    case GST_VIDEO_FORMAT_I420: case GST_VIDEO_FORMAT_NV12:
+    case GST_VIDEO_FORMAT_YUY2:
+      st.readable = landmark_frame_format (&info, &st.format);
+      gst_ipm_range_affine_srgb (st.format.model, st.to_srgb);
+      gst_ipm_range_byte_light (st);
+      break;
+    default:
+      /* any other format is ranged from the blobs' ellipses alone */
+      st.readable = false;
+  }
   if (st.caps_w < 2 || st.caps_h < 2) {
     /* no camera geometry for a single row or column (the seed model
      * divides by width - 1): pass such frames unmeasured rather than
@@ -378,6 +441,97 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 }
 
 /* ---- streaming ------------------------------------------------------ */
+
+/* sRGB in [0, 1] to linear light, as a table interpolated linearly
+ * (within 4e-7 of the formula; std::pow per sample was most of a ball's
+ * outline's cost) */
+static constexpr int kDecodeSteps = 1024;
+
+static double
+gst_ipm_range_decode (double e)
+{
+  static const std::array<double, kDecodeSteps + 2> table = [] {
+    std::array<double, kDecodeSteps + 2> t;
+    for (int i = 0; i <= kDecodeSteps; i++)
+      t[i] = landmark::srgb_to_linear ((double) i / kDecodeSteps);
+    t[kDecodeSteps + 1] = t[kDecodeSteps];
+    return t;
+  }();
+  const double x = std::min (1.0, std::max (0.0, e)) * kDecodeSteps;
+  const int i = (int) x;
+  return table[i] + (x - i) * (table[i + 1] - table[i]);
+}
+
+/* The mapped frame's planes into st.planes. */
+static void
+gst_ipm_range_read_planes (State & st)
+{
+  const GstVideoFrame *f = &st.frame;
+  const GstVideoFormatInfo *finfo = f->info.finfo;
+  for (int c = 0; c < 3; c++)
+    st.planes[c] = {(const guint8 *) GST_VIDEO_FRAME_COMP_DATA (f, c),
+      GST_VIDEO_FRAME_COMP_STRIDE (f, c), GST_VIDEO_FRAME_COMP_PSTRIDE (f, c),
+      (int) GST_VIDEO_FORMAT_INFO_W_SUB (finfo, c),
+      (int) GST_VIDEO_FORMAT_INFO_H_SUB (finfo, c),
+      GST_VIDEO_FRAME_COMP_WIDTH (f, c), GST_VIDEO_FRAME_COMP_HEIGHT (f, c)};
+}
+
+/* st.byte_light where each sRGB component is one of the format's,
+ * scaled: a byte's light by one table look-up, not the affine map and the
+ * decoding per pixel. */
+static void
+gst_ipm_range_byte_light (State & st)
+{
+  st.by_byte = true;
+  for (int r = 0; r < 3 && st.by_byte; r++) {
+    int from = -1;
+    for (int k = 0; k < 3; k++)
+      if (st.to_srgb[r][k] != 0)
+        from = from < 0 ? k : 3;
+    st.by_byte = from >= 0 && from < 3;
+    if (!st.by_byte)
+      break;
+    st.byte_of[r] = from;
+    for (int v = 0; v < 256; v++)
+      st.byte_light[r][v] = gst_ipm_range_decode (st.to_srgb[r][from] * v
+          + st.to_srgb[r][3]);
+  }
+}
+
+/* The frame's linear light of n pixels of row y from column x: each
+ * component from its plane (a subsampled one at the sample covering the
+ * pixel), then sRGB decoded. False where one is outside. */
+static bool
+gst_ipm_range_row_light (const State & st, int x, int y, int n, double *rgb)
+{
+  const State::Plane *p = st.planes;
+  if (x < 0 || y < 0 || x + n > p[0].width || y >= p[0].height)
+    return false;
+  const guint8 *row[3];
+  for (int c = 0; c < 3; c++)
+    row[c] = p[c].data + (y >> p[c].hsub) * p[c].stride;
+  if (st.by_byte) {
+    for (int c = 0; c < 3; c++) {
+      const State::Plane & q = p[st.byte_of[c]];
+      const guint8 *from = row[st.byte_of[c]];
+      for (int i = 0; i < n; i++)
+        rgb[3 * i + c] = st.byte_light[c][from[((x + i) >> q.wsub)
+                * q.pstride]];
+    }
+    return true;
+  }
+  for (int i = 0; i < n; i++) {
+    double comp[3];
+    for (int c = 0; c < 3; c++)
+      comp[c] = row[c][((x + i) >> p[c].wsub) * p[c].pstride];
+    for (int c = 0; c < 3; c++) {
+      const double *m = st.to_srgb[c];
+      rgb[3 * i + c] = gst_ipm_range_decode (m[0] * comp[0] + m[1] * comp[1]
+          + m[2] * comp[2] + m[3]);
+    }
+  }
+  return true;
+}
 
 /* How well the blob's ellipse agrees with the image a marker m has at the
  * floor position e placed it (docs/detection.md): 0..1, or -1 when it
@@ -534,6 +688,20 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (marker.z >= cfg.camera.e.camera_height)
     marker.z = 0;   /* cannot range it; treat as on the floor */
 
+  /* a ball's outline from the frame's pixels, where they are those the
+   * blob was measured on */
+  bool maybe_ball = marker.ball;
+  if (hypotheses)
+    for (const landmark::MarkerSpec & h : *hypotheses)
+      maybe_ball = maybe_ball || h.ball;
+  if (maybe_ball && obs.has_ellipse && st.mapped
+      && (gint) fw == GST_VIDEO_FRAME_WIDTH (&st.frame)
+      && (gint) fh == GST_VIDEO_FRAME_HEIGHT (&st.frame))
+    landmark::measure_end_offsets_by_row (&obs, landmark::ball_axis_angle
+        (st.geometry, obs), [&st](int x, int y, int n, double *rgb) {
+          return gst_ipm_range_row_light (st, x, y, n, rgb);
+        });
+
   landmark::MountingSigma mounting;
   mounting.height_rel = cfg.s.height_sigma;
   mounting.tilt = cfg.s.tilt_sigma * M_PI / 180;
@@ -686,6 +854,21 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   return landmark::run_frame (GST_ELEMENT (self), "Ranging failed.", [&] {
         /* collect first: adding parameters adds metas to the buffer */
         landmark_detections_collect (buf, &st.rois);
+        /* no reference taken: the buffer must stay writable for the
+         * parameters added to its metas */
+        st.mapped = !st.rois.empty () && st.readable
+            && gst_video_frame_map (&st.frame, &st.info, buf, (GstMapFlags)
+            (GST_MAP_READ | GST_VIDEO_FRAME_MAP_FLAG_NO_REF));
+        if (st.mapped)
+          gst_ipm_range_read_planes (st);
+        struct Unmap {
+          State & st;
+          ~Unmap () {
+            if (st.mapped)
+              gst_video_frame_unmap (&st.frame);
+            st.mapped = false;
+          }
+        } unmap {st};
         for (GstVideoRegionOfInterestMeta * roi : st.rois)
           gst_ipm_range_measure (self, buf, roi);
         return GST_FLOW_OK;

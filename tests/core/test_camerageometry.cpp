@@ -511,6 +511,36 @@ moved_outline (const std::vector<cv::Point2f> & in, F offset)
   return out;
 }
 
+/* The outline of a ball of radius br resting on the floor at (bx, by): the
+ * tangent cone's, the circle of tangent points projected. */
+static std::vector<cv::Point2f>
+ball_outline (const CameraGeometry & g, double bx, double by, double br)
+{
+  const Vec3 c = g.centre ();
+  const Vec3 a {bx - c.x, by - c.y, br - c.z};
+  const double len = std::sqrt (a.x * a.x + a.y * a.y + a.z * a.z);
+  const Vec3 k {a.x / len, a.y / len, a.z / len};
+  /* two unit vectors across the axis */
+  Vec3 e1 {-k.y, k.x, 0};
+  const double n1 = std::hypot (e1.x, e1.y);
+  e1 = Vec3 {e1.x / n1, e1.y / n1, 0};
+  const Vec3 e2 {k.y * e1.z - k.z * e1.y, k.z * e1.x - k.x * e1.z,
+    k.x * e1.y - k.y * e1.x};
+  const double back = br * br / len, across = br * std::sqrt (len * len -
+      br * br) / len;
+  std::vector<cv::Point2f> ball;
+  for (int i = 0; i < 720; i++) {
+    const double t = 2 * M_PI * i / 720;
+    const double s1 = across * std::cos (t), s2 = across * std::sin (t);
+    double u, v;
+    g.project (Vec3 {bx - back * k.x + s1 * e1.x + s2 * e2.x,
+            by - back * k.y + s1 * e1.y + s2 * e2.y,
+            br - back * k.z + s1 * e1.z + s2 * e2.z}, &u, &v);
+    ball.emplace_back ((float) u, (float) v);
+  }
+  return ball;
+}
+
 /* The rim (docs/ranging.md, "Uncertainty"): the seed camera (0.2 m, tilt
  * 18, hfov 54). A near disc whose outline is eroded by 0.3 px all round,
  * as blur and a colour threshold do, comes out short by a shift of its
@@ -557,31 +587,9 @@ test_rim ()
           std::hypot (eroded.range_ground_sigma, eroded.rim_range)) <
       1e-12, "reported range sigma with the rim");
 
-  /* a ball of 0.08 m resting on the floor 0.7 m ahead: its outline is the
-   * tangent cone's, the circle of tangent points projected */
+  /* a ball of 0.08 m resting on the floor 0.7 m ahead */
   const double bx = 0.7, by = -0.1, br = 0.04;
-  const Vec3 c = g.centre ();
-  const Vec3 a {bx - c.x, by - c.y, br - c.z};
-  const double len = std::sqrt (a.x * a.x + a.y * a.y + a.z * a.z);
-  const Vec3 k {a.x / len, a.y / len, a.z / len};
-  /* two unit vectors across the axis */
-  Vec3 e1 {-k.y, k.x, 0};
-  const double n1 = std::hypot (e1.x, e1.y);
-  e1 = Vec3 {e1.x / n1, e1.y / n1, 0};
-  const Vec3 e2 {k.y * e1.z - k.z * e1.y, k.z * e1.x - k.x * e1.z,
-    k.x * e1.y - k.y * e1.x};
-  const double back = br * br / len, across = br * std::sqrt (len * len -
-      br * br) / len;
-  std::vector<cv::Point2f> ball;
-  for (int i = 0; i < 720; i++) {
-    const double t = 2 * M_PI * i / 720;
-    const double s1 = across * std::cos (t), s2 = across * std::sin (t);
-    double u, v;
-    g.project (Vec3 {bx - back * k.x + s1 * e1.x + s2 * e2.x,
-            by - back * k.y + s1 * e1.y + s2 * e2.y,
-            br - back * k.z + s1 * e1.z + s2 * e2.z}, &u, &v);
-    ball.emplace_back ((float) u, (float) v);
-  }
+  const std::vector<cv::Point2f> ball = ball_outline (g, bx, by, br);
   MarkerSpec bspec;
   bspec.ball = true;
   bspec.z = br;
@@ -608,6 +616,173 @@ test_rim ()
       shaded.rim_range, e_ball, shaded.size_excess);
 }
 
+/* A shaded ball's outline from the frame (measure_end_offsets): the frame
+ * drawn analytically (the exact outline blurred over a pixel, the ball's
+ * light falling from top to bottom as Lambert shading makes it, a grey
+ * floor), and the blob a colour threshold made of it, which lost 0.6 px at
+ * the dark bottom, 0.3 px on the sides and none at the top: its centre is
+ * up the image and the range long. The outline found where the light is
+ * half-way between ball and floor takes that back. Near, far, off to the
+ * side; the geometry itself is exact (test_rim's ball). */
+static void
+test_shaded_ball ()
+{
+  const CameraGeometry g = seed_camera (18);
+  const double br = 0.0678;
+  const double pos[][2] = { {0.6, 0.05}, {1.0, 0.3}, {1.5, -0.35} };
+  for (const auto & p : pos) {
+    const std::vector<cv::Point2f> exact = ball_outline (g, p[0], p[1], br);
+    const cv::RotatedRect e = cv::fitEllipse (exact);
+    const double ea = e.size.width / 2, eb = e.size.height / 2;
+    const double ec = std::cos (e.angle * M_PI / 180), es = std::sin
+        (e.angle * M_PI / 180);
+    double top = 1e9, bottom = -1e9;
+    for (const cv::Point2f & q : exact) {
+      top = std::min (top, (double) q.y);
+      bottom = std::max (bottom, (double) q.y);
+    }
+    /* the frame: coverage a 1-px ramp across the outline (the signed
+     * distance to the ellipse, to first order), the ball's light from 0.9
+     * at its top to 0.3 at its bottom */
+    auto light = [&](double u, double v, double rgb[3]) {
+      const double x = (u - e.center.x) * ec + (v - e.center.y) * es;
+      const double y = -(u - e.center.x) * es + (v - e.center.y) * ec;
+      const double rho = std::hypot (x / ea, y / eb);
+      const double grad = std::hypot (x / (ea * ea), y / (eb * eb)) /
+          std::max (rho, 1e-9);
+      const double cover = std::min (1.0, std::max (0.0, 0.5 + (1 - rho) /
+              grad));
+      const double lit = 0.9 - 0.6 * std::min (1.0, std::max (0.0,
+              (v - top) / (bottom - top)));
+      const double ball[3] = {0.2 * lit, 0.8 * lit, 0.25 * lit};
+      for (int k = 0; k < 3; k++)
+        rgb[k] = cover * ball[k] + (1 - cover) * 0.3;
+      return true;
+    };
+    BlobObservation blob = blob_of (moved_outline (exact,
+            [](double, double nv) { return -0.3 * (1 + nv); }));
+    MarkerSpec spec;
+    spec.ball = true;
+    spec.z = br;
+    spec.diameter = 2 * br;
+    const double want = std::hypot (p[0], p[1]);
+    const RangeEstimate before = estimate_range (g, blob, spec, 0.5);
+    measure_end_offsets (&blob, ball_axis_angle (g, blob), light);
+    const RangeEstimate after = estimate_range (g, blob, spec, 0.5);
+    const double e0 = before.range_ground - want;
+    const double e1 = after.range_ground - want;
+    std::printf ("shaded ball at %.3f m: the blob's outline %+.3f mm (pixel "
+        "and shading sigma %.3f), the frame's (ends %+.3f, %+.3f px) "
+        "%+.3f mm\n", want, 1e3 * e0, 1e3 * before.range_ground_sigma,
+        blob.end_offset[0], blob.end_offset[1], 1e3 * e1);
+    CHECK (e0 > 1.5 * before.range_ground_sigma, "the blob's outline: error "
+        "%g within the sigma %g", e0, before.range_ground_sigma);
+    CHECK (std::fabs (e1) < 0.15 * e0, "the frame's outline: error %g "
+        "(the blob's %g)", e1, e0);
+    CHECK (after.size_excess == 0, "no excess for a whole ball: %g",
+        after.size_excess);
+    /* an end run off into a blur or a neighbour puts the frame's outline
+     * at odds with its floor range: the blob's ellipse ranges it */
+    BlobObservation off = blob;
+    off.end_offset[0] += 1.5;
+    BlobObservation own = off;
+    own.has_ends = false;
+    const RangeEstimate r_off = estimate_range (g, off, spec, 0.5);
+    const RangeEstimate r_own = estimate_range (g, own, spec, 0.5);
+    CHECK (r_off.range_ground == r_own.range_ground
+        && r_off.range_ground_sigma == r_own.range_ground_sigma,
+        "an end 1.5 px off: range %g (sigma %g), the blob's %g (%g)",
+        r_off.range_ground, r_off.range_ground_sigma, r_own.range_ground,
+        r_own.range_ground_sigma);
+    if (&p != &pos[1])
+      continue;
+    /* the ends' sigmas against their scatter over frames of independent
+     * noise per pixel and component (the analytic frame's light at pixel
+     * centres, the noise bilinear between them), and through the range
+     * (the range's sigma less the pixel term's, which this blob's whole
+     * outline does not move: the ends' part). Pure noise
+     * also makes the light about each crossing uneven, which the sigma
+     * takes for an edge's shape: about 1.6x the scatter */
+    int left = 1 << 20, up = 1 << 20;
+    for (const cv::Point2f & q : exact) {
+      left = std::min (left, (int) q.x - 8);
+      up = std::min (up, (int) q.y - 8);
+    }
+    const int gw = (int) (2 * ea) + 24, gh = (int) (2 * ea) + 24;
+    std::vector<double> grain (3 * gw * gh);
+    std::mt19937 rng (11);
+    std::normal_distribution<double> normal (0, 0.02);
+    auto noisy = [&](double u, double v, double rgb[3]) {
+      light (u, v, rgb);
+      const double x = u - left, y = v - up;
+      const int i = (int) x, j = (int) y;
+      const double fx = x - i, fy = y - j;
+      for (int k = 0; k < 3; k++) {
+        auto at = [&](int di, int dj) {
+          return grain[3 * ((j + dj) * gw + i + di) + k];
+        };
+        rgb[k] += (1 - fy) * ((1 - fx) * at (0, 0) + fx * at (1, 0))
+            + fy * ((1 - fx) * at (0, 1) + fx * at (1, 1));
+      }
+      return x >= 0 && y >= 0 && i + 1 < gw && j + 1 < gh;
+    };
+    const int trials = 60;
+    double sum[4] = {0, 0, 0, 0}, sum2[4] = {0, 0, 0, 0}, sigma2 = 0;
+    double r_sum = 0, r_sum2 = 0, r_sigma2 = 0;
+    for (int t = 0; t < trials; t++) {
+      for (double & x : grain)
+        x = normal (rng);
+      BlobObservation b = blob_of (moved_outline (exact,
+              [](double, double nv) { return -0.3 * (1 + nv); }));
+      measure_end_offsets (&b, ball_axis_angle (g, b), noisy);
+      CHECK (b.has_ends, "ends with noise, trial %d", t);
+      for (int k = 0; k < 4; k++) {
+        sum[k] += b.end_offset[k];
+        sum2[k] += b.end_offset[k] * b.end_offset[k];
+        sigma2 += b.end_sigma[k] * b.end_sigma[k] / 4;
+      }
+      /* the ends' part of the range's sigma: less the same ends' without
+       * their sigmas (the pixel term's alone) */
+      const RangeEstimate r = estimate_range (g, b, spec, 0.5);
+      BlobObservation exact_ends = b;
+      std::fill (exact_ends.end_sigma, exact_ends.end_sigma + 4, 0.0);
+      const RangeEstimate r0 = estimate_range (g, exact_ends, spec, 0.5);
+      r_sum += r.range_ground;
+      r_sum2 += r.range_ground * r.range_ground;
+      r_sigma2 += r.range_ground_sigma * r.range_ground_sigma
+          - r0.range_ground_sigma * r0.range_ground_sigma;
+    }
+    double scatter2 = 0;
+    for (int k = 0; k < 4; k++)
+      scatter2 += (sum2[k] / trials - std::pow (sum[k] / trials, 2)) / 4;
+    const double scatter = std::sqrt (scatter2);
+    const double said = std::sqrt (sigma2 / trials);
+    const double r_scatter = std::sqrt (r_sum2 / trials - std::pow (r_sum /
+            trials, 2));
+    const double r_said = std::sqrt (r_sigma2 / trials);
+    std::printf ("shaded ball at %.3f m with noise: ends scatter %.4f px, "
+        "sigma %.4f px; range scatter %.4f mm, sigma %.4f mm\n", want,
+        scatter, said, 1e3 * r_scatter, 1e3 * r_said);
+    CHECK (said > 0.9 * scatter && said < 2.5 * scatter, "ends' sigma %g "
+        "for a scatter of %g px", said, scatter);
+    CHECK (r_said > 0.9 * r_scatter && r_said < 2.5 * r_scatter, "range "
+        "sigma %g for a scatter of %g", r_said, r_scatter);
+  }
+  /* no contrast, or the ends off the frame: the blob's ellipse stays */
+  BlobObservation flat = blob_of (ball_outline (g, 1.0, 0.3, br));
+  measure_end_offsets (&flat, flat.angle, [](double, double,
+          double rgb[3]) {
+        rgb[0] = rgb[1] = rgb[2] = 0.5;
+        return true;
+      });
+  CHECK (!flat.has_ends, "no contrast: %g %g", flat.end_offset[0],
+      flat.end_offset[1]);
+  measure_end_offsets (&flat, flat.angle, [](double, double, double[3]) {
+        return false;
+      });
+  CHECK (!flat.has_ends, "off the frame");
+}
+
 int
 main ()
 {
@@ -617,5 +792,6 @@ main ()
   test_sigma_model ();
   test_rendered_centre ();
   test_rim ();
+  test_shaded_ball ();
   return corecheck_summary ();
 }

@@ -4,6 +4,7 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace landmark {
@@ -48,6 +49,257 @@ fit_circle (const std::vector<double> & xy, double *cx, double *cy,
   return true;
 }
 
+bool
+outline_offset (const double *linear, int n, double inside, double step,
+    int plateau, double *offset, double *sigma)
+{
+  constexpr int most = 128;
+  if (plateau < 2 || n < 2 * plateau + 2 || n > most || !(step > 0))
+    return false;
+  /* the marker's and the background's light as lines fitted to each end's
+   * samples, so that a gradient (the shading across a ball) is carried to
+   * the outline rather than taken where it was sampled */
+  double in0[3], in1[3], out0[3], out1[3];
+  auto fit = [&](int first, double c0[3], double c1[3]) {
+    double ms = 0;
+    for (int i = first; i < first + plateau; i++)
+      ms += (inside + step * i) / plateau;
+    for (int c = 0; c < 3; c++) {
+      double mc = 0, sxy = 0, sxx = 0;
+      for (int i = first; i < first + plateau; i++)
+        mc += linear[3 * i + c] / plateau;
+      for (int i = first; i < first + plateau; i++) {
+        const double ds = inside + step * i - ms;
+        sxy += ds * (linear[3 * i + c] - mc);
+        sxx += ds * ds;
+      }
+      c1[c] = sxy / sxx;
+      c0[c] = mc - c1[c] * ms;
+    }
+  };
+  fit (0, in0, in1);
+  fit (n - plateau, out0, out1);
+  /* the share of the marker's light in each sample, along the contrast
+   * there; a crossing of one half between two samples is an outline */
+  bool found = false;
+  double before = 0, slope = 0;
+  /* for the sigma: the share's scatter about the fitted lines at both ends
+   * (1 inside, 0 outside), and the shares */
+  double scatter = 0, share[most];
+  for (int i = 0; i < n; i++) {
+    const double si = inside + step * i;
+    double d[3], dd = 0, num = 0;
+    for (int c = 0; c < 3; c++) {
+      const double o = out0[c] + out1[c] * si;
+      d[c] = in0[c] + in1[c] * si - o;
+      dd += d[c] * d[c];
+      num += (linear[3 * i + c] - o) * d[c];
+    }
+    /* a few percent of full scale: less is noise, not an outline */
+    if (!(dd > 1e-3))
+      return false;
+    const double f = num / dd;
+    if (i < plateau)
+      scatter += (f - 1) * (f - 1);
+    else if (i >= n - plateau)
+      scatter += f * f;
+    share[i] = f;
+    if (i > 0 && (before >= 0.5) != (f >= 0.5)) {
+      const double s = inside + step * (i - 1 + (before - 0.5) / (before - f));
+      if (!found || std::fabs (s) < std::fabs (*offset)) {
+        *offset = s;
+        slope = std::fabs (before - f) / step;
+      }
+      found = true;
+    }
+    before = f;
+  }
+  if (found && sigma) {
+    /* a level crossing moves by the noise over the gradient; an edge
+     * whose light is not symmetric about its half-way point (shading
+     * that curves near the limb, another edge close by) has the half-way
+     * crossing off the middle of its area, within a window about it, by
+     * about its own error: that window's area less its half-width */
+    const double noise = std::sqrt (scatter / (2 * plateau - 4));
+    auto at = [&](double s) {
+      const double x = std::min ((double) n - 1, std::max (0.0,
+              (s - inside) / step));
+      const int i = std::min (n - 2, (int) x);
+      return share[i] + (x - i) * (share[i + 1] - share[i]);
+    };
+    constexpr double window = 1.5;
+    const int parts = (int) std::ceil (2 * window / step);
+    double area = (at (*offset - window) + at (*offset + window)) / 2;
+    for (int j = 1; j < parts; j++)
+      area += at (*offset - window + 2 * window * j / parts);
+    const double skew = area * 2 * window / parts - window;
+    *sigma = std::hypot (noise / slope, skew);
+  }
+  return found;
+}
+
+namespace {
+
+/* the distance from an ellipse's centre to its outline along direction
+ * phi: semi-axes a, b, the major at angle */
+double
+ellipse_radius (double a, double b, double angle, double phi)
+{
+  const double c = std::cos (phi - angle), s = std::sin (phi - angle);
+  return 1 / std::sqrt (c * c / (a * a) + s * s / (b * b));
+}
+
+}  // namespace
+
+double
+ball_axis_angle (const CameraGeometry & g, const BlobObservation & blob)
+{
+  const CameraParams & p = g.params ();
+  const bool seed = p.model == CameraModel::Seed;
+  const double cx = seed ? (p.width - 1) / 2.0 : p.cx;
+  const double cy = seed ? (p.height - 1) / 2.0 : p.cy;
+  /* in the geometry's pixels, then back to the blob's */
+  const double du = ((blob.eu + 0.5) * blob.sx - 0.5 - cx) / blob.sx;
+  const double dv = ((blob.ev + 0.5) * blob.sy - 0.5 - cy) / blob.sy;
+  if (std::hypot (du, dv) < 1)
+    return blob.angle;
+  return std::atan2 (dv, du);
+}
+
+void
+measure_end_offsets (BlobObservation * blob, double angle,
+    const std::function<bool (double, double, double[3])> & light)
+{
+  measure_end_offsets_by_row (blob, angle, [&](int x, int y, int n,
+          double *rgb) {
+        for (int i = 0; i < n; i++)
+          if (!light (x + i, y, rgb + 3 * i))
+            return false;
+        return true;
+      });
+}
+
+namespace {
+
+/* Where lo <= slope * x + at <= hi, into [*x0, *x1]; false if nowhere. */
+bool
+clip_to_band (double slope, double at, double lo, double hi, double *x0,
+    double *x1)
+{
+  if (std::fabs (slope) < 1e-12)
+    return at >= lo && at <= hi;
+  double a = (lo - at) / slope, b = (hi - at) / slope;
+  if (a > b)
+    std::swap (a, b);
+  *x0 = std::max (*x0, a);
+  *x1 = std::min (*x1, b);
+  return *x0 <= *x1;
+}
+
+}  // namespace
+
+void
+measure_end_offsets_by_row (BlobObservation * blob, double angle,
+    const RowLight & row)
+{
+  const double a = blob->major / 2, b = blob->minor / 2;
+  constexpr double reach = 4, step = 0.25;
+  /* the profile reaches 4 px inside: at most half way to the centre, or
+   * the ball's colour there is its other side's (and, in a subsampled
+   * format, the far edge's chroma) */
+  if (!blob->has_ellipse || !(b >= 2 * reach) || !(a >= b))
+    return;
+  constexpr int n = (int) (2 * reach / step) + 1, plateau = 8;
+  /* a row crosses the band over at most its diagonal */
+  constexpr int widest = 32;
+  double profile[3 * n], weight[n], at[n], even[3 * n], light[3 * widest];
+  double found[4], sigma[4];
+  /* along the axis both ways, then across it both ways */
+  for (int end = 0; end < 4; end++) {
+    const double phi = angle + (end < 2 ? end * M_PI : (end - 1.5) * M_PI);
+    const double r = ellipse_radius (a, b, blob->angle, phi);
+    const double w = ellipse_radius (a, b, blob->angle, phi + M_PI / 2);
+    /* the band: up to 2.5 px either side of the line through the centre,
+     * each pixel binned by its distance across the outline, the outline
+     * a pixel off the line being nearer the centre */
+    const double half = std::min (2, (int) (w / 5)) + 0.5;
+    const double ca = std::cos (phi), sa = std::sin (phi);
+    const double t0 = r * std::sqrt (1 - half * half / (w * w)) - reach
+        - step, t1 = r + reach + step;
+    double vmin = 1e300, vmax = -1e300;
+    for (double t : {t0, t1})
+      for (double k : {-half, half}) {
+        vmin = std::min (vmin, blob->ev + t * sa + k * ca);
+        vmax = std::max (vmax, blob->ev + t * sa + k * ca);
+      }
+    std::fill (profile, profile + 3 * n, 0.0);
+    std::fill (weight, weight + n, 0.0);
+    std::fill (at, at + n, 0.0);
+    for (int y = (int) std::ceil (vmin); y <= (int) std::floor (vmax); y++) {
+      const double dv = y - blob->ev;
+      /* the row's pixels inside the band: t0 <= t <= t1, |k| <= half */
+      double x0 = -1e300, x1 = 1e300;
+      if (!clip_to_band (ca, dv * sa, t0, t1, &x0, &x1)
+          || !clip_to_band (-sa, dv * ca, -half, half, &x0, &x1))
+        continue;
+      const int first = (int) std::ceil (x0 + blob->eu);
+      const int count = (int) std::floor (x1 + blob->eu) - first + 1;
+      if (count <= 0)
+        continue;
+      if (count > widest || !row (first, y, count, light))
+        return;
+      for (int i = 0; i < count; i++) {
+        const double du = first + i - blob->eu;
+        const double k = -du * sa + dv * ca;
+        const double s = du * ca + dv * sa - r * std::sqrt (std::max (0.0,
+                1 - k * k / (w * w)));
+        /* the nearest bin, which keeps its pixels' mean distance too */
+        const int bin = (int) std::lround ((s + reach) / step);
+        if (bin < 0 || bin >= n)
+          continue;
+        weight[bin] += 1;
+        at[bin] += s;
+        for (int c = 0; c < 3; c++)
+          profile[3 * bin + c] += light[3 * i + c];
+      }
+    }
+    /* the bins' means at their pixels' mean distance, the profile taken
+     * at even steps between them (a bin's pixels need not sit at its
+     * middle; an edge along the pixel grid leaves bins empty) */
+    int m = 0;
+    for (int j = 0; j < n; j++) {
+      if (!(weight[j] > 0))
+        continue;
+      at[m] = at[j] / weight[j];
+      for (int c = 0; c < 3; c++)
+        profile[3 * m + c] = profile[3 * j + c] / weight[j];
+      m++;
+    }
+    if (m < 2)
+      return;
+    for (int e = 0, j = 0; e < n; e++) {
+      const double s = -reach + step * e;
+      while (j < m - 2 && at[j + 1] < s)
+        j++;
+      const double f = std::min (1.0, std::max (0.0, (s - at[j]) /
+              (at[j + 1] - at[j])));
+      for (int c = 0; c < 3; c++)
+        even[3 * e + c] = profile[3 * j + c] + f * (profile[3 * (j + 1) + c]
+            - profile[3 * j + c]);
+    }
+    /* beyond a couple of pixels it is another edge, not this outline */
+    if (!outline_offset (even, n, -reach, step, plateau, &found[end],
+            &sigma[end]) || !(std::fabs (found[end]) < 2))
+      return;
+  }
+  blob->has_ends = true;
+  blob->end_angle = angle;
+  for (int end = 0; end < 4; end++) {
+    blob->end_offset[end] = found[end];
+    blob->end_sigma[end] = sigma[end];
+  }
+}
+
 double
 RangeEstimate::range_sigma_total (double sigma) const
 {
@@ -75,13 +327,23 @@ centre_covariance (const BlobObservation & blob, double edge_sigma,
     const double a = std::max (blob.major, 1.0) / 2;
     const double b = std::max (blob.minor, 1.0) / 2;
     const double ca = std::cos (blob.angle), sa = std::sin (blob.angle);
-    const int n = 64;
+    constexpr int n = 64;
+    /* the points' cosines and sines once (per call they cost more than
+     * the sum) */
+    static const std::array<std::array<double, 2>, n> unit = [] {
+      std::array<std::array<double, 2>, n> u;
+      for (int i = 0; i < n; i++) {
+        const double t = 2 * M_PI * (i + 0.5) / n;
+        u[i] = {std::cos (t), std::sin (t)};
+      }
+      return u;
+    }();
     double ixx = 0, ixy = 0, iyy = 0;
     for (int i = 0; i < n; i++) {
-      const double t = 2 * M_PI * (i + 0.5) / n;
-      const double x = a * std::cos (t), y = b * std::sin (t);
-      const double dl = std::hypot (a * std::sin (t), b * std::cos (t))
-          * 2 * M_PI / n;
+      const double ct = unit[i][0], st = unit[i][1];
+      const double x = a * ct, y = b * st;
+      const double du = a * st, dv = b * ct;
+      const double dl = std::sqrt (du * du + dv * dv) * 2 * M_PI / n;
       const double pu = x * ca - y * sa, pv = x * sa + y * ca;
       ixx += pu * pu * dl;
       ixy += pu * pv * dl;
@@ -156,10 +418,24 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
   double size_rel_sigma = 0;
   double centre_u, centre_v;    /* for derivatives, geometry pixels */
 
+  /* a ball's major axis between the outline's ends where the frame showed
+   * them (measure_end_offsets), else the ellipse's */
+  const bool ends = ellipse && blob.has_ends;
+  const double ra = ends ? ellipse_radius (a, b, blob.angle,
+      blob.end_angle) : a;
+  const double a_plus = ra + (ends ? blob.end_offset[0] : 0);
+  const double a_minus = ra + (ends ? blob.end_offset[1] : 0);
+  const double ea = ends ? std::cos (blob.end_angle) : ca;
+  const double eb = ends ? std::sin (blob.end_angle) : sa;
+  /* the axis through the middle of the outline's width, not the blob's */
+  const double across = ends ? (blob.end_offset[2] - blob.end_offset[3]) / 2
+      : 0;
+  const double mu = blob.eu - across * eb, mv = blob.ev + across * ea;
+  const double major = a_plus + a_minus;
   if (ellipse && m.ball) {
     std::vector<double> uv;
-    to_geom (blob.eu + a * ca, blob.ev + a * sa, &uv);
-    to_geom (blob.eu - a * ca, blob.ev - a * sa, &uv);
+    to_geom (mu + a_plus * ea, mv + a_plus * eb, &uv);
+    to_geom (mu - a_minus * ea, mv - a_minus * eb, &uv);
     std::vector<Vec3> d;
     g.rays (uv, &d);
     const Vec3 d1 = unit (d[0]), d2 = unit (d[1]);
@@ -170,7 +446,9 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
     const double half = std::acos (cosang) / 2;
     if (m.diameter > 0 && half > 0) {
       size_distance = (m.diameter / 2) / std::sin (half);
-      size_rel_sigma = pixel_sigma / blob.major;
+      /* with the frame's ends, their own errors too */
+      size_rel_sigma = (ends ? std::hypot (pixel_sigma, std::hypot
+              (blob.end_sigma[0], blob.end_sigma[1])) : pixel_sigma) / major;
     }
     centre_u = (uv[0] + uv[2]) / 2;
     centre_v = (uv[1] + uv[3]) / 2;
@@ -272,8 +550,21 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
    * range and bearing at the centre (central differences) */
   double cov[3];
   centre_covariance (blob, pixel_sigma, cov);
-  if (m.ball) {
-    const double shade = kBallShadeShare * (ellipse ? blob.major :
+  if (m.ball && ends) {
+    /* the ends' own errors (outline_offset's sigmas): the centre along the
+     * axis is the mean of the two ends along it, across it of the two
+     * across; in place of the shading's share, which the frame's outline
+     * measures */
+    const double s_along = std::hypot (blob.end_sigma[0], blob.end_sigma[1])
+        / 2;
+    const double s_across = std::hypot (blob.end_sigma[2],
+        blob.end_sigma[3]) / 2;
+    const double al = s_along * s_along, ac = s_across * s_across;
+    cov[0] += (al * ea * ea + ac * eb * eb) * blob.sx * blob.sx;
+    cov[1] += (al - ac) * ea * eb * blob.sx * blob.sy;
+    cov[2] += (al * eb * eb + ac * ea * ea) * blob.sy * blob.sy;
+  } else if (m.ball) {
+    const double shade = kBallShadeShare * (ellipse ? major :
         blob.equivalent_diameter);
     cov[0] += shade * shade * blob.sx * blob.sx;
     cov[2] += shade * shade * blob.sy * blob.sy;
@@ -332,11 +623,24 @@ estimate_range (const CameraGeometry & g, const BlobObservation & blob,
    * range gives (the major axis against the one the floor range predicts,
    * per side), but the shading takes it from the underside rather than all
    * round, so the centre may move down the image by as much */
-  if (m.ball && ellipse && out.has_size && out.range_ground > 0) {
-    const double offset = blob.major / 2 *
+  if (m.ball && ellipse && !ends && out.has_size && out.range_ground > 0) {
+    const double offset = major / 2 *
         (out.range_size / out.range_ground - 1) * blob.sy;
     out.rim_range = std::fabs (offset * range_v);
     out.rim_bearing = std::fabs (offset * bearing_v);
+  }
+  /* a blob cut or merged shows in its own ellipse, or in the frame's
+   * outline (which may agree with a wrong centre where the outline found
+   * ends where the blob ended, or run off into a blur or a neighbour):
+   * then the frame's ends are no better than the blob's, and the blob's
+   * ellipse ranges it, with its excess */
+  if (m.ball && ends) {
+    BlobObservation own = blob;
+    own.has_ends = false;
+    const RangeEstimate by_blob = estimate_range (g, own, m, pixel_sigma,
+        mounting);
+    if (out.size_excess > 0 || by_blob.size_excess > 0)
+      return by_blob;
   }
   /* a disagreement beyond the bound is a cut or merged blob, not a rim:
    * size_excess stands for it */

@@ -4,6 +4,7 @@
  * from a known diameter. No GStreamer types. */
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "camerageometry.h"
@@ -27,6 +28,16 @@ struct BlobObservation {
   double angle = 0;                    /* radians, +u towards +v */
   double equivalent_diameter = 0;      /* 0: unknown */
   double sx = 1, sy = 1;
+  /* a ball's outline from the frame's colours (measure_end_offsets): how
+   * far it lies beyond the ellipse where the lines through the ellipse's
+   * centre along end_angle (radians, +u towards +v) and across it meet
+   * it: [0] along end_angle, [1] the other way, [2] at end_angle + pi/2,
+   * [3] at end_angle - pi/2; pixels; end_sigma their one-sigma errors
+   * (outline_offset). Not measured: has_ends false */
+  bool has_ends = false;
+  double end_angle = 0;
+  double end_offset[4] = {0, 0, 0, 0};
+  double end_sigma[4] = {0, 0, 0, 0};
 };
 
 /* What the detection is: a disc lying flat with its centre at height z
@@ -64,8 +75,9 @@ struct RangeEstimate {
    * offset the known diameter gives: a disc's all round, through the shift
    * of the plane circle's centre it makes; a ball's from its shaded
    * underside, the centre moved down the image by as much. Metres and
-   * radians (docs/ranging.md, "Uncertainty"); 0 without a diameter and
-   * when size_excess stands for a cut or merged blob */
+   * radians (docs/ranging.md, "Uncertainty"); 0 without a diameter, when
+   * size_excess stands for a cut or merged blob, and for a ball whose
+   * outline came from the frame (its ends' sigmas stand in its place) */
   double rim_range = 0, rim_bearing = 0;
   /* the sigmas with size_excess, the kind spreads and the rim added (to
    * the range, and over the range to the bearing): what ipmrange reports */
@@ -83,6 +95,57 @@ struct RangeEstimate {
 void centre_covariance (const BlobObservation & blob, double edge_sigma,
     double cov[3]);
 
+/* Where an outline lies along a line across it, from the frame's colours:
+ * `linear` holds 3 linear-light components for each of n samples, taken
+ * every `step` pixels from `inside` to `outside` of the outline (relative
+ * to where the blob puts it). Area coverage mixes the marker's and the background's
+ * light linearly, so the outline is where the colour is half-way between
+ * the marker's (a line fitted to the first `plateau` samples, carried to
+ * each sample) and the background's (the last's), whatever colour
+ * threshold made the blob: a ball's shaded underside is no longer cut
+ * short. The crossing nearest the blob's outline, in pixels outward; false
+ * without contrast or a crossing. `sigma` (optional): its one-sigma error,
+ * pixels: the scatter of the light about the two fitted lines over the
+ * gradient at the crossing (a level crossing's noise), with the edge's
+ * asymmetry about the crossing (the profile's area over 1.5 px either
+ * side of it less 1.5 px: what the half-way point cannot tell of an
+ * edge's shape); n at most 128. */
+bool outline_offset (const double *linear, int n, double inside,
+    double step, int plateau, double *offset, double *sigma = nullptr);
+
+/* The direction of a ball's image's major axis, radians (+u towards +v),
+ * in the blob's pixels: the cone tangent to a sphere projects to an
+ * ellipse whose major axis lies on the line through the principal point
+ * (the image centre for the seed's model), where the ends' rays' bisector
+ * is the cone's axis; the blob's own angle where the blob sits on that
+ * point. */
+double ball_axis_angle (const CameraGeometry & geometry,
+    const BlobObservation & blob);
+
+/* Where a ball's outline lies along `angle` (ball_axis_angle) and across
+ * it through its ellipse's centre, from the frame (outline_offset), into
+ * blob's end_*:
+ * the colour threshold that made the blob cuts the shaded underside
+ * shorter than the lit top, which moves the centre up the image and the
+ * range out (docs/ranging.md, "Uncertainty"). Per end, the light across
+ * the outline, 4 px either side, from the pixels of a band 5 px wide
+ * across it (3 px under 20 px of width), each read once and put in the
+ * 0.25 px bin of its distance across the ellipse's outline, the bins'
+ * means at their pixels' mean distance taken at even steps; with each
+ * end's sigma (end_sigma). `light` gives the frame's linear
+ * light at a pixel of the blob's frame (centres at integers), false
+ * outside it. Balls under 16 px across (the profile would reach past half
+ * their radius) are left alone. */
+void measure_end_offsets (BlobObservation * blob, double angle,
+    const std::function<bool (double u, double v, double rgb[3])> & light);
+
+/* The same, the light taken a run of pixels at a time (which keeps the
+ * frame's reading in the caller's loop): n pixels of row y from column x,
+ * into rgb (3 per pixel); false when one is outside the frame. */
+using RowLight = std::function<bool (int x, int y, int n, double *rgb)>;
+void measure_end_offsets_by_row (BlobObservation * blob, double angle,
+    const RowLight & row);
+
 /* A ball's shaded underside is segmented alike frame after frame, so its
  * centre carries a bias that grows with its image, not noise that shrinks:
  * one-sigma, per axis, this share of its diameter in pixels (fitted on the
@@ -93,7 +156,9 @@ constexpr double kBallShadeShare = 0.00064;
  * to the marker's plane, its centre by a circle fit; size range from the
  * fitted circle's radius against the known diameter (the plane's distance
  * scaled). Balls: the axis of the cone tangent to the ball bisects the rays
- * of the ellipse's major-axis ends; its half angle gives the distance.
+ * of the ellipse's major-axis ends (the frame's, blob.has_ends, with their
+ * sigmas in place of the shading share and the rim; the blob's ellipse
+ * when either gives a size_excess); its half angle gives the distance.
  * Without an ellipse, the centroid's ray. pixel_sigma: one-sigma error of
  * a point of the blob's outline, pixels (centre_covariance; the axis
  * lengths for the size range); propagated to range and bearing through the

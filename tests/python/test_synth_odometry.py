@@ -19,6 +19,7 @@ from gstlandmark.synth.odometry import (OdometryErrors, frame_time,
                                         no_errors, odometry_steps,
                                         scene_odometry)
 from gstlandmark.synth.scenarios import Offset, build_scenario
+from gstlandmark.synth.variants import draw_variant
 
 FRAMES = 600  # two loops of the path scenario at 30 frames/s
 
@@ -194,6 +195,35 @@ def test_slip_follows_the_seed(path_scene):
     assert scene_odometry(scene, n, no_errors(slip=0.01, seed=7)) == drawn
     assert scene_odometry(scene, n, no_errors(slip=0.01),
                           seed=scene.seed) == noisy
+
+
+def test_variants_of_one_seed_slip_apart():
+    """The variants of one scenario seed (as the Accuracy clips are) draw
+    their slip apart: the heading's normalised slip per step, N(0, 1)
+    draws, differs between two variants and is the same for one variant
+    built again; a scene without a variant draws as before."""
+    def normalised(number):
+        scene, n = build_scenario("path", seed=0, frames=90,
+                                  variant=draw_variant("path", number),
+                                  hfov_deg=54.0, height_m=0.2,
+                                  tilt_deg=18.0)
+        assert scene.notes["variant"]["number"] == number
+        noisy = scene_odometry(scene, n, no_errors(heading_slip=0.01))
+        exact = scene_odometry(scene, n, no_errors())
+        return [(a["dheading"] - b["dheading"])
+                / (0.01 * math.sqrt(math.hypot(b["dx"], b["dy"])))
+                for a, b in zip(noisy, exact) if b["dx"] > 1e-4]
+    one, two = normalised(1), normalised(2)
+    assert len(one) > 50 and len(two) > 50
+    assert normalised(1) == pytest.approx(one, abs=1e-9)
+    # independent draws: not the same sequence, not correlated
+    k = min(len(one), len(two))
+    assert abs(np.corrcoef(one[:k], two[:k])[0, 1]) < 0.4
+    scene, n = build_scenario("path", seed=0, frames=90)
+    assert scene_odometry(scene, n, no_errors(slip=0.01)) == \
+        odometry_steps(true_poses(scene, n),
+                       [frame_time(i, scene.fps) for i in range(n)],
+                       no_errors(slip=0.01), seed=0)
 
 
 def test_turning_centre_log(path_scene):

@@ -25,7 +25,8 @@ a trajectory without an offset).  Errors, each optional:
   radians; drawn from a generator seeded by the scenario's seed, so a
   clip and its log are reproducible, or by a seed of the odometry's own
   (``seed``, ``--odometry-seed``): other draws of the same errors on the
-  same clip.
+  same clip.  A variant's number is mixed in too, so that the variants
+  of one seed (the Accuracy clips) do not all slip alike.
 """
 
 import json
@@ -116,13 +117,16 @@ def relative_motion(a, b):
             math.remainder(b.heading - a.heading, 2 * math.pi))
 
 
-def odometry_steps(poses, times, errors=None, seed=0):
+def odometry_steps(poses, times, errors=None, seed=0, variant=None):
     """One increment per pair of consecutive ``poses`` (objects with
     ``x``, ``y``, ``heading``), stamped with the later of ``times``
-    (seconds), with ``errors`` (``OdometryErrors``; default: none)."""
+    (seconds), with ``errors`` (``OdometryErrors``; default: none); the
+    slip drawn from ``seed`` and, when given, a ``variant`` number."""
     errors = errors or no_errors()
     errors.check()
-    rng = np.random.default_rng((int(seed), SEED_STREAM))
+    rng = np.random.default_rng(
+        (int(seed), SEED_STREAM) if variant is None
+        else (int(seed), SEED_STREAM, int(variant)))
     drift = math.radians(errors.drift_deg_per_m)
     noisy = errors.slip > 0 or errors.heading_slip > 0 or \
         errors.turn_slip > 0
@@ -157,7 +161,8 @@ def scene_odometry(scene, frames, errors=None, seed=None):
     poses the renderer used, or with ``errors.frame`` "turning-centre"
     those of the turning centre behind the camera): one per frame, or at
     ``errors.rate_hz`` from 0 to the last frame's time.  Seeded by
-    ``seed``, else ``errors.seed``, else the scene's seed."""
+    ``seed``, else ``errors.seed``, else the scene's seed, with a
+    variant's number mixed in."""
     from .scenarios import Offset, Static
     trajectory = scene.trajectory or Static()
     if errors is not None:
@@ -176,7 +181,8 @@ def scene_odometry(scene, frames, errors=None, seed=None):
     if seed is None:
         seed = errors.seed if errors is not None and \
             errors.seed is not None else scene.seed
-    return odometry_steps(poses, times, errors, seed=seed)
+    variant = ((scene.notes or {}).get("variant") or {}).get("number")
+    return odometry_steps(poses, times, errors, seed=seed, variant=variant)
 
 
 def write_odometry(path, steps):

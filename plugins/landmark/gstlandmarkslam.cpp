@@ -281,10 +281,19 @@ slam_apply_options (State & st)
   st.slam.opt.confirm_sigma = s.confirm_sigma;
   st.slam.opt.gate_chi2 = s.gate;
   st.slam.opt.odo_camera_forward = s.camera_forward;
-  st.slam.opt.odo_trans_sigma = s.odometry_slip;
-  st.slam.opt.odo_rot_per_m = s.odometry_heading_slip;
-  st.slam.opt.odo_rot_sigma = s.odometry_turn_slip;
-  st.slam.opt.odo_slip_adapt = s.odometry_slip_adapt;
+  /* a scale learnt against other stated values (or while not learning)
+   * does not carry over: learning starts again from the new ones */
+  landmark::SlamOptions & o = st.slam.opt;
+  const bool slip_changed = o.odo_trans_sigma != s.odometry_slip
+      || o.odo_rot_per_m != s.odometry_heading_slip
+      || o.odo_rot_sigma != s.odometry_turn_slip
+      || o.odo_slip_adapt != s.odometry_slip_adapt;
+  o.odo_trans_sigma = s.odometry_slip;
+  o.odo_rot_per_m = s.odometry_heading_slip;
+  o.odo_rot_sigma = s.odometry_turn_slip;
+  o.odo_slip_adapt = s.odometry_slip_adapt;
+  if (slip_changed)
+    st.slam.restart_slip_learning ();
 }
 
 /* Brings the state up to date with settings changed while playing (a bad

@@ -1402,6 +1402,10 @@ test_odometry_slip_learnt ()
         "scale %.3f", c.slip, median);
     CHECK (lo > c.slip / 1.6 && hi < c.slip * 1.6, "truth %.2f: scales "
         "%.3f..%.3f", c.slip, lo, hi);
+    /* the measurements' own scale, told apart from the slip's */
+    const double meas = percentile (meas_scales, 0.5);
+    CHECK (std::fabs (meas / c.meas - 1) < 0.25, "measurements %.2f x: "
+        "their scale %.3f", c.meas, meas);
     auto consistent = [&](double m) {
       return m > chi2_median / 1.6 && m < chi2_median * 1.6;
     };

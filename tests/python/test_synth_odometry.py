@@ -220,6 +220,12 @@ def test_variants_of_one_seed_slip_apart():
     k = min(len(one), len(two))
     assert abs(np.corrcoef(one[:k], two[:k])[0, 1]) < 0.4
     scene, n = build_scenario("path", seed=0, frames=90)
+    poses = true_poses(scene, n)
+    times = [frame_time(i, scene.fps) for i in range(n)]
+    # variant 0 is a variant too, not the scene without one
+    assert odometry_steps(poses, times, no_errors(slip=0.01), seed=0,
+                          variant=0) != \
+        odometry_steps(poses, times, no_errors(slip=0.01), seed=0)
     assert scene_odometry(scene, n, no_errors(slip=0.01)) == \
         odometry_steps(true_poses(scene, n),
                        [frame_time(i, scene.fps) for i in range(n)],

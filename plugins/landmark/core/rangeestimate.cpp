@@ -54,7 +54,7 @@ outline_offset (const double *linear, int n, double inside, double step,
     int plateau, double *offset, double *sigma)
 {
   constexpr int most = 128;
-  if (plateau < 2 || n < 2 * plateau + 2 || n > most || !(step > 0))
+  if (plateau < 3 || n < 2 * plateau + 2 || n > most || !(step > 0))
     return false;
   /* the marker's and the background's light as lines fitted to each end's
    * samples, so that a gradient (the shading across a ball) is carried to

@@ -109,7 +109,8 @@ void centre_covariance (const BlobObservation & blob, double edge_sigma,
  * gradient at the crossing (a level crossing's noise), with the edge's
  * asymmetry about the crossing (the profile's area over 1.5 px either
  * side of it less 1.5 px: what the half-way point cannot tell of an
- * edge's shape); n at most 128. */
+ * edge's shape); n at most 128, plateau at least 3 (a line fitted to
+ * each end leaves 2 plateau - 4 degrees of freedom for the scatter). */
 bool outline_offset (const double *linear, int n, double inside,
     double step, int plateau, double *offset, double *sigma = nullptr);
 

@@ -510,6 +510,11 @@ Slam::slip_scales (double *meas_var) const
   const double a00 = slip_a_[0] + w, a01 = slip_a_[1], a11 = slip_a_[2] + w;
   const double b0 = slip_b_[0] + w, b1 = slip_b_[1] + w;
   const double det = a00 * a11 - a01 * a01;
+  if (!(det > 0)) {
+    if (meas_var)
+      *meas_var = std::numeric_limits<double>::quiet_NaN ();
+    return std::numeric_limits<double>::quiet_NaN ();
+  }
   if (meas_var)
     *meas_var = (a00 * b1 - a01 * b0) / det;
   return (a11 * b0 - a01 * b1) / det;
@@ -577,19 +582,26 @@ Slam::slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
       slip_a_[2] += k * t22;
       slip_b_[0] += k * u1;
       slip_b_[1] += k * u2;
-      slip_var_ = std::clamp (slip_scales (nullptr),
-          opt.odo_slip_scale_min * opt.odo_slip_scale_min,
-          opt.odo_slip_scale_max * opt.odo_slip_scale_max);
+      /* a degenerate system (no prior) keeps the scale in use */
+      const double scale = slip_scales (nullptr);
+      if (std::isfinite (scale))
+        slip_var_ = std::clamp (scale,
+            opt.odo_slip_scale_min * opt.odo_slip_scale_min,
+            opt.odo_slip_scale_max * opt.odo_slip_scale_max);
     }
   }
   /* dP+ = (I - K H) dP- (I - K H)^T (+ K R K^T for the measurements'):
-   * the gain's own derivative drops out at the optimal gain */
-  const cv::Mat IKH = cv::Mat::eye (N, N, CV_64F) - K * H;
+   * the gain's own derivative drops out at the optimal gain. Expanded,
+   * D - K (H D) - (H D)^T K^T + K (H D H^T) K^T, so that the cost grows
+   * with N^2 times the measurements, not with N^3 */
   for (int c = 0; c < 2; c++) {
     cv::Mat D (N, N, CV_64F, dp_[c].data ());
-    cv::Mat Dn = IKH * D * IKH.t ();
+    const cv::Mat HD = H * D;
+    cv::Mat inner = HD * H.t ();
     if (c == 1)
-      Dn += K * R * K.t ();
+      inner += R;
+    const cv::Mat KHD = K * HD;
+    cv::Mat Dn = D - KHD - KHD.t () + K * inner * K.t ();
     Dn = 0.5 * (Dn + Dn.t ());
     Dn.copyTo (D);
   }
@@ -872,21 +884,21 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
          * known to within their separation */
         if (!(h.inliers >= 3 || (h.inliers == 2 && pos_sigma <= dz)))
           continue;
+        /* as many: the nearer the prediction wins; another pairing
+         * is a rival */
         const Rival mine { h.pose, var[i] + var[j], lever };
-        if (h.inliers > best.inliers) {
-          best = h;
+        const bool other = h.assign != best.assign;
+        if (h.inliers > best.inliers)
           rivals.clear ();
+        if (h.inliers > best.inliers || (h.inliers == best.inliers
+                && h.d2 < best.d2)) {
+          if (h.inliers == best.inliers && other)
+            rivals.push_back ({ best.pose, best_seed_var, best_lever });
+          best = h;
           best_seed_var = mine.seed_var;
           best_lever = mine.lever;
-        } else if (h.inliers == best.inliers && h.assign != best.assign) {
-          if (h.d2 < best.d2) {
-            rivals.push_back ({ best.pose, best_seed_var, best_lever });
-            best = h;
-            best_seed_var = mine.seed_var;
-            best_lever = mine.lever;
-          } else {
-            rivals.push_back (mine);
-          }
+        } else if (h.inliers == best.inliers && other) {
+          rivals.push_back (mine);
         }
       }
     }

@@ -184,6 +184,10 @@ public:
     return opt.odo_slip_adapt ? std::sqrt (slip_var_) : 1.0;
   }
   double measurement_scale () const;
+  /* Forget what was learnt of the slip (its stated values or
+   * opt.odo_slip_adapt changed): the scale is 1 again and the evidence
+   * gathers afresh from the next odometry. */
+  void restart_slip_learning () { slip_reset (); }
 
 private:
   bool init_ = false;

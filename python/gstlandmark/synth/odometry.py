@@ -126,7 +126,8 @@ def odometry_steps(poses, times, errors=None, seed=0, variant=None):
     errors.check()
     rng = np.random.default_rng(
         (int(seed), SEED_STREAM) if variant is None
-        else (int(seed), SEED_STREAM, int(variant)))
+        # + 1: a trailing 0 would seed as if left out (variant 0 as none)
+        else (int(seed), SEED_STREAM, int(variant) + 1))
     drift = math.radians(errors.drift_deg_per_m)
     noisy = errors.slip > 0 or errors.heading_slip > 0 or \
         errors.turn_slip > 0

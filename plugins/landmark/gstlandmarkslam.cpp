@@ -32,8 +32,10 @@
  * centre) the camera is; `odometry-slip`, `odometry-heading-slip` and
  * `odometry-turn-slip` state its slip (random walks, synth's units), and
  * `odometry-slip-adapt` (default on) learns one scale of them from how
- * far the landmarks correct the pose after odometry predictions (its
- * value in use: `odometry-slip-scale` of the landmark-map message). Live
+ * far the landmarks correct the pose after odometry predictions, by
+ * default only upward (`odometry-slip-scale-min` 1: the filter never
+ * grows more confident than the stated slip; its value in use:
+ * `odometry-slip-scale` of the landmark-map message). Live
  * odometry comes from the application as
  * `landmark-odometry` custom downstream events (serialized or
  * out-of-band) with the increment since the previous one, `dx`, `dy`,
@@ -104,6 +106,7 @@ struct Settings {
   gdouble odometry_heading_slip = 0.002;
   gdouble odometry_turn_slip = 0.002;
   gboolean odometry_slip_adapt = TRUE;
+  gdouble odometry_slip_scale_min = 1.0;
   gboolean post_messages = FALSE;
 };
 
@@ -207,9 +210,14 @@ slam_properties ()
           "per angle turned", &Settings::odometry_turn_slip, 0.0, 1.0)
       .boolean ("odometry-slip-adapt", "Odometry slip adapt",
           "Learn the slip actually met: one scale of the three slip sigmas "
-          "(0.25 to 4), from how far the landmarks correct the pose after "
-          "odometry predictions, starting from the stated values",
-          &Settings::odometry_slip_adapt)
+          "(odometry-slip-scale-min to 4), from how far the landmarks "
+          "correct the pose after odometry predictions, starting from the "
+          "stated values", &Settings::odometry_slip_adapt)
+      .number ("odometry-slip-scale-min", "Odometry slip scale min",
+          "The smallest scale the learnt slip may take: 1 learns only a "
+          "slip larger than stated (the filter never more confident than "
+          "the statement); below 1 it may also learn a smaller one",
+          &Settings::odometry_slip_scale_min, 0.25, 1.0)
       .number ("confirm-views", "Confirm views",
           "Frames a landmark must be paired in (views, counted from poses "
           "confirm-baseline apart) before it is confirmed: that it exists",
@@ -287,11 +295,13 @@ slam_apply_options (State & st)
   const bool slip_changed = o.odo_trans_sigma != s.odometry_slip
       || o.odo_rot_per_m != s.odometry_heading_slip
       || o.odo_rot_sigma != s.odometry_turn_slip
-      || o.odo_slip_adapt != s.odometry_slip_adapt;
+      || o.odo_slip_adapt != s.odometry_slip_adapt
+      || o.odo_slip_scale_min != s.odometry_slip_scale_min;
   o.odo_trans_sigma = s.odometry_slip;
   o.odo_rot_per_m = s.odometry_heading_slip;
   o.odo_rot_sigma = s.odometry_turn_slip;
   o.odo_slip_adapt = s.odometry_slip_adapt;
+  o.odo_slip_scale_min = s.odometry_slip_scale_min;
   if (slip_changed)
     st.slam.restart_slip_learning ();
 }

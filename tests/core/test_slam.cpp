@@ -1375,6 +1375,7 @@ test_odometry_slip_learnt ()
         o.slam.odo_trans_sigma = o.slam.odo_rot_per_m =
             o.slam.odo_rot_sigma = 0.02;
         o.slam.odo_slip_adapt = adapt;
+        o.slam.odo_slip_scale_min = 0.25;
         o.odo_slip = c.slip;
         o.meas_noise = c.meas;
         SimResult r;
@@ -1419,6 +1420,24 @@ test_odometry_slip_learnt ()
     if (c.slip != 1)
       CHECK (!consistent (nees_median[0]), "truth %.2f: as stated, NEES "
           "median %.2f", c.slip, nees_median[0]);
+  }
+  /* the default scale floor, 1: a slip smaller than stated is not
+   * learnt (as stated, cautious), a larger one is */
+  for (double slip : { 0.5, 2.0 }) {
+    SimOptions o;
+    o.odometry = true;
+    o.frames = 3150;
+    o.seed = 100;
+    o.slam.odo_trans_sigma = o.slam.odo_rot_per_m =
+        o.slam.odo_rot_sigma = 0.02;
+    o.odo_slip = slip;
+    SimResult r;
+    run (o, truth, &r);
+    const double scale = r.slam.odometry_slip_scale ();
+    std::printf ("slip learnt with the default floor, truth %.2f x: scale "
+        "%.3f\n", slip, scale);
+    CHECK (slip < 1 ? scale == 1.0 : std::fabs (scale / slip - 1) < 0.25,
+        "truth %.2f, default floor: scale %.3f", slip, scale);
   }
 }
 

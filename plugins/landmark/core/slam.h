@@ -93,7 +93,11 @@ struct SlamOptions {
    * odo_slip_prior frames whose innovation the slip alone would make
    * (docs/landmarkslam.md, "Odometry slip, stated or learned") */
   bool odo_slip_adapt = true;
-  double odo_slip_scale_min = 0.25, odo_slip_scale_max = 4.0;
+  /* by default only upward: the innovations that would draw the slip
+   * below its statement are also shaped by landmarks mapped off beyond
+   * their covariance, and a smaller slip left the pose over-confident
+   * there (docs/landmarkslam.md, "Odometry slip, stated or learned") */
+  double odo_slip_scale_min = 1.0, odo_slip_scale_max = 4.0;
   double odo_slip_window = 50.0;
   double odo_slip_prior = 1.0;
   /* the camera's floor point is this far ahead of the point whose motion

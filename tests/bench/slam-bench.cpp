@@ -7,8 +7,8 @@
  * in twenty missed. No map; without --odometry the constant-velocity
  * model, with it wheel odometry of the camera's motion, 2 % long and
  * slipping 1 mm per sqrt(m) and 0.001 rad per sqrt(m) (the filter states
- * 0.002 and learns the slip; --stated: keeps it, to show the learning's
- * cost).
+ * 0.002 and runs its slip learning, which with the default floor keeps
+ * the scale at 1 here; --stated: learning off, to show what it costs).
  *
  * Prints the CPU time of this thread per frame (median, p95, max; the first
  * and the last 300 frames apart), the resident memory after 300, 1,500 and

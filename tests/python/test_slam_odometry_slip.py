@@ -72,6 +72,10 @@ def test_defaults(gst):
                  "odometry-turn-slip"):
         assert s.get_property(name) == 0.002, name
     assert s.get_property("odometry-slip-adapt") is True
+    # learnt upward only unless told otherwise; the floor's range
+    assert s.get_property("odometry-slip-scale-min") == 1.0
+    spec = s.find_property("odometry-slip-scale-min")
+    assert (spec.minimum, spec.maximum) == (0.25, 1.0)
 
 
 def test_turn_slip_in_place(gst, tmp_path):

@@ -33,12 +33,37 @@ def clip(tmp_path_factory):
     return str(out)
 
 
-def run_chain(Gst, clip, element, log):
-    desc = (f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
+def chain_desc(clip, element, tail="fakesink name=sink"):
+    """The clip's chain up to ipmrange, then ``element`` and ``tail``."""
+    return (f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
             f"labsegment palette={clip}/palette.json min-class-pixels=0 ! "
             f"blobroundness ! ipmrange calibration={clip}/camera.yml "
-            f"map={clip}/map.json ! {element} ! "
-            f"landmarklog location={log} ! fakesink name=sink")
+            f"map={clip}/map.json ! {element} ! {tail}")
+
+
+def landmark_map_messages(gst, pipe):
+    """Plays ``pipe`` to EOS (no error): its landmark-map messages'
+    structures, in order."""
+    out = []
+    bus = pipe.get_bus()
+    pipe.set_state(gst.State.PLAYING)
+    try:
+        while True:
+            msg = bus.timed_pop_filtered(
+                60 * gst.SECOND, gst.MessageType.ELEMENT |
+                gst.MessageType.EOS | gst.MessageType.ERROR)
+            assert msg is not None and msg.type != gst.MessageType.ERROR
+            if msg.type == gst.MessageType.EOS:
+                return out
+            if msg.get_structure().get_name() == "landmark-map":
+                out.append(msg.get_structure())
+    finally:
+        pipe.set_state(gst.State.NULL)
+
+
+def run_chain(Gst, clip, element, log):
+    desc = chain_desc(clip, element,
+                      f"landmarklog location={log} ! fakesink name=sink")
     last = {}
     pipeline.run_to_eos(desc, 120, lambda pad, buf: last.update(
         map=meta.landmark_map(buf)))
@@ -323,11 +348,8 @@ def test_live_odometry_equals_the_file(gst, clip, slam_run, tmp_path):
                                str(tmp_path / "slam-file.jsonl"))
     steps = list(read_jsonl(odo))
     log = str(tmp_path / "slam-live.jsonl")
-    desc = (f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
-            f"labsegment palette={clip}/palette.json min-class-pixels=0 ! "
-            f"blobroundness ! ipmrange calibration={clip}/camera.yml "
-            f"map={clip}/map.json ! landmarkslam name=slam ! "
-            f"landmarklog location={log} ! fakesink")
+    desc = chain_desc(clip, "landmarkslam name=slam",
+                      f"landmarklog location={log} ! fakesink")
     pipeline.init()
     pipe = gst.parse_launch(desc)
     slam = pipe.get_by_name("slam")
@@ -396,35 +418,55 @@ def test_map_messages(gst, clip, tmp_path):
     """post-messages=true: one landmark-map message per frame with the
     map meta's landmarks, and the odometry slip scale in use (1, as
     stated: without odometry nothing is learnt)."""
-    desc = (f"filesrc location={clip}/clip.avi ! decodebin ! videoconvert ! "
-            f"labsegment palette={clip}/palette.json min-class-pixels=0 ! "
-            f"blobroundness ! ipmrange calibration={clip}/camera.yml "
-            f"map={clip}/map.json ! landmarkslam post-messages=true ! "
-            f"fakesink name=sink")
-    metas, messages, scales = [], [], set()
+    metas = []
     pipeline.init()
-    pipe = gst.parse_launch(desc)
+    pipe = gst.parse_launch(chain_desc(clip,
+                                       "landmarkslam post-messages=true"))
     pipe.get_by_name("sink").get_static_pad("sink").add_probe(
         gst.PadProbeType.BUFFER, lambda pad, info: metas.append(
             [lm.id for lm in meta.landmark_map(info.get_buffer())])
         or gst.PadProbeReturn.OK)
-    bus = pipe.get_bus()
-    pipe.set_state(gst.State.PLAYING)
-    try:
-        while True:
-            msg = bus.timed_pop_filtered(
-                60 * gst.SECOND, gst.MessageType.ELEMENT |
-                gst.MessageType.EOS | gst.MessageType.ERROR)
-            assert msg is not None and msg.type != gst.MessageType.ERROR
-            if msg.type == gst.MessageType.EOS:
-                break
-            st = msg.get_structure()
-            if st.get_name() == "landmark-map":
-                messages.append(list(st.get_value("ids")))
-                scales.add(st.get_value("odometry-slip-scale"))
-    finally:
-        pipe.set_state(gst.State.NULL)
+    structures = landmark_map_messages(gst, pipe)
+    messages = [list(st.get_value("ids")) for st in structures]
+    scales = {st.get_value("odometry-slip-scale") for st in structures}
     assert len(messages) == len(metas) == FRAMES
     assert messages == metas
     assert len(messages[-1]) >= 5
     assert scales == {1.0}
+
+
+def test_slip_learning_restarts_when_its_settings_change(gst, clip,
+                                                         slam_run, tmp_path):
+    """With the floor lowered, the slip learnt from a log without slip
+    falls below the stated value; setting odometry-slip while playing (at
+    frame 75) starts the learning again from the new value: the scale
+    jumps back to 1, where the run left alone stays low."""
+    _, _, truth, _ = slam_run
+    odo = str(tmp_path / "odometry.jsonl")
+    write_odometry(truth, odo)
+
+    def scales(change):
+        pipeline.init()
+        pipe = gst.parse_launch(chain_desc(
+            clip, f"landmarkslam name=s odometry={odo} post-messages=true "
+            "odometry-slip-scale-min=0.25"))
+        slam = pipe.get_by_name("s")
+        count = [0]
+
+        def on_buffer(pad, info):
+            count[0] += 1
+            if change and count[0] == 75:
+                slam.set_property("odometry-slip", 0.003)
+            return gst.PadProbeReturn.OK
+        pipe.get_by_name("sink").get_static_pad("sink").add_probe(
+            gst.PadProbeType.BUFFER, on_buffer)
+        return [st.get_value("odometry-slip-scale")
+                for st in landmark_map_messages(gst, pipe)]
+
+    kept, changed = scales(False), scales(True)
+    assert len(kept) == len(changed) == FRAMES
+    assert kept[:75] == changed[:75]
+    # measured: 0.25 (the floor) left alone; 0.80 on the first frame after
+    # the change (one frame's evidence on the prior at 1)
+    assert kept[74] < 0.4 and kept[75] < 0.4, kept[74:76]
+    assert changed[75] > 0.6, changed[74:77]

@@ -16,7 +16,8 @@
  * truth in the map frame (the first pose's). It asserts nothing about
  * speed; docs/performance.md quotes it.
  *
- *   build/tests/bench/slam-bench [FRAMES] [--odometry [--stated]]
+ *   build/tests/bench/slam-bench [FRAMES] [--landmarks N]
+ *       [--odometry [--stated]]
  */
 #include <algorithm>
 #include <cmath>
@@ -74,13 +75,15 @@ struct Truth {
 int
 main (int argc, char **argv)
 {
-  int frames = 3000;
+  int frames = 3000, count = 15;
   bool odometry = false, stated = false;
   for (int a = 1; a < argc; a++) {
     if (std::string (argv[a]) == "--odometry")
       odometry = true;
     else if (std::string (argv[a]) == "--stated")
       stated = true;
+    else if (std::string (argv[a]) == "--landmarks" && a + 1 < argc)
+      count = std::clamp (std::atoi (argv[++a]), 1, 128);
     else
       frames = std::max (1, std::atoi (argv[a]));
   }
@@ -91,12 +94,20 @@ main (int argc, char **argv)
   std::normal_distribution<double> unit (0, 1);
   std::uniform_real_distribution<double> uniform (0, 1);
 
-  /* three of each colour, spread around the field's edge, a little off it */
+  /* the colours in turn, spread around the field's edge, a little off it;
+   * beyond 15, on rings 0.5 m further out, about 0.4 m apart (a map of
+   * up to max-landmarks, 128: what the state's size costs) */
   std::vector<Truth> field;
-  for (int i = 0; i < 15; i++) {
-    const double a = 2 * M_PI * i / 15 + 0.1 * unit (rng);
-    const double r = 1.5 + 0.1 * unit (rng);
-    field.push_back ({r * std::cos (a), r * std::sin (a), colours[i % 5]});
+  for (int ring = 0, placed = 0; placed < count; ring++) {
+    const double radius = 1.5 + 0.5 * ring;
+    const int on_ring = ring == 0 ? std::min (count, 15)
+        : std::min (count - placed, (int) (2 * M_PI * radius / 0.4));
+    for (int i = 0; i < on_ring; i++, placed++) {
+      const double a = 2 * M_PI * i / on_ring + 0.1 * unit (rng) / (ring + 1);
+      const double r = radius + 0.1 * unit (rng);
+      field.push_back ({r * std::cos (a), r * std::sin (a),
+              colours[placed % 5]});
+    }
   }
 
   Slam slam;
@@ -180,8 +191,8 @@ main (int argc, char **argv)
   const size_t tail = std::min<size_t> (300, cost.size ());
   const std::vector<double> head (cost.begin (), cost.begin () + tail);
   const std::vector<double> last (cost.end () - tail, cost.end ());
-  std::printf ("slam-bench: %d frames (%.0f s, %.1f laps), 15 landmarks, "
-      "no map, %s", frames, t, phase / (2 * M_PI), odometry ? "odometry"
+  std::printf ("slam-bench: %d frames (%.0f s, %.1f laps), %d landmarks, "
+      "no map, %s", frames, t, phase / (2 * M_PI), count, odometry ? "odometry"
       : "no odometry\n");
   if (odometry)
     std::printf (" (slip %s, scale %.2f)\n", stated ? "as stated" : "learnt",

@@ -697,7 +697,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   if (maybe_ball && obs.has_ellipse && st.mapped
       && (gint) fw == GST_VIDEO_FRAME_WIDTH (&st.frame)
       && (gint) fh == GST_VIDEO_FRAME_HEIGHT (&st.frame))
-    landmark::measure_end_offsets_by_row (&obs, landmark::ball_axis_angle
+    landmark::measure_end_offsets (&obs, landmark::ball_axis_angle
         (st.geometry, obs), [&st](int x, int y, int n, double *rgb) {
           return gst_ipm_range_row_light (st, x, y, n, rgb);
         });

@@ -616,6 +616,20 @@ test_rim ()
       shaded.rim_range, e_ball, shaded.size_excess);
 }
 
+/* measure_end_offsets with the light given a pixel at a time (the frames
+ * here are drawn analytically, pixel by pixel) */
+static void
+end_offsets_per_pixel (BlobObservation * blob, double angle,
+    const std::function<bool (double, double, double[3])> & light)
+{
+  measure_end_offsets (blob, angle, [&](int x, int y, int n, double *rgb) {
+        for (int i = 0; i < n; i++)
+          if (!light (x + i, y, rgb + 3 * i))
+            return false;
+        return true;
+      });
+}
+
 /* A shaded ball's outline from the frame (measure_end_offsets): the frame
  * drawn analytically (the exact outline blurred over a pixel, the ball's
  * light falling from top to bottom as Lambert shading makes it, a grey
@@ -667,7 +681,7 @@ test_shaded_ball ()
     spec.diameter = 2 * br;
     const double want = std::hypot (p[0], p[1]);
     const RangeEstimate before = estimate_range (g, blob, spec, 0.5);
-    measure_end_offsets (&blob, ball_axis_angle (g, blob), light);
+    end_offsets_per_pixel (&blob, ball_axis_angle (g, blob), light);
     const RangeEstimate after = estimate_range (g, blob, spec, 0.5);
     const double e0 = before.range_ground - want;
     const double e1 = after.range_ground - want;
@@ -734,7 +748,7 @@ test_shaded_ball ()
         x = normal (rng);
       BlobObservation b = blob_of (moved_outline (exact,
               [](double, double nv) { return -0.3 * (1 + nv); }));
-      measure_end_offsets (&b, ball_axis_angle (g, b), noisy);
+      end_offsets_per_pixel (&b, ball_axis_angle (g, b), noisy);
       CHECK (b.has_ends, "ends with noise, trial %d", t);
       for (int k = 0; k < 4; k++) {
         sum[k] += b.end_offset[k];
@@ -770,14 +784,14 @@ test_shaded_ball ()
   }
   /* no contrast, or the ends off the frame: the blob's ellipse stays */
   BlobObservation flat = blob_of (ball_outline (g, 1.0, 0.3, br));
-  measure_end_offsets (&flat, flat.angle, [](double, double,
+  end_offsets_per_pixel (&flat, flat.angle, [](double, double,
           double rgb[3]) {
         rgb[0] = rgb[1] = rgb[2] = 0.5;
         return true;
       });
   CHECK (!flat.has_ends, "no contrast: %g %g", flat.end_offset[0],
       flat.end_offset[1]);
-  measure_end_offsets (&flat, flat.angle, [](double, double, double[3]) {
+  end_offsets_per_pixel (&flat, flat.angle, [](double, double, double[3]) {
         return false;
       });
   CHECK (!flat.has_ends, "off the frame");

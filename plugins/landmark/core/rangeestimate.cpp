@@ -166,19 +166,6 @@ ball_axis_angle (const CameraGeometry & g, const BlobObservation & blob)
   return std::atan2 (dv, du);
 }
 
-void
-measure_end_offsets (BlobObservation * blob, double angle,
-    const std::function<bool (double, double, double[3])> & light)
-{
-  measure_end_offsets_by_row (blob, angle, [&](int x, int y, int n,
-          double *rgb) {
-        for (int i = 0; i < n; i++)
-          if (!light (x + i, y, rgb + 3 * i))
-            return false;
-        return true;
-      });
-}
-
 namespace {
 
 /* Where lo <= slope * x + at <= hi, into [*x0, *x1]; false if nowhere. */
@@ -199,7 +186,7 @@ clip_to_band (double slope, double at, double lo, double hi, double *x0,
 }  // namespace
 
 void
-measure_end_offsets_by_row (BlobObservation * blob, double angle,
+measure_end_offsets (BlobObservation * blob, double angle,
     const RowLight & row)
 {
   const double a = blob->major / 2, b = blob->minor / 2;

@@ -133,18 +133,14 @@ double ball_axis_angle (const CameraGeometry & geometry,
  * across it (3 px under 20 px of width), each read once and put in the
  * 0.25 px bin of its distance across the ellipse's outline, the bins'
  * means at their pixels' mean distance taken at even steps; with each
- * end's sigma (end_sigma). `light` gives the frame's linear
- * light at a pixel of the blob's frame (centres at integers), false
- * outside it. Balls under 16 px across (the profile would reach past half
- * their radius) are left alone. */
-void measure_end_offsets (BlobObservation * blob, double angle,
-    const std::function<bool (double u, double v, double rgb[3])> & light);
-
-/* The same, the light taken a run of pixels at a time (which keeps the
- * frame's reading in the caller's loop): n pixels of row y from column x,
- * into rgb (3 per pixel); false when one is outside the frame. */
+ * end's sigma (end_sigma). `row` gives the frame's linear light a run
+ * of pixels at a time (which keeps the frame's reading in the caller's
+ * loop): n pixels of row y from column x of the blob's frame, into rgb (3
+ * per pixel); false when one is outside the frame. Balls under 16 px
+ * across (the profile would reach past half their radius) are left
+ * alone. */
 using RowLight = std::function<bool (int x, int y, int n, double *rgb)>;
-void measure_end_offsets_by_row (BlobObservation * blob, double angle,
+void measure_end_offsets (BlobObservation * blob, double angle,
     const RowLight & row);
 
 /* A ball's shaded underside is segmented alike frame after frame, so its

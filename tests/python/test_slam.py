@@ -43,22 +43,21 @@ def chain_desc(clip, element, tail="fakesink name=sink"):
 
 def landmark_map_messages(gst, pipe):
     """Plays ``pipe`` to EOS (no error): its landmark-map messages'
-    structures, in order."""
+    structures, in the order posted."""
     out = []
-    bus = pipe.get_bus()
+
+    def on_message(bus, msg):
+        st = msg.get_structure()
+        if st is not None and st.get_name() == "landmark-map":
+            out.append(st.copy())
+        return gst.BusSyncReply.PASS
+    pipe.get_bus().set_sync_handler(on_message)
     pipe.set_state(gst.State.PLAYING)
     try:
-        while True:
-            msg = bus.timed_pop_filtered(
-                60 * gst.SECOND, gst.MessageType.ELEMENT |
-                gst.MessageType.EOS | gst.MessageType.ERROR)
-            assert msg is not None and msg.type != gst.MessageType.ERROR
-            if msg.type == gst.MessageType.EOS:
-                return out
-            if msg.get_structure().get_name() == "landmark-map":
-                out.append(msg.get_structure())
+        pipeline.wait_eos(pipe, 60)
     finally:
         pipe.set_state(gst.State.NULL)
+    return out
 
 
 def run_chain(Gst, clip, element, log):

@@ -41,6 +41,27 @@ constexpr int kPassGap = 15;
  * near -1 would divide by zero */
 constexpr double kMaxScaleError = 0.5;
 
+/* H M for a measurement Jacobian H: each row of H has a few non-zero
+ * columns (the pose's and one landmark's), so H M is those rows of M
+ * summed, O(rows x N) where the dense product is O(rows x N^2) */
+cv::Mat
+jacobian_times (const cv::Mat & H, const cv::Mat & M)
+{
+  cv::Mat out = cv::Mat::zeros (H.rows, M.cols, CV_64F);
+  for (int r = 0; r < H.rows; r++) {
+    const double *h = H.ptr<double> (r);
+    double *o = out.ptr<double> (r);
+    for (int c = 0; c < H.cols; c++) {
+      if (h[c] == 0)
+        continue;
+      const double *m = M.ptr<double> (c);
+      for (int j = 0; j < M.cols; j++)
+        o[j] += h[c] * m[j];
+    }
+  }
+  return out;
+}
+
 /* P <- F P F^T for F the identity but for its first kMotionStates rows
  * (the motion states, F's kMotionStates^2 block): F P over each column,
  * then (F P) F^T over each row */
@@ -596,14 +617,35 @@ Slam::slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
    * with N^2 times the measurements, not with N^3 */
   for (int c = 0; c < 2; c++) {
     cv::Mat D (N, N, CV_64F, dp_[c].data ());
-    const cv::Mat HD = H * D;
+    const cv::Mat HD = jacobian_times (H, D);
     cv::Mat inner = HD * H.t ();
     if (c == 1)
       inner += R;
-    const cv::Mat KHD = K * HD;
-    cv::Mat Dn = D - KHD - KHD.t () + K * inner * K.t ();
-    Dn = 0.5 * (Dn + Dn.t ());
-    Dn.copyTo (D);
+    joseph_update (dp_[c].data (), K, HD, inner);
+  }
+}
+
+/* M <- M - K (H M) - (H M)^T K^T + K inner K^T for a symmetric n x n M,
+ * written symmetric (each pair of entries averaged), the two N x N
+ * products in scratch_ so a frame allocates no N x N matrix */
+void
+Slam::joseph_update (double *M, const cv::Mat & K, const cv::Mat & HM,
+    const cv::Mat & inner)
+{
+  const int N = (int) n ();
+  cv::gemm (K, HM, 1, cv::noArray (), 0, scratch_.gain_times_hm);
+  cv::gemm (K, inner * K.t (), 1, cv::noArray (), 0,
+      scratch_.gain_inner_gain);
+  const cv::Mat & A = scratch_.gain_times_hm, &B = scratch_.gain_inner_gain;
+  for (int i = 0; i < N; i++) {
+    const double *ai = A.ptr<double> (i), *bi = B.ptr<double> (i);
+    for (int j = i; j < N; j++) {
+      const double v = 0.5 * (M[i * N + j] + M[j * N + i])
+          - (ai[j] + A.at<double> (j, i))
+          + 0.5 * (bi[j] + B.at<double> (j, i));
+      M[i * N + j] = v;
+      M[j * N + i] = v;
+    }
   }
 }
 
@@ -1006,6 +1048,8 @@ struct Pairing {
   int obs = -1, lm = -1;
   cv::Vec2d nu;
   cv::Mat H;        /* 2 x N */
+  int cols[5];      /* H's non-zero columns: the pose's, the landmark's */
+  int n_cols = 0;
   cv::Mat PHt;      /* N x 2 */
   cv::Matx22d R;
   double d2 = 0;    /* individual Mahalanobis distance squared */
@@ -1073,14 +1117,20 @@ Slam::update (const std::vector<SlamObservation> & obs)
     h1[0] = dy / q;
     h1[1] = -dx / q;
     h1[2] = -1;
+    pr->cols[0] = 0;
+    pr->cols[1] = 1;
+    pr->cols[2] = 2;
+    pr->n_cols = 3;
     if (sl >= 0) {
+      pr->cols[pr->n_cols++] = sl;
+      pr->cols[pr->n_cols++] = sl + 1;
       h0[sl] = dx / r;
       h0[sl + 1] = dy / r;
       h1[sl] = -dy / q;
       h1[sl + 1] = dx / q;
     }
     pr->R = cv::Matx22d (sr * sr, 0, 0, sb * sb);
-    pr->PHt = P * pr->H.t ();
+    pr->PHt = jacobian_times (pr->H, P).t ();
     cv::Mat S = pr->H * pr->PHt + cv::Mat (pr->R);
     cv::Mat nu (pr->nu);
     cv::Mat d = nu.t () * S.inv (cv::DECOMP_CHOLESKY) * nu;
@@ -1118,11 +1168,17 @@ Slam::update (const std::vector<SlamObservation> & obs)
     for (int a = 0; a < m; a++) {
       nu.at<double> (2 * a) = h[a]->nu[0];
       nu.at<double> (2 * a + 1) = h[a]->nu[1];
+      const Pairing & pa = *h[a];
       for (int b = 0; b < m; b++) {
-        cv::Mat blk = h[a]->H * h[b]->PHt;
-        if (a == b)
-          blk += cv::Mat (h[a]->R);
-        blk.copyTo (S (cv::Rect (2 * b, 2 * a, 2, 2)));
+        /* H_a P H_b^T over H_a's non-zero columns */
+        for (int r = 0; r < 2; r++)
+          for (int c = 0; c < 2; c++) {
+            double v = a == b ? pa.R (r, c) : 0;
+            for (int t = 0; t < pa.n_cols; t++)
+              v += pa.H.at<double> (r, pa.cols[t])
+                  * h[b]->PHt.at<double> (pa.cols[t], c);
+            S.at<double> (2 * a + r, 2 * b + c) = v;
+          }
       }
     }
     cv::Mat d = nu.t () * S.inv (cv::DECOMP_CHOLESKY) * nu;
@@ -1134,9 +1190,15 @@ Slam::update (const std::vector<SlamObservation> & obs)
   double best_nis = 0;
   int nodes = 0;
   std::vector<bool> used (lm_.size (), false);
-  std::vector<double> thresholds (2 * obs.size () + 2, 0);
-  for (size_t m = 1; m <= obs.size (); m++)
-    thresholds[m] = chi2_quantile (opt.joint_probability, 2 * (int) m);
+  /* the joint gate for m pairings, kept while the probability stays */
+  if (joint_gate_p_ != opt.joint_probability) {
+    joint_gate_.assign (1, 0);
+    joint_gate_p_ = opt.joint_probability;
+  }
+  while (joint_gate_.size () <= obs.size ())
+    joint_gate_.push_back (chi2_quantile (opt.joint_probability,
+            2 * (int) joint_gate_.size ()));
+  const std::vector<double> & thresholds = joint_gate_;
   std::function<void (size_t, double)> search = [&](size_t i, double nis) {
     if (++nodes > opt.max_jcbb_nodes)
       return;
@@ -1220,7 +1282,8 @@ Slam::update (const std::vector<SlamObservation> & obs)
     for (int i = 0; i < N; i++)
       dev.at<double> (i) = prior[i] - s_[i];
     dev.at<double> (2) = wrap_angle (dev.at<double> (2));
-    cv::Mat PHt = P * H.t ();
+    const cv::Mat HP = jacobian_times (H, P);
+    const cv::Mat PHt = HP.t ();
     cv::Mat S = H * PHt + R;
     cv::Mat Sinv = S.inv (cv::DECOMP_CHOLESKY);
     cv::Mat K = PHt * Sinv;
@@ -1228,11 +1291,10 @@ Slam::update (const std::vector<SlamObservation> & obs)
     for (int i = 0; i < N; i++)
       s_[i] = prior[i] + dx.at<double> (i);
     s_[2] = wrap_angle (s_[2]);
-    /* Joseph form keeps P symmetric and positive */
-    cv::Mat IKH = cv::Mat::eye (N, N, CV_64F) - K * H;
-    cv::Mat Pn = IKH * P * IKH.t () + K * R * K.t ();
-    Pn = 0.5 * (Pn + Pn.t ());
-    Pn.copyTo (P);
+    /* Joseph form, (I - K H) P (I - K H)^T + K R K^T, keeps P symmetric
+     * and positive; expanded, P - K (H P) - (H P)^T K^T + K S K^T, it
+     * costs N^2 times the measurements instead of N^3 */
+    joseph_update (p_.data (), K, HP, S);
     /* a relocalised frame's innovation is the relocalisation's, not the
      * prediction's: no evidence of the slip */
     slip_evidence (H, lost ? cv::Mat () : Sinv, R, nu, K);

@@ -218,6 +218,18 @@ private:
   void slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
       const cv::Mat & R, const cv::Mat & nu, const cv::Mat & K);
   double slip_scales (double *meas_var) const;
+  /* the update's N x N products, kept from frame to frame (not copied
+   * with the filter: each copy has its own) */
+  struct UpdateScratch {
+    cv::Mat gain_times_hm, gain_inner_gain;
+    UpdateScratch () = default;
+    UpdateScratch (const UpdateScratch &) {}
+    UpdateScratch & operator= (const UpdateScratch &) { return *this; }
+  } scratch_;
+  std::vector<double> joint_gate_;  /* chi-square quantile, 2 m dof */
+  double joint_gate_p_ = -1;
+  void joseph_update (double *M, const cv::Mat & K, const cv::Mat & HM,
+      const cv::Mat & inner);
 
   size_t n () const { return s_.size (); }
   void init_pose (const Pose2 & p, const double cov[9]);

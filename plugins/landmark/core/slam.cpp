@@ -625,24 +625,23 @@ Slam::slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
   }
 }
 
-/* M <- M - K (H M) - (H M)^T K^T + K inner K^T for a symmetric n x n M,
- * written symmetric (each pair of entries averaged), the two N x N
- * products in scratch_ so a frame allocates no N x N matrix */
+/* M <- M - K (H M) - (H M)^T K^T + K inner K^T for a symmetric n x n M
+ * and a symmetric inner: with C = K (H M - inner K^T / 2) that is
+ * M - C - C^T, one N x N product (in scratch_, so a frame allocates no
+ * N x N matrix), written symmetric */
 void
 Slam::joseph_update (double *M, const cv::Mat & K, const cv::Mat & HM,
     const cv::Mat & inner)
 {
   const int N = (int) n ();
-  cv::gemm (K, HM, 1, cv::noArray (), 0, scratch_.gain_times_hm);
-  cv::gemm (K, inner * K.t (), 1, cv::noArray (), 0,
-      scratch_.gain_inner_gain);
-  const cv::Mat & A = scratch_.gain_times_hm, &B = scratch_.gain_inner_gain;
+  cv::gemm (K, HM - 0.5 * inner * K.t (), 1, cv::noArray (), 0,
+      scratch_.joseph);
+  const cv::Mat & C = scratch_.joseph;
   for (int i = 0; i < N; i++) {
-    const double *ai = A.ptr<double> (i), *bi = B.ptr<double> (i);
+    const double *ci = C.ptr<double> (i);
     for (int j = i; j < N; j++) {
       const double v = 0.5 * (M[i * N + j] + M[j * N + i])
-          - (ai[j] + A.at<double> (j, i))
-          + 0.5 * (bi[j] + B.at<double> (j, i));
+          - (ci[j] + C.at<double> (j, i));
       M[i * N + j] = v;
       M[j * N + i] = v;
     }

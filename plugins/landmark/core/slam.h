@@ -218,10 +218,10 @@ private:
   void slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
       const cv::Mat & R, const cv::Mat & nu, const cv::Mat & K);
   double slip_scales (double *meas_var) const;
-  /* the update's N x N products, kept from frame to frame (not copied
+  /* the update's N x N product, kept from frame to frame (not copied
    * with the filter: each copy has its own) */
   struct UpdateScratch {
-    cv::Mat gain_times_hm, gain_inner_gain;
+    cv::Mat joseph;
     UpdateScratch () = default;
     UpdateScratch (const UpdateScratch &) {}
     UpdateScratch & operator= (const UpdateScratch &) { return *this; }

@@ -578,8 +578,9 @@ Slam::slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
     return;
   cv::Mat D1 (N, N, CV_64F, dp_[0].data ()), D2 (N, N, CV_64F,
       dp_[1].data ());
+  const cv::Mat HD[2] = { jacobian_times (H, D1), jacobian_times (H, D2) };
+  const cv::Mat G1 = HD[0] * H.t (), G2 = HD[1] * H.t () + R;
   if (opt.odo_slip_adapt && !Sinv.empty ()) {
-    const cv::Mat G1 = H * D1 * H.t (), G2 = H * D2 * H.t () + R;
     const cv::Mat SG1 = Sinv * G1, SG2 = Sinv * G2;
     const cv::Mat w = Sinv * nu;            /* S^-1 nu */
     const double t11 = cv::trace (SG1 * SG1)[0],
@@ -614,21 +615,15 @@ Slam::slip_evidence (const cv::Mat & H, const cv::Mat & Sinv,
   /* dP+ = (I - K H) dP- (I - K H)^T (+ K R K^T for the measurements'):
    * the gain's own derivative drops out at the optimal gain. Expanded,
    * D - K (H D) - (H D)^T K^T + K (H D H^T) K^T, so that the cost grows
-   * with N^2 times the measurements, not with N^3 */
-  for (int c = 0; c < 2; c++) {
-    cv::Mat D (N, N, CV_64F, dp_[c].data ());
-    const cv::Mat HD = jacobian_times (H, D);
-    cv::Mat inner = HD * H.t ();
-    if (c == 1)
-      inner += R;
-    joseph_update (dp_[c].data (), K, HD, inner);
-  }
+   * with N^2 times the measurements, not with N^3 (H D H^T as in G) */
+  for (int c = 0; c < 2; c++)
+    joseph_update (dp_[c].data (), K, HD[c], c == 0 ? G1 : G2);
 }
 
-/* M <- M - K (H M) - (H M)^T K^T + K inner K^T for a symmetric n x n M
- * and a symmetric inner: with C = K (H M - inner K^T / 2) that is
- * M - C - C^T, one N x N product (in scratch_, so a frame allocates no
- * N x N matrix), written symmetric */
+/* M <- M - K (H M) - (H M)^T K^T + K inner K^T for a symmetric M of the
+ * state's size n (): with C = K (H M - inner K^T / 2) that is M - C - C^T
+ * (inner's symmetric part), one N x N product, kept in scratch_ (which
+ * allocates again only when a landmark changes N), written symmetric */
 void
 Slam::joseph_update (double *M, const cv::Mat & K, const cv::Mat & HM,
     const cv::Mat & inner)
@@ -1047,7 +1042,7 @@ struct Pairing {
   int obs = -1, lm = -1;
   cv::Vec2d nu;
   cv::Mat H;        /* 2 x N */
-  int cols[5];      /* H's non-zero columns: the pose's, the landmark's */
+  int cols[5] = {}; /* H's non-zero columns: the pose's, the landmark's */
   int n_cols = 0;
   cv::Mat PHt;      /* N x 2 */
   cv::Matx22d R;
@@ -1290,9 +1285,11 @@ Slam::update (const std::vector<SlamObservation> & obs)
     for (int i = 0; i < N; i++)
       s_[i] = prior[i] + dx.at<double> (i);
     s_[2] = wrap_angle (s_[2]);
-    /* Joseph form, (I - K H) P (I - K H)^T + K R K^T, keeps P symmetric
-     * and positive; expanded, P - K (H P) - (H P)^T K^T + K S K^T, it
-     * costs N^2 times the measurements instead of N^3 */
+    /* the Joseph form, (I - K H) P (I - K H)^T + K R K^T: an error in K
+     * changes P only at second order. Expanded, P - K (H P) - (H P)^T K^T
+     * + K S K^T, it costs N^2 times the measurements instead of N^3 and
+     * is positive up to rounding (a difference, not a sum of positive
+     * terms) */
     joseph_update (p_.data (), K, HP, S);
     /* a relocalised frame's innovation is the relocalisation's, not the
      * prediction's: no evidence of the slip */

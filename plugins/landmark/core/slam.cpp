@@ -368,33 +368,30 @@ Slam::add_landmark (const SlamObservation & o, SlamLandmark lm)
   cv::Mat Gx = (cv::Mat_<double> (2, 3) << 1, 0, -r * sa, 0, 1, r * ca);
   cv::Mat Gz = (cv::Mat_<double> (2, 2) << ca, -r * sa, sa, r * ca);
   cv::Mat R = (cv::Mat_<double> (2, 2) << sr * sr, 0, 0, sb * sb);
-  cv::Mat P (N, N, CV_64F, p_.data ());
-  cv::Mat Plx = Gx * P.rowRange (0, 3);         /* 2 x N */
-  cv::Mat Pll = Gx * P (cv::Rect (0, 0, 3, 3)) * Gx.t () + Gz * R * Gz.t ();
-  cv::Mat Pn = cv::Mat::zeros (N + 2, N + 2, CV_64F);
-  P.copyTo (Pn (cv::Rect (0, 0, N, N)));
-  Plx.copyTo (Pn (cv::Rect (0, N, N, 2)));
-  cv::Mat Pxl = Plx.t ();
-  Pxl.copyTo (Pn (cv::Rect (N, 0, 2, N)));
-  Pll.copyTo (Pn (cv::Rect (N, N, 2, 2)));
-  p_.assign ((double *) Pn.data, (double *) Pn.data + (N + 2) * (N + 2));
-  for (int c = 0; c < 2 && p_.size () == (size_t) ((N + 2) * (N + 2))
-      && dp_[c].size () == (size_t) (N * N); c++) {
-    /* the derivatives of P reach the landmark through the pose, and the
-     * measurement's own through its R */
-    cv::Mat D (N, N, CV_64F, dp_[c].data ());
-    cv::Mat Dlx = Gx * D.rowRange (0, 3);
-    cv::Mat Dn = cv::Mat::zeros (N + 2, N + 2, CV_64F);
-    D.copyTo (Dn (cv::Rect (0, 0, N, N)));
-    Dlx.copyTo (Dn (cv::Rect (0, N, N, 2)));
-    cv::Mat Dxl = Dlx.t ();
-    Dxl.copyTo (Dn (cv::Rect (N, 0, 2, N)));
-    cv::Mat Dll = Gx * D (cv::Rect (0, 0, 3, 3)) * Gx.t ();
-    if (c == 1)
-      Dll += Gz * R * Gz.t ();
-    Dll.copyTo (Dn (cv::Rect (N, N, 2, 2)));
-    dp_[c].assign ((double *) Dn.data, (double *) Dn.data
-        + (N + 2) * (N + 2));
+  /* M (N x N) grown by the landmark's rows and columns: its correlation
+   * with the rest through the pose, Gx M, its own block Gx M Gx^T, plus
+   * the measurement's Gz R Gz^T where M holds it: P, and the
+   * measurements' derivative of P (the slip's reaches the landmark
+   * through the pose only) */
+  auto grow = [&](std::vector<double> & m, bool with_measurement) {
+    cv::Mat M (N, N, CV_64F, m.data ());
+    cv::Mat Mlx = Gx * M.rowRange (0, 3);       /* 2 x N */
+    cv::Mat Mll = Gx * M (cv::Rect (0, 0, 3, 3)) * Gx.t ();
+    if (with_measurement)
+      Mll += Gz * R * Gz.t ();
+    cv::Mat Mn = cv::Mat::zeros (N + 2, N + 2, CV_64F);
+    M.copyTo (Mn (cv::Rect (0, 0, N, N)));
+    Mlx.copyTo (Mn (cv::Rect (0, N, N, 2)));
+    cv::Mat Mxl = Mlx.t ();
+    Mxl.copyTo (Mn (cv::Rect (N, 0, 2, N)));
+    Mll.copyTo (Mn (cv::Rect (N, N, 2, 2)));
+    m.assign ((double *) Mn.data, (double *) Mn.data + (N + 2) * (N + 2));
+  };
+  const bool tracked = slip_tracked ();
+  grow (p_, true);
+  if (tracked) {
+    grow (dp_[0], false);
+    grow (dp_[1], true);
   }
   s_.push_back (lm.x);
   s_.push_back (lm.y);

@@ -67,6 +67,9 @@ MAX_STOLEN_SHARE = 0.005
 # untaught scene: a region's edge pixels mix its colour with its
 # neighbour's
 UNTAUGHT_MARGIN = 2
+# with rectangles, the rest of the image starts this share of a
+# rectangle's longer side away from it (``rect_margin``)
+RECT_MARGIN_SHARE = 0.25
 # untaught pixels farther than this from every taught reference are a
 # colour of the scene that no class has: about four just-noticeable
 # differences (Delta E 2.3), more than twice the separation at which rule 5
@@ -644,22 +647,40 @@ def cluster_references(pixels_lab, references="auto", seed=0):
     return best
 
 
-def _untaught_pixels(lab, masks):
-    """The L*a*b* pixels in no class's region, at least UNTAUGHT_MARGIN
-    pixels away from every region."""
-    taught = np.zeros(lab.shape[:2], dtype=np.uint8)
+def _rest_near_masks(masks):
+    """The pixels of no class's region and at least UNTAUGHT_MARGIN pixels
+    away from every region, as a bool mask (the rest of a teaching image
+    taught by a class mask)."""
+    taught = np.zeros(masks[0].shape, dtype=np.uint8)
     for mask in masks:
         taught |= mask.astype(np.uint8)
     size = 2 * UNTAUGHT_MARGIN + 1
-    near = cv2.dilate(taught, np.ones((size, size), np.uint8))
-    return lab[near == 0].astype(np.float64)
+    return cv2.dilate(taught, np.ones((size, size), np.uint8)) == 0
 
 
-def _split_untaught(lab, masks, taught):
-    """The untaught pixels (``_untaught_pixels``) split into those within
-    UNTAUGHT_MIN_DISTANCE of a reference of ``taught`` (pairs of pixels
-    and references) and those farther from all of them."""
-    pixels = _untaught_pixels(lab, masks)
+def rect_margin(w, h):
+    """Pixels around a rectangle left out of the rest of the image: a box
+    drawn by hand or by an annotator seldom holds all of its object (the
+    ball's rim, its shadow), so a quarter of the box's longer side, at least
+    UNTAUGHT_MARGIN."""
+    return max(UNTAUGHT_MARGIN, int(math.ceil(RECT_MARGIN_SHARE * max(w, h))))
+
+
+def _rest_of_rects(shape, rects):
+    """The rest of an image taught by rectangles: the pixels outside every
+    rectangle grown by its ``rect_margin``, as a bool mask."""
+    height, width = shape[:2]
+    rest = np.ones((height, width), dtype=bool)
+    for _, x, y, w, h in rects:
+        m = rect_margin(w, h)
+        rest[max(0, y - m):y + h + m, max(0, x - m):x + w + m] = False
+    return rest
+
+
+def _split_untaught(pixels, taught):
+    """The rest's pixels (N, 3) split into those within
+    UNTAUGHT_MIN_DISTANCE of a reference of ``taught`` and those farther
+    from all of them."""
     refs = np.vstack([r for _, r in taught])
     near = np.zeros(len(pixels), dtype=bool)
     for start in range(0, len(pixels), 65536):
@@ -668,6 +689,12 @@ def _split_untaught(lab, masks, taught):
         near[start:start + 65536] = \
             d2.min(axis=1) <= UNTAUGHT_MIN_DISTANCE ** 2
     return pixels[near], pixels[~near]
+
+
+def _rest_pixels(views):
+    """The pixels of the rest of every teaching image, pooled, (N, 3)."""
+    return np.vstack([lab[rest] for lab, _, rest in views]) \
+        .astype(np.float64)
 
 
 def _refs_taking_no_taught_pixels(refs, taught, seed):
@@ -690,21 +717,24 @@ def _refs_taking_no_taught_pixels(refs, taught, seed):
     return refs[keep]
 
 
-def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
+def _palette_from_masks(views, names, roles, allow_missing=False,
                         references=1, seed=0, untaught_class=None):
     """Mean Lab of each class's pixels (and its reference colours, see
-    ``cluster_references``) -> validated Palette.  Classes with no pixels
-    are an error, or with ``allow_missing`` are left out (with a warning
-    on stderr naming them).  ``untaught_class``: the name of a background
-    class learned from the untaught pixels far from every taught colour,
-    when they cover UNTAUGHT_MIN_SHARE of the image (None: no such
-    class)."""
+    ``cluster_references``) -> validated Palette.  ``views``: per teaching
+    image, (its L*a*b*, a bool mask per class, a bool mask of the rest of
+    the image); the pixels of a class, and those of the rest, are pooled
+    over the images.  Classes with no pixels are an error, or with
+    ``allow_missing`` are left out (with a warning on stderr naming them).
+    ``untaught_class``: the name of a background class learned from the
+    rest's pixels far from every taught colour, when they cover
+    UNTAUGHT_MIN_SHARE of the images (None: no such class)."""
     references = _check_references(references)
     entries = []
     missing = []
     taught = []
-    for name, mask, role in zip(names, masks, roles):
-        if not mask.any():
+    area = sum(lab.shape[0] * lab.shape[1] for lab, _, _ in views)
+    for k, (name, role) in enumerate(zip(names, roles)):
+        if not any(masks[k].any() for _, masks, _ in views):
             if not allow_missing:
                 raise PaletteError(f"class {json.dumps(name)} has no "
                                    f"pixels")
@@ -712,7 +742,8 @@ def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
             continue
         # Mean in float64 over the float32 Lab pixels; clip L* so float
         # rounding at pure white or black cannot fail validation.
-        pixels = lab[mask].astype(np.float64)
+        pixels = np.vstack([lab[masks[k]] for lab, masks, _ in views]) \
+            .astype(np.float64)
         mean = pixels.mean(axis=0)
         mean[0] = min(max(mean[0], 0.0), 100.0)
         entries.append({"name": name, "lab": [float(v) for v in mean],
@@ -729,8 +760,8 @@ def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
                 f"the class for untaught colours, "
                 f"{json.dumps(untaught_class)}, is also a taught class: "
                 f"name it otherwise")
-        untaught, far = _split_untaught(lab, masks, taught)
-        if len(far) >= UNTAUGHT_MIN_SHARE * lab.shape[0] * lab.shape[1] \
+        untaught, far = _split_untaught(_rest_pixels(views), taught)
+        if len(far) >= UNTAUGHT_MIN_SHARE * area \
                 and len(entries) < MAX_CLASSES:
             mean = far.mean(axis=0)
             mean[0] = min(max(mean[0], 0.0), 100.0)
@@ -748,7 +779,7 @@ def _palette_from_masks(lab, names, masks, roles, allow_missing=False,
                 entries.pop()
     if references == "auto" and len(taught) > 1:
         if untaught is None:
-            untaught = _untaught_pixels(lab, masks)
+            untaught = _rest_pixels(views)
         kept = prune_stealing_references(
             prune_shared_references([r for _, r in taught],
                                     [p.mean(axis=0) for p, _ in taught]),
@@ -818,28 +849,42 @@ def learn_from_mask(image_bgr_uint8, mask_uint8, names=None, markers=None,
                            f"are allowed")
     roles = _class_roles(names, markers, None, floor)
     masks = [mask == k for k in range(1, len(names) + 1)]
-    return _palette_from_masks(_image_lab(image), names, masks, roles,
+    return _palette_from_masks([(_image_lab(image), masks,
+                                 _rest_near_masks(masks))], names, roles,
                                allow_missing=allow_missing,
                                references=references,
                                untaught_class=untaught_class)
 
 
 def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None,
-                     references=1, floor=None):
+                     references=1, floor=None, untaught_class=None):
     """Learn a palette from rectangles ``[(name, x, y, w, h), ...]``.
 
     Several rectangles may share a name; their pixels are pooled.  Classes
     are in order of first appearance.  ``markers`` or ``background`` lists
     which names are markers or background (default: all markers), and
-    ``floor`` the floor classes (role floor).  ``references`` as for ``learn_from_mask``.
+    ``floor`` the floor classes (role floor).  ``references`` as for
+    ``learn_from_mask``.  ``untaught_class``: name of a background class
+    learned from the rest of the image (outside every rectangle grown by
+    ``rect_margin``) as ``learn_from_mask`` does (None: no such class).
     """
-    image = _check_image(image_bgr_uint8)
-    height, width = image.shape[:2]
+    return learn_from_images([(image_bgr_uint8, rects)], markers=markers,
+                             background=background, references=references,
+                             floor=floor, untaught_class=untaught_class)
+
+
+def check_rects(shape, rects, source=None):
+    """Check rectangles ``[(name, x, y, w, h), ...]`` against an image of
+    ``shape`` and return, per class name in order of first appearance, its
+    bool mask; a rectangle that does not fit or that overlaps one of
+    another class is a PaletteError naming it (and ``source``, the image)."""
+    height, width = shape[:2]
     names = []
     class_masks = {}
     owner = np.full((height, width), -1, dtype=np.int64)
+    where = f"{source}: " if source is not None else ""
     for name, x, y, w, h in rects:
-        what = f"rectangle {name}:{x},{y},{w},{h}"
+        what = f"{where}rectangle {name}:{x},{y},{w},{h}"
         if w <= 0 or h <= 0:
             raise PaletteError(f"{what}: width and height must be positive")
         if x < 0 or y < 0 or x + w > width or y + h > height:
@@ -857,12 +902,41 @@ def learn_from_rects(image_bgr_uint8, rects, markers=None, background=None,
                                f"{json.dumps(names[others[0]])}")
         clash[...] = index
         class_masks[name][y:y + h, x:x + w] = True
+    return class_masks
+
+
+def learn_from_images(taught, markers=None, background=None, references=1,
+                      floor=None, untaught_class=None, sources=None):
+    """Learn one palette from several images taught by rectangles.
+
+    ``taught``: ``[(image_bgr_uint8, [(name, x, y, w, h), ...]), ...]``;
+    the pixels of a class are pooled over all its rectangles in all the
+    images before its references are clustered, and so is the rest of every
+    image for ``untaught_class``.  Classes are in order of first
+    appearance; ``sources`` (one name per image, e.g. its file) starts the
+    messages about an image's rectangles.  The other options as for
+    ``learn_from_rects``.
+    """
+    names = []
+    per_image = []
+    for i, (image, rects) in enumerate(taught):
+        image = _check_image(image)
+        source = sources[i] if sources is not None else \
+            (f"image {i + 1}" if len(taught) > 1 else None)
+        masks = check_rects(image.shape, rects, source)
+        names += [name for name in masks if name not in names]
+        per_image.append((image, rects, masks))
     if not names:
         raise PaletteError("no rectangles given")
     if len(names) > MAX_CLASSES:
         raise PaletteError(f"{len(names)} classes, at most {MAX_CLASSES} "
                            f"are allowed")
     roles = _class_roles(names, markers, background, floor)
-    masks = [class_masks[name] for name in names]
-    return _palette_from_masks(_image_lab(image), names, masks, roles,
-                               references=references)
+    views = []
+    for image, rects, masks in per_image:
+        empty = np.zeros(image.shape[:2], dtype=bool)
+        views.append((_image_lab(image),
+                      [masks.get(name, empty) for name in names],
+                      _rest_of_rects(image.shape, rects)))
+    return _palette_from_masks(views, names, roles, references=references,
+                               untaught_class=untaught_class)

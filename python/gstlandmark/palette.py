@@ -493,7 +493,7 @@ def _check_references(references):
     return references
 
 
-def _kmeans(pixels, k, seed):
+def kmeans(pixels, k, seed):
     """k-means of (N, 3) float32 pixels: (mean squared distance to the
     nearest centre, labels (N,), centres (k, 3) float64)."""
     cv2.setRNGSeed(seed)
@@ -505,7 +505,7 @@ def _kmeans(pixels, k, seed):
             centres.astype(np.float64))
 
 
-def _sample(pixels, seed):
+def sample_pixels(pixels, seed):
     """At most KMEANS_SAMPLE of the pixels, chosen with a fixed seed."""
     if len(pixels) <= KMEANS_SAMPLE:
         return pixels
@@ -537,11 +537,11 @@ def prune_stealing_references(class_refs, class_pixels, seed=0,
     pixels_all = [np.asarray(p, dtype=np.float64).reshape(-1, 3)
                   for p in class_pixels]
     means = [p.mean(axis=0, keepdims=True) for p in pixels_all]
-    samples = [(k, _sample(p, seed)) for k, p in enumerate(pixels_all)]
+    samples = [(k, sample_pixels(p, seed)) for k, p in enumerate(pixels_all)]
     if untaught is not None and len(untaught) and markers is not None \
             and any(markers):
-        samples.append((-1, _sample(np.asarray(untaught, dtype=np.float64)
-                                    .reshape(-1, 3), seed)))
+        rest = np.asarray(untaught, dtype=np.float64).reshape(-1, 3)
+        samples.append((-1, sample_pixels(rest, seed)))
     is_marker = np.array([bool(m) for m in markers]) \
         if markers is not None else np.zeros(len(refs), dtype=bool)
     while any(len(r) > 1 for r in refs):
@@ -619,7 +619,7 @@ def cluster_references(pixels_lab, references="auto", seed=0):
     mean = pixels.mean(axis=0)
     if references == 1:
         return mean[None, :]
-    data = np.ascontiguousarray(_sample(pixels, seed), dtype=np.float32)
+    data = np.ascontiguousarray(sample_pixels(pixels, seed), dtype=np.float32)
     distinct = len(np.unique(data, axis=0))
 
     def ordered(labels, centres):
@@ -631,13 +631,13 @@ def cluster_references(pixels_lab, references="auto", seed=0):
         if distinct < references:
             raise PaletteError(f"{distinct} distinct colours cannot give "
                                f"{references} references")
-        _, labels, centres = _kmeans(data, references, seed)
+        _, labels, centres = kmeans(data, references, seed)
         return ordered(labels, centres)
 
     best = mean[None, :]
     spread = float(np.mean(np.sum((data - mean) ** 2, axis=1)))
     for k in range(2, min(AUTO_MAX_REFERENCES, distinct) + 1):
-        new_spread, labels, centres = _kmeans(data, k, seed)
+        new_spread, labels, centres = kmeans(data, k, seed)
         shares = np.bincount(labels, minlength=k) / len(data)
         if (shares.min() < MIN_REFERENCE_SHARE
                 or new_spread > MAX_SPREAD_RATIO * spread
@@ -708,7 +708,7 @@ def _refs_taking_no_taught_pixels(refs, taught, seed):
     owner = np.repeat(np.arange(len(taught)), [len(r) for _, r in taught])
     keep = np.ones(len(refs), dtype=bool)
     for k, (pixels, _) in enumerate(taught):
-        sample = _sample(pixels, seed)
+        sample = sample_pixels(pixels, seed)
         d_own = ((sample[:, None, :] - own[None, :, :]) ** 2).sum(axis=2)
         right = owner[d_own.argmin(axis=1)] == k
         d_new = ((sample[:, None, :] - refs[None, :, :]) ** 2).sum(axis=2)

@@ -581,10 +581,20 @@ def test_cli_learn_rects(tmp_path, scene_files):
                        "-o", str(out)])
     assert status == 0
     palette = load_palette(out)
-    assert palette.names == ["red", "grey", "green"]
+    # the blue and white stripes no rectangle holds are the rest of the
+    # image: a background class of their own, one reference each
+    assert palette.names == ["red", "grey", "green", "untaught"]
     assert palette.markers == ["red", "green"]
     np.testing.assert_allclose(palette.lab_array()[1], KNOWN_LAB[GREY],
                                atol=0.1)
+    untaught = sorted(palette.classes[3].references)
+    np.testing.assert_allclose(untaught, [KNOWN_LAB[BLUE], KNOWN_LAB[WHITE]],
+                               atol=0.1)
+    assert cli.main(["palette", "learn", str(image_path),
+                     "--rect", "red:60,0,20,10", "--rect", "grey:40,5,15,10",
+                     "--rect", "green:0,55,50,5", "--background", "grey",
+                     "--untaught", "none", "-o", str(out)]) == 0
+    assert load_palette(out).names == ["red", "grey", "green"]
 
 
 ROLE_CASES = [

@@ -9,6 +9,7 @@ Usage errors exit with status 2, as argparse does.
 """
 
 import argparse
+import json
 import os
 import sys
 
@@ -16,10 +17,11 @@ import cv2
 import numpy as np
 
 from .. import __version__
+from .. import paletteaudit
 from .. import reference
 from ..palette import (MAX_REFERENCES, PaletteError, default_palette,
-                       default_palette_text, learn_from_mask,
-                       learn_from_rects, load_palette, save_palette)
+                       default_palette_text, learn_from_images,
+                       learn_from_mask, load_palette, save_palette)
 from .common import PROG, CliError, add_actions
 
 
@@ -125,11 +127,51 @@ def _parse_references(text):
     return count
 
 
+class _ImageAction(argparse.Action):
+    """--image FILE: one more teaching image; the --rect options after it
+    are its rectangles."""
+    def __call__(self, parser, namespace, value, option_string=None):
+        setattr(namespace, self.dest,
+                list(getattr(namespace, self.dest) or []) + [value])
+
+
+class _RectAction(argparse.Action):
+    """--rect NAME:X,Y,W,H, kept with the teaching image it follows: 0
+    for IMAGE, i for the i-th --image."""
+    def __call__(self, parser, namespace, value, option_string=None):
+        image = len(getattr(namespace, "extra_images", None) or [])
+        setattr(namespace, self.dest,
+                list(getattr(namespace, self.dest) or []) + [(image, value)])
+
+
+def _rect_groups(args):
+    """[(image path, [rect, ...]), ...] from IMAGE, --image and --rect;
+    an image without a rectangle is a usage error naming it."""
+    paths = [args.image, *(args.extra_images or [])]
+    groups = [(path, [r for i, r in args.rect if i == k])
+              for k, path in enumerate(paths)]
+    for k, (path, rects) in enumerate(groups):
+        if not rects:
+            where = "IMAGE" if k == 0 else "--image"
+            args.parser.error(f"{where} {path}: no --rect follows it (give "
+                              f"each image its rectangles after it)")
+    return groups
+
+
+def _print_findings(findings, file):
+    for finding in findings:
+        print(f"warning: {finding.text}", file=file)
+
+
 def _palette_learn(args):
+    extra = {}
     if args.mask is not None:
         if args.background is not None:
             args.parser.error("--background goes with --rect; with --mask "
                               "use --markers")
+        if args.extra_images:
+            args.parser.error("--image goes with --rect: several images are "
+                              "taught by rectangles")
         image = _read_image(args.image)
         mask = _read_mask(args.mask)
         palette = learn_from_mask(image, mask, names=_split_list(args.names),
@@ -142,33 +184,62 @@ def _palette_learn(args):
                                   else args.untaught)
         description = (f"Learned by '{PROG} palette learn' from the class "
                        f"mask {args.mask}.")
+        findings = []
+        sources = args.image
     else:
         if (args.names is not None or args.markers is not None
                 or args.allow_missing):
             args.parser.error("--names, --markers and --allow-missing go "
                               "with --mask; with --rect use --background")
-        image = _read_image(args.image)
-        palette = learn_from_rects(image, args.rect,
-                                   background=_split_list(args.background),
-                                   references=args.references,
-                                   floor=_split_list(args.floor))
-        description = (f"Learned by '{PROG} palette learn' from "
-                       f"{len(args.rect)} rectangle(s).")
+        groups = _rect_groups(args)
+        images = [_read_image(path) for path, _ in groups]
+        palette = learn_from_images(
+            [(image, rects) for image, (_, rects) in zip(images, groups)],
+            background=_split_list(args.background),
+            references=args.references, floor=_split_list(args.floor),
+            untaught_class=None if args.untaught == "none"
+            else args.untaught,
+            sources=[path for path, _ in groups])
+        count = sum(len(rects) for _, rects in groups)
+        description = (f"Learned by '{PROG} palette learn' from {count} "
+                       f"rectangle(s)"
+                       + (f" in {len(groups)} images." if len(groups) > 1
+                          else "."))
+        findings, extra["spread"] = paletteaudit.teaching_findings(
+            palette, [(path, reference.rgb_to_lab(
+                np.ascontiguousarray(image[:, :, ::-1])), rects)
+                for image, (path, rects) in zip(images, groups)])
+        sources = args.image if len(groups) == 1 else \
+            [path for path, _ in groups]
     try:
         save_palette(palette, args.output, description=description,
-                     **{"learned-from": args.image})
+                     **{"learned-from": sources}, **extra)
     except OSError as err:
         raise CliError(f"{args.output}: cannot write: "
                        f"{err.strerror or err}") from None
     print(format_palette_table(palette))
     print(f"wrote {args.output}")
-    if args.mask is not None and args.untaught != "none" \
-            and args.untaught in palette.names and not palette.floor:
+    _print_findings(findings, sys.stderr)
+    if args.untaught != "none" and args.untaught in palette.names \
+            and not palette.floor:
+        left_out = "what the mask left out" if args.mask is not None \
+            else "the image outside the rectangles"
         print(f"note: no --floor class: floorboundary takes every class "
-              f"that is not a marker as floor, {args.untaught!r} (what the "
-              f"mask left out) included; name the floor with --floor",
+              f"that is not a marker as floor, {args.untaught!r} "
+              f"({left_out}) included; name the floor with --floor",
               file=sys.stderr)
     return 0
+
+
+def _read_spreads(path):
+    """The "spread" object ``palette learn`` writes at the top level of a
+    palette ({} when there is none)."""
+    try:
+        with open(path, "rb") as f:
+            spreads = json.loads(f.read().decode("utf-8")).get("spread")
+    except (OSError, ValueError, AttributeError):
+        return {}
+    return spreads if isinstance(spreads, dict) else {}
 
 
 def _palette_check(args):
@@ -176,7 +247,20 @@ def _palette_check(args):
     print(f"{args.file}: valid, {len(palette)} classes "
           f"({len(palette.markers)} markers)")
     print(format_palette_table(palette))
-    return 0
+    images = [(path, _read_image(path)) for path in args.images]
+    findings = paletteaudit.reference_overlaps(palette,
+                                               _read_spreads(args.file))
+    for path, image in images:
+        labels = paletteaudit.classify(palette, image)
+        shares = paletteaudit.class_shares(palette, labels)
+        print(f"{path}: " + ", ".join(
+            f"{name} {100 * share:.2f} %"
+            for name, share in zip(palette.names, shares)))
+        findings += paletteaudit.image_findings(palette, labels, path)
+    _print_findings(findings, sys.stdout)
+    if findings:
+        print(f"{len(findings)} warning(s)")
+    return 1 if findings and args.strict else 0
 
 
 def _palette_show_default(args):
@@ -201,14 +285,21 @@ def add_palette_parser(subparsers):
                        help="with --mask: leave out classes with no pixels "
                             "(with a warning) instead of failing")
     learn.add_argument("image", metavar="IMAGE", help="the example image")
+    learn.add_argument("--image", dest="extra_images", metavar="FILE",
+                       action=_ImageAction,
+                       help="with --rect: one more example image, taught by "
+                            "the --rect options that follow it (repeatable; "
+                            "each class's pixels are pooled over the "
+                            "images)")
     source = learn.add_mutually_exclusive_group(required=True)
     source.add_argument("--mask", metavar="MASK",
                         help="greyscale image of class indices: 0 = ignore, "
                              "k = class k (1..K)")
-    source.add_argument("--rect", metavar="NAME:X,Y,W,H", action="append",
+    source.add_argument("--rect", metavar="NAME:X,Y,W,H", action=_RectAction,
                         type=_parse_rect,
-                        help="pixels of class NAME (repeatable; rectangles "
-                             "of one name are pooled)")
+                        help="pixels of class NAME in the image it follows "
+                             "(repeatable; rectangles of one name are "
+                             "pooled)")
     class_lists = {
         "--names": "with --mask: class names in index order (default "
                    "class1..classK)",
@@ -225,19 +316,28 @@ def add_palette_parser(subparsers):
                             "k-means in L*a*b*, adding one while it halves "
                             "the spread, up to 4; docs/palette.md) or N")
     learn.add_argument("--untaught", metavar="NAME|none", default="untaught",
-                       help="with --mask: a background class of this name "
-                            "learned from the pixels of no class that are "
-                            "far from every taught colour (the sky, walls), "
-                            "when they cover 1 %% of the image (default: "
-                            "untaught); none: no such class")
+                       help="a background class of this name learned from "
+                            "the rest of the image (outside the mask's "
+                            "classes, or the rectangles and a margin around "
+                            "them) where it is far from every taught colour "
+                            "(the sky, walls), when that covers 1 %% of the "
+                            "image (default: untaught); none: no such class")
     learn.add_argument("-o", "--output", metavar="OUT.json", required=True,
                        help="palette file to write")
     learn.set_defaults(handler=_palette_learn, parser=learn)
 
     check = actions.add_parser(
         "check", help="validate a palette file and list its classes",
-        description="Validate a palette file and list its classes.")
+        description="Validate a palette file and list its classes; with "
+                    "images, classify each and print the share of it every "
+                    "class takes, with warnings where the palette labels "
+                    "it wrongly (docs/palette.md, \"Checking a palette\").")
     check.add_argument("file", metavar="FILE")
+    check.add_argument("images", metavar="IMAGE", nargs="*",
+                       help="images to classify with the palette")
+    check.add_argument("--strict", action="store_true",
+                       help="exit with status 1 when there is a warning "
+                            "(default: 0, the warnings printed)")
     check.set_defaults(handler=_palette_check, parser=check)
 
     show = actions.add_parser(

@@ -85,6 +85,63 @@ def process_frames(element: str, frames: Iterable[np.ndarray], caps: str,
     return out
 
 
+def frames_through(chain: str, frames: Iterable[np.ndarray],
+                   timeout_s: float = 60.0,
+                   configure=None) -> Iterator["FrameResult"]:
+    """Pushes 8-bit BGR frames ((H, W, 3) arrays, as ``cv2.imread`` gives
+    them) one at a time through ONE pipeline ``appsrc ! <chain> !
+    appsink`` and yields a FrameResult per frame, in order, with its
+    buffer. The caps follow the frames: new caps whenever the size
+    changes. ``configure(pipeline)`` is called before it starts (to set
+    properties of named elements). Raises PipelineError on a pipeline
+    error or when a frame does not come out within ``timeout_s``; closing
+    the generator early stops the pipeline."""
+    init()
+    pipe = Gst.parse_launch(
+        f"appsrc name=src format=time ! {chain} ! "
+        "appsink name=results sync=false emit-signals=false")
+    if configure is not None:
+        configure(pipe)
+    src, sink = pipe.get_by_name("src"), pipe.get_by_name("results")
+    bus = pipe.get_bus()
+    size, info = None, None
+    if pipe.set_state(Gst.State.PLAYING) == Gst.StateChangeReturn.FAILURE:
+        try:
+            _raise_bus_error(bus, f"could not start: {chain}")
+        finally:
+            pipe.set_state(Gst.State.NULL)
+    try:
+        for n, frame in enumerate(frames):
+            frame = np.asarray(frame)
+            if frame.dtype != np.uint8 or frame.ndim != 3 or \
+                    frame.shape[2] != 3:
+                raise PipelineError(f"frame {n}: expected 8-bit BGR (H, W, "
+                                    f"3), got {frame.dtype} {frame.shape}")
+            if frame.shape[:2] != size:
+                size = frame.shape[:2]
+                caps = Gst.Caps.from_string(
+                    f"video/x-raw,format=BGR,width={size[1]},"
+                    f"height={size[0]},framerate=0/1")
+                src.set_property("caps", caps)
+                info = GstVideo.VideoInfo.new_from_caps(caps)
+            buf = Gst.Buffer.new_wrapped(frame_bytes(frame, info))
+            buf.pts = n * Gst.SECOND // 30
+            buf.duration = Gst.SECOND // 30
+            src.emit("push-buffer", buf)
+            sample = sink.emit("try-pull-sample", int(timeout_s * Gst.SECOND))
+            if sample is None:
+                _raise_bus_error(bus, f"frame {n} did not come out within "
+                                      f"{timeout_s} s")
+            out = sample.get_buffer()
+            yield FrameResult(
+                frame=n, pts=out.pts, width=size[1], height=size[0],
+                labels=meta.labels(out), detections=meta.detections(out),
+                pose=meta.pose(out), buffer=out)
+        _raise_bus_error(bus, None)
+    finally:
+        pipe.set_state(Gst.State.NULL)
+
+
 def _raise_bus_error(bus: Gst.Bus, fallback: Optional[str]) -> None:
     msg = bus.pop_filtered(Gst.MessageType.ERROR)
     if msg is not None:

@@ -55,7 +55,8 @@ from ..landmarkmap import read_map
 from ..trajectory import (CHI2_95, Rigid2D, align_rigid, associate_map,
                           nearest_first, nees, nees_summary, pose_transform,
                           wrap_angle)
-from .common import add_json_option
+from .evalimages import add_image_options
+from .evalimages import handle as evaluate_images
 
 DEFAULT_BANDS = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0)
 
@@ -741,8 +742,14 @@ def add_evaluate_parser(subparsers):
     p = subparsers.add_parser(
         "evaluate", help="accuracy of a landmarklog file against truth",
         description=__doc__.split("\n\n")[0].replace("``", ""))
-    p.add_argument("result", help="landmarklog output (JSON Lines)")
-    p.add_argument("truth", help="truth.jsonl of a synthetic clip")
+    p.add_argument("result", metavar="RESULT.jsonl|FOLDER|VIDEO",
+                   help="landmarklog output (JSON Lines); or a folder of "
+                        "images or a video with darknet/YOLO box "
+                        "annotations, run through the chain and scored "
+                        "(docs/evaluate.md)")
+    p.add_argument("truth", nargs="?",
+                   help="truth.jsonl of a synthetic clip (with a "
+                        "landmarklog file)")
     p.add_argument("--match-px", type=float, default=4.0,
                    help="largest centroid distance of a match (default 4)")
     p.add_argument("--min-pixels", type=float, default=20.0,
@@ -753,7 +760,8 @@ def add_evaluate_parser(subparsers):
     p.add_argument("--visible-px", type=float, default=150.0,
                    help="pixels a truth landmark needs to count as visible "
                         "in the pose tables (default 150, as synth counts)")
-    add_json_option(p)
+    p.add_argument("-o", "--json", metavar="OUT",
+                   help="also write the numbers to this JSON file")
     p.add_argument("--plot", metavar="OUT.png",
                    help="write a top-down trajectory plot (truth vs "
                         "estimate, with the map's landmarks)")
@@ -776,10 +784,16 @@ def add_evaluate_parser(subparsers):
     anchor.add_argument("--not-anchored", action="store_false",
                         dest="anchored", help="the map frame is the first "
                                               "pose's: align")
+    add_image_options(p)
     p.set_defaults(handler=_handle, parser=p)
 
 
 def _handle(args) -> int:
+    if args.truth is None:
+        if args.result.endswith(".jsonl"):
+            args.parser.error("a landmarklog file is evaluated against a "
+                              "truth.jsonl: give both")
+        return evaluate_images(args)
     try:
         results = read_jsonl(args.result)
         truth = read_jsonl(args.truth)

@@ -779,6 +779,8 @@ def add_bench_parser(subparsers):
     add_fleet_bench_parser(actions)
     from .latencybench import add_latency_bench_parsers
     add_latency_bench_parsers(actions)
+    from .realbench import add_real_bench_parser
+    add_real_bench_parser(actions)
     return parser
 
 

@@ -28,10 +28,17 @@ BLOBS_LOOKED_AT = 3
 # a large blob filling less than this share of its enclosing circle is not
 # a ball or a disc: a digitised disc fills 0.9 or more, a disc seen at a
 # slant of axis ratio 0.5 or a ball half of which is shaded away 0.5, a
-# wall's band or a line far less
-MIN_BLOB_FILL = 0.35
+# bar of 1 by 3.6 or a line less (a disc on the floor seen flatter than
+# axis ratio 0.25 warns too)
+MIN_BLOB_FILL = 0.25
 # more than this share of a class's taught pixels labelled another class
 MAX_TAUGHT_CONFUSED = 0.05
+# two classes whose nearest references are closer than this many times a
+# class's spread (the RMS Delta E of its taught pixels to its nearest
+# reference) overlap: for pixels spread evenly in L*, a* and b* about their
+# reference, more than about MAX_TAUGHT_CONFUSED of them lie nearer the
+# other class (half the distance is the spread, 1.7 sigma along the line)
+OVERLAP_SPREADS = 2.0
 # a taught rectangle holds two colours when its pixels split (2-means in
 # L*a*b*) into clusters whose smaller one holds at least this share
 TWO_COLOUR_MIN_SHARE = 0.15
@@ -169,9 +176,9 @@ def taught_confusions(palette, class_pixels):
 
 def reference_overlaps(palette, spreads):
     """Warnings for pairs of classes whose nearest references are closer
-    than one class's spread (``spreads``: name -> RMS Delta E of its taught
-    pixels, as ``palette learn`` writes them): a good share of that
-    class's pixels then fall on the other's side."""
+    than OVERLAP_SPREADS times one class's spread (``spreads``: name ->
+    RMS Delta E of its taught pixels, as ``palette learn`` writes them):
+    a good share of that class's pixels then fall on the other's side."""
     findings = []
     for a in palette.classes:
         spread = spreads.get(a.name)
@@ -184,14 +191,16 @@ def reference_overlaps(palette, spreads):
             refs_b = np.asarray(b.reference_labs, dtype=np.float64)
             d = float(np.sqrt(((refs_a[:, None] - refs_b[None]) ** 2)
                               .sum(axis=2).min()))
-            if d < spread:
+            if d < OVERLAP_SPREADS * spread:
                 findings.append(Finding(
                     "overlap", a.name, d,
                     f"classes {json.dumps(a.name)} and {json.dumps(b.name)} "
                     f"overlap: their references are Delta E {d:.1f} apart, "
-                    f"less than the spread of {json.dumps(a.name)}'s taught "
-                    f"pixels ({spread:.1f}): many of its pixels take "
-                    f"{json.dumps(b.name)}"))
+                    f"less than {OVERLAP_SPREADS:g} times the spread of "
+                    f"{json.dumps(a.name)}'s taught pixels ({spread:.1f}): "
+                    f"some of its pixels take {json.dumps(b.name)}; teach "
+                    f"them on regions that hold only their colour, or "
+                    f"merge them"))
     return findings
 
 

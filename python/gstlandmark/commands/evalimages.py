@@ -665,6 +665,8 @@ def handle(args) -> int:
     """``gst-landmark evaluate FOLDER|VIDEO``."""
     from ..pipeline import PipelineError
     source = args.result
+    if not os.path.exists(source):
+        raise AnnotationError(f"{source}: no such folder or file")
     start = source
     if not os.path.isdir(source):
         labels = args.labels or os.path.splitext(source)[0]

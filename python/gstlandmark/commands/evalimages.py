@@ -94,14 +94,21 @@ class TruthBox:
                         self.w * width, self.h * height, self.line)
 
 
-def read_names(path: str) -> List[str]:
-    """The class names of a darknet ``.names`` file, one a line."""
+def read_lines(path: str, what: str = "") -> List[str]:
+    """The lines of a text file; AnnotationError naming it when it cannot
+    be read."""
     try:
         with open(path, encoding="utf-8") as f:
-            names = [line.strip() for line in f]
-    except OSError as err:
-        raise AnnotationError(f"{path}: cannot read: "
-                              f"{err.strerror or err}") from None
+            return f.read().splitlines()
+    except (OSError, UnicodeDecodeError) as err:
+        raise AnnotationError(f"{path}: {what}cannot read: "
+                              f"{getattr(err, 'strerror', None) or err}"
+                              ) from None
+
+
+def read_names(path: str) -> List[str]:
+    """The class names of a darknet ``.names`` file, one a line."""
+    names = [line.strip() for line in read_lines(path)]
     while names and not names[-1]:
         names.pop()
     for k, name in enumerate(names):
@@ -129,14 +136,8 @@ def read_yolo(path: str, names: Sequence[str]) -> List[TruthBox]:
     """The boxes of one darknet/YOLO annotation file, normalised as
     written (``TruthBox.scaled`` puts them in pixels). A bad line raises
     AnnotationError naming the file and the line."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            lines = f.read().splitlines()
-    except (OSError, UnicodeDecodeError) as err:
-        raise AnnotationError(f"{path}: cannot read: "
-                              f"{getattr(err, 'strerror', None) or err}"
-                              ) from None
     boxes = []
+    lines = read_lines(path)
     for number, text in enumerate(lines, 1):
         fields = text.split()
         if not fields:
@@ -197,13 +198,7 @@ def read_excludes(paths: Iterable[str]) -> List[str]:
                 raise AnnotationError(f"{path}: --exclude: no such image")
             out.append(os.path.realpath(path))
             continue
-        try:
-            with open(path, encoding="utf-8") as f:
-                lines = f.read().splitlines()
-        except (OSError, UnicodeDecodeError) as err:
-            raise AnnotationError(f"{path}: --exclude: cannot read the list: "
-                                  f"{getattr(err, 'strerror', None) or err}"
-                                  ) from None
+        lines = read_lines(path, "--exclude: ")
         for number, line in enumerate(lines, 1):
             line = line.strip()
             if not line or line.startswith("#"):

@@ -16,7 +16,7 @@ gi.require_version("GstVideo", "1.0")
 from gi.repository import Gst, GstVideo  # noqa: E402
 
 from . import meta, plugin  # noqa: E402
-from .messages import LandmarkMessage  # noqa: E402
+from .messages import LandmarkMessage, caps_structure  # noqa: E402
 
 
 def init() -> None:
@@ -221,7 +221,7 @@ def iterate(description: str, timeout_s: float = 60.0,
                     return
                 raise PipelineError(f"no frame for {timeout_s} s")
             buf = sample.get_buffer()
-            caps = sample.get_caps().get_structure(0)
+            caps = caps_structure(sample.get_caps())
             pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts
             yield FrameResult(
                 frame=n, pts=pts, width=caps.get_value("width"),

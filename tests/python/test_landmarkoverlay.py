@@ -24,6 +24,8 @@ gi.require_version("Gst", "1.0")
 gi.require_version("GstVideo", "1.0")
 from gi.repository import Gst, GstVideo  # noqa: E402
 
+from gstlandmark.messages import caps_structure  # noqa: E402
+
 CLIP = os.path.join(os.path.dirname(__file__), "..", "files", "clips",
                     "path-small")
 N_FRAMES = 45
@@ -46,7 +48,7 @@ def clip(gst):
         while len(frames) < N_FRAMES:
             sample = sink.emit("try-pull-sample", TIMEOUT)
             assert sample is not None, "clip did not decode"
-            caps = sample.get_caps().get_structure(0)
+            caps = caps_structure(sample.get_caps())
             w, h = caps.get_value("width"), caps.get_value("height")
             info = GstVideo.VideoInfo.new_from_caps(sample.get_caps())
             buf = sample.get_buffer()
@@ -153,7 +155,7 @@ def test_registered(gst):
     assert e.get_property("map") is None
     assert e.get_property("text-scale") == 1.0
     caps = factory.get_static_pad_templates()[0].get_caps()
-    formats = caps.get_structure(0).get_value("format")
+    formats = caps_structure(caps).get_value("format")
     assert set(formats) == {"RGB", "BGR", "RGBx", "BGRx", "xRGB", "xBGR",
                             "RGBA", "BGRA", "I420", "NV12", "YUY2"}
 

@@ -15,6 +15,7 @@ import time
 import pytest
 
 from gstlandmark import meta, pipeline
+from gstlandmark.messages import caps_structure
 from gstlandmark.commands import calibrate
 
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
@@ -186,7 +187,7 @@ def last_frame(desc):
     out = {}
 
     def keep(pad, buf):
-        caps = pad.get_current_caps().get_structure(0)
+        caps = caps_structure(pad.get_current_caps())
         w, h = caps.get_value("width"), caps.get_value("height")
         ok, m = buf.map(pipeline.Gst.MapFlags.READ)
         rows = np.frombuffer(m.data, np.uint8)[:h * w * 3]

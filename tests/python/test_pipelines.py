@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from gstlandmark import pipeline
+from gstlandmark.messages import caps_structure
 from gstlandmark.commands import calibrate
 from gstlandmark.devtools import bench, goldens
 
@@ -50,7 +51,7 @@ def video_info(path):
 
     def count(pad, buf):
         if n[0] == 0:
-            s = pad.get_current_caps().get_structure(0)
+            s = caps_structure(pad.get_current_caps())
             size[:] = [s.get_value("width"), s.get_value("height")]
         n[0] += 1
 
@@ -283,7 +284,7 @@ def test_network_pair(gst, tmp_path, chain_vars):
     got = []
 
     def probe(pad, info):
-        s = pad.get_current_caps().get_structure(0)
+        s = caps_structure(pad.get_current_caps())
         got.append((s.get_value("width"), s.get_value("height")))
         return Gst.PadProbeReturn.OK
 

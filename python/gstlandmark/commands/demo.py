@@ -26,13 +26,14 @@ import numpy as np
 
 from .. import pipeline
 from ..landmarklog import read_jsonl
+from ..messages import caps_structure
 from ..landmarkmap import read_map
 
 Gst = pipeline.Gst
 
 
 def _buffer_rgb(buf, caps):
-    s = caps.get_structure(0)
+    s = caps_structure(caps)
     w, h = s.get_value("width"), s.get_value("height")
     with buf.map(Gst.MapFlags.READ) as m:
         stride = len(m.data) // h

@@ -23,6 +23,7 @@ import numpy as np
 
 from ... import meta, palette as pal, pipeline
 from ...landmarkmap import MapError, read_map
+from ...messages import caps_structure
 from .. import runner
 
 from gi.repository import GObject  # noqa: E402  (after pipeline's gi setup)
@@ -547,7 +548,7 @@ class Engine:
             return Gst.FlowReturn.OK
         now = time.time()
         buf = sample.get_buffer()
-        caps = sample.get_caps().get_structure(0)
+        caps = caps_structure(sample.get_caps())
         width, height = caps.get_value("width"), caps.get_value("height")
         ok, info = buf.map(Gst.MapFlags.READ)
         frame = None

@@ -11,8 +11,10 @@
  * pose decides within `gate` metres, or, without one, a consensus over
  * pairs of detections), then solves with what is matched:
  *
- * - one landmark: the position from its range and bearing and a known
- *   heading (`heading`, or the previous or predicted pose's);
+ * - one landmark: the position from its range and bearing and a measured
+ *   heading: `heading` (a compass), or with `filter=ekf` the filter's
+ *   prediction and its grown uncertainty; never the previous pose's (it
+ *   goes stale as the robot turns): without one there is no pose;
  * - two landmarks: the two-circle intersection, the bearings choosing the
  *   intersection and giving the heading;
  * - three or more: consensus over pairs against one wrong detection, then
@@ -33,7 +35,10 @@
  *   `collinear-landmarks`, `robot-on-baseline`, `robot-in-line`), `filter`
  *   (`none` or `ekf`);
  * - on each detection a `landmark-match` parameter structure: `matched`,
- *   `landmark-id` (when matched), `residual` (metres, when a pose gives
+ *   `landmark-id` and `matched-by` (when matched: `pose`, used in the
+ *   frame's pose; without a pose `colour`, the map holds its colour once,
+ *   or `prior`, a repeated colour placed by the previous or predicted pose
+ *   within `gate`), `residual` (metres, when a pose gives
  *   one), `reason` (when unmatched: `no-range`, `not-kept`,
  *   `no-landmark-of-class`, `outside-gate`, `ambiguous`, `duplicate`,
  *   `outlier`, `too-few-landmarks`, `no-solution`);
@@ -74,7 +79,7 @@
 #include "landmarkmap.h"
 #include "landmarkmeta.h"
 #include "posemeta.h"
-#include "posefilter.h"
+#include "posetracker.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_trilaterate_debug);
 #define GST_CAT_DEFAULT gst_trilaterate_debug
@@ -108,15 +113,8 @@ struct Config {
 
 struct State {
   landmark::AppliedSettings<Settings, Config> applied;
-  /* the previous pose (filter=none) */
-  bool have_last = false;
-  landmark::Pose2 last;
-  double last_cov[9] = { 0 };
-  GstClockTime last_time = GST_CLOCK_TIME_NONE;
-  /* filter=ekf */
-  landmark::PoseFilter ekf;
-  GstClockTime ekf_time = GST_CLOCK_TIME_NONE;     /* state's time */
-  GstClockTime ekf_measured = GST_CLOCK_TIME_NONE; /* last update */
+  /* the previous pose and the filter */
+  landmark::PoseTracker tracker;
   guint64 frames = 0;
   bool map_classes_checked = false;   /* against the first labels */
   landmark::RangedDetections ranged;  /* reused */
@@ -169,8 +167,9 @@ trilaterate_properties ()
           &Settings::filter, GST_TYPE_TRILATERATE_FILTER)
       .number ("heading", "Heading",
           "Known heading for the one-landmark solver, degrees "
-          "counter-clockwise from the map's +x; -361: unknown (use the "
-          "previous or predicted pose's)", &Settings::heading,
+          "counter-clockwise from the map's +x; -361: unknown (filter=ekf: "
+          "the predicted pose's; none: no one-landmark pose)",
+          &Settings::heading,
           HEADING_UNSET, 360.0)
       .number ("heading-sigma", "Heading sigma",
           "One-sigma error of the heading property, degrees",
@@ -211,10 +210,7 @@ gst_trilaterate_change_state (GstElement * element, GstStateChange transition)
 static void
 gst_trilaterate_reset (State & st)
 {
-  st.have_last = false;
-  st.last_time = GST_CLOCK_TIME_NONE;
-  st.ekf.reset ();
-  st.ekf_time = st.ekf_measured = GST_CLOCK_TIME_NONE;
+  st.tracker.reset ();
   st.frames = 0;
 }
 
@@ -270,13 +266,12 @@ gst_trilaterate_sync_settings (GstTrilaterate * self)
   if (new_map) {
     st.map_classes_checked = false;
     /* a new map: the previous pose means nothing on it */
-    st.have_last = false;
-    st.ekf.reset ();
+    st.tracker.reset ();
     GST_INFO_OBJECT (self, "map %s: %zu landmarks",
         st.applied.config.s.map.c_str (), st.applied.config.map.size ());
   }
   if (new_filter)
-    st.ekf.reset ();
+    st.tracker.reset_filter ();
 }
 
 static GstFlowReturn
@@ -291,128 +286,28 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
   if (!GST_CLOCK_TIME_IS_VALID (now))
     now = st.frames * FALLBACK_FRAME_NS;
   st.frames++;
-  const GstClockTime max_age = (GstClockTime) (s.max_age * GST_SECOND);
-  auto fresh = [&](GstClockTime t) {
-    return GST_CLOCK_TIME_IS_VALID (t) && now >= t && now - t <= max_age;
-  };
 
   /* detections with a range */
   landmark::RangedDetections & ranged = st.ranged;
   landmark::ranged_detections_collect (buf, false, true, &ranged);
   const std::vector<landmark::Detection> & dets = ranged.dets;
 
-  /* the prior: predicted (ekf) or previous (none) pose */
-  landmark::LocaliseOptions opt;
+  landmark::PoseTrackerOptions opt;
+  opt.ekf = s.filter == GST_TRILATERATE_FILTER_EKF;
+  /* a measured heading: the property (the filter's prediction is the
+   * tracker's) */
+  opt.have_heading = s.heading > HEADING_UNSET;
+  opt.heading = s.heading * G_PI / 180;
+  opt.heading_sigma = s.heading_sigma * G_PI / 180;
   opt.gate = s.gate;
-  opt.lsq.inlier_gate = s.inlier_distance;
-  double prior_heading_sigma = 0;
-  const bool ekf = s.filter == GST_TRILATERATE_FILTER_EKF;
-  if (ekf && st.ekf.initialised ()) {
-    if (fresh (st.ekf_measured)) {
-      if (GST_CLOCK_TIME_IS_VALID (st.ekf_time) && now > st.ekf_time)
-        st.ekf.predict ((double) (now - st.ekf_time) / GST_SECOND);
-      st.ekf_time = now;
-      opt.have_prior = true;
-      opt.prior = st.ekf.pose ();
-      double c[9];
-      st.ekf.pose_cov (c);
-      prior_heading_sigma = std::sqrt (std::max (0.0, c[8]));
-    } else {
-      st.ekf.reset ();
-    }
-  } else if (!ekf && st.have_last && fresh (st.last_time)) {
-    opt.have_prior = true;
-    opt.prior = st.last;
-    /* the heading may have changed since */
-    prior_heading_sigma = std::sqrt (std::max (0.0, st.last_cov[8])) + 0.05;
-  }
-  if (s.heading > HEADING_UNSET) {
-    opt.have_heading = true;
-    opt.heading = landmark::wrap_angle (s.heading * G_PI / 180);
-    opt.heading_sigma = s.heading_sigma * G_PI / 180;
-  } else if (opt.have_prior) {
-    opt.have_heading = true;
-    opt.heading = opt.prior.heading;
-    opt.heading_sigma = prior_heading_sigma;
-  }
-
-  const landmark::LocaliseResult res = landmark::localise (map, dets,
-      opt);
-
-  landmark::PoseFields fp;
-  bool ok = false;
-  std::string why;
-  fp.filter = ekf ? "ekf" : "none";
-  std::vector<landmark::Correspondence> used;
-  for (size_t k = 0; k < dets.size (); k++) {
-    if (res.match[k] >= 0) {
-      const auto & m = map[res.match[k]];
-      used.push_back ({ dets[k].obs, m.x, m.y });
-      fp.ids.push_back (m.id);
-    }
-  }
-  if (res.ok) {
-    ok = true;
-    fp.pose = res.solution.pose;
-    std::copy (res.solution.cov, res.solution.cov + 9, fp.cov);
-    fp.residual = res.solution.residual;
-    fp.solver = res.solution.solver;
-    fp.geometry = landmark::geometry_name (res.solution.geometry);
-  }
-  if (ekf) {
-    if (!st.ekf.initialised ()) {
-      if (res.ok) {
-        st.ekf.init (res.solution.pose, res.solution.cov);
-        st.ekf_time = st.ekf_measured = now;
-      }
-    } else {
-      if (res.ok && used.size () >= 3 && st.ekf.lost (res.solution, used)) {
-        /* three or more landmarks place the robot by themselves; a filter
-         * whose prediction they reject, half of them or more in a trial
-         * update, has
-         * drifted beyond its own covariance (a turn bridged on one
-         * landmark): updated, it would be pulled by the few that pass; it
-         * restarts from their pose */
-        st.ekf.init (res.solution.pose, res.solution.cov);
-        st.ekf_measured = now;
-      } else if (!res.ok) {
-        /* no pose from the landmarks together (one of them far off its
-         * pairing): the filter tests each pairing against its prediction
-         * (used is empty without a solution; cleared again below) */
-        for (size_t k = 0; k < res.paired.size (); k++)
-          if (res.paired[k] >= 0)
-            used.push_back ({ dets[k].obs, map[res.paired[k]].x,
-                    map[res.paired[k]].y });
-        if (!used.empty () && st.ekf.update (used) > 0)
-          st.ekf_measured = now;
-      } else if (!used.empty () && st.ekf.update (used) > 0) {
-        st.ekf_measured = now;
-      }
-      ok = true;
-      fp.pose = st.ekf.pose ();
-      st.ekf.pose_cov (fp.cov);
-      if (!res.ok) {
-        fp.solver = "ekf";
-        fp.ids.clear ();
-        fp.geometry = "ok";
-        used.clear ();
-      }
-      double sum = 0;
-      for (const auto & c : used) {
-        const double r = landmark::correspondence_residual (fp.pose, c);
-        sum += r * r;
-      }
-      fp.residual = used.empty ()? 0 : std::sqrt (sum / used.size ());
-    }
-  }
-  if (!ok)
-    why = res.why.empty ()? "too-few-landmarks" : res.why;
-  if (ok && !ekf) {
-    st.have_last = true;
-    st.last = fp.pose;
-    std::copy (fp.cov, fp.cov + 9, st.last_cov);
-    st.last_time = now;
-  }
+  opt.inlier_distance = s.inlier_distance;
+  opt.max_age = s.max_age;
+  const landmark::TrackedFrame tf = st.tracker.step (map, dets,
+      (double) now / GST_SECOND, opt);
+  const landmark::LocaliseResult & res = tf.res;
+  const landmark::PoseFields & fp = tf.pose;
+  const bool ok = tf.ok;
+  const std::string & why = tf.why;
 
   /* landmark-match on every detection */
   landmark::ranged_detections_mark_skipped (ranged,
@@ -424,7 +319,8 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
         "matched", G_TYPE_BOOLEAN, res.match[k] >= 0, nullptr);
     if (res.match[k] >= 0)
       gst_structure_set (m, "landmark-id", G_TYPE_STRING,
-          map[res.match[k]].id.c_str (), nullptr);
+          map[res.match[k]].id.c_str (), "matched-by", G_TYPE_STRING,
+          landmark::matched_by_name (res.matched_by[k]), nullptr);
     else if (!res.reasons[k].empty ())
       gst_structure_set (m, "reason", G_TYPE_STRING,
           res.reasons[k].c_str (), nullptr);

@@ -12,6 +12,7 @@
 
 #include "landmarkmeta.h"
 #include "posesolver.h"
+#include "posetracker.h"
 
 namespace landmark {
 
@@ -46,15 +47,8 @@ ranged_detections_mark_skipped (const RangedDetections & r, Add add)
             "reason", G_TYPE_STRING, sk.second, nullptr));
 }
 
-/* A pose as the pose meta and the landmark-pose message carry it. */
-struct PoseFields {
-  Pose2 pose;
-  double cov[9] = { 0 };                /* row-major over x, y, heading */
-  std::vector<std::string> ids;         /* map ids of the landmarks used */
-  double residual = 0;                  /* metres, RMS */
-  std::string solver, geometry = "ok", filter;
-};
-
+/* PoseFields (posetracker.h): a pose as the pose meta and the
+ * landmark-pose message carry it. */
 /* Writes x, y, heading, covariance, landmarks, n-landmarks, residual,
  * solver, geometry and filter into s. */
 void pose_fields_set (GstStructure * s, const PoseFields & p);

@@ -1,10 +1,14 @@
 /* Pose solvers (plugins/landmark/core/posesolver.h): exact observations
  * recover the exact pose for each solver, both two-landmark ambiguities,
  * degenerate geometry reported, an outlier rejected, association with
- * repeated colours, the EKF bridging a gap and a turn on one landmark.
+ * repeated colours, the EKF bridging a gap and a turn on one landmark, the
+ * tracker's one-landmark poses only with a measured heading (and their
+ * covariance against a Monte-Carlo of the true error) and identity by
+ * colour without a pose.
  * Observations are made here from docs/conventions.md directly, not with
  * the solver's helpers. */
 #include "posefilter.h"
+#include "posetracker.h"
 #include "corecheck.h"
 
 #include <cmath>
@@ -670,6 +674,183 @@ test_consensus_budget ()
         < 0.05, "pose %g %g", res.solution.pose.x, res.solution.pose.y);
 }
 
+/* The tracker's scene: four landmarks of their own colour and a pink
+ * pair; the robot on the tight circle of test_ekf_turn_on_one_landmark. */
+static const std::vector<MapPoint> kTrackerMap = {
+  { "A", "red", 2.5, 0.5 }, { "B", "green", -2, 2 }, { "C", "blue", -2, -2 },
+  { "D", "yellow", 2, -2 }, { "P1", "pink", 0, 3 }, { "P2", "pink", 0, -3 },
+};
+
+static std::vector<Detection>
+tracker_seen (const Pose2 & t, const std::vector<int> & which,
+    std::mt19937 * rng)
+{
+  std::vector<Detection> d;
+  for (int i : which) {
+    const MapPoint & m = kTrackerMap[i];
+    Correspondence c = rng ? noisy_corr (t.x, t.y, t.heading, m.x, m.y, *rng)
+        : corr (t.x, t.y, t.heading, m.x, m.y);
+    d.push_back ({ m.class_name, c.obs });
+  }
+  return d;
+}
+
+/* filter=none: a one-landmark pose needs a measured heading. Four
+ * landmarks for 1 s, then one: no pose (the previous pose's heading is
+ * stale: the robot turns 0.5 rad/s), the detection still named by its
+ * colour; a repeated colour named only where a fresh prior places it.
+ * With the heading property the pose is reported, the heading's variance
+ * in the position's (rho^2 sigma_h^2 across the line of sight). */
+static void
+test_tracker_one_landmark_needs_heading ()
+{
+  const CirclePath path { 1.0, 0.5, 0.1 };
+  PoseTracker tr;
+  PoseTrackerOptions opt;
+  int poses_on_one = 0, named = 0;
+  for (int k = 0; k < 60; k++) {
+    const Pose2 truth = path.at (k / 30.0);
+    const bool all = k < 30;
+    const TrackedFrame f = tr.step (kTrackerMap, tracker_seen (truth,
+            all ? std::vector<int> { 0, 1, 2, 3 } : std::vector<int> { 0 },
+            nullptr), k / 30.0, opt);
+    if (all) {
+      CHECK (f.ok && std::hypot (f.pose.pose.x - truth.x,
+              f.pose.pose.y - truth.y) < 1e-6, "frame %d: four landmarks",
+          k);
+      continue;
+    }
+    poses_on_one += f.ok;
+    named += f.res.match[0] == 0
+        && f.res.matched_by[0] == MatchedBy::Colour
+        && f.res.reasons[0].empty ();
+    CHECK (f.ok || f.why == "too-few-landmarks", "frame %d: why %s", k,
+        f.why.c_str ());
+  }
+  CHECK (poses_on_one == 0, "%d one-landmark poses without a measured "
+      "heading", poses_on_one);
+  CHECK (named == 30, "named by colour on %d of 30 frames", named);
+
+  /* a pink detection 0.1 s after the last pose: the prior tells P1 from
+   * P2; on a fresh tracker (no prior) it stays unmatched */
+  PoseTracker t2;
+  const Pose2 p0 { 0.2, 0.1, 0.3 };
+  CHECK (t2.step (kTrackerMap, tracker_seen (p0, { 0, 1, 2 }, nullptr), 0,
+          opt).ok, "three landmarks");
+  const TrackedFrame pink = t2.step (kTrackerMap, tracker_seen (p0, { 4 },
+          nullptr), 0.1, opt);
+  CHECK (!pink.ok && pink.res.match[0] == 4
+      && pink.res.matched_by[0] == MatchedBy::Prior,
+      "pink after a pose: match %d by %s", pink.res.match[0],
+      matched_by_name (pink.res.matched_by[0]));
+  PoseTracker t3;
+  const TrackedFrame alone = t3.step (kTrackerMap, tracker_seen (p0, { 4 },
+          nullptr), 0, opt);
+  CHECK (!alone.ok && alone.res.match[0] < 0
+      && alone.res.reasons[0] == "ambiguous", "pink alone: match %d (%s)",
+      alone.res.match[0], alone.res.reasons[0].c_str ());
+  /* the prior expires: max-age after the last pose, pink is unnamed */
+  const TrackedFrame stale = t2.step (kTrackerMap, tracker_seen (p0, { 4 },
+          nullptr), 1.5, opt);
+  CHECK (stale.res.match[0] < 0, "pink after the prior expired: %d",
+      stale.res.match[0]);
+
+  /* a known heading (a compass): the pose, exact on exact data */
+  PoseTracker t4;
+  opt.have_heading = true;
+  opt.heading = p0.heading;
+  opt.heading_sigma = 0.05;
+  const TrackedFrame h = t4.step (kTrackerMap, tracker_seen (p0, { 0 },
+          nullptr), 0, opt);
+  CHECK (h.ok && h.pose.solver == "one"
+      && std::hypot (h.pose.pose.x - p0.x, h.pose.pose.y - p0.y) < 1e-9,
+      "known heading: ok %d", h.ok);
+  const double rho = std::hypot (kTrackerMap[0].x - p0.x,
+      kTrackerMap[0].y - p0.y);
+  const double want = 0.01 * 0.01 + rho * rho * (0.005 * 0.005 + 0.05 * 0.05);
+  CHECK (std::fabs (h.pose.cov[0] + h.pose.cov[4] - want) < 1e-9 * want
+      + 1e-12, "known heading: position variance %g, want %g",
+      h.pose.cov[0] + h.pose.cov[4], want);
+}
+
+/* filter=ekf, one landmark: the filter's prediction is the measured
+ * heading. Over a fixed-seed Monte-Carlo (200 runs: four landmarks for
+ * 1 s, then one for 2 s while the robot turns a radian), the stated
+ * covariance holds the true error: the pose's normalised error squared
+ * (3 dof) within chi^2 95 % (7.81) on >= 90 % of the runs at every frame
+ * of the stretch. The heading's variance grows and is carried into the
+ * position's: the bearing ties the slide round the landmark to the heading,
+ * so the position's largest sigma is at least rho (sigma_h - sigma_b), and
+ * it grows with the heading's. */
+static void
+test_tracker_ekf_one_landmark_covariance ()
+{
+  const CirclePath path { 1.0, 0.5, 0.1 };
+  const int runs = 200, frames = 90, first = 30;
+  std::vector<int> within (frames, 0);
+  std::vector<double> var_h (frames, 0), var_pos (frames, 0);
+  int reported = 0, carried = 0;
+  std::mt19937 rng (29);
+  PoseTrackerOptions opt;
+  opt.ekf = true;
+  for (int run = 0; run < runs; run++) {
+    PoseTracker tr;
+    for (int k = 0; k < frames; k++) {
+      const Pose2 truth = path.at (k / 30.0);
+      const TrackedFrame f = tr.step (kTrackerMap, tracker_seen (truth,
+              k < first ? std::vector<int> { 0, 1, 2, 3 } :
+              std::vector<int> { 0 }, &rng), k / 30.0, opt);
+      if (k < first || !f.ok)
+        continue;
+      reported++;
+      const cv::Matx33d C (f.pose.cov);
+      const cv::Vec3d e (f.pose.pose.x - truth.x, f.pose.pose.y - truth.y,
+          angdiff (f.pose.pose.heading, truth.heading));
+      cv::Matx33d Ci;
+      cv::invert (C, Ci, cv::DECOMP_SVD);
+      within[k] += e.dot (Ci * e) <= 7.815;
+      var_h[k] += C (2, 2) / runs;
+      /* the position's largest variance */
+      const double a = C (0, 0), b = C (0, 1), d = C (1, 1);
+      const double big = (a + d) / 2 + std::sqrt ((a - d) * (a - d) / 4 +
+          b * b);
+      var_pos[k] += big / runs;
+      /* the bearing ties the slide round the landmark to the heading
+       * (to within one bearing sigma): sigma_pos >= rho (sigma_h -
+       * sigma_b) */
+      const double rho = std::hypot (kTrackerMap[0].x - truth.x,
+          kTrackerMap[0].y - truth.y);
+      const double tied = rho * std::max (0.0, std::sqrt (C (2, 2)) - 0.005);
+      carried += big >= tied * tied;
+    }
+  }
+  const int stretch = runs * (frames - first);
+  CHECK (reported == stretch, "one-landmark poses %d of %d", reported,
+      stretch);
+  int worst = runs;
+  for (int k = first; k < frames; k++)
+    worst = std::min (worst, within[k]);
+  CHECK (worst >= 0.9 * runs, "NEES within chi^2(3) 95 %% on %d of %d runs "
+      "at the worst frame", worst, runs);
+  CHECK (carried == stretch, "the heading's variance in the position's on "
+      "%d of %d", carried, stretch);
+  /* both grow over the stretch, the position's with the heading's */
+  int together = 0;
+  for (int k = first + 1; k < frames; k++)
+    together += (var_pos[k] > var_pos[k - 1]) == (var_h[k] > var_h[k - 1]);
+  CHECK (var_h[frames - 1] > 2 * var_h[first]
+      && var_pos[frames - 1] > 4 * var_pos[first],
+      "variances grow: heading %g -> %g rad^2, position %g -> %g m^2",
+      var_h[first], var_h[frames - 1], var_pos[first], var_pos[frames - 1]);
+  CHECK (together >= 0.9 * (frames - first - 1), "position and heading "
+      "variances grow together on %d of %d frames", together,
+      frames - first - 1);
+  std::printf ("ekf one landmark: NEES within on >= %d/%d runs; sigma_h "
+      "%.4f -> %.4f rad, position %.4f -> %.4f m\n", worst, runs,
+      std::sqrt (var_h[first]), std::sqrt (var_h[frames - 1]),
+      std::sqrt (var_pos[first]), std::sqrt (var_pos[frames - 1]));
+}
+
 int
 main ()
 {
@@ -687,5 +868,7 @@ main ()
   test_ekf_bridges_gap ();
   test_ekf_turn_on_one_landmark ();
   test_ekf_lost ();
+  test_tracker_one_landmark_needs_heading ();
+  test_tracker_ekf_one_landmark_covariance ();
   return corecheck_summary ();
 }

@@ -179,6 +179,22 @@ geometry_name (Geometry g)
   return "ok";
 }
 
+const char *
+matched_by_name (MatchedBy m)
+{
+  switch (m) {
+    case MatchedBy::Pose:
+      return "pose";
+    case MatchedBy::Colour:
+      return "colour";
+    case MatchedBy::Prior:
+      return "prior";
+    case MatchedBy::None:
+      break;
+  }
+  return "";
+}
+
 double
 default_range_sigma (double range)
 {
@@ -484,6 +500,7 @@ localise (const std::vector<MapPoint> & map,
   LocaliseResult res;
   const size_t nd = dets.size ();
   res.match.assign (nd, -1);
+  res.matched_by.assign (nd, MatchedBy::None);
   res.residual.assign (nd, std::numeric_limits<double>::quiet_NaN ());
   std::vector<std::string> reason (nd);
   std::vector<std::vector<int>> cand (nd);
@@ -671,11 +688,21 @@ localise (const std::vector<MapPoint> & map,
   } else if (cs.size () == 1 && opt.have_heading) {
     sol = solve_one (cs[0], opt.heading, opt.heading_sigma);
   } else {
+    /* no pose to check them: the colour names a landmark the map holds
+     * once; a repeated colour is named only where the prior placed it */
     res.why = "too-few-landmarks";
-    for (size_t k = 0; k < nd; k++)
-      if (match[k] >= 0)
+    for (size_t k = 0; k < nd; k++) {
+      if (match[k] < 0)
+        continue;
+      if (cand[k].size () == 1)
+        res.matched_by[k] = MatchedBy::Colour;
+      else if (gated && !by_consensus)
+        res.matched_by[k] = MatchedBy::Prior;
+      else
         reason[k] = "too-few-landmarks";
-    res.match.assign (nd, -1);
+      if (res.matched_by[k] != MatchedBy::None)
+        res.match[k] = match[k];
+    }
     res.reasons = reason;
     return res;
   }
@@ -694,6 +721,7 @@ localise (const std::vector<MapPoint> & map,
     res.residual[k] = sol.residuals[c];
     if (sol.inlier[c]) {
       res.match[k] = match[k];
+      res.matched_by[k] = MatchedBy::Pose;
       res.n_used++;
     } else {
       reason[k] = "outlier";

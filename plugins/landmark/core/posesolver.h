@@ -140,11 +140,24 @@ struct LocaliseOptions {
   LsqOptions lsq;
 };
 
+/* How a detection's landmark was decided (`landmark-match` matched-by). */
+enum class MatchedBy {
+  None,      /* unmatched */
+  Pose,      /* used in the frame's pose, which agrees with it */
+  Colour,    /* no pose: the map holds its colour (and marker) once */
+  Prior,     /* no pose: a repeated colour placed by the prior, in the gate */
+};
+const char *matched_by_name (MatchedBy m);
+
 struct LocaliseResult {
   bool ok = false;
   std::string why;              /* "too-few-landmarks", "no-solution" */
   PoseSolution solution;
-  std::vector<int> match;       /* per detection: map index, -1 unmatched */
+  /* per detection: map index, -1 unmatched; without a pose, a detection
+   * whose landmark the colour or the prior decides is matched too
+   * (matched_by says which) */
+  std::vector<int> match;
+  std::vector<MatchedBy> matched_by;  /* per detection */
   std::vector<double> residual; /* per detection: metres (NaN: none) */
   /* per detection, why it is unmatched: "no-landmark-of-class",
    * "outside-gate", "ambiguous", "duplicate", "outlier",
@@ -166,7 +179,11 @@ constexpr int kMaxConsensusHypotheses = 2048;
 
 /* Associates detections with map points by class (gated around the prior
  * where given; by consensus where not), then solves with one, two or more
- * landmarks. Detections that fit nothing stay unmatched. */
+ * landmarks (one only with opt.have_heading). Detections that fit nothing
+ * stay unmatched. With too few landmarks for a pose, a detection of a
+ * colour the map holds once is still matched (MatchedBy::Colour), one of a
+ * repeated colour only when the prior placed it within the gate
+ * (MatchedBy::Prior); the others get `too-few-landmarks`. */
 LocaliseResult localise (const std::vector<MapPoint> & map,
     const std::vector<Detection> & dets, const LocaliseOptions & opt);
 

@@ -326,12 +326,20 @@ LANDMARK_TEST ("general", test_no_pose)
   GstBuffer *in = frame (0), *out;
   GstStructure *msg;
   gboolean has = TRUE;
-  /* one landmark, no heading, no previous pose: too few */
+  const GstStructure *m;
+  /* one landmark, no heading, no previous pose: too few for a pose; the
+   * map holds blue once, so the detection is B1 (by colour) */
   add_seen (in, 0, 2, 2, 2, 0.3, 0);
   out = gst_harness_push_and_pull (h, in);
   fail_unless (gst_buffer_get_custom_meta (out, "GstLandmarkPoseMeta") ==
       NULL);
-  check_matched (out, 0, NULL);
+  m = match_of (out, 0);
+  fail_unless (gst_structure_get_boolean (m, "matched", &has) && has);
+  fail_unless_equals_string (gst_structure_get_string (m, "landmark-id"),
+      "B1");
+  fail_unless_equals_string (gst_structure_get_string (m, "matched-by"),
+      "colour");
+  fail_unless (!gst_structure_has_field (m, "residual"));
   msg = pop_pose_message (bus);
   fail_unless (gst_structure_get_boolean (msg, "has-pose", &has) && !has);
   fail_unless_equals_string (gst_structure_get_string (msg, "reason"),
@@ -340,11 +348,61 @@ LANDMARK_TEST ("general", test_no_pose)
   gst_structure_free (msg);
   gst_buffer_unref (out);
 
+  /* red alone: the map has it twice and nothing tells R1 from R2 */
+  in = frame (1);
+  add_seen (in, 0, 0, 2, 2, 0.3, 0);
+  out = gst_harness_push_and_pull (h, in);
+  check_matched (out, 0, NULL);
+  fail_unless_equals_string (gst_structure_get_string (match_of (out, 0),
+          "reason"), "ambiguous");
+  gst_structure_free (pop_pose_message (bus));
+  gst_buffer_unref (out);
+
   harness_done (h, bus);
 
   /* messages off, and off by default: nothing posted */
   check_no_messages ("post-messages=false");
   check_no_messages ("");
+}
+GST_END_TEST;
+
+/* A pose from three landmarks, then blue alone: without a measured heading
+ * (the previous pose's is no measurement) there is no one-landmark pose,
+ * and B1 is named by its colour. */
+LANDMARK_TEST ("general", test_one_landmark_needs_heading)
+{
+  GstBus *bus;
+  GstHarness *h = harness ("", &bus);
+  GstBuffer *in = frame (0), *out;
+  GstStructure *msg;
+  gboolean has = TRUE;
+  add_seen (in, 0, 0, 3, 1, 2.0, 0);
+  add_seen (in, 1, 1, 3, 1, 2.0, 0);
+  add_seen (in, 2, 2, 3, 1, 2.0, 0);
+  out = gst_harness_push_and_pull (h, in);
+  check_pose (out, 3, 1, 2.0, 1e-9, "lsq", 3);
+  fail_unless_equals_string (gst_structure_get_string (match_of (out, 2),
+          "matched-by"), "pose");
+  gst_buffer_unref (out);
+  gst_structure_free (pop_pose_message (bus));
+
+  /* the robot turned 0.2 rad; blue alone */
+  in = frame (1);
+  add_seen (in, 0, 2, 3, 1, 2.2, 0);
+  out = gst_harness_push_and_pull (h, in);
+  fail_unless (gst_buffer_get_custom_meta (out, "GstLandmarkPoseMeta") ==
+      NULL, "a one-landmark pose from the previous pose's heading");
+  fail_unless_equals_string (gst_structure_get_string (match_of (out, 0),
+          "landmark-id"), "B1");
+  fail_unless_equals_string (gst_structure_get_string (match_of (out, 0),
+          "matched-by"), "colour");
+  msg = pop_pose_message (bus);
+  fail_unless (gst_structure_get_boolean (msg, "has-pose", &has) && !has);
+  fail_unless_equals_string (gst_structure_get_string (msg, "reason"),
+      "too-few-landmarks");
+  gst_structure_free (msg);
+  gst_buffer_unref (out);
+  harness_done (h, bus);
 }
 GST_END_TEST;
 

@@ -82,6 +82,7 @@
 #include "elementsettings.h"
 #include "simdlevel.h"
 #include "landmarkmeta.h"
+#include "analyticsmeta.h"
 #include "markerevidence.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_blob_roundness_debug);
@@ -503,6 +504,7 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
   }
   GST_LOG_OBJECT (self, "%ux%u labels: %zu blobs, %u kept, %u rejected", w,
       h, a.count (), kept, rejected);
+  landmark_analytics_sync (buf);
   return GST_FLOW_OK;
 }
 

@@ -97,6 +97,7 @@
 #include "frameformat.h"
 #include "camerasetup.h"
 #include "landmarkmeta.h"
+#include "analyticsmeta.h"
 #include "markerclasses.h"
 #include "markerevidence.h"
 
@@ -871,6 +872,7 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         } unmap {st};
         for (GstVideoRegionOfInterestMeta * roi : st.rois)
           gst_ipm_range_measure (self, buf, roi);
+        landmark_analytics_sync (buf);
         return GST_FLOW_OK;
       });
 }

@@ -51,6 +51,7 @@
 #include "frameformat.h"
 #include "labsegmentpixels.h"
 #include "landmarkmeta.h"
+#include "analyticsmeta.h"
 #include "palette.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_lab_segment_debug);
@@ -524,6 +525,7 @@ gst_lab_segment_process (GstLabSegment * self, GstBuffer * buf,
 
   gst_lab_segment_attach_labels (self, buf, plane, w, h, counts, rule, s);
   gst_buffer_unref (plane);
+  landmark_analytics_sync (buf);
 
   if (!rule.any_active && !st.warned_no_class && w * h > 0) {
     GST_WARNING_OBJECT (self, "no class reaches min-class-pixels=%u in a "

@@ -78,6 +78,7 @@
 #include "elementsettings.h"
 #include "landmarkmap.h"
 #include "landmarkmeta.h"
+#include "analyticsmeta.h"
 #include "posemeta.h"
 #include "posetracker.h"
 
@@ -332,6 +333,7 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
 
   if (ok)
     landmark::pose_fields_set (landmark_pose_meta_add (buf), fp);
+  landmark_analytics_sync (buf);
 
   GST_LOG_OBJECT (self, "%zu detections, %s", dets.size (), ok ?
       fp.solver.c_str () : why.c_str ());

@@ -451,13 +451,9 @@ landmark_detection_rejected (GstBuffer * buffer,
   const GstStructure *match = landmark_detection_get_param (buffer, roi,
       LANDMARK_MATCH_PARAMS);
   /* blobroundness's marginal shape stands when ipmrange's size against
-   * range and trilaterate's map both confirmed it (docs/detection.md): a
-   * pose that agrees with it, not its colour alone */
-  const gchar *matched_by = match ?
-      gst_structure_get_string (match, "matched-by") : nullptr;
+   * range and trilaterate's map both confirmed it (docs/detection.md) */
   const bool shape_confirmed = param_flag (range, "shape-confirmed")
-      && param_flag (match, "matched")
-      && (!matched_by || g_str_equal (matched_by, "pose"));
+      && param_flag (match, "matched");
   const struct
   {
     const GstStructure *params;

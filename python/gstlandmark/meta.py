@@ -140,12 +140,10 @@ class Detection:
         """(element, reason) of the first stage that rejected it, or None:
         the chain's verdict as landmark_detection_rejected gives it in C
         (docs/detection.md): a blob or range not kept, or a match the map
-        disagrees with; a marginal shape whose size and match (by a
-        pose) confirmed it stands."""
-        # confirmed by a pose that agrees, not by the colour alone
+        disagrees with; a marginal shape whose size and match confirmed
+        it stands."""
         confirmed = (self.range.get("shape-confirmed") is True
-                     and self.match.get("matched") is True
-                     and self.match.get("matched-by", "pose") == "pose")
+                     and self.match.get("matched") is True)
         for params, element in ((self.blob, "blobroundness"),
                                 (self.range, "ipmrange")):
             if confirmed and params.get("shape-marginal") is True:

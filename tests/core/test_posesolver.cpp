@@ -743,6 +743,14 @@ test_tracker_one_landmark_needs_heading ()
       && pink.res.matched_by[0] == MatchedBy::Prior,
       "pink after a pose: match %d by %s", pink.res.match[0],
       matched_by_name (pink.res.matched_by[0]));
+  /* the robot has turned 0.6 rad since: the stale prior places pink off
+   * both landmarks; unnamed, not rejected (no pose says it is wrong) */
+  const TrackedFrame turned = t2.step (kTrackerMap, tracker_seen (Pose2 {
+              p0.x, p0.y, p0.heading + 0.6 }, { 4 }, nullptr), 0.2, opt);
+  CHECK (turned.res.match[0] < 0
+      && turned.res.reasons[0] == "too-few-landmarks",
+      "pink after a turn: match %d (%s)", turned.res.match[0],
+      turned.res.reasons[0].c_str ());
   PoseTracker t3;
   const TrackedFrame alone = t3.step (kTrackerMap, tracker_seen (p0, { 4 },
           nullptr), 0, opt);

@@ -70,6 +70,15 @@ PoseTracker::step (const std::vector<MapPoint> & map,
   TrackedFrame out;
   out.res = localise (map, dets, opt);
   const LocaliseResult & res = out.res;
+  if (!o.ekf && !res.ok) {
+    /* no pose, and the previous pose's heading may be stale by now: a
+     * repeated colour it places outside the gate is unnamed, not
+     * rejected (the filter's prediction, with its own uncertainty, does
+     * reject) */
+    for (auto & r : out.res.reasons)
+      if (r == "outside-gate")
+        r = "too-few-landmarks";
+  }
   PoseFields & fp = out.pose;
   fp.filter = o.ekf ? "ekf" : "none";
   std::vector<Correspondence> used;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Installs what gst-landmark needs on Debian 12 (system packages, the Python
-# virtual environment) and builds it. Safe to run again: it only does what
+# Installs what gst-landmark needs on Debian 12 or 13 (system packages, the
+# Python virtual environment) and builds it. Safe to run again: it only does what
 # is missing. Sourced by scripts/demo.sh and scripts/test.sh.
 set -euo pipefail
 
@@ -19,6 +19,15 @@ APT_PACKAGES=(
   python3-aiohttp
   gir1.2-gstreamer-1.0 gir1.2-gst-plugins-base-1.0
 )
+# GStreamer >= 1.24 (Debian 13, Ubuntu 24.04): its analytics library, the
+# stock overlay that draws it and its Python bindings (docs/metadata.md);
+# Debian 12's 1.22 has none and builds without
+os_release=$(. /etc/os-release 2>/dev/null; echo "${ID:-}:${VERSION_ID:-0}")
+case "$os_release" in
+  debian:1[3-9]* | debian:[2-9][0-9]* | ubuntu:2[4-9]* | ubuntu:[3-9][0-9]*)
+    APT_PACKAGES+=(gstreamer1.0-plugins-bad libgstreamer-plugins-bad1.0-dev
+      gir1.2-gst-plugins-bad-1.0) ;;
+esac
 # what only some commands need (the test command: valgrind, clang)
 read -r -a extra_packages <<<"${LANDMARK_EXTRA_APT:-}"
 APT_PACKAGES+=("${extra_packages[@]}")

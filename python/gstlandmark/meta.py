@@ -9,6 +9,7 @@ structure fields by hand::
         det.class_name, det.bbox, det.params["landmark-blob"]
     meta.pose(buf)                 # Pose or None
     meta.landmark_map(buf)         # list of MapLandmark (landmarkslam) or None
+    meta.analytics(buf)            # GStreamer >= 1.24: AnalyticsObject list
 """
 
 from __future__ import annotations
@@ -343,3 +344,94 @@ def floor(buf: Gst.Buffer) -> Optional[FloorMeta]:
         boundary_state=_floor_array(s, "boundary-state", np.uint8),
         nearest_range=nearest if ok_r else None,
         nearest_bearing=bearing if ok_b else None)
+
+
+# GStreamer's analytics metadata (GStreamer >= 1.24, docs/metadata.md):
+# the GstAnalytics typelib comes with gst-plugins-bad's introspection data
+# (Debian 13: gir1.2-gst-plugins-bad-1.0); without it analytics() is None.
+try:
+    gi.require_version("GstAnalytics", "1.0")
+    from gi.repository import GstAnalytics  # noqa: E402
+except (ValueError, ImportError):
+    GstAnalytics = None
+
+
+@dataclass
+class AnalyticsObject:
+    """One object-detection box of the analytics relation meta with what
+    is related to it: its classification and, for a detection trilaterate
+    matched, its tracking entry (the map landmark, docs/metadata.md)."""
+    id: int                     # the box's id in the relation meta
+    class_name: str
+    box: Tuple[int, int, int, int]  # x, y, w, h before rotation, pixels
+    rotation: float             # radians, clockwise about the box centre
+    confidence: float           # location confidence
+    class_confidence: Optional[float] = None
+    tracking_id: Optional[int] = None
+
+
+def _box(od) -> Tuple[Tuple[int, int, int, int], float, float]:
+    if hasattr(od, "get_oriented_location"):   # GStreamer >= 1.26
+        ok, x, y, w, h, r, conf = od.get_oriented_location()
+    else:
+        ok, x, y, w, h, conf = od.get_location()
+        r = 0.0
+    return (x, y, w, h), r, conf
+
+
+def analytics(buf: Gst.Buffer) -> Optional[List[AnalyticsObject]]:
+    """The object boxes of a buffer's GstAnalyticsRelationMeta, in id
+    order; None when the buffer has none or GstAnalytics is not
+    available."""
+    if GstAnalytics is None:
+        return None
+    rmeta = GstAnalytics.buffer_get_analytics_relation_meta(buf)
+    if rmeta is None:
+        return None
+    mtds = list(rmeta)
+    related = GstAnalytics.RelTypes.RELATE_TO
+    out = []
+    for od in mtds:
+        if not isinstance(od, GstAnalytics.ODMtd):
+            continue
+        box, r, conf = _box(od)
+        obj = AnalyticsObject(
+            id=od.id, class_name=GLib.quark_to_string(od.get_obj_type()),
+            box=box, rotation=r, confidence=conf)
+        for other in mtds:
+            if not rmeta.get_relation(od.id, other.id) & related:
+                continue
+            if isinstance(other, GstAnalytics.ClsMtd):
+                obj.class_confidence = other.get_level(0)
+            elif isinstance(other, GstAnalytics.TrackingMtd):
+                obj.tracking_id = other.get_info()[1]
+        out.append(obj)
+    return out
+
+
+def analytics_segmentation(buf: Gst.Buffer) -> Optional[Tuple[np.ndarray,
+                                                              List[str]]]:
+    """labsegment's segmentation entry (GStreamer >= 1.26): the mask (2-D
+    uint8, region id = label) and the name of each region id; None when
+    absent."""
+    if GstAnalytics is None or not hasattr(GstAnalytics, "SegmentationMtd"):
+        return None
+    rmeta = GstAnalytics.buffer_get_analytics_relation_meta(buf)
+    if rmeta is None:
+        return None
+    mtds = list(rmeta)
+    for seg in mtds:
+        if not isinstance(seg, GstAnalytics.SegmentationMtd):
+            continue
+        mask, _x, _y, _w, _h = seg.get_mask()
+        vmeta = GstVideo.buffer_get_video_meta(mask)
+        plane = _plane_array(mask, vmeta.width, vmeta.height,
+                             vmeta.stride[0]).copy()
+        names = [""] * seg.get_region_count()
+        for cls in mtds:
+            if (isinstance(cls, GstAnalytics.ClsMtd) and rmeta.get_relation(
+                    seg.id, cls.id) & GstAnalytics.RelTypes.N_TO_N):
+                names = [GLib.quark_to_string(cls.get_quark(i))
+                         for i in range(cls.get_length())]
+        return plane, names
+    return None

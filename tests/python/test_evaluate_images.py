@@ -222,7 +222,12 @@ def test_video_frames_against_their_boxes(gst, tmp_path):
 
 def test_teaching_mask_paints_the_inscribed_ellipse():
     box = E.TruthBox("ball", 50.0, 40.0, 30.0, 20.0)
-    mask = realbench.teaching_mask((80, 100), [box])
+    other = E.TruthBox("ball", 85.0, 60.0, 10.0, 10.0)
+    both = realbench.teaching_mask((80, 100), box, [box, other])
+    # the image's other ball is left unlabelled, not taught as background
+    assert (both[55:65, 80:90] == 0).all() and both[60, 77] == 2
+    mask = realbench.teaching_mask((80, 100), box, [box])
+    assert ((both == 1) == (mask == 1)).all()
     ball = mask == 1
     assert ball.sum() == pytest.approx(np.pi * 15 * 10, rel=0.03)
     ys, xs = np.nonzero(ball)
@@ -242,9 +247,10 @@ def test_real_msl_frames(gst, tmp_path):
     src = os.path.join(MSL, "20240222", "r15")
     names = E.read_names(os.path.join(MSL, "obj.names"))
     items = E.image_items(E.list_images(src)["."], src, names)
-    item, image, balls = realbench.teaching_image(items)
-    assert any(b.w >= 30 for b in balls)
-    realbench.teach(image, balls, str(tmp_path / "p.json"), item.path)
+    item, image, clear, balls = realbench.teaching_image(items)
+    assert clear.w >= 30 and clear in balls
+    realbench.teach(image, clear, balls, str(tmp_path / "p.json"),
+                    item.path)
     chosen = [i for i in items if i.path != item.path][:3]
     work = tmp_path / "frames"
     work.mkdir()

@@ -5,14 +5,16 @@ docs/evaluate.md).
 For each folder:
 
 1. the teaching image is the first image in sorted (file name) order
-   that has a ``ball`` box at least 30 px wide that the border does not
-   cut (no edge within a pixel of the image's);
+   that has a clear ball: a ``ball`` box at least 30 px wide that the
+   border does not cut (no edge within a pixel of the image's) and that
+   overlaps no other annotated box (a ball behind a leg or at a robot's
+   foot shows the leg or the robot inside its box);
 2. the palette is taught from it the documented way (``palette learn
    --mask`` with its defaults: ``gstlandmark.palette.learn_from_mask``,
-   references ``auto``, the ``untaught`` class): every ball box of that
-   image painted as the ellipse inscribed in the box (class ``ball``,
-   marker), a 2-px unlabelled ring around each, the rest of the image one
-   background class (``background``);
+   references ``auto``, the ``untaught`` class): that ball painted as the
+   ellipse inscribed in its box (class ``ball``, marker), the image's
+   other balls and a 2-px ring around every ball left unlabelled, the
+   rest of the image one background class (``background``);
 3. the folder is scored by ``gst-landmark evaluate`` (the default chain,
    ``labsegment palette=P ! blobroundness``, annotation class ``ball`` as
    marker ``ball``) with the teaching image left out.
@@ -49,50 +51,63 @@ MIN_TEACHING_WIDTH = 30.0   # px, the teaching ball's box
 RING_PX = 2                 # unlabelled ring around each painted ball
 
 
+def _overlap(a, b) -> bool:
+    return (abs(a.cx - b.cx) * 2 < a.w + b.w and
+            abs(a.cy - b.cy) * 2 < a.h + b.h)
+
+
 def teaching_image(items: List[E.Item]):
-    """(item, image, ball boxes in pixels) of the first item (sorted
-    order, as image_items gives them) with an uncut ball box at least
-    MIN_TEACHING_WIDTH wide, or None."""
+    """(item, image, the clear ball, every ball box; in pixels) of the
+    first item (sorted order, as image_items gives them) with a clear
+    ball: an uncut ball box at least MIN_TEACHING_WIDTH wide overlapping
+    no other box; or None."""
     for item in items:
         if not any(t.name == BALL and t.w > 0 for t in item.truth):
             continue
         image = E.read_image(item.path)
         height, width = image.shape[:2]
-        balls = [t.scaled(width, height) for t in item.truth
-                 if t.name == BALL]
-        if any(b.w >= MIN_TEACHING_WIDTH and not b.cut(width, height)
-               for b in balls):
-            return item, image, balls
+        boxes = [t.scaled(width, height) for t in item.truth]
+        balls = [b for b in boxes if b.name == BALL]
+        for b in balls:
+            if (b.w >= MIN_TEACHING_WIDTH and not b.cut(width, height) and
+                    not any(o is not b and _overlap(b, o) for o in boxes)):
+                return item, image, b, balls
     return None
 
 
-def teaching_mask(shape, balls) -> np.ndarray:
-    """uint8 mask: 1 inside the ellipse inscribed in each ball box (a
-    pixel whose centre lies inside), 0 on a RING_PX ring around them, 2
-    everywhere else."""
+def teaching_mask(shape, taught, balls=()) -> np.ndarray:
+    """uint8 mask: 1 inside the ellipse inscribed in the taught ball's box
+    (a pixel whose centre lies inside), 0 inside the other balls' and on
+    a RING_PX ring around every ball, 2 everywhere else."""
     height, width = shape[:2]
     v, u = np.mgrid[0:height, 0:width]
-    ball = np.zeros((height, width), bool)
+
+    def inside(b):
+        return (((u + 0.5 - b.cx) / (b.w / 2)) ** 2 +
+                ((v + 0.5 - b.cy) / (b.h / 2)) ** 2) <= 1.0
+
+    ball = inside(taught)
+    any_ball = ball.copy()
     for b in balls:
-        ball |= (((u + 0.5 - b.cx) / (b.w / 2)) ** 2 +
-                 ((v + 0.5 - b.cy) / (b.h / 2)) ** 2) <= 1.0
+        any_ball |= inside(b)
     kernel = cv2.getStructuringElement(
         cv2.MORPH_ELLIPSE, (2 * RING_PX + 1, 2 * RING_PX + 1))
-    near = cv2.dilate(ball.astype(np.uint8), kernel).astype(bool)
+    near = cv2.dilate(any_ball.astype(np.uint8), kernel).astype(bool)
     mask = np.full((height, width), 2, np.uint8)
     mask[near] = 0
     mask[ball] = 1
     return mask
 
 
-def teach(image, balls, path: str, source: str):
+def teach(image, taught, balls, path: str, source: str):
     """Learns and writes the folder's palette; returns it."""
-    palette = learn_from_mask(image, teaching_mask(image.shape, balls),
+    palette = learn_from_mask(image, teaching_mask(image.shape, taught,
+                                                   balls),
                               names=[BALL, BACKGROUND], markers=[BALL],
                               references="auto", untaught_class="untaught")
     save_palette(palette, path,
                  description="Taught by 'gst-landmark bench real': the "
-                             "balls of one image painted, the rest "
+                             "clear ball of one image painted, the rest "
                              "background.", **{"learned-from": source})
     return palette
 
@@ -108,11 +123,12 @@ def run(data: str, folders, palette_dir: str, sets=(),
     names_path = os.path.join(data, E.NAMES_FILE)
     out: Dict[str, Any] = {
         "data": data, "tuning": list(TUNING), "held_out": list(HELD_OUT),
-        "teaching_rule": (f"first image in sorted order with an uncut "
-                          f"{BALL} box >= {MIN_TEACHING_WIDTH:g} px wide; "
-                          f"every {BALL} box of it painted as its inscribed "
-                          f"ellipse, a {RING_PX}-px unlabelled ring, the "
-                          f"rest {BACKGROUND}"),
+        "teaching_rule": (f"first image in sorted order with a clear "
+                          f"{BALL} (uncut, >= {MIN_TEACHING_WIDTH:g} px "
+                          f"wide, overlapping no other box); it painted as "
+                          f"its inscribed ellipse, other {BALL}s and a "
+                          f"{RING_PX}-px ring unlabelled, the rest "
+                          f"{BACKGROUND}"),
         "set": list(sets), "complete": False, "folders": []}
     try:
         for folder in folders:
@@ -123,15 +139,16 @@ def run(data: str, folders, palette_dir: str, sets=(),
                                   E.read_names(names_path))
             chosen = teaching_image(items)
             if chosen is None:
-                raise CliError(f"{root}: no image with an uncut {BALL} box "
-                               f">= {MIN_TEACHING_WIDTH:g} px to teach on")
-            item, image, balls = chosen
+                raise CliError(f"{root}: no image with a clear {BALL} "
+                               f"(uncut, >= {MIN_TEACHING_WIDTH:g} px, "
+                               f"overlapping no other box) to teach on")
+            item, image, clear, balls = chosen
             palette_path = os.path.join(palette_dir, palette_name(folder))
             if os.path.isfile(palette_path):
                 palette = load_palette(palette_path)
                 taught = False
             else:
-                palette = teach(image, balls, palette_path, item.path)
+                palette = teach(image, clear, balls, palette_path, item.path)
                 taught = True
             setup = E.make_setup(root, names_path, palette_path, (), None,
                                  sets)
@@ -145,7 +162,7 @@ def run(data: str, folders, palette_dir: str, sets=(),
                      "mapping": setup.mapping, "images": images}
             out["folders"].append(entry)
             progress(f"{folder}: taught on {os.path.basename(item.path)} "
-                     f"({len(balls)} ball box(es)); "
+                     f"(its ball of {clear.w:.0f} px of {len(balls)}); "
                      f"{'taught' if taught else 'reused'} {palette_path}")
             rest = [i for i in items if i.path != item.path]
             E.score_items(setup, rest, E.image_frames(rest), images)

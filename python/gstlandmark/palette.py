@@ -29,7 +29,7 @@ from gstlandmark import reference
 MAX_CLASSES = 64
 MAX_NAME_LENGTH = 32
 # Reference colours a class may list (the element's kMaxReferencesPerClass).
-MAX_REFERENCES = 8
+MAX_REFERENCES = 32
 CLASS_KEYS = ("name", "lab", "references", "marker", "role")
 # What a class is for, in the file's spelling (docs/palette.md, "Roles").
 ROLES = ("marker", "floor", "background")
@@ -51,6 +51,14 @@ MAX_SPREAD_RATIO = 0.5
 # (Delta E 2.3): noise along one axis only (loses 64 %) or quantisation
 # steps of a flat region never count as tones
 MIN_SPREAD_GAIN = 2.3
+# A background or floor class is the whole scene around the markers (a
+# carpet, its lines, robots, walls, people): with "auto" it gets references
+# until less than UNTAUGHT_MIN_SHARE of its pixels lie farther than
+# UNTAUGHT_MIN_DISTANCE from all of them (every colour of the scene that
+# would make a class of its own if untaught has one), up to this many; one
+# mean for a scene of many colours sits near none of them, and whatever
+# lies nearer a marker's colour than that mean becomes the marker
+SCENE_MAX_REFERENCES = 16
 # pixels clustered per class (a fixed-seed sample of larger regions)
 KMEANS_SAMPLE = 20000
 # an extra reference nearer than this to a reference of another class
@@ -549,11 +557,18 @@ def prune_stealing_references(class_refs, class_pixels, seed=0,
         owner = np.repeat(np.arange(len(refs)), [len(r) for r in refs])
         slot = np.concatenate([np.arange(len(r)) for r in refs])
         stolen = np.zeros(len(flat))
+        saved = np.zeros(len(flat))
         for k, pixels in samples:
             d2 = ((pixels[:, None, :] - flat[None, :, :]) ** 2).sum(axis=2)
             two = np.argsort(d2, axis=1, kind="stable")[:, :2]
             if k >= 0:
                 taken = (owner[two[:, 0]] != k) & (owner[two[:, 1]] == k)
+                # a scene reference's own pixels that a marker would take
+                # without it
+                kept = (owner[two[:, 0]] == k) & ~is_marker[k] & \
+                    is_marker[owner[two[:, 1]]]
+                saved += np.bincount(two[kept, 0], minlength=len(flat)) \
+                    / len(pixels)
             else:
                 taken = is_marker[owner[two[:, 0]]] & \
                     (owner[two[:, 0]] != owner[two[:, 1]])
@@ -561,6 +576,10 @@ def prune_stealing_references(class_refs, class_pixels, seed=0,
                 / len(pixels)
             stolen = np.maximum(stolen, share)
         stolen[[len(refs[k]) == 1 for k in owner]] = 0.0
+        # a scene reference stays while it keeps more of its class from a
+        # marker than it takes of the marker, in shares of each: dropped,
+        # its pixels would be the marker's false detections
+        stolen[saved >= stolen] = 0.0
         worst = int(np.argmax(stolen))
         if stolen[worst] <= MAX_STOLEN_SHARE:
             break
@@ -603,7 +622,7 @@ def prune_shared_references(class_refs, class_means):
                                      dtype=np.float64).reshape(1, 3)
 
 
-def cluster_references(pixels_lab, references="auto", seed=0):
+def cluster_references(pixels_lab, references="auto", seed=0, scene=False):
     """Reference colours of one class from its (N, 3) L*a*b* pixels.
 
     ``references`` is a count, or "auto": k grows from 1 (the mean) to at
@@ -612,7 +631,8 @@ def cluster_references(pixels_lab, references="auto", seed=0):
     of the pixels, cuts the mean squared distance of a pixel to its
     nearest reference to at most MAX_SPREAD_RATIO of what k - 1 clusters
     left, and cuts the RMS distance by at least MIN_SPREAD_GAIN.  Returns float64 (k, 3) centres, the
-    largest cluster first.
+    largest cluster first.  ``scene``: the class is a background or floor
+    (``cluster_scene_references`` for "auto").
     """
     references = _check_references(references)
     pixels = np.asarray(pixels_lab, dtype=np.float64).reshape(-1, 3)
@@ -627,6 +647,8 @@ def cluster_references(pixels_lab, references="auto", seed=0):
         order = np.lexsort((centres[:, 0], -counts))
         return centres[order]
 
+    if references == "auto" and scene:
+        return cluster_scene_references(data, distinct, seed, ordered)
     if references != "auto":
         if distinct < references:
             raise PaletteError(f"{distinct} distinct colours cannot give "
@@ -691,6 +713,26 @@ def _split_untaught(pixels, taught):
     return pixels[near], pixels[~near]
 
 
+def cluster_scene_references(data, distinct, seed, ordered):
+    """References of a background class from its sampled float32 pixels:
+    k grows from 1 until less than UNTAUGHT_MIN_SHARE of the pixels lie
+    farther than UNTAUGHT_MIN_DISTANCE from every reference, up to
+    SCENE_MAX_REFERENCES (and the distinct colours there are);
+    ``ordered`` sorts the centres."""
+    def uncovered(centres):
+        d2 = ((data[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2)
+        return np.mean(d2.min(axis=1) > UNTAUGHT_MIN_DISTANCE ** 2)
+
+    best = data.mean(axis=0, dtype=np.float64)[None, :]
+    k = 1
+    while uncovered(best) >= UNTAUGHT_MIN_SHARE and \
+            k < min(SCENE_MAX_REFERENCES, distinct):
+        k += 1
+        _, labels, centres = kmeans(data, k, seed)
+        best = ordered(labels, centres)
+    return best
+
+
 def _rest_pixels(views):
     """The pixels of the rest of every teaching image, pooled, (N, 3)."""
     return np.vstack([lab[rest] for lab, _, rest in views]) \
@@ -749,7 +791,8 @@ def _palette_from_masks(views, names, roles, allow_missing=False,
         entries.append({"name": name, "lab": [float(v) for v in mean],
                         "role": role})
         try:
-            refs = cluster_references(pixels, references, seed)
+            refs = cluster_references(pixels, references, seed,
+                                      scene=role != "marker")
         except PaletteError as err:
             raise PaletteError(f"class {json.dumps(name)}: {err}") from None
         taught.append((pixels, mean[None, :] if len(refs) == 1 else refs))
@@ -770,7 +813,8 @@ def _palette_from_masks(views, names, roles, allow_missing=False,
                             "role": "background"})
             refs = _refs_taking_no_taught_pixels(
                 mean[None, :] if references == 1 else
-                cluster_references(far, references, seed), taught, seed)
+                cluster_references(far, references, seed, scene=True),
+                taught, seed)
             if len(refs):
                 entries[-1]["lab"] = [float(v) for v in
                                       (mean if len(refs) > 1 else refs[0])]

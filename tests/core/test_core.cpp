@@ -437,18 +437,18 @@ test_palette_parsing ()
       "\"references\"[0] L* must be within 0..100");
   expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
       " \"references\": []}]}",
-      "classes[0] (\"y\"): \"references\" must hold 1 to 8 colours, got 0");
+      "classes[0] (\"y\"): \"references\" must hold 1 to 32 colours, got 0");
   expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
       " \"references\": [50, 0, 0]}]}", "\"references\"[0] must be an array");
   expect_palette_error ("{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
       " \"references\": {}}]}", "\"references\" must be an array of");
   std::string nine = "{\"classes\": [{\"name\": \"y\", \"lab\": [50, 0, 0],"
       " \"references\": [";
-  for (int i = 0; i < 9; i++)
+  for (int i = 0; i < 33; i++)
     nine += std::string (i ? "," : "") + "[50, 0, 0]";
   nine += "]}]}";
   expect_palette_error (nine.c_str (),
-      "classes[0] (\"y\"): \"references\" must hold 1 to 8 colours, got 9");
+      "classes[0] (\"y\"): \"references\" must hold 1 to 32 colours, got 33");
 
   CHECK (!palette_load_file ("/nonexistent/palette.json", &p, &err) &&
       err.find ("/nonexistent/palette.json: cannot read") == 0, "%s",

@@ -142,10 +142,10 @@ BAD_PALETTES = [
                                                    [50, 5]])),
      'classes[2] ("yellow"): "references"[1] must be an array of 3 '
      'numbers [L*, a*, b*], got 2 values'),
-    (five_with(2, good_class("yellow", references=[[50, 0, 0]] * 9)),
-     'classes[2] ("yellow"): "references" must hold 1 to 8 colours, got 9'),
+    (five_with(2, good_class("yellow", references=[[50, 0, 0]] * 33)),
+     'classes[2] ("yellow"): "references" must hold 1 to 32 colours, got 33'),
     (five_with(2, good_class("yellow", references=[])),
-     'classes[2] ("yellow"): "references" must hold 1 to 8 colours, got 0'),
+     'classes[2] ("yellow"): "references" must hold 1 to 32 colours, got 0'),
     (five_with(2, good_class("yellow", references=[50, 0, 0])),
      'classes[2] ("yellow"): "references"[0] must be an array of 3 '
      'numbers [L*, a*, b*], got number'),
@@ -819,7 +819,7 @@ def test_element_refuses_bad_references(gst, tmp_path):
     from gstlandmark import pipeline
     Gst = pipeline.Gst
     path = write_json(tmp_path / "bad.json", five_with(
-        2, good_class("yellow", references=[[50, 0, 0]] * 9)))
+        2, good_class("yellow", references=[[50, 0, 0]] * 33)))
     pipe = Gst.parse_launch(f"videotestsrc num-buffers=1 ! labsegment "
                             f"palette={path} ! fakesink")
     try:
@@ -830,7 +830,7 @@ def test_element_refuses_bad_references(gst, tmp_path):
         err, debug = msg.parse_error()
         assert str(path) in err.message
         assert (f'{path}: classes[2] ("yellow"): "references" must hold 1 '
-                f'to 8 colours, got 9') in debug
+                f'to 32 colours, got 33') in debug
     finally:
         pipe.set_state(Gst.State.NULL)
 
@@ -975,7 +975,7 @@ def test_learn_auto_rule_share_and_spread():
 
 def test_learn_references_option_errors(tmp_path, scene_files, capsys):
     image, _ = synthetic_scene()
-    for bad in (0, 9, "two", True):
+    for bad in (0, 33, "two", True):
         with pytest.raises(PaletteError, match="references must be"):
             learn_from_mask(image, np.ones(image.shape[:2], np.uint8),
                             references=bad)
@@ -985,11 +985,11 @@ def test_learn_references_option_errors(tmp_path, scene_files, capsys):
         learn_from_mask(flat, np.ones((4, 4), np.uint8), names=["c"],
                         references=2)
     img_path, mask_path = scene_files
-    for bad in ("0", "9", "many"):
+    for bad in ("0", "33", "many"):
         assert cli.main(["palette", "learn", str(img_path), "--mask",
                          str(mask_path), "--references", bad,
                          "-o", str(tmp_path / "x.json")]) == 2
-        assert ("argument --references: expected auto or 1 to 8"
+        assert ("argument --references: expected auto or 1 to 32"
                 in capsys.readouterr().err)
     assert not (tmp_path / "x.json").exists()
 

@@ -411,3 +411,57 @@ def test_overlap_warnings(tmp_path, capsys):
     assert findings == []
     assert paletteaudit.reference_overlaps(palette, spreads) == []
     assert 0.5 < spreads["red"] < 3.0    # 1-sigma noise per channel
+
+
+# A soccer scene: green carpet, white lines, black robots, a beige wall and
+# a yellow-green ball.  The mean of everything but the ball is a green
+# farther from the beige wall than the ball is: taught as one mean, the
+# background leaves the wall to the ball.
+CARPET = (55.0, -45.0, 30.0)
+LINE = (95.0, -5.0, 5.0)
+ROBOT = (12.0, 0.0, 0.0)
+BEIGE_WALL = (80.0, 0.0, 30.0)
+BALL = (80.0, -20.0, 60.0)
+
+
+def draw_field(seed=3):
+    """BGR field (1-sigma noise), the ball's mask and its teaching mask
+    (1: the ball inside a 2-px ring, 0: the ring, 2: the rest)."""
+    h, w = 120, 200
+    yy, xx = np.mgrid[:h, :w]
+    lab = np.empty((h, w, 3))
+    lab[:] = CARPET
+    lab[yy < 30] = BEIGE_WALL
+    lab[(yy >= 60) & (yy < 64)] = LINE
+    lab[(xx >= 20) & (xx < 60) & (yy >= 35) & (yy < 90)] = ROBOT
+    ball = (xx - 130) ** 2 + (yy - 90) ** 2 <= 14 ** 2
+    lab[ball] = BALL
+    image = reference.lab_to_srgb8(lab.reshape(-1, 3)).reshape(h, w, 3)
+    rng = np.random.default_rng(seed)
+    image = np.clip(np.rint(image[:, :, ::-1] + rng.normal(0, 1.0,
+                                                           image.shape)),
+                    0, 255).astype(np.uint8)
+    mask = np.full((h, w), 2, np.uint8)
+    mask[(xx - 130) ** 2 + (yy - 90) ** 2 <= 16 ** 2] = 0
+    mask[(xx - 130) ** 2 + (yy - 90) ** 2 <= 12 ** 2] = 1
+    return image, ball, mask
+
+
+def test_background_of_many_colours_gets_a_reference_for_each():
+    """Taught with --mask (ball, and the rest as background) and auto
+    references: the background is every colour of the scene, so it gets
+    a reference near each (a single mean would leave the lines and the
+    wall to the ball), and none of the scene is labelled ball."""
+    from gstlandmark.palette import learn_from_mask
+    image, ball, mask = draw_field()
+    palette = learn_from_mask(image, mask, names=["ball", "background"],
+                              markers=["ball"], references="auto")
+    refs = np.array(palette.classes[1].reference_labs)
+    for tone in (CARPET, LINE, ROBOT, BEIGE_WALL):
+        assert np.sqrt(((refs - tone) ** 2).sum(axis=1)).min() < 5.0, tone
+    labels = labels_of(palette, image)
+    assert (labels[ball] == 1).mean() > 0.99
+    # the ball's 2-px rim blends with the carpet; the rest of the scene
+    # holds no ball pixel
+    rim = cv2.dilate(ball.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    assert (labels[~rim] == 1).sum() == 0

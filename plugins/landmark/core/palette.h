@@ -16,7 +16,7 @@ namespace landmark {
 constexpr int kMaxClasses = 64;
 
 /* At most this many reference colours per class. */
-constexpr size_t kMaxReferencesPerClass = 8;
+constexpr size_t kMaxReferencesPerClass = 32;
 
 /* What a class is for (docs/palette.md, "Roles"): landmark colours,
  * the floor the robot drives on, or anything else (walls, furniture). */
@@ -33,6 +33,10 @@ struct PaletteClass {
   /* The class's reference colours when it has its own list (1 to
    * kMaxReferencesPerClass), e.g. a ball's lit and shaded sides. */
   std::vector<Lab> references;
+  /* The light each reference is seen under, as factors of the light it
+   * was taught in (docs/palette.md, "Shading"): 1, 1 = the colour itself;
+   * 0.125, 2 = from an eighth of that light to twice it. */
+  double shade_lo = 1.0, shade_hi = 1.0;
   PaletteRole role = PaletteRole::Marker;
   /* role == PaletteRole::Marker, kept for the readers of the flag */
   bool marker = true;
@@ -55,6 +59,20 @@ bool palette_load_file (const std::string & path, Palette * out,
  * (label - 1) of each: what ClassifierConfig's refs and ref_class take. */
 void palette_references (const Palette & palette, std::vector<Lab> * refs,
     std::vector<int> * ref_class);
+
+/* The ends of each reference's shading segment, in palette_references'
+ * order: the colour under the class's least and most light (equal to the
+ * reference for a class without shading). */
+void palette_shading_ends (const Palette & palette, std::vector<Lab> * dark,
+    std::vector<Lab> * light);
+
+/* A surface colour under k times the light: L*+16, a* and b* all scale by
+ * the cube root of k (exact where L* follows the cube root, L* > 8),
+ * with L* kept within 0..100. */
+Lab lab_under_light (const Lab & lab, double k);
+
+/* Shading factors a palette may give: 1/64 (six stops darker) to 64. */
+constexpr double kMinShade = 1.0 / 64, kMaxShade = 64.0;
 
 /* The built-in palette (python/gstlandmark/data/default-palette.json). */
 const Palette & palette_default ();

@@ -99,6 +99,8 @@ struct State {
    * built from, before gains) */
   std::vector<landmark::Lab> palette_refs;
   std::vector<int> palette_ref_class;
+  /* each reference's shading segment; empty when no class has shading */
+  std::vector<landmark::Lab> palette_dark, palette_light;
   std::array<double, 3> table_gains {1.0, 1.0, 1.0};
   guint frames_since_build = 0;
   bool rebuild_for_drift = false;
@@ -251,6 +253,14 @@ gst_lab_segment_palette_changed (GstLabSegment * self)
   st.drift.reset (labs, single);
   landmark::palette_references (palette, &st.palette_refs,
       &st.palette_ref_class);
+  st.palette_dark.clear ();
+  st.palette_light.clear ();
+  for (const auto & c : palette.classes)
+    if (c.shade_lo != 1.0 || c.shade_hi != 1.0) {
+      landmark::palette_shading_ends (palette, &st.palette_dark,
+          &st.palette_light);
+      break;
+    }
   GST_INFO_OBJECT (self, "palette %s: %u classes",
       st.palette.path.empty ()? "(built-in)" : st.palette.path.c_str (), n);
 }
@@ -263,9 +273,12 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
   landmark::ClassifierConfig cfg;
   cfg.refs = st.palette_refs;
   cfg.ref_class = st.palette_ref_class;
+  cfg.dark = st.palette_dark;
+  cfg.light = st.palette_light;
   if (gains != std::array<double, 3> {1.0, 1.0, 1.0})
-    for (landmark::Lab & ref : cfg.refs)
-      ref = landmark::lab_under_gains (ref, gains);
+    for (auto *refs : {&cfg.refs, &cfg.dark, &cfg.light})
+      for (landmark::Lab & ref : *refs)
+        ref = landmark::lab_under_gains (ref, gains);
   st.table_gains = gains;
   st.frames_since_build = 0;
   cfg.use_lightness = use_lightness;

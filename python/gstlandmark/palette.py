@@ -30,7 +30,11 @@ MAX_CLASSES = 64
 MAX_NAME_LENGTH = 32
 # Reference colours a class may list (the element's kMaxReferencesPerClass).
 MAX_REFERENCES = 32
-CLASS_KEYS = ("name", "lab", "references", "marker", "role")
+# Light factors a class's "shading" may give (the element's kMinShade,
+# kMaxShade): six stops either way.
+MIN_SHADE = 1.0 / 64
+MAX_SHADE = 64.0
+CLASS_KEYS = ("name", "lab", "references", "shading", "marker", "role")
 # What a class is for, in the file's spelling (docs/palette.md, "Roles").
 ROLES = ("marker", "floor", "background")
 _NAME_RE = re.compile(r"[A-Za-z0-9_.-]+")
@@ -119,6 +123,8 @@ class PaletteClass:
     marker: Optional[bool] = None
     references: tuple[tuple[float, float, float], ...] = ()
     role: Optional[str] = None
+    # light factors [darkest, lightest] its references stand for
+    shading: tuple[float, float] = (1.0, 1.0)
 
     def __post_init__(self):
         role = _role_of(self.marker, self.role, f"class {self.name!r}")
@@ -176,6 +182,17 @@ class Palette:
                  for _ in c.reference_labs]
         return (np.array(refs, dtype=np.float64).reshape(-1, 3),
                 np.array(owner, dtype=np.int64))
+
+    def shading_arrays(self):
+        """float64 (R, 2, 3): each reference's shading segment (its colour
+        under its class's least and most light), in reference_arrays'
+        order; None when no class has shading."""
+        if all(c.shading == (1.0, 1.0) for c in self.classes):
+            return None
+        ends = [[lab_under_light(lab, c.shading[0]),
+                 lab_under_light(lab, c.shading[1])]
+                for c in self.classes for lab in c.reference_labs]
+        return np.array(ends, dtype=np.float64).reshape(-1, 2, 3)
 
     @property
     def has_references(self):
@@ -267,7 +284,8 @@ def _parse_class(entry, index, source):
         if key not in CLASS_KEYS:
             raise PaletteError(f"{where}: unknown key {json.dumps(key)} "
                                f"(allowed: \"name\", \"lab\", "
-                               f"\"references\", \"marker\", \"role\")")
+                               f"\"references\", \"shading\", \"marker\", "
+                               f"\"role\")")
 
     if "name" not in entry:
         raise PaletteError(f"{where}: missing \"name\"")
@@ -301,6 +319,10 @@ def _parse_class(entry, index, source):
             _parse_lab(ref, f"{where}: \"references\"[{i}]")
             for i, ref in enumerate(refs))
 
+    shading = (1.0, 1.0)
+    if "shading" in entry:
+        shading = parse_shading(entry["shading"], f"{where}: \"shading\"")
+
     # given as null is wrong, as the C reader says (absent is fine)
     marker = entry.get("marker")
     if "marker" in entry and not isinstance(marker, bool):
@@ -313,7 +335,30 @@ def _parse_class(entry, index, source):
     role = _role_of(marker, role, where)
 
     return PaletteClass(name=name, lab=lab, role=role,
-                        references=references)
+                        references=references, shading=shading)
+
+
+def parse_shading(value, what):
+    """[darkest, lightest] light factors (docs/palette.md, "Shading")."""
+    if (not isinstance(value, (list, tuple)) or len(value) != 2 or
+            not all(_is_number(v) for v in value) or
+            not MIN_SHADE <= value[0] <= 1.0 <= value[1] <= MAX_SHADE):
+        raise PaletteError(f"{what} must be [darkest, lightest] light "
+                           f"factors, 1/64 <= darkest <= 1 <= lightest <= "
+                           f"64, got {_show(value)}")
+    return (float(value[0]), float(value[1]))
+
+
+def lab_under_light(lab, k):
+    """(..., 3) L*a*b* of a surface under k times the light it shows:
+    L* + 16, a* and b* scale by the cube root of k (exact where L* follows
+    the cube root, L* > 8), L* kept within 0..100; as the element's
+    lab_under_light."""
+    lab = np.asarray(lab, dtype=np.float64)
+    base = lab[..., 0] + 16.0
+    s = np.clip(np.cbrt(k), 16.0 / base, 116.0 / base)
+    return np.stack([base * s - 16.0, lab[..., 1] * s, lab[..., 2] * s],
+                    axis=-1)
 
 
 def parse_palette(obj, source="<palette>"):
@@ -415,6 +460,8 @@ def _class_to_json(cls):
         entry["references"] = [[round(float(v), LAB_DECIMALS) for v in ref]
                                for ref in cls.references]
     # the flag too, for readers of the older form
+    if cls.shading != (1.0, 1.0):
+        entry["shading"] = [float(v) for v in cls.shading]
     entry["marker"] = bool(cls.marker)
     entry["role"] = cls.role
     return entry

@@ -181,7 +181,8 @@ def yuy2_to_rgb_float(packed, width, matrix="bt601", full_range=False):
 
 
 def classify(lab, palette_lab, min_class_pixels=100, max_distance=1000.0,
-             use_lightness=True, rare_classes="unlabelled", ref_class=None):
+             use_lightness=True, rare_classes="unlabelled", ref_class=None,
+             shading=None):
     """Label every pixel with its nearest palette class.
 
     lab          (H, W, 3) L*a*b* image (float32 as from ``rgb_to_lab``).
@@ -198,6 +199,11 @@ def classify(lab, palette_lab, min_class_pixels=100, max_distance=1000.0,
     rare_classes where pixels whose first-pass class is not active go:
                  "nearest" (the nearest active class, the seed's rule) or
                  "unlabelled" (label 0).
+    shading      optional (R, 2, 3): reference r stands for the segment
+                 between shading[r, 0] and shading[r, 1] (its colour under
+                 less and more light, ``Palette.shading_arrays``); the
+                 distance to it is the distance to that segment (with
+                 ``use_lightness``; without it the references count).
     """
     if rare_classes not in ("nearest", "unlabelled"):
         raise ValueError(f"rare_classes must be 'nearest' or 'unlabelled', "
@@ -230,9 +236,21 @@ def classify(lab, palette_lab, min_class_pixels=100, max_distance=1000.0,
 
     # dist[i, k]: Euclidean distance of pixel i to the nearest reference
     # of class k.
+    segments = None
+    if shading is not None and use_lightness:
+        segments = np.asarray(shading, dtype=np.float64).reshape(-1, 2, 3)
+        if len(segments) != len(refs):
+            raise ValueError("shading must give one segment per reference")
     dist = np.full((len(pixels), num_classes), np.inf)
     for r, k in enumerate(ref_class):
-        diff = pixels - refs[r]
+        if segments is None:
+            diff = pixels - refs[r]
+        else:
+            start, along = segments[r, 0], segments[r, 1] - segments[r, 0]
+            length2 = float(along @ along)
+            t = np.zeros(len(pixels)) if length2 <= 0 else np.clip(
+                (pixels - start) @ along / length2, 0.0, 1.0)
+            diff = pixels - (start + t[:, None] * along)
         np.minimum(dist[:, k], np.sqrt(np.sum(diff * diff, axis=1)),
                    out=dist[:, k])
 
@@ -288,7 +306,7 @@ def segment_rgb(rgb, palette, **kwargs):
     if hasattr(palette, "reference_arrays"):
         refs, ref_class = palette.reference_arrays()
         return classify(rgb_to_lab(rgb), refs, ref_class=ref_class,
-                        **kwargs)
+                        shading=palette.shading_arrays(), **kwargs)
     return classify(rgb_to_lab(rgb), _palette_lab(palette), **kwargs)
 
 

@@ -210,6 +210,18 @@ test_table_exact ()
   check_table_exact ("multi-reference rgb max-distance=15", multi_cfg,
       KeyOrder::C0_HIGH);
 
+  /* the same palette with shading: each reference a segment from its
+   * colour under an eighth of the light to twice the light */
+  for (auto & c : multi.classes) {
+    c.shade_lo = 0.125;
+    c.shade_hi = 2.0;
+  }
+  ClassifierConfig shaded_cfg = multi_cfg;
+  palette_shading_ends (multi, &shaded_cfg.dark, &shaded_cfg.light);
+  CHECK (shaded_cfg.dark.size () == 9 && shaded_cfg.light.size () == 9,
+      "%zu segment ends", shaded_cfg.dark.size ());
+  check_table_exact ("multi-reference rgb with shading", shaded_cfg);
+
   /* 8 classes of 1 to 4 random references each */
   ClassifierConfig random_multi;
   std::uniform_int_distribution<int> count (1, 4);

@@ -351,3 +351,39 @@ def test_adapt_follows_exposure(gst, tmp_path, fmt):
     assert gains(plain[-1]) is None
     assert all(abs(g - 0.5) < 0.05 for g in gains(adapted[-1])), \
         gains(adapted[-1])
+
+
+def test_shading_agrees_with_reference(gst, tmp_path):
+    """A palette whose classes stand for their colours under less and more
+    light (docs/palette.md, "Shading"): the element labels as the
+    reference's distance to each shading segment does, and a darker copy
+    of a marker's colour keeps its class only with shading."""
+    rng = np.random.default_rng(11)
+    pal = palette.Palette(palette.default_palette().classes + [
+        palette.PaletteClass(name="black", lab=(10.0, 0.0, 0.0),
+                             role="background")])
+    shaded = palette.Palette([
+        palette.PaletteClass(name=c.name, lab=c.lab, role=c.role,
+                             references=c.references,
+                             shading=(0.125, 2.0) if c.marker else (1, 1))
+        for c in pal.classes])
+    path = tmp_path / "shaded.json"
+    palette.save_palette(shaded, path)
+    assert palette.load_palette(path).classes[0].shading == (0.125, 2.0)
+    images = [F.natural_rgb(rng, 120, 160), F.random_rgb(rng, 120, 160)]
+    caps = F.caps_string("RGB", 160, 120)
+    element = f"labsegment palette={path}"
+    for img, buf in zip(images, run(element, images, caps)):
+        seg = reference.segment_rgb(img, shaded)
+        assert agreement(meta.labels(buf).plane, seg.labels, element) >= 0.999
+    # red under an eighth of its light: the plain palette calls it black,
+    # the shaded one red
+    red = pal.classes[pal.index("red")]
+    dark = palette.lab_under_light(red.lab, 0.125)
+    pixel = reference.lab_to_srgb8(dark[None, :])[0]
+    frame = np.tile(pixel, (8, 8, 1)).astype(np.uint8)
+    plain = reference.segment_rgb(frame, pal, min_class_pixels=0).labels
+    with_shading = reference.segment_rgb(frame, shaded,
+                                         min_class_pixels=0).labels
+    assert (plain == pal.index("black") + 1).all()
+    assert (with_shading == pal.index("red") + 1).all()

@@ -1178,26 +1178,32 @@ def test_learn_untaught_class_takes_the_sky():
 def test_untaught_class_takes_no_taught_pixels():
     """A floor taught with its dark fibres (8 % of it, Delta E 12 from the
     floor's mean, nearer the sky than the mean is) and an untaught dark sky
-    above: the sky's colour would take those fibres from the floor, so no
-    untaught class is learned; with fibres no darker than the mean's
-    neighbourhood it is."""
+    above: the floor, a scene class, gets a reference for its fibres, so
+    the sky's class is learned and takes none of them; with the floor's
+    references cut to its mean (references=1) the sky's colour would take
+    the fibres, and no untaught class is learned."""
     from gstlandmark.palette import MAX_STOLEN_SHARE
     rng = np.random.default_rng(13)
     floor, sky = (45.0, 0.0, 6.0), (26.0, 0.0, -4.0)
-
-    def learn(fibre):
-        image, mask = banded_scene(rng, [(sky, 0, 30), (RED_LAB, 1, 20),
-                                         (floor, 2, 92), (fibre, 2, 8)])
-        return learn_from_mask(image, mask, names=["red", "floor"],
-                               markers=["red"], references="auto",
-                               untaught_class="untaught")
-
     dark = (34.0, 0.0, 0.0)
+
+    def learn(references):
+        image, mask = banded_scene(rng, [(sky, 0, 30), (RED_LAB, 1, 20),
+                                         (floor, 2, 92), (dark, 2, 8)])
+        palette = learn_from_mask(image, mask, names=["red", "floor"],
+                                  markers=["red"], references=references,
+                                  untaught_class="untaught")
+        return palette, image[-8:]
+
     assert np.linalg.norm(np.subtract(dark, sky)) < \
         np.linalg.norm(np.subtract(dark, floor))
     assert 8 / 100 > MAX_STOLEN_SHARE
-    assert learn(dark).names == ["red", "floor"]
-    assert learn((43.0, 0.0, 5.0)).names == ["red", "floor", "untaught"]
+    palette, fibres = learn("auto")
+    assert palette.names == ["red", "floor", "untaught"]
+    labels = reference.segment_rgb(fibres[:, :, ::-1].copy(), palette,
+                                   min_class_pixels=0).labels
+    assert (labels == 2).mean() > 0.99
+    assert learn(1)[0].names == ["red", "floor"]
 
 
 def test_cli_check_lists_references(tmp_path, capsys):
@@ -1209,3 +1215,46 @@ def test_cli_check_lists_references(tmp_path, capsys):
     refs = [line.split() for line in lines if line.endswith("reference")]
     assert refs == [["90.00", "-15.00", "80.00", "reference"],
                     ["55.00", "4.00", "55.00", "reference"]]
+
+
+def test_lab_under_light_is_the_colour_under_scaled_light():
+    """lab_under_light against OpenCV's float conversion of the linear
+    sRGB scaled by k (where L* stays above 8, the cube-root part)."""
+    from gstlandmark.palette import lab_under_light
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        srgb = rng.uniform(0.2, 0.9, 3)
+        linear = np.where(srgb <= 0.04045, srgb / 12.92,
+                          ((srgb + 0.055) / 1.055) ** 2.4)
+        k = rng.uniform(0.2, 1.0 / linear.max())
+        scaled = np.clip(k * linear, 0, 1)
+        back = np.where(scaled <= 0.0031308, 12.92 * scaled,
+                        1.055 * scaled ** (1 / 2.4) - 0.055)
+
+        def lab(rgb):
+            return cv2.cvtColor(np.float32([[rgb]]), cv2.COLOR_RGB2Lab)[0, 0]
+
+        want = lab(back)
+        if want[0] <= 8:
+            continue
+        # OpenCV's float conversion is within 0.55 of the CIE formulas
+        np.testing.assert_allclose(lab_under_light(lab(srgb), k), want,
+                                   atol=0.6)
+
+
+def test_cli_learn_shading(tmp_path, scene_files, capsys):
+    """--shading gives the marker classes the light range, and a bad range
+    is refused naming the option."""
+    img_path, mask_path = scene_files
+    out = tmp_path / "p.json"
+    assert cli.main(["palette", "learn", str(img_path), "--mask",
+                     str(mask_path), "--shading", "0.25,1.5",
+                     "-o", str(out)]) == 0
+    learned = load_palette(out)
+    for c in learned.classes:
+        assert c.shading == ((0.25, 1.5) if c.marker else (1.0, 1.0))
+    for bad in ("2,1", "0.25", "x,1"):
+        assert cli.main(["palette", "learn", str(img_path), "--mask",
+                         str(mask_path), "--shading", bad,
+                         "-o", str(tmp_path / "x.json")]) == 2
+        assert "--shading" in capsys.readouterr().err

@@ -17,14 +17,6 @@ namespace landmark {
 namespace {
 
 double
-distance2 (const float *p, const Lab & r, bool use_lightness)
-{
-  const double dl = use_lightness ? p[0] - r.L : 0.0;
-  const double da = p[1] - r.a, db = p[2] - r.b;
-  return dl * dl + da * da + db * db;
-}
-
-double
 distance2 (const Lab & p, const Lab & r, bool use_lightness)
 {
   const double dl = use_lightness ? p.L - r.L : 0.0;
@@ -44,6 +36,30 @@ constexpr double kConversionError = 0.75;
 
 }  // namespace
 
+double
+ClassTable::ref_distance2 (double L, double a, double b, size_t r) const
+{
+  const Lab & ref = cfg_.refs[r];
+  if (!cfg_.use_lightness) {
+    const double da = a - ref.a, db = b - ref.b;
+    return da * da + db * db;
+  }
+  if (cfg_.dark.empty ()) {
+    const double dl = L - ref.L, da = a - ref.a, db = b - ref.b;
+    return dl * dl + da * da + db * db;
+  }
+  /* the nearest point of the segment dark -> light */
+  const Lab & p0 = cfg_.dark[r], &p1 = cfg_.light[r];
+  const double ul = p1.L - p0.L, ua = p1.a - p0.a, ub = p1.b - p0.b;
+  const double len2 = ul * ul + ua * ua + ub * ub;
+  double t = len2 > 0 ? ((L - p0.L) * ul + (a - p0.a) * ua +
+      (b - p0.b) * ub) / len2 : 0.0;
+  t = std::clamp (t, 0.0, 1.0);
+  const double dl = L - (p0.L + t * ul), da = a - (p0.a + t * ua),
+      db = b - (p0.b + t * ub);
+  return dl * dl + da * da + db * db;
+}
+
 uint8_t
 ClassTable::nearest (const float *lab, const uint8_t * active) const
 {
@@ -55,7 +71,7 @@ ClassTable::nearest (const float *lab, const uint8_t * active) const
     const int k = class_of (r);
     if (active && !active[k])
       continue;
-    const double d2 = distance2 (lab, cfg_.refs[r], cfg_.use_lightness);
+    const double d2 = ref_distance2 (lab[0], lab[1], lab[2], r);
     if (d2 < best) {
       best = d2;
       best_k = k;
@@ -92,6 +108,10 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
       throw std::invalid_argument ("ref_class must be ascending class "
           "indices below kMaxClasses");
   }
+  if (cfg.dark.size () != cfg.light.size () ||
+      (!cfg.dark.empty () && cfg.dark.size () != cfg.refs.size ()))
+    throw std::invalid_argument ("dark and light must give one segment end "
+        "per reference, or none");
   cfg_ = cfg;
   order_ = order;
   max_d2_ = cfg.max_distance * cfg.max_distance;
@@ -138,8 +158,8 @@ ClassTable::build (const ClassifierConfig & cfg, KeyOrder order)
         double d1 = std::numeric_limits<double>::infinity (), d2 = d1;
         int k1 = -1;
         for (size_t r = 0; r < n; r++) {
-          dist[r] = std::sqrt (distance2 (centre, cfg.refs[r],
-                  cfg.use_lightness));
+          dist[r] = std::sqrt (ref_distance2 (centre.L, centre.a,
+                  centre.b, r));
           if (dist[r] < d1) {
             d1 = dist[r];
             k1 = class_of (r);

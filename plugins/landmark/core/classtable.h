@@ -24,6 +24,13 @@ struct ClassifierConfig {
   /* Class index (label - 1) of each reference, in ascending order; empty:
    * reference k is class k. */
   std::vector<int> ref_class;
+  /* Optional, one per reference (both or neither): reference r stands for
+   * the segment from dark[r] to light[r], its colour under less and more
+   * light (palette_shading_ends), and a pixel's distance to it is its
+   * distance to that segment. A distance to a convex set moves no more
+   * than the pixel does, so the table's bounds hold as for points. With
+   * use_lightness false the points count, not the segments. */
+  std::vector<Lab> dark, light;
   bool use_lightness = true;
   double max_distance = 1000.0;
   InputModel model;
@@ -91,6 +98,7 @@ public:
 
 private:
   uint8_t nearest (const float *lab, const uint8_t * active) const;
+  double ref_distance2 (double L, double a, double b, size_t ref) const;
   int class_of (size_t ref) const
   {
     return cfg_.ref_class.empty ()? (int) ref : cfg_.ref_class[ref];

@@ -1,6 +1,6 @@
 #include "palette.h"
 
-
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -103,9 +103,10 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
   for (GList * l = members; l; l = l->next) {
     const char *key = (const char *) l->data;
     if (strcmp (key, "name") && strcmp (key, "lab") && strcmp (key, "marker")
-        && strcmp (key, "references") && strcmp (key, "role")) {
+        && strcmp (key, "references") && strcmp (key, "role")
+        && strcmp (key, "shading")) {
       *why = where + ": unknown key \"" + key +
-          "\" (allowed: name, lab, references, marker, role)";
+          "\" (allowed: name, lab, references, shading, marker, role)";
       g_list_free (members);
       return false;
     }
@@ -142,6 +143,29 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
     }
   }
 
+  double shade[2] = { 1.0, 1.0 };
+  JsonNode *shade_node = json_object_get_member (obj, "shading");
+  if (shade_node) {
+    JsonArray *arr = JSON_NODE_HOLDS_ARRAY (shade_node) ?
+        json_node_get_array (shade_node) : nullptr;
+    bool ok = arr && json_array_get_length (arr) == 2;
+    for (guint i = 0; ok && i < 2; i++) {
+      JsonNode *e = json_array_get_element (arr, i);
+      ok = JSON_NODE_HOLDS_VALUE (e) &&
+          (json_node_get_value_type (e) == G_TYPE_DOUBLE ||
+          json_node_get_value_type (e) == G_TYPE_INT64);
+      if (ok)
+        shade[i] = json_node_get_double (e);
+    }
+    if (!ok || !std::isfinite (shade[0]) || !std::isfinite (shade[1]) ||
+        shade[0] < kMinShade || shade[0] > 1.0 || shade[1] < 1.0 ||
+        shade[1] > kMaxShade) {
+      *why = where + ": \"shading\" must be [darkest, lightest] light "
+          "factors, 1/64 <= darkest <= 1 <= lightest <= 64";
+      return false;
+    }
+  }
+
   bool marker = true;
   JsonNode *marker_node = json_object_get_member (obj, "marker");
   if (marker_node) {
@@ -173,6 +197,8 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
   out->name = name;
   out->lab = lab;
   out->references = std::move (references);
+  out->shade_lo = shade[0];
+  out->shade_hi = shade[1];
   out->role = role;
   out->marker = role == PaletteRole::Marker;
   return true;
@@ -244,6 +270,32 @@ palette_references (const Palette & palette, std::vector<Lab> * refs,
       refs->push_back (r);
       ref_class->push_back ((int) k);
     }
+  }
+}
+
+Lab
+lab_under_light (const Lab & lab, double k)
+{
+  const double base = lab.L + 16.0;
+  if (base <= 0)
+    return lab;
+  const double s = std::clamp (std::cbrt (k), 16.0 / base, 116.0 / base);
+  return Lab { base * s - 16.0, lab.a * s, lab.b * s };
+}
+
+void
+palette_shading_ends (const Palette & palette, std::vector<Lab> * dark,
+    std::vector<Lab> * light)
+{
+  std::vector<Lab> refs;
+  std::vector<int> ref_class;
+  palette_references (palette, &refs, &ref_class);
+  dark->clear ();
+  light->clear ();
+  for (size_t r = 0; r < refs.size (); r++) {
+    const PaletteClass & c = palette.classes[ref_class[r]];
+    dark->push_back (lab_under_light (refs[r], c.shade_lo));
+    light->push_back (lab_under_light (refs[r], c.shade_hi));
   }
 }
 

@@ -9,6 +9,7 @@ Usage errors exit with status 2, as argparse does.
 """
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -19,9 +20,10 @@ import numpy as np
 from .. import __version__
 from .. import paletteaudit
 from .. import reference
-from ..palette import (MAX_REFERENCES, PaletteError, default_palette,
-                       default_palette_text, learn_from_images,
-                       learn_from_mask, load_palette, save_palette)
+from ..palette import (MAX_REFERENCES, Palette, PaletteError,
+                       default_palette, default_palette_text,
+                       learn_from_images, learn_from_mask, load_palette,
+                       parse_shading, save_palette)
 from .common import PROG, CliError, add_actions
 
 
@@ -163,6 +165,14 @@ def _print_findings(findings, file):
         print(f"warning: {finding.text}", file=file)
 
 
+def _parse_shading(text):
+    try:
+        values = tuple(float(v) for v in text.split(","))
+        return parse_shading(list(values), "--shading")
+    except (ValueError, PaletteError) as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def _palette_learn(args):
     extra = {}
     if args.mask is not None:
@@ -211,6 +221,9 @@ def _palette_learn(args):
                 for image, (path, rects) in zip(images, groups)])
         sources = args.image if len(groups) == 1 else \
             [path for path, _ in groups]
+    if args.shading is not None:
+        palette = Palette([dataclasses.replace(c, shading=args.shading)
+                           if c.marker else c for c in palette.classes])
     try:
         save_palette(palette, args.output, description=description,
                      **{"learned-from": sources}, **extra)
@@ -315,6 +328,12 @@ def add_palette_parser(subparsers):
                        help="reference colours per class: auto (default: "
                             "k-means in L*a*b*, adding one while it halves "
                             "the spread, up to 4; docs/palette.md) or N")
+    learn.add_argument("--shading", metavar="DARKEST,LIGHTEST",
+                       type=_parse_shading, default=None,
+                       help="marker classes stand for their colours from "
+                            "DARKEST to LIGHTEST times the light they were "
+                            "taught in, e.g. 0.25,1.5 (docs/palette.md, "
+                            "\"Shading\"; default: the taught colours)")
     learn.add_argument("--untaught", metavar="NAME|none", default="untaught",
                        help="a background class of this name learned from "
                             "the rest of the image (outside the mask's "

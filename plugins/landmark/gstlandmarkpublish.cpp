@@ -33,9 +33,12 @@
  * element connects, hands the queue to libmosquitto in order (at most 20
  * in flight) and, when the broker is away, retries with exponential
  * back-off (1 s doubling to `reconnect-delay-max`) while the queue keeps
- * the messages. After a reconnection the messages that were in flight are
- * sent again first (libmosquitto keeps them) and the queue follows, so the
- * order is kept. When the queue holds more than `max-queue-messages`
+ * the messages. The session is persistent (`clean-session` false, client
+ * id `landmark-{robot}`): after a reconnection the messages that were in
+ * flight are completed first (libmosquitto keeps them) and the queue
+ * follows, so the order is kept; when the broker has lost the session
+ * (restarted without persistence) every unacknowledged message is sent
+ * again from the element's own copies. When the queue holds more than `max-queue-messages`
  * messages or `max-queue-bytes` bytes the oldest are dropped: a warning
  * once per episode and a `landmark-publish-dropped` element message with
  * the counts. At EOS the element waits up to `drain-timeout` ms for the
@@ -104,6 +107,7 @@ struct Settings {
   std::string status_topic = "landmark/{robot}/status";
   std::string robot = "robot";
   std::string client_id;
+  gboolean clean_session = FALSE;
   gint qos = 1;
   guint keep_alive = 30;
   std::string username, password;
@@ -159,7 +163,11 @@ publish_parse (const Settings & s, Config * cfg, landmark::SettingsError * err)
   c.port = s.port;
   if (!landmark::mqtt_topic_level_ok (s.robot, &why))
     return err->fail ("robot", "\"" + s.robot + "\": " + why);
-  if (s.client_id.empty ()) {
+  if (s.client_id.empty () && !s.clean_session) {
+    /* the same at every connection and run: the broker keeps the session
+     * under it (one robot name per broker, as its topics already are) */
+    c.client_id = "landmark-" + s.robot;
+  } else if (s.client_id.empty ()) {
     /* unique per run: two pipelines of one robot must not take each
      * other's session */
     gchar *suffix = g_strdup_printf ("%08x", g_random_int ());
@@ -220,6 +228,7 @@ publish_parse (const Settings & s, Config * cfg, landmark::SettingsError * err)
   c.tls_cert_file = s.tls_cert_file;
   c.tls_key_file = s.tls_key_file;
   c.reconnect_delay_max = s.reconnect_delay_max;
+  c.clean_session = s.clean_session;
   c.online_payload = landmark::publish_status_payload (s.robot, c.client_id,
       "online");
   c.offline_payload = landmark::publish_status_payload (s.robot,
@@ -258,8 +267,13 @@ publish_properties ()
           "or '#')", &Settings::robot)
       .mutable_in (ready)
       .string ("client-id", "Client id",
-          "MQTT client identifier (default: landmark-<robot>-<random>)",
-          &Settings::client_id)
+          "MQTT client identifier (default: landmark-<robot>; with "
+          "clean-session, landmark-<robot>-<random>)", &Settings::client_id)
+      .mutable_in (ready)
+      .boolean ("clean-session", "Clean session",
+          "false: a session the broker keeps across reconnections, so QoS 2 "
+          "messages cut by the link arrive exactly once; true: a new session "
+          "at every connection", &Settings::clean_session)
       .mutable_in (ready)
       /* not `qos`: GstBaseTransform's own property */
       .number ("mqtt-qos", "MQTT quality of service",

@@ -18,6 +18,7 @@
 #include <cerrno>
 #include <chrono>
 #include <exception>
+#include <vector>
 
 GST_DEBUG_CATEGORY_STATIC (mqtt_link_debug);
 #define GST_CAT_DEFAULT mqtt_link_debug
@@ -112,16 +113,20 @@ MqttLink::refusal_text (int code) const
 
 void
 MqttLink::post_connection (bool connected, const std::string & reason,
-    guint64 queued, guint64 dropped)
+    guint64 queued, guint64 dropped, guint64 resent, bool session_present)
 {
   GstStructure *s = gst_structure_new ("landmark-publish-connection",
       "connected", G_TYPE_BOOLEAN, connected,
       "host", G_TYPE_STRING, c_.host.c_str (),
       "port", G_TYPE_INT, c_.port,
       "queued", G_TYPE_UINT64, queued,
-      "dropped", G_TYPE_UINT64, dropped, nullptr);
+      "dropped", G_TYPE_UINT64, dropped,
+      "resent", G_TYPE_UINT64, resent, nullptr);
   if (!connected)
     gst_structure_set (s, "reason", G_TYPE_STRING, reason.c_str (), nullptr);
+  else
+    gst_structure_set (s, "session-present", G_TYPE_BOOLEAN, session_present,
+        nullptr);
   gst_element_post_message (owner_,
       gst_message_new_element (GST_OBJECT (owner_), s));
 }
@@ -152,7 +157,7 @@ MqttLink::post_dropped (guint64 dropped, guint64 queued, bool over)
 void
 MqttLink::report_problem (const std::string & text)
 {
-  guint64 queued, dropped;
+  guint64 queued, dropped, resent;
   {
     std::lock_guard<std::mutex> lk (lock_);
     if (last_problem_ == text || stopping_)
@@ -160,12 +165,13 @@ MqttLink::report_problem (const std::string & text)
     last_problem_ = text;
     queued = queue_.size ();
     dropped = dropped_;
+    resent = resent_;
   }
   GST_ELEMENT_WARNING (owner_, RESOURCE, OPEN_WRITE,
       ("MQTT: %s; video keeps flowing, results are queued and the element "
           "keeps trying.", text.c_str ()), ("%" G_GUINT64_FORMAT
           " messages queued", queued));
-  post_connection (false, text, queued, dropped);
+  post_connection (false, text, queued, dropped, resent);
 }
 
 /* ---- handing messages to libmosquitto ------------------------------- */
@@ -198,8 +204,14 @@ MqttLink::pump_locked ()
       connected_ = false;
       break;
     }
+    if (from_queue)
+      queue_bytes_ -= m->payload.size ();
     if (kept) {
-      in_flight_[mid] = m->qos;
+      Flight & f = in_flight_[mid];
+      f.seq = next_seq_++;
+      f.qos = m->qos;
+      f.pose = !from_queue;
+      f.message = std::move (*m);
       handed_++;
     } else {
       /* too large for the broker, or similar: this message cannot go */
@@ -207,10 +219,9 @@ MqttLink::pump_locked ()
           m->topic.c_str (), mosquitto_strerror (rc));
       dropped_++;
     }
-    if (from_queue) {
-      queue_bytes_ -= m->payload.size ();
+    if (from_queue)
       queue_.pop_front ();
-    } else
+    else
       pose_.reset ();
     if (rc == MOSQ_ERR_NO_CONN) {
       connected_ = false;
@@ -243,8 +254,46 @@ MqttLink::pump ()
 
 /* libmosquitto callbacks: on the network thread, inside mosquitto_loop. */
 
+/* Puts the in-flight messages back at the front of the queue, in the
+ * order they were handed over: all of them, or only those libmosquitto
+ * will not send again (QoS 0 ones not yet written to the socket, which
+ * therefore never left). A pose goes back only when no newer one waits;
+ * the online status is sent anew at every connection. Called with lock_
+ * held. */
 void
-MqttLink::on_connect (struct mosquitto *, void *obj, int code)
+MqttLink::requeue_locked (bool all)
+{
+  std::vector<Flight> back;
+  for (auto it = in_flight_.begin (); it != in_flight_.end ();) {
+    if (all || it->second.qos == 0) {
+      back.push_back (std::move (it->second));
+      it = in_flight_.erase (it);
+    } else
+      ++it;
+  }
+  std::sort (back.begin (), back.end (),[](const Flight & a,
+          const Flight & b) {
+        return a.seq > b.seq;}
+  );
+  for (Flight & f:back) {
+    if (!f.message)
+      continue;
+    if (f.qos > 0)
+      resent_++;
+    if (f.pose) {
+      if (!pose_)
+        pose_ = std::move (f.message);
+      continue;
+    }
+    queue_bytes_ += f.message->payload.size ();
+    queue_.push_front (std::move (*f.message));
+  }
+}
+
+/* libmosquitto callbacks: on the network thread, inside mosquitto_loop. */
+
+void
+MqttLink::on_connect (struct mosquitto *, void *obj, int code, int flags)
 {
   auto self = static_cast < MqttLink * >(obj);
   const MqttConnection & c = self->c_;
@@ -252,31 +301,65 @@ MqttLink::on_connect (struct mosquitto *, void *obj, int code)
     self->report_problem (self->refusal_text (code));
     return;
   }
-  guint64 queued, dropped;
+  const bool session_present = (flags & 1) != 0;
+  guint64 queued, dropped, resent;
   {
     std::lock_guard<std::mutex> lk (self->lock_);
+    auto & in_flight = self->in_flight_;
+    if (self->wiping_) {
+      /* the broker has discarded any session an earlier run left under
+       * this client id (whose message ids this new client would reuse) */
+      self->wiping_ = false;
+      self->start_over_ = true;
+      mosquitto_disconnect (self->mosq_);
+      return;
+    }
+    const bool qos2 = std::any_of (in_flight.begin (), in_flight.end (),
+        [](const auto & f) {
+          return f.second.qos == 2;}
+    );
+    if (!session_present && qos2) {
+      /* The broker lost the session (restarted without persistence, or
+       * the session expired): libmosquitto would send only PUBREL for a
+       * QoS 2 message whose PUBREC it had, which a broker that no longer
+       * holds the message answers with PUBCOMP: lost. Hand every
+       * unacknowledged message over again on a client made anew. The
+       * DISCONNECT goes before anything libmosquitto queues after this
+       * callback, and libmosquitto closes the socket once it is sent. */
+      self->requeue_locked (true);
+      self->start_over_ = true;
+      mosquitto_disconnect (self->mosq_);
+      GST_INFO_OBJECT (self->owner_, "the broker lost the session: %"
+          G_GUINT64_FORMAT " messages handed over again so far",
+          self->resent_);
+      return;
+    }
     self->connected_ = true;
     self->last_problem_.clear ();
-    /* QoS 0 messages that were in flight went with the socket; the others
+    /* QoS 0 messages not yet written went with the socket; the others
      * libmosquitto sends again right after this callback, and they must
      * be acknowledged before anything newer goes */
-    auto & in_flight = self->in_flight_;
-    for (auto it = in_flight.begin (); it != in_flight.end ();)
-      it = it->second == 0 ? in_flight.erase (it) : std::next (it);
+    self->requeue_locked (false);
     self->resending_ = !in_flight.empty ();
     queued = self->queue_.size ();
     dropped = self->dropped_;
+    resent = self->resent_;
     if (!c.status_topic.empty ()) {
       int mid = 0;
       if (mosquitto_publish (self->mosq_, &mid, c.status_topic.c_str (),
               (int) c.online_payload.size (), c.online_payload.data (), 1,
-              true) == MOSQ_ERR_SUCCESS && !self->resending_)
-        in_flight[mid] = 1;
+              true) == MOSQ_ERR_SUCCESS && !self->resending_) {
+        Flight & f = in_flight[mid];
+        f.seq = self->next_seq_++;
+        f.qos = 1;
+      }
     }
   }
-  GST_INFO_OBJECT (self->owner_, "connected to %s:%d as %s", c.host.c_str (),
-      c.port, c.client_id.c_str ());
-  self->post_connection (true, "", queued, dropped);
+  GST_INFO_OBJECT (self->owner_, "connected to %s:%d as %s (session %s)",
+      c.host.c_str (), c.port, c.client_id.c_str (),
+      session_present ? "kept" : "new");
+  self->post_connection (true, "", queued, dropped, resent,
+      session_present);
   self->pump ();
 }
 
@@ -345,6 +428,22 @@ MqttLink::network_main ()
       connected_ = false;
       if (stopping_)
         break;
+      if (start_over_) {
+        /* a new client without libmosquitto's old in-flight state,
+         * connecting at once */
+        start_over_ = false;
+        const char *what = "client options";
+        rc = mosquitto_reinitialise (mosq_, c_.client_id.c_str (),
+            c_.clean_session, this);
+        if (rc == MOSQ_ERR_SUCCESS)
+          rc = configure (mosq_, &what);
+        if (rc == MOSQ_ERR_SUCCESS) {
+          first = true;
+          continue;
+        }
+        GST_ERROR_OBJECT (owner_, "cannot make the MQTT client anew (%s): "
+            "%s", what, mosquitto_strerror (rc));
+      }
     }
     if (rc != MOSQ_ERR_CONN_REFUSED)    /* already said in on_connect */
       report_problem (was_connected && rc == MOSQ_ERR_NO_CONN ?
@@ -361,10 +460,46 @@ MqttLink::network_main ()
 
 /* ---- start, queue, stop --------------------------------------------- */
 
+/* The client's options, at start and whenever it is made anew: a
+ * libmosquitto result, with what naming the setting at fault. */
+int
+MqttLink::configure (struct mosquitto *mosq, const char **what)
+{
+  const MqttConnection & c = c_;
+  int rc = mosquitto_threaded_set (mosq, true);
+  if (rc == MOSQ_ERR_SUCCESS)
+    rc = mosquitto_int_option (mosq, MOSQ_OPT_SEND_MAXIMUM, MAX_IN_FLIGHT);
+  *what = "client options";
+  if (rc == MOSQ_ERR_SUCCESS && !c.username.empty ()) {
+    *what = "username";
+    rc = mosquitto_username_pw_set (mosq, c.username.c_str (),
+        c.password.empty ()? nullptr : c.password.c_str ());
+  }
+  if (rc == MOSQ_ERR_SUCCESS && !c.status_topic.empty ()) {
+    *what = "status-topic";
+    rc = mosquitto_will_set (mosq, c.status_topic.c_str (),
+        (int) c.offline_payload.size (), c.offline_payload.data (), 1, true);
+  }
+  if (rc == MOSQ_ERR_SUCCESS && !c.tls_ca_file.empty ()) {
+    *what = "tls-ca-file";
+    rc = mosquitto_tls_set (mosq, c.tls_ca_file.c_str (), nullptr,
+        c.tls_cert_file.empty ()? nullptr : c.tls_cert_file.c_str (),
+        c.tls_key_file.empty ()? nullptr : c.tls_key_file.c_str (),
+        nullptr);
+  }
+  if (rc != MOSQ_ERR_SUCCESS)
+    return rc;
+  mosquitto_connect_with_flags_callback_set (mosq, on_connect);
+  mosquitto_publish_callback_set (mosq, on_publish);
+  return MOSQ_ERR_SUCCESS;
+}
+
 bool
 MqttLink::start (const MqttConnection & c)
 {
   c_ = c;
+  /* a persistent session starts with a clean one: whatever an earlier
+   * run left under this client id goes */
   struct mosquitto *mosq = mosquitto_new (c.client_id.c_str (), true, this);
   if (!mosq) {
     GST_ELEMENT_ERROR (owner_, RESOURCE, FAILED,
@@ -372,35 +507,14 @@ MqttLink::start (const MqttConnection & c)
         (nullptr));
     return false;
   }
-  int rc = mosquitto_threaded_set (mosq, true);
-  if (rc == MOSQ_ERR_SUCCESS)
-    rc = mosquitto_int_option (mosq, MOSQ_OPT_SEND_MAXIMUM, MAX_IN_FLIGHT);
-  const char *what = "client options";
-  if (rc == MOSQ_ERR_SUCCESS && !c.username.empty ()) {
-    what = "username";
-    rc = mosquitto_username_pw_set (mosq, c.username.c_str (),
-        c.password.empty ()? nullptr : c.password.c_str ());
-  }
-  if (rc == MOSQ_ERR_SUCCESS && !c.status_topic.empty ()) {
-    what = "status-topic";
-    rc = mosquitto_will_set (mosq, c.status_topic.c_str (),
-        (int) c.offline_payload.size (), c.offline_payload.data (), 1, true);
-  }
-  if (rc == MOSQ_ERR_SUCCESS && !c.tls_ca_file.empty ()) {
-    what = "tls-ca-file";
-    rc = mosquitto_tls_set (mosq, c.tls_ca_file.c_str (), nullptr,
-        c.tls_cert_file.empty ()? nullptr : c.tls_cert_file.c_str (),
-        c.tls_key_file.empty ()? nullptr : c.tls_key_file.c_str (),
-        nullptr);
-  }
+  const char *what = nullptr;
+  const int rc = configure (mosq, &what);
   if (rc != MOSQ_ERR_SUCCESS) {
     mosquitto_destroy (mosq);
     GST_ELEMENT_ERROR (owner_, RESOURCE, SETTINGS,
         ("Invalid '%s': %s.", what, mosquitto_strerror (rc)), (nullptr));
     return false;
   }
-  mosquitto_connect_callback_set (mosq, on_connect);
-  mosquitto_publish_callback_set (mosq, on_publish);
 
   if (!host_is_loopback (c.host) && c.tls_ca_file.empty ())
     GST_ELEMENT_WARNING (owner_, RESOURCE, SETTINGS,
@@ -414,8 +528,9 @@ MqttLink::start (const MqttConnection & c)
     queue_bytes_ = 0;
     pose_.reset ();
     in_flight_.clear ();
-    connected_ = resending_ = stopping_ = dropping_ = false;
-    dropped_ = handed_ = 0;
+    connected_ = resending_ = stopping_ = dropping_ = start_over_ = false;
+    wiping_ = !c.clean_session;
+    dropped_ = handed_ = resent_ = next_seq_ = 0;
     last_problem_.clear ();
     mosq_ = mosq;
   }

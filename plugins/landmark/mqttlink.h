@@ -11,11 +11,11 @@
 
 #include <condition_variable>
 #include <deque>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
-#include <unordered_map>
 
 struct mosquitto;
 
@@ -32,6 +32,10 @@ struct MqttConnection {
   /* retained online/offline status and last will ("": none) */
   std::string status_topic, online_payload, offline_payload;
   guint reconnect_delay_max = 30;
+  /* false: a session the broker keeps across connections (with a stable
+   * client_id), so a QoS 2 exchange cut by the link completes exactly
+   * once on reconnection */
+  bool clean_session = false;
 };
 
 struct MqttMessage {
@@ -73,16 +77,20 @@ public:
   void stop (const std::string & goodbye);
 
 private:
+  int configure (struct mosquitto *mosq, const char **what);
+  void requeue_locked (bool all);
   bool pump_locked ();
   void pump ();
   void report_problem (const std::string & text);
   void post_connection (bool connected, const std::string & reason,
-      guint64 queued, guint64 dropped);
+      guint64 queued, guint64 dropped, guint64 resent,
+      bool session_present = false);
   void post_dropped (guint64 dropped, guint64 queued, bool over);
   void network_main ();
   std::string problem_text (int rc, int err) const;
   std::string refusal_text (int code) const;
-  static void on_connect (struct mosquitto *, void *obj, int code);
+  static void on_connect (struct mosquitto *, void *obj, int code,
+      int flags);
   static void on_publish (struct mosquitto *, void *obj, int mid);
 
   GstElement *owner_;
@@ -98,7 +106,24 @@ private:
   std::deque<MqttMessage> queue_;     /* in order, not yet handed over */
   size_t queue_bytes_ = 0;
   std::optional<MqttMessage> pose_;   /* the latest pose, retained */
-  std::unordered_map<int, int> in_flight_;  /* mid -> qos */
+  /* A message handed to libmosquitto and not yet acknowledged (QoS 0:
+   * not yet written to the socket), kept so that it can be handed over
+   * again when libmosquitto's copy cannot complete (below). */
+  struct Flight {
+    guint64 seq = 0;                  /* order of handing over */
+    int qos = 0;
+    bool pose = false;
+    std::optional<MqttMessage> message;   /* none: the online status */
+  };
+  std::map<int, Flight> in_flight_;   /* by mid */
+  guint64 next_seq_ = 0;
+  /* The connection under way only clears the broker's session of this
+   * client id (clean session, disconnected at CONNACK). */
+  bool wiping_ = false;
+  /* The broker lost the session with QoS 2 messages in flight: this
+   * connection is closed at CONNACK and the client made anew. */
+  bool start_over_ = false;
+  guint64 resent_ = 0;                /* handed over again, since start */
   bool connected_ = false;            /* CONNACK accepted */
   bool resending_ = false;            /* old in-flight messages go first */
   bool stopping_ = false;

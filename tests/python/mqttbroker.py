@@ -1,5 +1,5 @@
 """A real mosquitto broker for tests, on 127.0.0.1 at a free port with its
-own configuration file (persistence off), and a paho-mqtt subscriber that
+own configuration file (persistence off unless asked), and a paho-mqtt subscriber that
 collects what arrives."""
 
 import os
@@ -36,8 +36,9 @@ class Broker:
     """mosquitto -c CONF. users: {name: password}; anonymous clients are
     allowed only when there are none."""
 
-    def __init__(self, directory, users=None, tls=None):
+    def __init__(self, directory, users=None, tls=None, persistence=False):
         self.dir = str(directory)
+        self.persistence = persistence   # sessions kept across restarts
         self.tls = tls          # (CA, certificate, key) files: TLS only
         self.port = free_port()
         self.users = dict(users or {})
@@ -50,7 +51,9 @@ class Broker:
         # run as ourselves: as root mosquitto would switch to its own user,
         # who cannot read the test's private directory
         lines = [f"user {pwd.getpwuid(os.getuid()).pw_name}",
-                 f"listener {self.port} 127.0.0.1", "persistence false",
+                 f"listener {self.port} 127.0.0.1",
+                 f"persistence {'true' if self.persistence else 'false'}",
+                 f"persistence_location {self.dir}/",
                  f"log_dest file {self.log}", "log_type all"]
         if self.tls:
             ca, cert, key = self.tls

@@ -7,6 +7,7 @@ cycle):
 The library (this folder), what applications import:
   meta         read the metadata our elements attach to buffers
   messages     typed views of the elements' ``landmark-*`` messages
+  gicompat     what moved between GStreamer 1.22 and 1.26 (PyGObject 3.42, 3.50)
   pipeline     run our elements from Python (frames in, results out)
   plugin       find the plugin the set-up built (used by pipeline.init)
   pipelinefile the shipped pipeline files (package data)

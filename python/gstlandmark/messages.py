@@ -15,18 +15,6 @@ gi.require_version("Gst", "1.0")
 from gi.repository import Gst  # noqa: E402
 
 
-def caps_structure(caps: Gst.Caps, index: int = 0) -> Gst.Structure:
-    """The structure at ``index`` of caps (or of an event, query or context
-    when ``index`` is None), as a plain Gst.Structure on every gst-python:
-    1.26 wraps it in a context manager (``with caps.get_structure(0) as
-    s``); the copy outlives the wrapper and the caps."""
-    got = caps.get_structure() if index is None else caps.get_structure(index)
-    if hasattr(got, "__enter__"):
-        with got as structure:
-            return structure.copy()
-    return got
-
-
 def structure_to_dict(structure: Gst.Structure) -> Dict[str, Any]:
     """Every field of a structure as plain Python values (arrays as
     lists)."""

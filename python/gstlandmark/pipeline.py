@@ -16,7 +16,8 @@ gi.require_version("GstVideo", "1.0")
 from gi.repository import Gst, GstVideo  # noqa: E402
 
 from . import meta, plugin  # noqa: E402
-from .messages import LandmarkMessage, caps_structure  # noqa: E402
+from .gicompat import caps_structure  # noqa: E402
+from .messages import LandmarkMessage  # noqa: E402
 
 
 def init() -> None:

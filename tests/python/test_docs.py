@@ -14,6 +14,7 @@ import pytest
 from gi.repository import GObject
 
 from gstlandmark import pipeline
+from gstlandmark.gicompat import enum_class
 
 SOURCE_ROOT = os.environ.get(
     "LANDMARK_SOURCE_ROOT",
@@ -103,18 +104,18 @@ def check_property(pspec, cells):
     rng = cells["range"].replace("`", "").strip()
     name = pspec.name
     if t.is_a(GObject.TYPE_ENUM):
-        nick = pspec.default_value.value_nick
+        enum = enum_class(t)
+        nick = enum(int(pspec.default_value)).value_nick
         if default.split()[:1] != [nick]:
             problems.append(f"{name}: default {default!r}, element: {nick}")
-        nicks = [v.value_nick for v in
-                 type(pspec.default_value).__enum_values__.values()]
+        nicks = [v.value_nick for v in enum.__enum_values__.values()]
         missing = [n for n in nicks if n not in cells["type"] + cells.get(
             "meaning", "")]
         if missing:
             problems.append(f"{name}: values {missing} not documented")
     elif t.is_a(GObject.TYPE_FLAGS):
         # the default as its flags' nicks joined by '+' ('none': 0)
-        values = type(pspec.default_value).__flags_values__
+        values = enum_class(t).__flags_values__
         bits = int(pspec.default_value)
         want = "+".join(v.first_value_nick for k, v in sorted(values.items())
                         if k and bits & k == k) or "none"

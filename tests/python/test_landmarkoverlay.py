@@ -24,7 +24,7 @@ gi.require_version("Gst", "1.0")
 gi.require_version("GstVideo", "1.0")
 from gi.repository import Gst, GstVideo  # noqa: E402
 
-from gstlandmark.messages import caps_structure  # noqa: E402
+from gstlandmark.gicompat import caps_structure  # noqa: E402
 
 CLIP = os.path.join(os.path.dirname(__file__), "..", "files", "clips",
                     "path-small")

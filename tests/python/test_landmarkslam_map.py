@@ -15,7 +15,7 @@ import time
 import pytest
 
 from gstlandmark import meta, pipeline
-from gstlandmark.messages import caps_structure
+from gstlandmark.gicompat import caps_structure
 from gstlandmark.commands import calibrate
 
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")

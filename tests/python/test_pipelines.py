@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from gstlandmark import pipeline
-from gstlandmark.messages import caps_structure
+from gstlandmark.gicompat import caps_structure
 from gstlandmark.commands import calibrate
 from gstlandmark.devtools import bench, goldens
 

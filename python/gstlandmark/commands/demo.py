@@ -26,7 +26,7 @@ import numpy as np
 
 from .. import pipeline
 from ..landmarklog import read_jsonl
-from ..messages import caps_structure
+from ..gicompat import caps_structure
 from ..landmarkmap import read_map
 
 Gst = pipeline.Gst

@@ -14,6 +14,7 @@ import glob
 import json
 import math
 import os
+import re
 import threading
 import time
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
@@ -23,7 +24,7 @@ import numpy as np
 
 from ... import meta, palette as pal, pipeline
 from ...landmarkmap import MapError, read_map
-from ...messages import caps_structure
+from ...gicompat import caps_structure, enum_class
 from .. import runner
 
 from gi.repository import GObject  # noqa: E402  (after pipeline's gi setup)
@@ -50,6 +51,19 @@ CHAIN = ("labsegment", "blobroundness", "ipmrange", "trilaterate",
 PATH_LENGTH = 2000      # poses kept for browsers that join late
 UNDO_DEPTH = 20
 JPEG_QUALITY = 80
+FROZEN_KEPT = 4         # frozen teaching frames kept (one per browser)
+LOG_MAX_BYTES = 64 * 1024 * 1024    # a run's log file before it rotates
+LOG_KEEP = 20           # log files kept in OUT/logs (the oldest go)
+# The camera file's keys of the mounting properties: what the file holds
+# overrides the property (ipmrange's calibration), so the console tunes
+# these in a copy of the file.
+CAMERA_KEYS = {"camera-height": "camera_height", "tilt": "tilt_deg",
+               "roll": "roll_deg"}
+# Values an element accepts but no robot has, refused by the console.
+CONSOLE_MINIMUM = {
+    ("ipmrange", "camera-height"): (
+        0.01, "a camera less than 1 cm above the floor measures no range"),
+}
 
 
 class ConsoleError(ValueError):
@@ -98,13 +112,18 @@ def property_spec(element: Gst.Element, name: str) -> Dict[str, Any]:
         spec.update(type="number", minimum=float(pspec.minimum),
                     maximum=float(pspec.maximum),
                     default=float(pspec.default_value), value=float(value))
+        factory = element.get_factory()
+        floor = CONSOLE_MINIMUM.get(
+            (factory.get_name() if factory else "", name))
+        if floor is not None and floor[0] > spec["minimum"]:
+            spec["minimum"], spec["why_minimum"] = floor
     elif vtype.is_a(GObject.TYPE_ENUM):
+        enum = enum_class(vtype)
         nicks = [v.value_nick for v in
-                 sorted(pspec.enum_class.__enum_values__.values(),
-                        key=int)]
+                 sorted(enum.__enum_values__.values(), key=int)]
         spec.update(type="enum", choices=nicks,
-                    default=pspec.default_value.value_nick,
-                    value=value.value_nick)
+                    default=enum(int(pspec.default_value)).value_nick,
+                    value=enum(int(value)).value_nick)
     else:
         spec.update(type="other", value=_plain(value))
     return spec
@@ -141,8 +160,11 @@ def check_value(element_name: str, spec: Dict[str, Any], value):
         else:
             value = float(value)
         if not spec["minimum"] <= value <= spec["maximum"]:
+            why = f" ({spec['why_minimum']})" if "why_minimum" in spec \
+                and value < spec["minimum"] else ""
             raise ConsoleError(f"{where}: {value!r} is outside "
-                               f"{spec['minimum']!r}..{spec['maximum']!r}")
+                               f"{spec['minimum']!r}..{spec['maximum']!r}"
+                               f"{why}")
         return value
     raise ConsoleError(f"{where}: cannot be set from the console")
 
@@ -218,6 +240,86 @@ def list_sources(out_dir: str, start_source: str
             sources[f"file:{rel}"] = {
                 "label": rel, "fragment": source_fragment(input_path=path)}
     return sources
+
+
+def trial_start(element: Gst.Element, changes: Dict[str, Any]) -> None:
+    """Starts a copy of ``element`` with ``changes`` set, alone: a value
+    its own checks refuse (those its GParamSpec cannot say, such as
+    camera-height 0, or min-area above max-area) is a ConsoleError naming
+    element and property, and nothing is set on ``element``."""
+    factory = element.get_factory()
+    trial = factory.create(None)
+    flags = GObject.ParamFlags
+    for pspec in element.list_properties():
+        if pspec.name in ("name", "parent") or \
+                not pspec.flags & flags.READABLE or \
+                not pspec.flags & flags.WRITABLE or \
+                pspec.flags & flags.CONSTRUCT_ONLY:
+            continue
+        trial.set_property(pspec.name, element.get_property(pspec.name))
+    for prop, value in changes.items():
+        trial.set_property(prop, value)
+    bus = Gst.Bus.new()
+    trial.set_bus(bus)
+    try:
+        ret = trial.set_state(Gst.State.PAUSED)
+        msg = bus.pop_filtered(Gst.MessageType.ERROR)
+    finally:
+        trial.set_state(Gst.State.NULL)
+        trial.set_bus(None)
+    if ret != Gst.StateChangeReturn.FAILURE:
+        return
+    name = element.get_name()
+    if msg is None:
+        raise ConsoleError(f"{name}: refused {', '.join(changes)}")
+    err, debug = msg.parse_error()
+    # "Invalid 'camera-height' value." and, last in the debug text, why
+    quoted = re.search(r"'([a-z0-9-]+)'", err.message)
+    prop = quoted.group(1) if quoted else next(iter(changes))
+    why = (debug or "").strip().splitlines()[-1:] or [err.message]
+    raise ConsoleError(f"{name}.{prop}: {why[0]}")
+
+
+def copy_camera_file(source: str, path: str,
+                     values: Dict[str, float]) -> None:
+    """Writes the camera file ``source`` to ``path`` (the same format)
+    with its top-level ``values`` (file keys) replaced."""
+    fs = cv2.FileStorage(source, cv2.FILE_STORAGE_READ)
+    out = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
+    try:
+        for key in fs.root().keys():
+            node = fs.getNode(key)
+            if key in values:
+                out.write(key, float(values[key]))
+            elif node.isString():
+                out.write(key, node.string())
+            elif node.isInt():
+                out.write(key, int(node.real()))
+            elif node.isReal():
+                out.write(key, node.real())
+            elif node.isMap() and node.mat() is not None:
+                out.write(key, node.mat())
+            else:
+                raise ConsoleError(f"{source}: cannot copy its {key!r} "
+                                   f"to tune the camera")
+    finally:
+        fs.release()
+        out.release()
+
+
+def read_camera_mounting(path: Optional[str]) -> Dict[str, float]:
+    """The mounting properties a camera file holds ({} without one)."""
+    if not path:
+        return {}
+    fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
+    try:
+        if not fs.isOpened():
+            return {}
+        return {prop: fs.getNode(key).real()
+                for prop, key in CAMERA_KEYS.items()
+                if not fs.getNode(key).empty()}
+    finally:
+        fs.release()
 
 
 class Handoff:

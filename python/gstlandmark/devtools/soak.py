@@ -219,9 +219,14 @@ def _soak(frames, size, every, warmup, max_growth_kb, log, progress,
                 Gst.StateChangeReturn.FAILURE:
             raise pipeline.PipelineError(drain_bus() or "could not start")
         for i in range(frames):
-            # a shallow copy shares the template's pixels; the overlay's
-            # drawing gets its own copy (shared memory is never written)
-            buf = templates[i % len(templates)].copy()
+            # a new buffer on the template's memory shares its pixels; the
+            # overlay's drawing gets its own copy (shared memory is never
+            # written). Not Buffer.copy(): gst-python 1.26 holds extra
+            # references to the copy, which then refuses a timestamp.
+            template = templates[i % len(templates)]
+            buf = Gst.Buffer.new()
+            for k in range(template.n_memory()):
+                buf.append_memory(template.get_memory(k))
             buf.pts = frame_pts(i)
             buf.duration = frame_pts(i + 1) - buf.pts
             if src.emit("push-buffer", buf) != Gst.FlowReturn.OK:

@@ -106,6 +106,10 @@ add_segmentation (GstAnalyticsRelationMeta * rmeta,
   guint w, h, stride;
   if (!landmark_labels_get_plane (labels, &plane, &w, &h, &stride))
     return;
+  if (w == 0 || h == 0) {
+    gst_buffer_unref (plane);
+    return;
+  }
   GstBuffer *mask = gst_buffer_copy (plane);
   gst_buffer_unref (plane);
   gsize offset[GST_VIDEO_MAX_PLANES] = {0};
@@ -241,7 +245,12 @@ landmark_analytics_sync (GstBuffer * buf)
 {
   const GstStructure *labels = landmark_labels_meta_get (buf);
   const guint n = landmark_detection_count (buf);
-  if (!labels && n == 0)
+#ifdef HAVE_GST_ANALYTICS_SEGMENTATION
+  const bool segmentation = labels != nullptr;
+#else
+  const bool segmentation = false;
+#endif
+  if (!segmentation && n == 0)
     return;
   const std::vector<GQuark> classes = our_classes (buf, labels);
   GstAnalyticsRelationMeta *rmeta = gst_buffer_get_analytics_relation_meta
@@ -262,7 +271,7 @@ landmark_analytics_sync (GstBuffer * buf)
   if (!rmeta)
     return;
 #ifdef HAVE_GST_ANALYTICS_SEGMENTATION
-  if (labels)
+  if (segmentation)
     add_segmentation (rmeta, labels, classes);
 #endif
   for (guint i = 0; i < n; i++)

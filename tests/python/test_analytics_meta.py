@@ -14,6 +14,7 @@ from gstlandmark import meta, pipeline
 
 import shippedclip as C
 from test_blobroundness import COLOURS, antialiased, ellipse
+from test_meta_transforms import run_branches
 
 Gst = pipeline.Gst
 
@@ -184,34 +185,19 @@ def test_tracking_entries_name_the_matched_landmarks(gst):
 
 
 def test_relation_meta_survives_tee_queue_convert_and_scale(gst):
-    frame = marker_frame()
-    desc = (f"appsrc name=src format=time caps={CAPS} ! "
-            "labsegment min-class-pixels=0 ! blobroundness ! tee name=t "
-            "t. ! queue ! appsink name=same sync=false "
-            "t. ! queue ! videoconvert ! video/x-raw,format=BGRx ! "
-            "appsink name=converted sync=false "
-            "t. ! queue ! videoscale ! "
-            f"video/x-raw,width={W // 2},height={H // 2} ! "
-            "appsink name=scaled sync=false")
-    pipe = Gst.parse_launch(desc)
-    pipe.set_state(Gst.State.PLAYING)
-    try:
-        buf = Gst.Buffer.new_wrapped(frame.tobytes())
-        buf.pts = 0
-        pipe.get_by_name("src").emit("push-buffer", buf)
-        pipe.get_by_name("src").emit("end-of-stream")
-        got = {}
-        for name in ("same", "converted", "scaled"):
-            sample = pipe.get_by_name(name).emit("try-pull-sample",
-                                                 20 * Gst.SECOND)
-            assert sample is not None, name
-            got[name] = meta.analytics(sample.get_buffer())
-    finally:
-        pipe.set_state(Gst.State.NULL)
-    same = sorted(got["same"], key=lambda o: o.class_name)
+    bufs = run_branches(marker_frame(), CAPS, {
+        "same": "blobroundness",
+        "converted": "blobroundness ! videoconvert ! "
+                     "video/x-raw,format=BGRx",
+        "scaled": f"blobroundness ! videoscale ! "
+                  f"video/x-raw,width={W // 2},height={H // 2}",
+    })
+    got = {name: sorted(meta.analytics(buf), key=lambda o: o.class_name)
+           for name, buf in bufs.items()}
+    same = got["same"]
     assert len(same) == 2
-    assert sorted(got["converted"], key=lambda o: o.class_name) == same
-    scaled = sorted(got["scaled"], key=lambda o: o.class_name)
+    assert got["converted"] == same
+    scaled = got["scaled"]
     assert [o.class_name for o in scaled] == [o.class_name for o in same]
     for s, o in zip(scaled, same):
         assert all(abs(sv - ov / 2) <= 1 for sv, ov in zip(s.box, o.box)), \

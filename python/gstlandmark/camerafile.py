@@ -108,3 +108,19 @@ def write_camera_file(path, fields):
                 fs.write(key, str(value))
     finally:
         fs.release()
+
+
+# The mounting keys `gst-landmark calibrate floor` writes (ipmrange's
+# camera-height, tilt and roll).
+MOUNT_KEYS = ("camera_height", "tilt_deg", "roll_deg")
+
+
+def read_mounting(path):
+    """The mounting of a camera file (``MOUNT_KEYS`` it holds, numbers) as
+    a dict; empty when it has none. read_camera_file checks the file."""
+    fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
+    try:
+        return {key: fs.getNode(key).real() for key in MOUNT_KEYS
+                if not fs.getNode(key).empty()}
+    finally:
+        fs.release()

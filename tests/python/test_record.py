@@ -1,13 +1,16 @@
 """gst-landmark record: the MCAP file is read back with the mcap reader and
-the ROS 2 decoder of mcap-ros2-support; every channel, its schema and its
+the ROS 2 decoder of mcap-ros2-support, and with rosbags (AnyReader, the
+library ROS 2 bag tools are built on); every channel, its schema and its
 message count are checked against landmarklog's lines and the overlay
-video of the same run."""
+video of the same run, the transforms against the log's poses and the
+camera model against the detections' pixels."""
 
 import json
 import math
 import os
 import subprocess
 import sys
+import time
 
 import cv2
 import numpy as np
@@ -31,7 +34,9 @@ def chain_run(project, tmp_path_factory):
     out = tmp_path_factory.mktemp("run")
     env = dict(os.environ)
     cmd = [sys.executable, "-m", "gstlandmark.commands.cli"]
-    subprocess.run(cmd + ["run", "--input", f"{CLIP_DIR}/clip.avi",
+    # the chain record --input runs (file.pipeline with floorboundary)
+    subprocess.run(cmd + ["run", record.record_pipeline(),
+                          "--input", f"{CLIP_DIR}/clip.avi",
                           "--config", project, "--out", str(out),
                           "--no-progress"],
                    check=True, env=env, capture_output=True, timeout=120)
@@ -55,18 +60,10 @@ def read_mcap(path):
         header = reader.get_header()
         summary = reader.get_summary()
         for schema, channel, message, decoded in \
-                reader.iter_decoded_messages(
-                    topics=[record.IMAGE_TOPIC, record.POSE_TOPIC]):
+                reader.iter_decoded_messages():
             out.setdefault(channel.topic, []).append(
                 (schema.name, schema.encoding, channel.message_encoding,
                  message.log_time, decoded))
-    with open(path, "rb") as f:
-        reader = make_reader(f)
-        for schema, channel, message in reader.iter_messages(
-                topics=[record.DETECTIONS_TOPIC]):
-            out.setdefault(channel.topic, []).append(
-                (schema.name, schema.encoding, channel.message_encoding,
-                 message.log_time, json.loads(message.data)))
     return header, summary, out
 
 
@@ -80,14 +77,34 @@ def test_every_channel_and_count(chain_run):
 
     header, summary, topics = read_mcap(mcap_path)
     assert header.profile == "ros2"
-    assert sorted(c.topic for c in summary.channels.values()) == sorted(
-        [record.IMAGE_TOPIC, record.POSE_TOPIC, record.DETECTIONS_TOPIC])
+    every = [record.IMAGE_TOPIC, record.CAMERA_IMAGE_TOPIC,
+             record.CAMERA_INFO_TOPIC, record.POSE_TOPIC,
+             record.DETECTIONS_TOPIC, record.TF_TOPIC,
+             record.TF_STATIC_TOPIC, record.PATH_TOPIC, record.MAP_TOPIC,
+             record.SCAN_TOPIC]
+    assert sorted(c.topic for c in summary.channels.values()) == \
+        sorted(every)
+    # ROS 2 types throughout: no JSON channel
+    assert {s.encoding for s in summary.schemas.values()} == {"ros2msg"}
+    assert {c.message_encoding for c in summary.channels.values()} == \
+        {"cdr"}
     counts = summary.statistics.channel_message_counts
     by_topic = {summary.channels[i].topic: n for i, n in counts.items()}
     assert by_topic == {record.IMAGE_TOPIC: CLIP_FRAMES,
+                        record.CAMERA_IMAGE_TOPIC: CLIP_FRAMES,
+                        record.CAMERA_INFO_TOPIC: CLIP_FRAMES,
                         record.POSE_TOPIC: len(with_pose),
+                        record.TF_TOPIC: len(with_pose),
+                        record.TF_STATIC_TOPIC: 1, record.MAP_TOPIC: 1,
+                        record.PATH_TOPIC: 3,      # 1.5 s: 0 s, 1 s, last
+                        record.SCAN_TOPIC: CLIP_FRAMES,
                         record.DETECTIONS_TOPIC: CLIP_FRAMES}
     assert f"{record.POSE_TOPIC}: {len(with_pose)} messages" in stdout
+    # wall-clock stamps by default: the run began within the last minutes
+    start = topics[record.TF_STATIC_TOPIC][0][3]
+    assert abs(start / 1e9 - time.time()) < 600
+    log = [dict(x, pts=x["pts"] + start) for x in log]
+    with_pose = [x for x in log if "pose" in x]
 
     images = topics[record.IMAGE_TOPIC]
     assert {(s, e, m) for s, e, m, _, _ in images} == {
@@ -128,14 +145,112 @@ def test_every_channel_and_count(chain_run):
 
     dets = topics[record.DETECTIONS_TOPIC]
     assert {(s, e, m) for s, e, m, _, _ in dets} == {
-        ("gst_landmark/Detections", "jsonschema", "json")}
+        ("gst_landmark/msg/LandmarkDetectionArray", "ros2msg", "cdr")}
     for (_, _, _, t, msg), line in zip(dets, log):
-        assert msg == {"frame": line["frame"], "pts": line["pts"],
-                       "detections": line["detections"]}
-    assert sum(len(m["detections"]) for *_, m in dets) > 0
+        assert t == line["pts"] and msg.frame == line["frame"]
+        assert len(msg.detections) == len(line["detections"])
+        for got, want in zip(msg.detections, line["detections"]):
+            x, y, w, h = want["bbox"]
+            assert got.class_id == want["class"] and got.id == str(want["id"])
+            assert (got.bbox.center_x, got.bbox.size_x) == (x + w / 2, w)
+            assert got.accepted == want.get("accepted", True)
+            if "range" in want:
+                assert got.has_range and got.range == want["range"]["range"]
+                assert got.bearing == want["range"]["bearing"]
+                assert got.floor_point.x == want["range"]["ground-x"]
+            if "match" in want:
+                assert got.matched == want["match"]["matched"]
+                assert got.landmark_id == want["match"].get("landmark-id", "")
+    assert sum(len(m.detections) for *_, m in dets) > 0
     schema = next(s for s in summary.schemas.values()
-                  if s.name == "gst_landmark/Detections")
-    assert json.loads(schema.data)["required"] == ["frame", "detections"]
+                  if s.name == record.DETECTIONS_TYPE)
+    assert "MSG: gst_landmark/LandmarkDetection\n" in schema.data.decode()
+
+
+def test_rosbags_reads_every_channel_and_the_transforms(chain_run,
+                                                        project):
+    """rosbags opens the recording whole (AnyReader: the types from the
+    file's schemas, deserialize_cdr); map -> base_link equals each logged
+    pose; base_link -> camera with CameraInfo's K puts every ranged
+    detection's floor point on its blob's centroid."""
+    from pathlib import Path
+    from rosbags.highlevel import AnyReader
+    out, mcap_path, _ = chain_run
+    log = [json.loads(x) for x in
+           (out / "log.jsonl").read_text().splitlines()]
+    got = {}
+    with AnyReader([Path(mcap_path)]) as reader:
+        for conn, t, raw in reader.messages():
+            msg = reader.deserialize(raw, conn.msgtype)
+            got.setdefault(conn.topic, []).append((conn.msgtype, t, msg))
+    assert len(got) == 10 and len(got[record.DETECTIONS_TOPIC]) == \
+        CLIP_FRAMES
+    start = got[record.TF_STATIC_TOPIC][0][1]
+    with_pose = [x for x in log if "pose" in x]
+    for (typ, t, msg), line in zip(got[record.TF_TOPIC], with_pose):
+        assert typ == "tf2_msgs/msg/TFMessage"
+        (tf,) = msg.transforms
+        assert (tf.header.frame_id, tf.child_frame_id) == ("map",
+                                                            "base_link")
+        p = line["pose"]
+        assert t == start + line["pts"]
+        tr, q = tf.transform.translation, tf.transform.rotation
+        assert (tr.x, tr.y, tr.z) == (p["x"], p["y"], 0.0)
+        yaw = math.atan2(2 * q.w * q.z, 1 - 2 * q.z * q.z)
+        assert abs(math.remainder(yaw - p["heading"], 2 * math.pi)) < 1e-12
+    (_, _, static), = got[record.TF_STATIC_TOPIC]
+    (cam,) = static.transforms
+    assert (cam.header.frame_id, cam.child_frame_id) == ("base_link",
+                                                          "camera")
+    q = cam.transform.rotation
+    r = quaternion_matrix(q.x, q.y, q.z, q.w)
+    origin = np.array([cam.transform.translation.x,
+                       cam.transform.translation.y,
+                       cam.transform.translation.z])
+    assert origin[2] == 0.5                     # the clip's camera height
+    info = got[record.CAMERA_INFO_TOPIC][0][2]
+    assert (info.width, info.height) == (log[0]["width"], log[0]["height"])
+    k = np.array(info.k).reshape(3, 3)
+    kinds = {lm["id"]: lm.get("kind", "disc") for lm in json.loads(
+        open(os.path.join(CLIP_DIR, "map.json")).read())["landmarks"]}
+    errors = []
+    for line in log:
+        for det in line["detections"]:
+            rng, blob = det.get("range"), det.get("blob")
+            x, y, w, h = det["bbox"]
+            cut = x == 0 or y == 0 or x + w == line["width"] or \
+                y + h == line["height"]         # the border moves the centroid
+            disc = kinds.get((det.get("match") or {}).get(
+                "landmark-id")) == "disc"       # a ball's centre is above
+            if not rng or not blob or rng.get("method") != "ground" or \
+                    cut or not disc:
+                continue
+            pc = r.T @ (np.array([rng["ground-x"], rng["ground-y"], 0.0]) -
+                        origin)
+            u, v, _ = k @ (pc / pc[2])
+            errors.append(math.hypot(u - blob["centroid-x"],
+                                     v - blob["centroid-y"]))
+    # a disc's floor centre against its blob's centroid: the perspective
+    # shifts the centroid, by a fraction of a pixel but for near discs
+    errors.sort()
+    assert len(errors) > 20 and errors[len(errors) // 2] < 0.5, errors
+    print(f"reprojection: median {errors[len(errors) // 2]:.2f} px, "
+          f"p75 {errors[int(len(errors) * 0.75)]:.2f}, max {errors[-1]:.2f}")
+    assert errors[-1] < 1.5, errors
+    (_, _, markers), = got[record.MAP_TOPIC]
+    landmarks = json.loads(open(os.path.join(CLIP_DIR, "map.json")).read())
+    discs = [m for m in markers.markers if m.ns == "landmarks"]
+    assert [(m.pose.position.x, m.pose.position.y) for m in discs] == [
+        (lm["x"], lm["y"]) for lm in landmarks["landmarks"]]
+    (_, _, path) = got[record.PATH_TOPIC][-1]
+    assert path.poses[-1].pose.position.x == with_pose[-1]["pose"]["x"]
+
+
+def quaternion_matrix(x, y, z, w):
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 def test_convert_log_and_video(chain_run, tmp_path):
@@ -147,10 +262,17 @@ def test_convert_log_and_video(chain_run, tmp_path):
                            stream=open(os.devnull, "w"))
     _, _, a = read_mcap(mcap_path)
     _, _, b = read_mcap(converted)
-    assert {k: len(v) for k, v in a.items()} == {
-        k: len(v) for k, v in b.items()} == counts
-    assert [m for *_, m in a[record.DETECTIONS_TOPIC]] == \
-        [m for *_, m in b[record.DETECTIONS_TOPIC]]
+    counts = {k: v for k, v in counts.items() if v}
+    assert {k: len(v) for k, v in b.items()} == counts
+    # without --camera-video, --camera-file and --map: the same channels
+    # but the camera's image, its model, base_link -> camera and the map
+    assert set(a) - set(b) == {record.CAMERA_IMAGE_TOPIC,
+                               record.CAMERA_INFO_TOPIC,
+                               record.TF_STATIC_TOPIC, record.MAP_TOPIC}
+    for topic in b:
+        assert len(a[topic]) == len(b[topic])
+    assert [repr(m.detections) for *_, m in a[record.DETECTIONS_TOPIC]] == \
+        [repr(m.detections) for *_, m in b[record.DETECTIONS_TOPIC]]
 
 
 def test_log_only_has_no_image_channel(chain_run, tmp_path):
@@ -159,7 +281,7 @@ def test_log_only_has_no_image_channel(chain_run, tmp_path):
     counts = record.record(str(path), log=str(out / "log.jsonl"),
                            start_ns=1_700_000_000 * 10**9,
                            stream=open(os.devnull, "w"))
-    assert counts[record.IMAGE_TOPIC] == 0
+    assert record.IMAGE_TOPIC not in counts
     _, summary, topics = read_mcap(path)
     assert record.IMAGE_TOPIC not in topics
     first = topics[record.DETECTIONS_TOPIC][0]

@@ -364,7 +364,8 @@ def run(host, port, output, prefix="landmark", username=None, password=None,
             web.stop()
         fleet.stop()
     write()
-    print(f"{PROG} fleet: {len(fleet.state.robots)} robots", file=stream)
+    n = len(fleet.state.robots)
+    print(f"{PROG} fleet: {n} robot{'' if n == 1 else 's'}", file=stream)
     return 0
 
 

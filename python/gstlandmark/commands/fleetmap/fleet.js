@@ -12,10 +12,15 @@ let fleetTime = null;
 // what the page drew last, for tests and scripts: {robots: [names]}
 window.fleetDrawn = {robots: []};
 
+// Each robot's hue: the golden angle (137.5 degrees) times its rank in
+// the order the page first saw the robots, so any few robots (r1, r2, r3)
+// are far apart on the colour wheel and a robot keeps its colour while
+// the page is open. (A hash of the name put r1, r2, r3 one degree apart.)
+const hueRank = new Map();
 function colour(name) {
-  let h = 0;
-  for (const c of name) h = (h * 31 + c.charCodeAt(0)) % 360;
-  return `hsl(${h}, 70%, 42%)`;
+  if (!hueRank.has(name)) hueRank.set(name, hueRank.size);
+  const h = (hueRank.get(name) * 137.50776405) % 360;
+  return `hsl(${h.toFixed(1)}, 70%, 42%)`;
 }
 
 function take(msg) {
@@ -31,7 +36,8 @@ function take(msg) {
     if (p.length > msg["path-length"]) p.splice(0, p.length - msg["path-length"]);
   }
   document.getElementById("summary").textContent =
-    `${Object.keys(robots).length} robots, delay p95 ` +
+    (n => `${n} robot${n === 1 ? "" : "s"}, delay p95 `)(
+      Object.keys(robots).length) +
     (msg.delay.p95 === null ? "-" : `${(msg.delay.p95 * 1000).toFixed(1)} ms`);
 }
 

@@ -275,3 +275,29 @@ def test_distractor_clip(distractor_clip, tmp_path):
     assert det["all"]["recall"] >= 0.95
     # the seed's circle test misses the discs lying on the floor
     assert circle["detection"]["all"]["recall"] < det["all"]["recall"]
+
+
+def test_thin_blobs_are_marginal(gst):
+    """Bands 1 to 5 px thick and 70 px long, of a marker's colour: up to 3
+    px (moment-ellipse minor axis 4 sqrt(t^2 / 12) < 4 px) they may be the
+    blend along an edge between two other colours, rejected `thin` and
+    passed on as marginal for ipmrange and the map; the 5 px band and a
+    14 px disc are judged by the shape test."""
+    shapes = [(COLOURS["yellow"], rotated_rect(60, 20 + 30 * k, 70, t, 0))
+              for k, t in enumerate((1, 2, 3, 5))]
+    shapes.append((COLOURS["yellow"], ellipse(200, 60, 14, 14, 0)))
+    frame = antialiased(321, 241, shapes)
+    (buf,) = pipeline.process_frames(
+        "labsegment min-class-pixels=0 ! blobroundness keep-rejected=true "
+        "min-area=20", [frame], CAPS)
+    dets = meta.detections(buf)
+    for k, t in enumerate((1, 2, 3, 5)):
+        blob = nearest(dets, (60, 20 + 30 * k)).blob
+        # 4 sqrt(t^2 / 12), plus the antialiased rows
+        assert (blob["ellipse-minor"] < 4) == (t <= 3), (t, blob)
+        if t <= 3:
+            assert blob["reject-reason"] == "thin", (t, blob)
+            assert blob["shape-marginal"] is True
+        else:
+            assert blob.get("reject-reason") != "thin", (t, blob)
+    assert nearest(dets, (200, 60)).blob["kept"] is True

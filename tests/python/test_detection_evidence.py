@@ -139,15 +139,17 @@ RED_DISC = {"id": "L1", "class": "red", "x": 1.0, "y": 0.0, "z": 0.0,
             "diameter": 0.1, "kind": "disc"}
 
 
-def ranged(tmp_path, frame, landmarks=(RED_DISC,), props=""):
-    """labsegment ! blobroundness ! ipmrange (the test's camera, a map of
-    these landmarks, props) ! landmarklog on one frame: its detections."""
+def ranged(tmp_path, frame, landmarks=(RED_DISC,), props="", blob_props=""):
+    """labsegment ! blobroundness (blob_props) ! ipmrange (the test's
+    camera, a map of these landmarks, props) ! landmarklog on one frame:
+    its detections."""
     map_file = tmp_path / "ranged-map.json"
     map_file.write_text(json.dumps({"landmarks": list(landmarks)}))
     caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
     log = tmp_path / "ranged.jsonl"
     pipeline.process_frames(
-        f"labsegment ! blobroundness ! ipmrange camera-height={CAM_H} "
+        f"labsegment ! blobroundness {blob_props} ! ipmrange "
+        f"camera-height={CAM_H} "
         f"tilt={TILT} hfov={HFOV} map={map_file} {props} ! "
         f"landmarklog location={log}", [frame], caps)
     return json.loads(log.read_text())["detections"]
@@ -252,12 +254,17 @@ def test_cut_blob_too_large_for_every_marker_of_its_class(gst, tmp_path):
     # kept, ranged as the properties' marker; a one-pixel line of red
     # from the same edge at row 40 (mixed pixels along a horizon), ranged
     # some 10 m away where either marker images at a few pixels, fits
-    # neither and is rejected on its size
+    # neither and is rejected on its size. (By default blobroundness
+    # already calls the line thin; an explicit min-ellipse-fit, the cut
+    # blobs' own 0.92, leaves that to the size test.)
     frame = render([disc(0.6, 0.31, 0.1)]).copy()
     frame[40, :160] = RED
-    dets = ranged(tmp_path, frame, (RED_DISC, {
+    landmarks = (RED_DISC, {
         "id": "L2", "class": "red", "x": 2.0, "y": 0.5, "z": 0.05,
-        "diameter": 0.1, "kind": "ball"}))
+        "diameter": 0.1, "kind": "ball"})
+    default = ranged(tmp_path, frame, landmarks)
+    assert [d["bbox"][3] for d in default] == [32], default
+    dets = ranged(tmp_path, frame, landmarks, blob_props="min-ellipse-fit=0.92")
     assert all(d["bbox"][0] == 0 for d in dets), dets
     line = next(d for d in dets if d["bbox"][3] == 1)
     cut_disc = next(d for d in dets if d is not line)

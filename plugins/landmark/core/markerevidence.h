@@ -46,6 +46,14 @@ constexpr double kShapeMarginalOutlinePx = 0.3;
 constexpr double kSizeAgreementMarginal = 0.85;
 double shape_marginal_threshold (double major, double minor);
 
+/* A blob thinner than this across (its moment ellipse's minor axis) may be
+ * the blend of two other colours along an edge between them: a white line
+ * on green carpet blends into a band of a yellow ball's colour, one or two
+ * pixels wide, after 4:2:0 chroma (one sample is two pixels) and blur. It
+ * is a marginal shape: only its size against range and the map together
+ * can accept it. docs/detection.md. */
+constexpr double kMinBlobThicknessPx = 4.0;
+
 /* The size test's tolerance: the smallest IoU between the measured blob
  * ellipse and the predicted image of the marker. kSizeAgreementLarge
  * leaves room for the diameter and range errors of a large blob; each

@@ -106,7 +106,20 @@ def test_page_and_static_files_have_no_external_urls(gst, tmp_path):
 
 def test_mjpeg_stream_yields_jpeg_parts_of_the_frame_size(gst, tmp_path):
     async def check(client):
+        # a browser's stream: each part's data is followed at once by the
+        # next part's headers (a browser shows a part once those came)
         r = await client.get("/stream.mjpg")
+        head = b"--landmarkframe\r\nContent-Type: image/jpeg\r\n\r\n"
+        assert await r.content.readexactly(len(head)) == head
+        sep = b"\r\n" + head
+        got = b""
+        while sep not in got:
+            got += await r.content.read(65536)
+        data = got[:got.index(sep)]
+        assert data[:2] == b"\xff\xd8" and data[-2:] == b"\xff\xd9"
+        r.close()
+        # for tools: each part's headers with its length and time
+        r = await client.get("/stream.mjpg", params={"timing": "1"})
         assert r.status == 200
         ctype = r.headers["Content-Type"]
         assert ctype.startswith("multipart/x-mixed-replace")

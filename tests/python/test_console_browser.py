@@ -28,6 +28,7 @@ from selenium.webdriver.common.action_chains import ActionChains  # noqa
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 
+from gstlandmark.commands.console.engine import Engine  # noqa: E402
 from test_console import clip_engine  # noqa: E402
 
 CHROMIUM = shutil.which("chromium")
@@ -219,10 +220,10 @@ def test_page_shows_live_results_tunes_and_teaches(gst, tmp_path, browser):
             "min-roundness")
         box.clear()
         box.send_keys("3\n")
-        wait_for(browser, lambda d: message(d)[0] == "error",
-                 "an error message")
+        wait_for(browser, lambda d: tune_error(
+            d, "blobroundness", "min-roundness"), "an error message")
         assert "blobroundness.min-roundness: 3.0 is outside 0.0..1.0" in \
-            message(browser)[1]
+            tune_error(browser, "blobroundness", "min-roundness")
         assert engine.elements()["blobroundness"].get_property(
             "min-roundness") == before
 
@@ -268,3 +269,335 @@ def test_page_without_token_gets_nothing_off_loopback(gst, tmp_path,
             "frames with the token")
         assert browser.execute_script(
             "return document.getElementById('video').naturalWidth") == 320
+
+
+# ---------------------------------------------------------------------------
+# issue 31: what a first-time user gets wrong otherwise
+
+
+def colour_clip(path, colours, frames_each=30):
+    """An MJPEG clip of a 120x90 square in the middle of mid grey, each
+    of ``colours`` (RGB) for ``frames_each`` frames in turn."""
+    import cv2
+    import numpy as np
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"),
+                             30, (320, 240))
+    assert writer.isOpened()
+    for rgb in colours:
+        image = np.full((240, 320, 3), 128, np.uint8)
+        image[75:165, 100:220] = rgb[::-1]
+        for _ in range(frames_each):
+            writer.write(image)
+    writer.release()
+
+
+def centre_colour(engine):
+    frame = engine.frame_bgr
+    return None if frame is None else tuple(int(v) for v in
+                                            frame[120, 160][::-1])
+
+
+def is_red(rgb):
+    return rgb is not None and rgb[0] > 150 and rgb[1] < 100
+
+
+def is_green(rgb):
+    return rgb is not None and rgb[1] > 150 and rgb[0] < 100
+
+
+def drag(browser, dx, dy, w, h, release=True):
+    """Presses at (dx, dy) from the video's centre (page pixels) and
+    moves by (w, h); releases unless told not to."""
+    layer = browser.find_element(By.ID, "box-layer")
+    chain = ActionChains(browser).move_to_element_with_offset(
+        layer, dx, dy).click_and_hold().move_by_offset(w, h)
+    if release:
+        chain = chain.release()
+    chain.perform()
+
+
+def open_page(browser, srv):
+    browser.get(srv.url)
+    wait_for(browser, lambda d: re.match(
+        r"\d+\.\d frames/s", d.find_element(By.ID, "fps").text),
+        "the frame rate readout")
+
+
+def test_teach_learns_the_frame_the_box_was_drawn_on(gst, tmp_path,
+                                                     browser):
+    """The square turns from red to green while the box is dragged: the
+    class learns red, the frame under the box (frozen while teaching)."""
+    clip = tmp_path / "colours.avi"
+    colour_clip(clip, [(0, 160, 60), (220, 30, 30)])
+    engine = Engine(f"filesrc location={clip} ! decodebin",
+                    str(tmp_path / "out"))
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        # just turned red: press there, hold until the server's frame
+        # is green again, release and teach
+        wait_for(browser, lambda d: is_green(centre_colour(engine)), "green")
+        wait_for(browser, lambda d: is_red(centre_colour(engine)), "red")
+        drag(browser, -20, -15, 40, 30, release=False)
+        wait_for(browser, lambda d: is_green(centre_colour(engine)),
+                 "green again")
+        ActionChains(browser).release().perform()
+        browser.find_element(By.ID, "teach-class").send_keys("square")
+        browser.find_element(By.ID, "teach").click()
+        wait_for(browser, lambda d: "taught square" in message(d)[1],
+                 "the teach confirmation")
+        lab = engine.palette.classes[engine.palette.index("square")].lab
+        # red's a* is large and positive, green's negative
+        assert lab[1] > 40, lab
+        # the page showed that frame, still, while the box was drawn
+        assert "frozen.jpg" in browser.find_element(
+            By.ID, "video").get_attribute("src")
+        browser.find_element(By.ID, "live").click()
+        wait_for(browser, lambda d: "stream.mjpg" in d.find_element(
+            By.ID, "video").get_attribute("src"), "live again")
+
+
+def test_reteaching_a_background_class_keeps_its_role(gst, tmp_path,
+                                                      browser):
+    engine = clip_engine(tmp_path, loop_file=True)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        assert engine.palette.classes[engine.palette.index("floor")].role \
+            == "background"
+        browser.find_element(By.ID, "teach-class").send_keys("floor")
+        # the marker box follows the class named: floor is no marker
+        wait_for(browser, lambda d: not d.find_element(
+            By.ID, "teach-marker").is_selected(), "marker unticked")
+        size = browser.find_element(By.ID, "box-layer").size
+        drag(browser, -size["width"] // 4, size["height"] // 3, 30, 10)
+        browser.find_element(By.ID, "teach").click()
+        wait_for(browser, lambda d: "taught floor" in message(d)[1],
+                 "the teach confirmation")
+        assert engine.palette.classes[engine.palette.index("floor")].role \
+            == "background"
+        assert "floor" not in engine.palette.markers
+
+
+def camera_file(tmp_path, height, tilt):
+    import numpy as np
+    from gstlandmark.camerafile import write_camera_file
+    from test_console import CAMERA
+    f = 160 / np.tan(np.radians(CAMERA["hfov_deg"]) / 2)
+    path = str(tmp_path / "camera.yml")
+    write_camera_file(path, {
+        "image_width": 320, "image_height": 240,
+        "camera_matrix": np.array([[f, 0, 159.5], [0, f, 119.5],
+                                   [0, 0, 1]]),
+        "distortion_coefficients": np.zeros(5),
+        "camera_height": height, "tilt_deg": tilt, "roll_deg": 0.0})
+    return path
+
+
+def clip_camera_engine(tmp_path):
+    from test_console import CLIP
+    return Engine(f"filesrc location={CLIP}/clip.avi ! decodebin",
+                  str(tmp_path / "out"),
+                  palette_path=os.path.join(CLIP, "palette.json"),
+                  map_path=os.path.join(CLIP, "map.json"),
+                  camera_path=camera_file(tmp_path, 0.5, 20.0),
+                  properties={"labsegment": {"min-class-pixels": 50},
+                              "blobroundness": {"min-area": 30}},
+                  loop_file=True)
+
+
+def ranges_by_pts(engine, seconds):
+    """{pts: [range_m, ...]} of the frames of the next ``seconds``."""
+    got = {}
+
+    def listener(m):
+        if m["type"] == "frame":
+            # kept or not: a camera twice as high rejects them by size
+            got[round(m["pts"], 3)] = sorted(
+                d["range_m"] for d in m["detections"] if "range_m" in d)
+    engine.listeners.append(listener)
+    time.sleep(seconds)
+    engine.listeners.remove(listener)
+    return got
+
+
+def tune_value(browser, element, prop):
+    return browser.find_element(By.ID, f"tune-{element}-{prop}") \
+        .get_attribute("value")
+
+
+def test_tune_shows_and_changes_the_camera_files_values(gst, tmp_path,
+                                                        browser):
+    engine = clip_camera_engine(tmp_path)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        wait_for(browser, lambda d: tune_value(
+            d, "ipmrange", "camera-height") == "0.5", "the file's height")
+        assert tune_value(browser, "ipmrange", "tilt") == "20"
+        before = ranges_by_pts(engine, 1.6)
+        box = browser.find_element(By.ID, "tune-ipmrange-camera-height")
+        box.clear()
+        box.send_keys("1\n")
+        wait_for(browser, lambda d: "ipmrange.camera-height = 1" in
+                 message(d)[1], "the change confirmed")
+        time.sleep(0.2)             # frames already past ipmrange
+        after = ranges_by_pts(engine, 1.6)
+        ratios = [a / b for pts in set(before) & set(after)
+                  for a, b in zip(after[pts], before[pts])
+                  if len(after[pts]) == len(before[pts])]
+        assert len(ratios) > 10
+        # twice as high sees the same floor point twice as far
+        assert 1.7 < sorted(ratios)[len(ratios) // 2] < 2.6, ratios
+
+
+def tune_error(browser, element, prop):
+    return browser.find_element(
+        By.CSS_SELECTOR, f"#tune-{element}-{prop} ~ .tune-error").text
+
+
+def test_invalid_values_are_refused_next_to_the_field(gst, tmp_path,
+                                                      browser):
+    engine = clip_engine(tmp_path, loop_file=True)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        ipmrange = engine.elements()["ipmrange"]
+        for bad in ("0", "1e-9"):
+            box = browser.find_element(By.ID, "tune-ipmrange-camera-height")
+            box.clear()
+            box.send_keys(bad + "\n")
+            wait_for(browser, lambda d: "ipmrange.camera-height" in
+                     tune_error(d, "ipmrange", "camera-height"),
+                     "the error beside the field")
+            # the refused value is not left in the box
+            wait_for(browser, lambda d: tune_value(
+                d, "ipmrange", "camera-height") == "0.5", "reverted")
+            assert ipmrange.get_property("camera-height") == 0.5
+        # a batch with one bad value changes nothing
+        reply = browser.execute_async_script("""
+            const done = arguments[0];
+            fetch("api/tune", {method: "POST",
+              headers: {"Content-Type": "application/json"},
+              body: JSON.stringify({changes: [
+                {element: "labsegment", property: "min-class-pixels",
+                 value: 61},
+                {element: "ipmrange", property: "camera-height",
+                 value: 0}]})})
+              .then(r => r.json().then(j => done([r.status, j])));""")
+        assert reply[0] == 400 and "ipmrange.camera-height" in \
+            reply[1]["error"], reply
+        assert engine.elements()["labsegment"].get_property(
+            "min-class-pixels") == 50
+
+
+def browser_pixels(browser):
+    """The video as the page shows it, 80x60 RGB."""
+    import numpy as np
+    data = browser.execute_script("""
+        const img = document.getElementById('video');
+        const c = document.createElement('canvas'); c.width = 80;
+        c.height = 60; const g = c.getContext('2d');
+        g.drawImage(img, 0, 0, 80, 60);
+        return Array.from(g.getImageData(0, 0, 80, 60).data);""")
+    return np.array(data, np.float64).reshape(60, 80, 4)[:, :, :3]
+
+
+def jpeg_pixels(data):
+    import cv2
+    import numpy as np
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    return cv2.resize(image, (80, 60),
+                      interpolation=cv2.INTER_AREA)[:, :, ::-1] \
+        .astype(np.float64)
+
+
+def shows(browser, data, other=None):
+    """The page's video is the JPEG ``data`` (mean difference below 2 of
+    255 at 80x60; the next frame of the clip differs by 5), and nearer it
+    than ``other``."""
+    import numpy as np
+    seen = browser_pixels(browser)
+    near = np.abs(seen - jpeg_pixels(data)).mean()
+    far = np.abs(seen - jpeg_pixels(other)).mean() if other else 255
+    return near < 2 and near < 0.5 * far
+
+
+def pause(browser, engine):
+    browser.find_element(By.CSS_SELECTOR,
+                         "button[data-action=pause]").click()
+    wait_for(browser, lambda d: engine.state == "paused", "paused")
+    time.sleep(0.3)                 # frames already on their way
+
+
+def test_the_video_shows_the_frame_sought_to_while_paused(gst, tmp_path,
+                                                         browser):
+    engine = clip_engine(tmp_path, loop_file=True)
+    view = engine.views["overlay"]
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        wait_for(browser, lambda d: view.pts is not None and
+                 view.pts > 1.1, "late in the clip")
+        pause(browser, engine)
+        before = view.data
+        # the newest frame, not the one before it
+        wait_for(browser, lambda d: shows(d, before), "the paused frame")
+        browser.execute_script("""
+            const s = document.getElementById('scrub');
+            s.value = 0.1; s.dispatchEvent(new Event('change'));""")
+        wait_for(browser, lambda d: abs(view.pts - 0.1) < 0.02,
+                 "the frame sought to")
+        # each part ends with the boundary: the browser shows it at once
+        wait_for(browser, lambda d: shows(d, view.data, before),
+                 "the frame sought to on the page")
+
+
+def test_the_position_slider_is_back_after_stop_then_start(gst, tmp_path,
+                                                          browser):
+    engine = clip_engine(tmp_path, loop_file=True)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        wait_for(browser, lambda d: d.find_element(
+            By.ID, "scrubber").is_displayed(), "the slider")
+        for action in ("stop", "start"):
+            browser.find_element(
+                By.CSS_SELECTOR, f"button[data-action={action}]").click()
+            wait_for(browser, lambda d: engine.state in (
+                "stopped" if action == "stop" else "playing"), action)
+        wait_for(browser, lambda d: d.find_element(
+            By.ID, "scrubber").is_displayed() and d.find_element(
+            By.ID, "position").text.endswith("/ 1.50 s"),
+            "the slider after stop and start")
+
+
+def test_the_classes_view_shows_the_paused_frame(gst, tmp_path, browser):
+    engine = clip_engine(tmp_path, loop_file=True)
+    labels = engine.views["labels"]
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        view_radio = "input[name=view][value={}]"
+        browser.find_element(By.CSS_SELECTOR,
+                             view_radio.format("labels")).click()
+        wait_for(browser, lambda d: labels.seq > 2, "false-colour frames")
+        old = labels.data
+        old_pts = labels.pts
+        browser.find_element(By.CSS_SELECTOR,
+                             view_radio.format("overlay")).click()
+        # the clip moves on (0.5 s: the robot turns; it loops in 1.5 s)
+        wait_for(browser, lambda d: abs(
+            engine.views["overlay"].pts - old_pts) > 0.5, "later frames")
+        pause(browser, engine)
+        paused_pts = engine.views["overlay"].pts
+        browser.find_element(By.CSS_SELECTOR,
+                             view_radio.format("labels")).click()
+        wait_for(browser, lambda d: labels.pts == paused_pts,
+                 "the paused frame's classes")
+        wait_for(browser, lambda d: shows(d, labels.data, old),
+                 "the paused frame's classes on the page")
+
+
+def test_layout_fits_a_narrow_window(gst, tmp_path, browser):
+    engine = clip_engine(tmp_path, loop_file=True)
+    with ServerThread(engine) as srv:
+        browser.set_window_size(700, 1000)
+        open_page(browser, srv)
+        width = browser.execute_script(
+            "return [document.documentElement.scrollWidth, "
+            "document.documentElement.clientWidth]")
+        assert width[0] <= width[1], width

@@ -405,15 +405,25 @@ class Engine:
                  map_path: Optional[str] = None,
                  camera_path: Optional[str] = None,
                  properties: Optional[Dict[str, Dict[str, Any]]] = None,
-                 loop_file: bool = True):
+                 loop_file: bool = True,
+                 log_max_bytes: int = LOG_MAX_BYTES):
         self.source = source
         self.start_source, self.source_id = source, "start"
         self.out_dir = os.path.abspath(out_dir)
         os.makedirs(self.out_dir, exist_ok=True)
         self.map_path = map_path
         self.camera_path = camera_path
+        # the file's mounting, as tuned (written to a copy of the file)
+        self.camera_mounting = read_camera_mounting(camera_path)
+        self.camera_live: Optional[str] = None
+        self._live_cameras: List[str] = []
         self.loop_file = loop_file
-        self.log_path = os.path.join(self.out_dir, "log.jsonl")
+        # one log file per run, named by its start time (a long run
+        # rotates to a new file at log_max_bytes)
+        self.log_dir = os.path.join(self.out_dir, "logs")
+        os.makedirs(self.log_dir, exist_ok=True)
+        self.log_max_bytes = log_max_bytes
+        self.log_path = self._new_log_path()
         self.palette = (pal.load_palette(palette_path) if palette_path
                         else pal.default_palette())
         self.palette_path = palette_path
@@ -431,6 +441,13 @@ class Engine:
         # while someone watches them)
         self.views = {"overlay": LatestJpeg(), "labels": LatestJpeg()}
         self.frame_bgr: Optional[np.ndarray] = None
+        self.frame_pts: Optional[float] = None
+        # frames frozen for teaching, by id (a few, the newest kept)
+        self.frozen: Dict[int, Dict[str, Any]] = {}
+        self._freeze_serial = 0
+        # the newest results buffer: the classes view of a paused frame
+        self._last_buffer: Optional[Gst.Buffer] = None
+        self._duration: Optional[float] = None
         self.frame_index = 0
         self.path: List[Tuple[float, float]] = []
         self.listeners: List[Callable[[Dict[str, Any]], None]] = []
@@ -447,8 +464,8 @@ class Engine:
     def launch_line(self) -> str:
         q = runner.quote
         maps = f" map={q(self.map_path)}" if self.map_path else ""
-        camera = (f" calibration={q(self.camera_path)}"
-                  if self.camera_path else "")
+        camera_file = self.camera_live or self.camera_path
+        camera = (f" calibration={q(camera_file)}" if camera_file else "")
         palette = (f" palette={q(self.palette_path)}"
                    if self.palette_path else "")
         pose = (f" ! trilaterate name=trilaterate{maps} post-messages=false"
@@ -462,7 +479,8 @@ class Engine:
             "blobroundness name=blobroundness ! "
             f"ipmrange name=ipmrange{camera}{maps}{pose} ! "
             # every line on disk at once: the download is current
-            f"landmarklog location={q(self.log_path)} flush-every=1 ! "
+            f"landmarklog name=log location={q(self.log_path)} "
+            "flush-every=1 ! "
             "tee name=t "
             # For a file both sinks keep the clock (it plays at its own
             # rate, results and video together) and preroll (a frame
@@ -501,6 +519,7 @@ class Engine:
         for name, element in self.elements().items():
             if name != "landmarkoverlay":   # after the tee, not the chain
                 self._probe_cost(name, element)
+        self._duration = None
         errors = []
         for element_name, props in self.initial_properties.items():
             for prop, value in props.items():
@@ -523,6 +542,10 @@ class Engine:
             self.build()
         if self.state == "ended" or self.error is not None:
             await self.stop()           # from the beginning
+        if self.state == "stopped":     # a new run: its own log file
+            self.log_path = self._new_log_path()
+            self.pipe.get_by_name("log").set_property("location",
+                                                      self.log_path)
         self.error = None
         ret = self.pipe.set_state(Gst.State.PLAYING)
         if ret == Gst.StateChangeReturn.FAILURE:
@@ -664,6 +687,7 @@ class Engine:
             finally:
                 buf.unmap(info)
         result = self.frame_json(buf, width, height, now)
+        self._last_buffer = buf
         if self.views["labels"].readers > 0:
             self._labels_jpeg(buf, now)
         result["delay_ms"] = self._delay_ms(sample)
@@ -686,19 +710,35 @@ class Engine:
         now = clock.get_time() - pipe.get_base_time()
         return (now - running) / 1e6
 
-    def _labels_jpeg(self, buf: Gst.Buffer, now: float) -> None:
+    def labels_now(self) -> None:
+        """The classes view of the newest frame, at once (on the loop:
+        while paused no new frame would make it)."""
+        buf, view = self._last_buffer, self.views["labels"]
+        if buf is None:
+            return
+        pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
+        if view.data is None or view.pts != pts:
+            jpeg = self._labels_jpeg(buf, time.time(), handoff=False)
+            if jpeg is not None:
+                view.publish(jpeg, time.time(), pts)
+
+    def _labels_jpeg(self, buf: Gst.Buffer, now: float,
+                     handoff: bool = True) -> Optional[bytes]:
         """The label plane in class colours (black: no class) as JPEG."""
         labels = meta.labels(buf)
         if labels is None or self.loop is None:
-            return
+            return None
         lut = np.zeros((256, 3), np.uint8)
         for c in labels.classes:
             lut[c.label] = c.rgb[::-1]      # BGR for OpenCV
         ok, jpg = cv2.imencode(".jpg", lut[labels.plane],
                                [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
-        if ok:
+        if not ok:
+            return None
+        if handoff:
             pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
             self._handoffs["labels"].put(jpg.tobytes(), now, pts)
+        return jpg.tobytes()
 
     @staticmethod
     def frame_json(buf: Gst.Buffer, width: int, height: int,
@@ -757,9 +797,10 @@ class Engine:
     def _publish_results(self, result: Dict[str, Any],
                          frame: Optional[np.ndarray]) -> None:
         if frame is not None:
-            self.frame_bgr = frame
+            self.frame_bgr, self.frame_pts = frame, result["pts"]
         self.frame_index += 1
         result["frame"] = self.frame_index
+        result["duration"] = self.duration()
         self._times.append(result["time"])
         del self._times[:-31]
         span = self._times[-1] - self._times[0]
@@ -786,8 +827,10 @@ class Engine:
         """Seconds, for a file whose length is known."""
         if not self.is_file or self.pipe is None:
             return None
-        ok, value = self.pipe.query_duration(Gst.Format.TIME)
-        return value / 1e9 if ok and value > 0 else None
+        if self._duration is None:      # known once it plays
+            ok, value = self.pipe.query_duration(Gst.Format.TIME)
+            self._duration = value / 1e9 if ok and value > 0 else None
+        return self._duration
 
     def seek(self, seconds) -> None:
         if not self.is_file:
@@ -813,9 +856,37 @@ class Engine:
     def tunables(self) -> Dict[str, List[Dict[str, Any]]]:
         out = {}
         for name, element in self.elements().items():
-            out[name] = [property_spec(element, p) for p in TUNABLE[name]
+            out[name] = [self._spec(name, element, p) for p in TUNABLE[name]
                          if element.find_property(p) is not None]
         return out
+
+    def _spec(self, name: str, element: Gst.Element,
+              prop: str) -> Dict[str, Any]:
+        """property_spec, with what the camera file holds: its value
+        wins over the property's."""
+        spec = property_spec(element, prop)
+        if name == "ipmrange" and prop in self.camera_mounting:
+            spec["value"] = self.camera_mounting[prop]
+            spec["from"] = "camera file"
+        return spec
+
+    def _camera_copy(self, mounting: Dict[str, float]) -> str:
+        """A copy of the camera file with ``mounting`` (properties), for
+        ipmrange's calibration (a new name each time: the element reads
+        the file when the property is set)."""
+        self._palette_serial += 1
+        suffix = os.path.splitext(self.camera_path)[1] or ".yml"
+        path = os.path.join(self.out_dir, f"camera-live-"
+                            f"{self._palette_serial}{suffix}")
+        copy_camera_file(self.camera_path, path,
+                         {CAMERA_KEYS[p]: v for p, v in mounting.items()})
+        self._live_cameras.append(path)
+        while len(self._live_cameras) > 3:
+            try:
+                os.remove(self._live_cameras.pop(0))
+            except OSError:
+                pass
+        return path
 
     def _set_checked(self, changes: Sequence[Tuple[str, str, Any]]
                      ) -> List[Dict[str, Any]]:
@@ -833,14 +904,32 @@ class Engine:
                     f"{element_name} has no tunable property {prop!r} "
                     f"(tunable: {', '.join(TUNABLE[element_name])})")
             element = elements[element_name]
-            spec = property_spec(element, prop)
-            checked.append((element, spec, check_value(element_name, spec,
-                                                        value)))
-        # every value checked before any is set: all or nothing
-        for element, spec, value in checked:
-            element.set_property(spec["name"], value)
-        return [property_spec(element, spec["name"])
-                for element, spec, _ in checked]
+            spec = self._spec(element_name, element, prop)
+            checked.append((element_name, spec,
+                            check_value(element_name, spec, value)))
+        # the mounting the camera file holds goes into a copy of it
+        mounting = dict(self.camera_mounting)
+        per_element: Dict[str, Dict[str, Any]] = {}
+        for element_name, spec, value in checked:
+            if element_name == "ipmrange" and spec["name"] in mounting:
+                mounting[spec["name"]] = value
+            per_element.setdefault(element_name, {})[spec["name"]] = value
+        camera = None
+        if mounting != self.camera_mounting:
+            camera = self._camera_copy(mounting)
+            per_element["ipmrange"]["calibration"] = camera
+        # every element tries its changes first (its own checks): all or
+        # nothing
+        for element_name, changes in per_element.items():
+            trial_start(elements[element_name], changes)
+        for element_name, changes in per_element.items():
+            for prop, value in changes.items():
+                elements[element_name].set_property(prop, value)
+        if camera is not None:
+            self.camera_mounting, self.camera_live = mounting, camera
+        return [self._spec(element_name, elements[element_name],
+                           spec["name"])
+                for element_name, spec, _ in checked]
 
     def tune(self, changes: Sequence[Tuple[str, str, Any]]
              ) -> List[Dict[str, Any]]:
@@ -895,10 +984,41 @@ class Engine:
             except OSError:
                 pass
 
+    def freeze(self) -> Dict[str, Any]:
+        """Keeps the newest frame to teach on; its id, pts and size (the
+        page shows ``frozen_jpeg(id)`` while a box is drawn on it)."""
+        frame = self.frame_bgr
+        if frame is None:
+            raise ConsoleError("freeze: no frame yet")
+        ok, jpg = cv2.imencode(".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, 90])
+        self._freeze_serial += 1
+        self.frozen[self._freeze_serial] = {
+            "frame": frame, "pts": self.frame_pts, "jpeg": jpg.tobytes()}
+        while len(self.frozen) > FROZEN_KEPT:
+            self.frozen.pop(next(iter(self.frozen)))
+        return {"frame": self._freeze_serial, "pts": self.frame_pts,
+                "width": frame.shape[1], "height": frame.shape[0]}
+
+    def frozen_jpeg(self, frame_id) -> bytes:
+        return self._frozen(frame_id)["jpeg"]
+
+    def _frozen(self, frame_id) -> Dict[str, Any]:
+        if not isinstance(frame_id, int) or isinstance(frame_id, bool):
+            raise ConsoleError(f"frame must be the id freeze returned, got "
+                               f"{json.dumps(frame_id)}")
+        if frame_id not in self.frozen:
+            raise ConsoleError(f"frame {frame_id} is no longer kept (the "
+                               f"newest {FROZEN_KEPT} are): freeze again")
+        return self.frozen[frame_id]
+
     def teach(self, name: str, x, y, w, h,
-              marker: Optional[bool] = None) -> Dict[str, Any]:
-        """Learns class ``name`` from the current frame's pixels in the
-        box and applies the palette; returns the class's new entry."""
+              marker: Optional[bool] = None, frame_id=None,
+              role: Optional[str] = None) -> Dict[str, Any]:
+        """Learns class ``name`` from the pixels in the box of the frozen
+        frame ``frame_id`` (None: the newest frame) and applies the
+        palette; returns the class's new entry. ``role`` (or the older
+        ``marker``) None: a new class is a marker, a known one keeps its
+        role."""
         for label, v in (("x", x), ("y", y), ("w", w), ("h", h)):
             if not isinstance(v, int) or isinstance(v, bool):
                 raise ConsoleError(f"teach: {label} must be an integer "
@@ -907,7 +1027,14 @@ class Engine:
             raise ConsoleError("teach: marker must be true or false")
         if not isinstance(name, str):
             raise ConsoleError("teach: class must be a string")
-        frame = self.frame_bgr
+        if role is not None and role not in pal.ROLES:
+            raise ConsoleError(f"teach: role must be one of "
+                               f"{', '.join(pal.ROLES)}, got "
+                               f"{json.dumps(role)}")
+        if role is None and marker is not None:
+            role = "marker" if marker else None
+        frame = self.frame_bgr if frame_id is None else \
+            self._frozen(frame_id)["frame"]
         if frame is None:
             raise ConsoleError("teach: no frame yet")
         try:
@@ -919,13 +1046,17 @@ class Engine:
         names = [c.name for c in classes]
         if name in names:
             i = names.index(name)
-            # re-taught, a class keeps its role (a floor class stays floor)
-            role = classes[i].role if marker is None else \
-                ("marker" if marker else "background")
+            # re-taught, a class keeps its role (a floor class stays
+            # floor) unless told; marker false keeps floor or background
+            old = classes[i].role
+            if role is None:
+                role = old if marker is not False or old != "marker" \
+                    else "background"
             classes[i] = pal.PaletteClass(name, lab, role=role)
         else:
-            classes.append(pal.PaletteClass(
-                name, lab, True if marker is None else marker))
+            if role is None:
+                role = "background" if marker is False else "marker"
+            classes.append(pal.PaletteClass(name, lab, role=role))
         try:
             new = pal.parse_palette(
                 pal.palette_to_json(pal.Palette(classes)), "teach")
@@ -949,3 +1080,25 @@ class Engine:
         pal.save_palette(self.palette, path,
                          description="Saved by gst-landmark console.")
         return path
+
+    # -- the log ---------------------------------------------------------
+
+    def _new_log_path(self) -> str:
+        """OUT/logs/log-YYYYmmdd-HHMMSS.jsonl by the time now (-2, -3...
+        when taken); the oldest beyond LOG_KEEP files are removed."""
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        path = os.path.join(self.log_dir, f"log-{stamp}.jsonl")
+        n = 1
+        while os.path.exists(path):
+            n += 1
+            path = os.path.join(self.log_dir, f"log-{stamp}-{n}.jsonl")
+        old = sorted(self.log_files(), key=os.path.getmtime)
+        for stale in old[:max(0, len(old) - LOG_KEEP + 1)]:
+            try:
+                os.remove(stale)
+            except OSError:
+                pass
+        return path
+
+    def log_files(self) -> List[str]:
+        return sorted(glob.glob(os.path.join(self.log_dir, "log-*.jsonl")))

@@ -85,6 +85,7 @@ def make_app(engine: Engine, token: Optional[str] = None,
                 "landmarks": engine.landmarks, "path": engine.path,
                 "duration": engine.duration(),
                 "source": engine.source_id,
+                "log": os.path.basename(engine.log_path),
                 "can_undo": bool(engine.undo_stack)}
 
     def broadcast_state() -> None:
@@ -157,9 +158,25 @@ def make_app(engine: Engine, token: Optional[str] = None,
         if missing:
             raise ConsoleError(f"teach: missing {', '.join(missing)}")
         entry = engine.teach(data["class"], data["x"], data["y"], data["w"],
-                             data["h"], data.get("marker"))
+                             data["h"], data.get("marker"),
+                             frame_id=data.get("frame"),
+                             role=data.get("role"))
         broadcast_state()
         return web.json_response({"class": entry})
+
+    async def api_freeze(request):
+        await body(request)
+        return web.json_response(engine.freeze())
+
+    async def frozen(request):
+        try:
+            frame_id = int(request.query.get("frame", ""))
+        except ValueError:
+            raise ConsoleError("frozen.jpg?frame=ID: the id freeze "
+                               "returned") from None
+        return web.Response(body=engine.frozen_jpeg(frame_id),
+                            content_type="image/jpeg",
+                            headers={"Cache-Control": "no-store"})
 
     async def api_undo(request):
         engine.undo()
@@ -171,13 +188,14 @@ def make_app(engine: Engine, token: Optional[str] = None,
         return web.json_response({"saved": os.path.basename(path)})
 
     async def download_log(request):
+        """This run's log so far, streamed from the file (never read
+        into memory)."""
         if not os.path.isfile(engine.log_path):
             raise ConsoleError("no log yet: start the pipeline")
-        with open(engine.log_path, "rb") as f:
-            data = f.read()
-        return web.Response(body=data, content_type="application/x-ndjson",
-                            headers={"Content-Disposition":
-                                     "attachment; filename=log.jsonl"})
+        name = os.path.basename(engine.log_path)
+        return web.FileResponse(engine.log_path, headers={
+            "Content-Type": "application/x-ndjson",
+            "Content-Disposition": f"attachment; filename={name}"})
 
     async def download_snapshot(request):
         data = engine.views["overlay"].data
@@ -217,9 +235,25 @@ def make_app(engine: Engine, token: Optional[str] = None,
         await response.prepare(request)
         seq = 0         # the newest frame at once, then each new one
         view.readers += 1
+        if name == "labels":
+            engine.labels_now()     # paused: no new frame would make it
         try:
+            # A browser shows a part once the next part's headers have
+            # come: so each part's data is followed at once by the
+            # boundary and the next part's headers (its type only: its
+            # length and time are not known yet). ?timing=1 (for tools,
+            # a browser shows it a frame late): each part's own headers
+            # with Content-Length, X-Timestamp and X-Pts.
+            timing = request.query.get("timing") == "1"
+            head = (f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
+                    "\r\n").encode()
+            if not timing:
+                await response.write(head)
             while True:
                 seq, data, stamp, pts = await view.next(seq)
+                if not timing:
+                    await response.write(data + b"\r\n" + head)
+                    continue
                 # X-Timestamp: wall time the JPEG was ready; X-Pts: the
                 # frame's (matches "pts" on the WebSocket)
                 await response.write(
@@ -293,6 +327,8 @@ def make_app(engine: Engine, token: Optional[str] = None,
     app.router.add_post("/api/save-config", api_save_config)
     app.router.add_post("/api/teach", api_teach)
     app.router.add_post("/api/undo", api_undo)
+    app.router.add_post("/api/freeze", api_freeze)
+    app.router.add_get("/frozen.jpg", frozen)
     app.router.add_post("/api/save-palette", api_save_palette)
     app.router.add_get("/download/log.jsonl", download_log)
     app.router.add_get("/download/snapshot.jpg", download_snapshot)

@@ -15,6 +15,9 @@ let path = [];
 let box = null;              // teach box in frame pixels
 let lastFrame = null;
 let tunablesShape = "";
+let paletteClasses = [];     // the palette's classes (from the state)
+let frozen = null;           // {frame, pts}: the still being taught on
+let freezing = null;         // the freeze request in flight
 
 function showMessage(text, isError) {
   const m = $("message");
@@ -22,16 +25,18 @@ function showMessage(text, isError) {
   m.className = text ? (isError ? "error" : "ok") : "";
 }
 
-async function post(route, body) {
+// onError(text): where a refusal is shown (default: the message line)
+async function post(route, body, onError) {
   const headers = { "Content-Type": "application/json" };
   if (token) headers["Authorization"] = "Bearer " + token;
+  const fail = onError || ((text) => showMessage(text, true));
   let reply;
   try {
     const r = await fetch(route, { method: "POST", headers, body: JSON.stringify(body || {}) });
     reply = await r.json();
-    if (!r.ok) { showMessage(reply.error || r.statusText, true); return null; }
+    if (!r.ok) { fail(reply.error || r.statusText); return null; }
   } catch (e) {
-    showMessage("request failed: " + e, true);
+    fail("request failed: " + e);
     return null;
   }
   return reply;
@@ -41,13 +46,38 @@ async function post(route, body) {
 
 let view = "overlay";
 function showVideo() {     // a fresh address: the browser opens a new stream
+  if (frozen) return;
   $("video").src = withToken(`stream.mjpg?view=${view}&n=${Date.now()}`);
 }
 showVideo();
 $("video").addEventListener("error", () => setTimeout(showVideo, 1000));   // broke: again
 for (const radio of document.querySelectorAll("input[name=view]")) {
-  radio.addEventListener("change", () => { view = radio.value; showVideo(); });
+  radio.addEventListener("change", () => { view = radio.value; goLive(); });
 }
+
+// Teaching works on a still: the newest frame, kept by the server, shown
+// until Live is pressed; Teach learns from exactly that frame.
+function freeze() {
+  if (frozen || freezing) return freezing;
+  freezing = post("api/freeze").then((r) => {
+    freezing = null;
+    if (!r) return null;
+    frozen = r;
+    $("video").src = withToken(`frozen.jpg?frame=${r.frame}`);
+    $("frozen").textContent = r.pts !== null ? `frozen at ${r.pts.toFixed(2)} s` : "frozen";
+    $("live").hidden = false; $("freeze").hidden = true;
+    return r;
+  });
+  return freezing;
+}
+function goLive() {
+  frozen = null;
+  $("frozen").textContent = "";
+  $("live").hidden = true; $("freeze").hidden = false;
+  showVideo();
+}
+$("freeze").addEventListener("click", freeze);
+$("live").addEventListener("click", goLive);
 for (const id of ["dl-log", "dl-snapshot", "dl-palette", "dl-map"]) $(id).href = withToken($(id).getAttribute("href"));
 
 const layer = $("box-layer");
@@ -72,7 +102,7 @@ function drawBox() {
   g.strokeRect(box.x * sx, box.y * sy, box.w * sx, box.h * sy);
 }
 
-layer.addEventListener("mousedown", (ev) => { dragStart = framePoint(ev); ev.preventDefault(); });
+layer.addEventListener("mousedown", (ev) => { dragStart = framePoint(ev); ev.preventDefault(); freeze(); });
 window.addEventListener("mousemove", (ev) => {
   if (!dragStart) return;
   const p = framePoint(ev);
@@ -90,12 +120,23 @@ window.addEventListener("mouseup", () => {
 });
 window.addEventListener("resize", drawBox);
 
+function knownClass(name) { return paletteClasses.find((c) => c.name === name); }
+// the marker box follows the class named: ticked for a marker or a new
+// class, not for a floor or background class (untick it after naming)
+$("teach-class").addEventListener("input", () => {
+  const known = knownClass($("teach-class").value.trim());
+  $("teach-marker").checked = !known || known.role === "marker";
+});
 $("teach").addEventListener("click", async () => {
   const name = $("teach-class").value.trim();
   if (!box) { showMessage("drag a box on the video first", true); return; }
   if (!name) { showMessage("name the class to teach", true); return; }
+  const still = frozen || (await freezing);
+  const known = knownClass(name);
+  const role = $("teach-marker").checked ? "marker"
+    : (known && known.role !== "marker" ? known.role : "background");
   const reply = await post("api/teach", { class: name, x: box.x, y: box.y, w: box.w, h: box.h,
-                                         marker: $("teach-marker").checked });
+                                         role, frame: still ? still.frame : undefined });
   if (reply) {
     const lab = reply.class.lab.map((v) => v.toFixed(1)).join(", ");
     showMessage(`taught ${name}: L*a*b* ${lab}`, false);
@@ -137,7 +178,7 @@ listSources();
 $("source").addEventListener("focus", listSources);      // cameras and files come and go
 $("source").addEventListener("change", async () => {
   const r = await post("api/source", { id: $("source").value });
-  if (r) { path = []; duration = null; stateAsked = false; showMessage("playing " + r.current, false); }
+  if (r) { path = []; showMessage("playing " + r.current, false); }
   else $("source").value = currentSource;
 });
 
@@ -145,7 +186,6 @@ $("source").addEventListener("change", async () => {
 
 let duration = null;
 let scrubbing = false;
-let stateAsked = false;
 $("scrub").addEventListener("input", () => { scrubbing = true; });
 $("scrub").addEventListener("change", async () => {
   scrubbing = false;
@@ -279,12 +319,8 @@ function drawMinimap(f) {
 
 function onFrame(f) {
   lastFrame = f;
-  if (duration === null && !stateAsked) {
-    // a file's length is known once it plays: ask for it once
-    stateAsked = true;
-    const headers = token ? { Authorization: "Bearer " + token } : {};
-    fetch("api/state", { headers }).then((r) => r.json()).then((s) => showDuration(s.duration));
-  }
+  // a file's length is known once it plays: every frame carries it
+  if ((f.duration || null) !== duration) showDuration(f.duration || null);
   if (duration && f.pts !== null) {
     if (!scrubbing) $("scrub").value = f.pts;
     $("position").textContent = `${f.pts.toFixed(2)} / ${duration.toFixed(2)} s`;
@@ -316,15 +352,23 @@ function tuneControl(element, spec) {
     input.step = spec.type === "integer" ? 1 : "any";
   }
   input.id = `tune-${element}-${spec.name}`;
+  const error = document.createElement("span");
+  error.className = "tune-error"; error.setAttribute("role", "alert");
   input.addEventListener("change", async () => {
     let value = input.type === "checkbox" ? input.checked : input.value;
     if (spec.type === "integer" || spec.type === "number") {
       if (value.trim() === "") return;       // being edited (or not a number)
       value = Number(value);
     }
-    const r = await post("api/tune", { element, property: spec.name, value });
+    error.textContent = "";
+    // refused: the reason beside the field, the value in force back in it
+    const r = await post("api/tune", { element, property: spec.name, value }, (text) => {
+      error.textContent = text;
+      showTuneValue(input, tuneValues[input.id]);
+    });
     if (r) showMessage(`${element}.${spec.name} = ${JSON.stringify(r.applied[0].value)}`, false);
   });
+  if (spec.from) label.textContent += ` (${spec.from})`;
   row.append(label, input);
   if (spec.minimum !== undefined) {
     const range = document.createElement("span");
@@ -332,13 +376,19 @@ function tuneControl(element, spec) {
     range.className = "range"; range.textContent = `${show(spec.minimum)} .. ${show(spec.maximum)}`;
     row.append(range);
   }
+  row.append(error);
   return row;
 }
 
+const tuneValues = {};       // input id -> the value in force
+function showTuneValue(input, value) {
+  if (input.type === "checkbox") input.checked = value; else input.value = value;
+}
 function setTuneValue(element, spec) {
   const input = $(`tune-${element}-${spec.name}`);
-  if (!input || input === document.activeElement) return;
-  if (input.type === "checkbox") input.checked = spec.value; else input.value = spec.value;
+  if (!input) return;
+  tuneValues[input.id] = spec.value;
+  if (input !== document.activeElement) showTuneValue(input, spec.value);
 }
 
 function onState(s) {
@@ -362,11 +412,12 @@ function onState(s) {
   }
   for (const [element, specs] of Object.entries(s.tunables)) for (const spec of specs) setTuneValue(element, spec);
   const classes = s.palette.classes;
+  paletteClasses = classes;
   $("class-names").replaceChildren(...classes.map((c) => { const o = document.createElement("option"); o.value = c.name; return o; }));
   $("palette").replaceChildren(...classes.map((c) => {
     const li = document.createElement("li");
     const i = document.createElement("i"); i.style.background = labToHex(c.lab);
-    li.append(i, `${c.name}${c.marker ? "" : " (background)"}  L*a*b* ${c.lab.map((v) => v.toFixed(1)).join(", ")}`);
+    li.append(i, `${c.name}${c.role === "marker" ? "" : ` (${c.role})`}  L*a*b* ${c.lab.map((v) => v.toFixed(1)).join(", ")}`);
     return li;
   }));
   $("undo").disabled = !s.can_undo;

@@ -275,10 +275,51 @@ def test_real_msl_frames(gst, tmp_path):
     assert all(i["width"] == 608 and i["height"] == 800 for i in images)
     # a ball over 30 px wide holds a ball blob, accepted or rejected with
     # a reason (on main today the 116 px ball of 201031 is rejected)
-    reasons = {"area", "max-area", "aspect", "roundness", "ellipse-fit"}
+    reasons = {"area", "max-area", "aspect", "thin", "roundness",
+               "ellipse-fit"}
     for img in images:
         assert all(d["reason"] in reasons for d in img["rejected"])
         for j, t in enumerate(img["truth"]):
             if t["band"] == ">30":
                 assert t["found"] or any(d["inside"] == j
                                          for d in img["rejected"]), t
+
+
+@pytest.mark.skipif(not os.path.isdir(MSL), reason="no ../shared/data/msl")
+def test_real_ball_accepted_yellow_shirts_rejected(gst, tmp_path):
+    """20220715/r7 (Bangkok, yellow T-shirts), the palette taught on the
+    folder's teaching image as bench real teaches it: on frame 171127 the
+    37 px ball, lit above and shaded below, is found, and the people in
+    the ball's yellow (ball-coloured blobs of 1,000 px and more inside
+    their boxes) are rejected by the shape test; nothing else is
+    accepted."""
+    src = os.path.join(MSL, "20220715", "r7")
+    names = E.read_names(os.path.join(MSL, "obj.names"))
+    items = E.image_items(E.list_images(src)["."], src, names)
+    item, image, clear, balls = realbench.teaching_image(items)
+    realbench.teach(image, clear, balls, str(tmp_path / "p.json"),
+                    item.path)
+    work = tmp_path / "frame"
+    work.mkdir()
+    frame = os.path.join(src, "cam0_20220715_171127.jpg")
+    shutil.copy(frame, work)
+    shutil.copy(E.annotation_path(frame), work)
+    shutil.copy(os.path.join(MSL, "obj.names"), tmp_path)
+    status, rep = run([work, "--palette", tmp_path / "p.json"], tmp_path)
+    assert status == 0
+    (img,) = rep["folders"][0]["images"]
+    (ball,) = [t for t in img["truth"] if t["class"] == "ball"]
+    assert ball["band"] == ">30" and ball["found"], ball
+    assert img["false"] == 0
+    people = []
+    for line in open(E.annotation_path(frame)):
+        k, cx, cy, w, h = line.split()
+        if names[int(k)] == "human":
+            cx, cy = float(cx) * 608, float(cy) * 800
+            w, h = float(w) * 608, float(h) * 800
+            people.append((cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2))
+    shirts = [d for d in img["rejected"] if d["area"] >= 1000 and any(
+        x0 <= d["centre"][0] <= x1 and y0 <= d["centre"][1] <= y1
+        for x0, y0, x1, y1 in people)]
+    assert len(shirts) >= 2, img["rejected"]
+    assert all(d["reason"] == "ellipse-fit" for d in shirts)

@@ -13,8 +13,14 @@
 #   LANDMARK_FUZZ_SECONDS=0 bash scripts/sanitize.sh     (sanitizer tests only)
 #   LANDMARK_FUZZ_TARGETS="map chain" bash scripts/sanitize.sh
 set -euo pipefail
-# clang, its ASan/UBSan/libFuzzer runtimes, llvm-symbolizer for reports
-LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} clang-14 libclang-rt-14-dev llvm-14"
+# clang, its ASan/UBSan/libFuzzer runtimes, llvm-symbolizer for reports:
+# the distribution's own version (Debian 12: 14, Debian 13: 19)
+case "$(. /etc/os-release 2>/dev/null; echo "${ID:-}:${VERSION_ID:-0}")" in
+  debian:13*) clang_default=19 ;;
+  *) clang_default=14 ;;
+esac
+CLANG_VERSION=${LANDMARK_CLANG_VERSION:-$clang_default}
+LANDMARK_EXTRA_APT="${LANDMARK_EXTRA_APT:-} clang-$CLANG_VERSION libclang-rt-$CLANG_VERSION-dev llvm-$CLANG_VERSION"
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 SAN_BUILD=${LANDMARK_SANITIZE_BUILD_DIR:-$ROOT/build-sanitize}
@@ -39,15 +45,15 @@ options=(-Db_sanitize=address,undefined -Db_lundef=false -Dfuzz=enabled
   -Dtests=enabled -Dpython=disabled "-Dc_args=$san_args" "-Dcpp_args=$san_args"
   "-Dc_link_args=-Wl,--no-as-needed -lstdc++" "-Dcpp_link_args=-Wl,--no-as-needed")
 if [ ! -f "$SAN_BUILD/build.ninja" ]; then
-  slog "configuring $SAN_BUILD (clang-14, ASan + UBSan, libFuzzer)"
-  CC=clang-14 CXX=clang++-14 meson setup "$SAN_BUILD" "$ROOT" "${options[@]}" >/dev/null
+  slog "configuring $SAN_BUILD (clang-$CLANG_VERSION, ASan + UBSan, libFuzzer)"
+  CC=clang-$CLANG_VERSION CXX=clang++-$CLANG_VERSION meson setup "$SAN_BUILD" "$ROOT" "${options[@]}" >/dev/null
 else
   meson setup --reconfigure "$SAN_BUILD" "$ROOT" "${options[@]}" >/dev/null
 fi
 slog "building"
 ninja -C "$SAN_BUILD" -j2 >/dev/null
 
-symbolizer=$(command -v llvm-symbolizer-14 || command -v llvm-symbolizer || true)
+symbolizer=$(command -v "llvm-symbolizer-$CLANG_VERSION" || command -v llvm-symbolizer || true)
 export ASAN_OPTIONS="detect_leaks=1:fast_unwind_on_malloc=0:abort_on_error=1:halt_on_error=1:detect_stack_use_after_return=1:check_initialization_order=1${symbolizer:+:external_symbolizer_path=$symbolizer}"
 export UBSAN_OPTIONS="halt_on_error=1:abort_on_error=1:print_stacktrace=1${symbolizer:+:external_symbolizer_path=$symbolizer}"
 export LSAN_OPTIONS="suppressions=$ROOT/tests/sanitize/lsan.supp:print_suppressions=0"

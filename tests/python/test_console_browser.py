@@ -28,6 +28,7 @@ from selenium.webdriver.common.action_chains import ActionChains  # noqa
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 
+from gstlandmark.commands.console import open_urls  # noqa: E402
 from gstlandmark.commands.console.engine import Engine  # noqa: E402
 from test_console import clip_engine  # noqa: E402
 
@@ -83,7 +84,7 @@ class ServerThread:
             await runner.setup()
             await web.TCPSite(runner, self.host, 0).start()
             await self.engine.start()
-            port = runner.addresses[0][1]
+            self.port = port = runner.addresses[0][1]
             self.url = f"http://{self.host}:{port}/"
             self.stop = asyncio.Event()
             self.loop = asyncio.get_running_loop()
@@ -259,11 +260,14 @@ def test_page_without_token_gets_nothing_off_loopback(gst, tmp_path,
     token = "browser-test-token-0123456789"
     engine = clip_engine(tmp_path, loop_file=True)
     with ServerThread(engine, token=token, host="0.0.0.0") as srv:
-        url = srv.url.replace("0.0.0.0", "127.0.0.1")
+        # the address printed for a wildcard is one a browser can open
+        urls = open_urls("0.0.0.0", srv.port, token)
+        assert "0.0.0.0" not in " ".join(urls)
+        url = urls[0].split("?")[0]
         browser.get(url)
         assert "missing or wrong token" in browser.find_element(
             By.TAG_NAME, "body").text
-        browser.get(url + "?token=" + token)
+        browser.get(urls[0])
         wait_for(browser, lambda d: re.match(
             r"\d+\.\d frames/s", d.find_element(By.ID, "fps").text),
             "frames with the token")
@@ -510,8 +514,7 @@ def jpeg_pixels(data):
 
 def shows(browser, data, other=None):
     """The page's video is the JPEG ``data`` (mean difference below 2 of
-    255 at 80x60; the next frame of the clip differs by 5), and nearer it
-    than ``other``."""
+    255 at 80x60), and nearer it than ``other``."""
     import numpy as np
     seen = browser_pixels(browser)
     near = np.abs(seen - jpeg_pixels(data)).mean()
@@ -550,20 +553,30 @@ def test_the_video_shows_the_frame_sought_to_while_paused(gst, tmp_path,
 
 def test_the_position_slider_is_back_after_stop_then_start(gst, tmp_path,
                                                           browser):
+    """The page opened while stopped (no duration yet), then Start, Stop,
+    Start: the slider comes back each time."""
     engine = clip_engine(tmp_path, loop_file=True)
+
+    def press(action, state):
+        browser.find_element(
+            By.CSS_SELECTOR, f"button[data-action={action}]").click()
+        wait_for(browser, lambda d: engine.state == state, action)
+
+    def slider_shown(d):
+        return d.find_element(By.ID, "scrubber").is_displayed() and \
+            d.find_element(By.ID, "position").text.endswith("/ 1.50 s")
+
     with ServerThread(engine) as srv:
         open_page(browser, srv)
+        press("stop", "stopped")
+        browser.get(srv.url)
         wait_for(browser, lambda d: d.find_element(
-            By.ID, "scrubber").is_displayed(), "the slider")
-        for action in ("stop", "start"):
-            browser.find_element(
-                By.CSS_SELECTOR, f"button[data-action={action}]").click()
-            wait_for(browser, lambda d: engine.state in (
-                "stopped" if action == "stop" else "playing"), action)
-        wait_for(browser, lambda d: d.find_element(
-            By.ID, "scrubber").is_displayed() and d.find_element(
-            By.ID, "position").text.endswith("/ 1.50 s"),
-            "the slider after stop and start")
+            By.ID, "state").text == "stopped", "the page, stopped")
+        press("start", "playing")
+        wait_for(browser, slider_shown, "the slider after start")
+        press("stop", "stopped")
+        press("start", "playing")
+        wait_for(browser, slider_shown, "the slider after stop and start")
 
 
 def test_the_classes_view_shows_the_paused_frame(gst, tmp_path, browser):
@@ -601,3 +614,42 @@ def test_layout_fits_a_narrow_window(gst, tmp_path, browser):
             "return [document.documentElement.scrollWidth, "
             "document.documentElement.clientWidth]")
         assert width[0] <= width[1], width
+
+
+def test_one_log_per_run_rotated_and_downloaded(gst, tmp_path, browser):
+    """Stop then Start begins a new log file named by its start time; a
+    run past the size bound goes on in a new file; the download is this
+    run's file, whole JSON lines."""
+    from test_console import CLIP, CLIP_PROPERTIES
+    engine = Engine(f"filesrc location={CLIP}/clip.avi ! decodebin",
+                    str(tmp_path / "out"),
+                    palette_path=os.path.join(CLIP, "palette.json"),
+                    map_path=os.path.join(CLIP, "map.json"),
+                    properties=CLIP_PROPERTIES, loop_file=True,
+                    log_max_bytes=60_000)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        first = engine.log_path
+        for action, state in (("stop", "stopped"), ("start", "playing")):
+            browser.find_element(
+                By.CSS_SELECTOR, f"button[data-action={action}]").click()
+            wait_for(browser, lambda d: engine.state == state, action)
+        assert engine.log_path != first
+        # about 4 KB a frame: 60 kB rotate within a second or two
+        wait_for(browser, lambda d: len(engine.log_files()) >= 3,
+                 "a rotated log")
+        text = browser.execute_async_script("""
+            const done = arguments[0];
+            fetch("download/log.jsonl").then(r => r.text()).then(done);""")
+    names = [os.path.basename(p) for p in engine.log_files()]
+    assert all(re.fullmatch(r"log-\d{8}-\d{6}(-\d+)?\.jsonl", n)
+               for n in names), names
+    assert os.path.isfile(first)
+    lines = [json.loads(line) for line in text.splitlines()]
+    assert lines
+    for path in engine.log_files():
+        with open(path) as f:
+            for line in f:
+                json.loads(line)        # whole lines, none cut
+        # checked about once a second: at most one more second of frames
+        assert os.path.getsize(path) < 60_000 + 40 * 4_500

@@ -7,8 +7,9 @@ import asyncio
 import json
 import secrets
 import signal
+import socket
 import sys
-from typing import Any, Dict, Optional
+from typing import Any, Dict, List, Optional
 
 from ..common import PROG, CliError, add_token_option
 
@@ -33,6 +34,28 @@ def read_project(path: str) -> Dict[str, Any]:
             "camera": variables.get("CAMERA"), "properties": properties}
 
 
+def open_urls(host: str, port: int, token: Optional[str]) -> List[str]:
+    """Addresses a browser can open for a server bound to ``host``: for
+    the wildcard (0.0.0.0, ::), loopback first, then this machine's own
+    addresses (a wildcard cannot be opened)."""
+    hosts = [host]
+    if host in ("0.0.0.0", "::", ""):
+        hosts = ["127.0.0.1"]
+        try:
+            found = socket.getaddrinfo(socket.gethostname(), None,
+                                       socket.AF_INET6 if host == "::"
+                                       else socket.AF_INET)
+        except OSError:
+            found = []
+        for *_, address in found:
+            if address[0] not in hosts and \
+                    not address[0].startswith(("127.", "::1", "fe80")):
+                hosts.append(address[0])
+    query = f"?token={token}" if token is not None else ""
+    return [f"http://{f'[{h}]' if ':' in h else h}:{port}/{query}"
+            for h in hosts]
+
+
 async def serve(engine, host: str, port: int, token: Optional[str],
                 ready=None) -> None:
     """Runs the server and the chain until SIGINT or SIGTERM."""
@@ -47,11 +70,11 @@ async def serve(engine, host: str, port: int, token: Optional[str],
     try:
         await engine.start()
         bound = runner_.addresses[0][1] if runner_.addresses else port
-        shown = f"[{host}]" if ":" in host else host
-        url = f"http://{shown}:{bound}/"
-        if token is not None:
-            url += f"?token={token}"
+        urls = open_urls(host, bound, token)
+        url = urls[0]
         print(f"{PROG} console: {url}", flush=True)
+        for other in urls[1:]:
+            print(f"{PROG} console: also {other}", flush=True)
         if ready is not None:
             ready(url)
         stop = asyncio.Event()

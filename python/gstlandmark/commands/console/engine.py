@@ -608,9 +608,43 @@ class Engine:
             self._bus_task = None
         self.pipe = None
 
+    def _check_log(self) -> None:
+        """A log file past log_max_bytes: landmarklog goes on in a new
+        file (restarted with its new name between two frames)."""
+        if self.pipe is None or self.state != "playing":
+            return
+        try:
+            if os.path.getsize(self.log_path) < self.log_max_bytes:
+                return
+        except OSError:
+            return
+        log = self.pipe.get_by_name("log")
+        sink = log.get_static_pad("sink")
+        upstream = sink.get_peer()
+        path = self._new_log_path()
+        self.log_path = path
+
+        def idle(pad, info):
+            log.set_state(Gst.State.NULL)
+            log.set_property("location", path)
+            log.sync_state_with_parent()
+            # the restarted element has lost the stream's sticky events
+            for kind in (Gst.EventType.STREAM_START, Gst.EventType.CAPS,
+                         Gst.EventType.SEGMENT):
+                event = pad.get_sticky_event(kind, 0)
+                if event is not None:
+                    sink.send_event(event)
+            return Gst.PadProbeReturn.REMOVE
+
+        upstream.add_probe(Gst.PadProbeType.IDLE, idle)
+
     async def _watch_bus(self) -> None:
         # polling keeps GLib's main loop out of the asyncio process
+        polls = 0
         while True:
+            polls += 1
+            if polls % 20 == 0:         # about once a second
+                self._check_log()
             pipe = self.pipe
             msg = None
             if pipe is not None:

@@ -131,15 +131,14 @@ def image_findings(palette, labels, source="image"):
 
 
 def _nearest_owner(pixels, palette):
+    """Class index of each (N, 3) L*a*b* pixel, as labsegment gives it
+    (every reference, shading segments included; no dominant rule)."""
     refs, owner = palette.reference_arrays()
-    best = np.zeros(len(pixels), dtype=np.int64)
-    best_d2 = np.full(len(pixels), np.inf)
-    for r in range(len(refs)):
-        d2 = ((pixels - refs[r]) ** 2).sum(axis=1)
-        closer = d2 < best_d2
-        best[closer] = owner[r]
-        best_d2[closer] = d2[closer]
-    return best, best_d2
+    lab = np.asarray(pixels, dtype=np.float32).reshape(-1, 1, 3)
+    labels = reference.classify(lab, refs, ref_class=owner,
+                                min_class_pixels=0,
+                                shading=palette.shading_arrays()).labels
+    return labels.reshape(-1).astype(np.int64) - 1
 
 
 def class_spread(pixels, cls):
@@ -158,7 +157,7 @@ def taught_confusions(palette, class_pixels):
         if name not in palette.names or not len(pixels):
             continue
         k = palette.index(name)
-        owner, _ = _nearest_owner(pal.sample_pixels(pixels, 0), palette)
+        owner = _nearest_owner(pal.sample_pixels(pixels, 0), palette)
         wrong = np.bincount(owner, minlength=len(palette)) / len(owner)
         wrong[k] = 0.0
         other = int(np.argmax(wrong))

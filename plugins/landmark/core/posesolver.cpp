@@ -182,17 +182,9 @@ geometry_name (Geometry g)
 const char *
 matched_by_name (MatchedBy m)
 {
-  switch (m) {
-    case MatchedBy::Pose:
-      return "pose";
-    case MatchedBy::Colour:
-      return "colour";
-    case MatchedBy::Prior:
-      return "prior";
-    case MatchedBy::None:
-      break;
-  }
-  return "";
+  /* in the enum's order */
+  static const char *const names[] = { "", "pose", "colour", "prior" };
+  return names[(int) m];
 }
 
 double

@@ -393,6 +393,18 @@ class LatestJpeg:
         return self.seq, self.data, self.time, self.pts
 
 
+
+def _keep_newest(paths: List[str], path: str, keep: int = 3) -> None:
+    """Appends path to the files the console wrote for the elements and
+    removes the oldest beyond ``keep``: an element may still be reading
+    the one before the newest."""
+    paths.append(path)
+    while len(paths) > keep:
+        try:
+            os.remove(paths.pop(0))
+        except OSError:
+            pass
+
 class Engine:
     """The running chain and what the server needs from it.
 
@@ -914,12 +926,7 @@ class Engine:
                             f"{self._palette_serial}{suffix}")
         copy_camera_file(self.camera_path, path,
                          {CAMERA_KEYS[p]: v for p, v in mounting.items()})
-        self._live_cameras.append(path)
-        while len(self._live_cameras) > 3:
-            try:
-                os.remove(self._live_cameras.pop(0))
-            except OSError:
-                pass
+        _keep_newest(self._live_cameras, path)
         return path
 
     def _set_checked(self, changes: Sequence[Tuple[str, str, Any]]
@@ -1010,13 +1017,7 @@ class Engine:
         if labsegment is not None:
             labsegment.set_property("palette", path)
         self.palette, self.palette_path = palette, path
-        self._live_palettes.append(path)
-        # the element may still be reading the previous file
-        while len(self._live_palettes) > 3:
-            try:
-                os.remove(self._live_palettes.pop(0))
-            except OSError:
-                pass
+        _keep_newest(self._live_palettes, path)
 
     def freeze(self) -> Dict[str, Any]:
         """Keeps the newest frame to teach on; its id, pts and size (the

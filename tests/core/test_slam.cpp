@@ -53,6 +53,7 @@ struct SimOptions {
   double odo_scale = 1.02, odo_drift = M_PI / 180;   /* rad per metre */
   Pose2 start;
   int blind_after = -1;           /* frames from which nothing is seen */
+  int blind_until = 0;            /* frames before which nothing is seen */
   /* nothing seen either on the last blind_frames of every blind_period */
   int blind_period = 0, blind_frames = 0;
   /* the odometry's slip: this many times the filter's stated sigmas,
@@ -146,6 +147,7 @@ run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
       const double b = wrap_angle (std::atan2 (dy, dx) - p.heading);
       if (r > o.max_range || r < 0.3 || std::fabs (b) > o.fov
           || (o.blind_after >= 0 && k >= o.blind_after)
+          || k < o.blind_until
           || (o.blind_period > 0 && k % o.blind_period
               >= o.blind_period - o.blind_frames))
         continue;
@@ -1131,6 +1133,171 @@ test_blind_stretch_new_landmark ()
       "pose %f %f %f, truth %f 0 0", p.x, p.y, p.heading, x);
 }
 
+/* A robot that drives 7 m before it sees anything (no map, odometry whose
+ * scale error and heading drift are drawn from the filter's priors, 5 %
+ * and 0.05 rad/m, with the slip it states): the heading's sigma relative
+ * to the start is past 15 degrees when the first landmarks come into view
+ * (two loops of the core field placed at the end of the straight). They
+ * are mapped, not refused as uncertain-heading: without a map the frame
+ * is free and a heading error shared by the pose and the map is a turn of
+ * it. Checked over fixed seeds, in the frame that puts the final
+ * estimated pose on the true one: every landmark seen often mapped once
+ * (none missing, extra or merged within 0.15 m); the map after the best
+ * rigid alignment within 3 cm RMS; and the landmarks' positions relative
+ * to the robot (free of the frame) not over-confident: their NEES (2 dof,
+ * the joint covariance of the pose and the landmark) averaged over the
+ * seeds and landmarks below the one-sided 99 % bound of such a mean, and
+ * inside chi-square's 95 % on 90 % of them or more. */
+static void
+test_blind_start ()
+{
+  const double straight = 7.0, v = 0.3;
+  const int blind = (int) std::lround (straight / v * 30);
+  auto truth = field ();
+  for (auto & t : truth)
+    t.x += straight;
+  std::vector<Pose2> path;
+  for (int k = 0; k < blind; k++) {
+    Pose2 p;
+    p.x = v * k / 30.0;
+    path.push_back (p);
+  }
+  SimOptions loop;
+  for (int k = 0; k < loop.frames; k++) {
+    Pose2 p = truth_pose (loop, k);
+    p.x += straight;
+    path.push_back (p);
+  }
+  const int seeds = 8;
+  double nees_sum = 0;
+  int nees_n = 0, nees_inside = 0;
+  double worst_rms = 0, min_sigma = 1e9;
+  int worst_missing = 0, worst_extra = 0, worst_merged = 0;
+  std::mt19937 draw (34);
+  std::normal_distribution<double> g (0, 1);
+  for (int seed = 1; seed <= seeds; seed++) {
+    SimOptions o;
+    o.path = &path;
+    o.frames = (int) path.size ();
+    o.seed = seed;
+    o.odometry = true;
+    o.blind_until = blind;
+    o.odo_slip = 1;
+    o.odo_scale = 1 + o.slam.odo_scale_sigma * g (draw);
+    o.odo_drift = o.slam.odo_drift_sigma * g (draw);
+    /* the heading's sigma when the landmarks come into view */
+    SimOptions before = o;
+    before.frames = blind;
+    SimResult b;
+    run (before, truth, &b);
+    double c[9];
+    b.slam.pose_cov (c);
+    const double sigma = std::sqrt (c[8]) * 180 / M_PI;
+    min_sigma = std::min (min_sigma, sigma);
+    SimResult r;
+    run (o, truth, &r);
+    /* the estimate in the truth's frame through the final pose */
+    const Pose2 pe = r.est.back (), pt = r.true_path.back ();
+    Rigid to;
+    const double a = wrap_angle (pt.heading - pe.heading);
+    to.c = std::cos (a);
+    to.s = std::sin (a);
+    to.tx = pt.x - (to.c * pe.x - to.s * pe.y);
+    to.ty = pt.y - (to.s * pe.x + to.c * pe.y);
+    const auto & lms = r.slam.landmarks ();
+    std::vector<int> owner (lms.size (), -1);
+    std::vector<double> ax, ay, bx, by;
+    int missing = 0, extra = 0, merged = 0;
+    for (size_t i = 0; i < truth.size (); i++) {
+      int best = -1;
+      double bd = 0.15;
+      for (size_t k = 0; k < lms.size (); k++) {
+        double x, y;
+        to.apply (lms[k].x, lms[k].y, &x, &y);
+        const double d = std::hypot (x - truth[i].x, y - truth[i].y);
+        if (lms[k].confirmed && lms[k].class_name == truth[i].cls && d < bd) {
+          bd = d;
+          best = (int) k;
+        }
+      }
+      if (best < 0) {
+        missing += r.seen[i] >= 90;
+        continue;
+      }
+      merged += owner[best] >= 0;
+      owner[best] = (int) i;
+      ax.push_back (lms[best].x);
+      ay.push_back (lms[best].y);
+      bx.push_back (truth[i].x);
+      by.push_back (truth[i].y);
+      /* relative to the robot: q = R(th)' (l - p), its covariance
+       * J C J' with J = [-R', (q_y, -q_x), R'] over (x, y, th, lx, ly) */
+      const double ch = std::cos (pe.heading), sh = std::sin (pe.heading);
+      const double qx = ch * (lms[best].x - pe.x) + sh * (lms[best].y - pe.y),
+          qy = -sh * (lms[best].x - pe.x) + ch * (lms[best].y - pe.y);
+      const double ct = std::cos (pt.heading), st = std::sin (pt.heading);
+      const double tx = ct * (truth[i].x - pt.x) + st * (truth[i].y - pt.y),
+          ty = -st * (truth[i].x - pt.x) + ct * (truth[i].y - pt.y);
+      double C[25];
+      r.slam.joint_cov ((size_t) best, C);
+      const double J[2][5] = { { -ch, -sh, qy, ch, sh },
+        { sh, -ch, -qx, -sh, ch } };
+      double Q[2][2] = { { 0, 0 }, { 0, 0 } };
+      for (int u = 0; u < 2; u++)
+        for (int w = 0; w < 2; w++)
+          for (int m = 0; m < 5; m++)
+            for (int n = 0; n < 5; n++)
+              Q[u][w] += J[u][m] * C[m * 5 + n] * J[w][n];
+      const double det = Q[0][0] * Q[1][1] - Q[0][1] * Q[1][0];
+      const double ex = qx - tx, ey = qy - ty;
+      const double nees = (Q[1][1] * ex * ex - 2 * Q[0][1] * ex * ey
+          + Q[0][0] * ey * ey) / det;
+      nees_sum += nees;
+      nees_n++;
+      nees_inside += nees <= chi2_quantile (0.95, 2);
+    }
+    for (size_t k = 0; k < owner.size (); k++)
+      extra += owner[k] < 0 && lms[k].confirmed;
+    double rms = NAN;
+    if (ax.size () >= 2) {
+      const Rigid t = align (ax, ay, bx, by);
+      double sum = 0;
+      for (size_t i = 0; i < ax.size (); i++) {
+        double x, y;
+        t.apply (ax[i], ay[i], &x, &y);
+        sum += std::pow (x - bx[i], 2) + std::pow (y - by[i], 2);
+      }
+      rms = std::sqrt (sum / ax.size ());
+    }
+    std::printf ("blind start seed %d: odometry scale %+.3f, drift %+.2f "
+        "deg/m, heading sigma %.1f deg after %.0f m; %zu landmarks, %zu "
+        "matched (truth %zu), missing %d extra %d merged %d, aligned map "
+        "rms %.4f m\n", seed, o.odo_scale - 1, o.odo_drift * 180 / M_PI,
+        sigma, straight, lms.size (), ax.size (), truth.size (), missing,
+        extra, merged, rms);
+    worst_rms = std::isnan (rms) ? INFINITY : std::max (worst_rms, rms);
+    worst_missing = std::max (worst_missing, missing);
+    worst_extra = std::max (worst_extra, extra);
+    worst_merged = std::max (worst_merged, merged);
+  }
+  /* the mean of n chi-square(2) values: chi-square(2 n) / n */
+  const double mean = nees_n ? nees_sum / nees_n : INFINITY;
+  const double bound = nees_n ? chi2_quantile (0.99, 2 * nees_n) / nees_n : 0;
+  const double inside = nees_n ? nees_inside / (double) nees_n : 0;
+  std::printf ("blind start: heading sigma at the first landmark >= %.1f "
+      "deg; landmarks relative to the robot: NEES mean %.2f over %d (bound "
+      "%.2f), inside 95 %% on %.1f %%\n", min_sigma, mean, nees_n, bound,
+      100 * inside);
+  CHECK (min_sigma > 15, "heading sigma %f deg", min_sigma);
+  CHECK (worst_missing == 0 && worst_extra == 0 && worst_merged == 0,
+      "missing %d extra %d merged %d", worst_missing, worst_extra,
+      worst_merged);
+  CHECK (worst_rms < 0.03, "aligned map rms %f", worst_rms);
+  CHECK (nees_n >= seeds * (int) truth.size () / 2 && mean < bound,
+      "NEES mean %f over %d, bound %f", mean, nees_n, bound);
+  CHECK (inside >= 0.9, "NEES inside on %f", inside);
+}
+
 /* Relocalisation among many landmarks of one colour: 250 red discs mapped
  * over a 16 m x 16 m field (0.3 m apart or more) and a blue, a green and a
  * yellow one that place the first pose; the robot stands at the centre
@@ -1460,6 +1627,7 @@ main ()
   test_sharp_turns ();
   test_new_waits_for_heading ();
   test_blind_stretch_new_landmark ();
+  test_blind_start ();
   test_relocalise_among_many ();
   test_relocalise_repeated_pattern ();
   test_odometry_slip_learnt ();

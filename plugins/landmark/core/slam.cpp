@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <utility>
 #include <unordered_map>
 
 namespace landmark {
@@ -145,6 +146,7 @@ Slam::reset ()
   init_ = false;
   s_.clear ();
   p_.clear ();
+  std::fill (frame_cov_, frame_cov_ + 9, 0.0);
   /* keep the anchors, drop what was learnt */
   std::vector<SlamLandmark> keep;
   for (const auto & l : lm_)
@@ -185,13 +187,67 @@ Slam::pose () const
   return p;
 }
 
+/* The frame's own uncertainty (frame_cov_, the pose's when the filter was
+ * last rebased on it) moved to a point (px, py) of the state: a turn of
+ * the frame about its origin moves the point by J (p - origin). */
+void
+Slam::frame_cov_at (double px, double py, double out[9]) const
+{
+  const double ax = -(py - frame_.y), ay = px - frame_.x;
+  const double A[3][3] = { { 1, 0, ax }, { 0, 1, ay }, { 0, 0, 1 } };
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++) {
+      double v = 0;
+      for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+          v += A[i][a] * frame_cov_[a * 3 + b] * A[j][b];
+      out[i * 3 + j] = v;
+    }
+}
+
 void
 Slam::pose_cov (double cov[9]) const
 {
   const size_t N = n ();
+  double f[9];
+  frame_cov_at (init_ ? s_[0] : 0, init_ ? s_[1] : 0, f);
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++)
-      cov[i * 3 + j] = init_ ? p_[i * N + j] : 0;
+      cov[i * 3 + j] = init_ ? p_[i * N + j] + f[i * 3 + j] : 0;
+}
+
+void
+Slam::rebase ()
+{
+  /* Without anchors and with no landmark in the state, nothing the
+   * filter will ever measure is tied to the start: the pose's uncertainty
+   * relative to it (the heading a drift of 0.05 rad/m gives over a blind
+   * stretch) is the frame's. Kept in the filter, the odometry states it
+   * is correlated with (the drift that made it) turn the whole map by it
+   * when the landmarks reveal them, a linearised turn of tens of degrees
+   * that left the landmarks' positions relative to the robot
+   * over-confident (NEES mean 4.3 on the core blind-start test, 1.4
+   * with the same odometry seeing landmarks at once). So the filter is
+   * rebased: the pose's covariance and its correlations leave P (the
+   * filter is then relative to the frame placed at this pose) and are
+   * kept as frame_cov_, added back to what is reported in the first
+   * pose's frame (pose_cov, the landmarks' cov). Exact for everything
+   * measured (relative); the reported covariances omit the frame's
+   * correlation with the odometry states' later effect. */
+  const int N = (int) n ();
+  double cov[9];
+  pose_cov (cov);
+  std::copy (cov, cov + 9, frame_cov_);
+  frame_ = pose ();
+  auto clear = [&](double *M) {
+    for (int i = 0; i < 3; i++)
+      for (int j = 0; j < N; j++)
+        M[i * N + j] = M[j * N + i] = 0;
+  };
+  clear (p_.data ());
+  if (slip_tracked ())
+    for (auto & d : dp_)
+      clear (d.data ());
 }
 
 void
@@ -461,10 +517,12 @@ Slam::sync_landmarks ()
       continue;
     lm_[k].x = s_[sl];
     lm_[k].y = s_[sl + 1];
-    lm_[k].cov[0] = p_[sl * N + sl];
-    lm_[k].cov[1] = p_[sl * N + sl + 1];
-    lm_[k].cov[2] = p_[(sl + 1) * N + sl];
-    lm_[k].cov[3] = p_[(sl + 1) * N + sl + 1];
+    double f[9];
+    frame_cov_at (s_[sl], s_[sl + 1], f);
+    lm_[k].cov[0] = p_[sl * N + sl] + f[0];
+    lm_[k].cov[1] = p_[sl * N + sl + 1] + f[1];
+    lm_[k].cov[2] = p_[(sl + 1) * N + sl] + f[3];
+    lm_[k].cov[3] = p_[(sl + 1) * N + sl + 1] + f[4];
   }
 }
 
@@ -494,6 +552,60 @@ Slam::confirm_known ()
     if (max_sigma_2x2 (c) <= opt.confirm_sigma)
       l.confirmed = true;
   }
+}
+
+double
+Slam::heading_var_to_map () const
+{
+  const int N = (int) n ();
+  /* anchors are exact: the marginal is already relative to them */
+  if (anchored_)
+    return p_[2 * N + 2];
+  /* the map's orientation: the least-squares turn of its landmarks about
+   * their centroid, phi = sum_i (-d_iy dx_i + d_ix dy_i) / sum_i |d_i|^2
+   * for displacements (dx_i, dy_i), d_i = l_i - centroid (the centroid's
+   * own shift is a translation: sum_i J d_i = 0 takes it out) */
+  std::vector<int> slots;
+  double cx = 0, cy = 0;
+  for (int sl : slot_)
+    if (sl >= 0) {
+      slots.push_back (sl);
+      cx += s_[sl];
+      cy += s_[sl + 1];
+    }
+  /* fewer than two: no orientation for a heading to be wrong against */
+  if (slots.size () < 2)
+    return 0;
+  cx /= slots.size ();
+  cy /= slots.size ();
+  double D = 0;
+  for (int sl : slots)
+    D += std::pow (s_[sl] - cx, 2) + std::pow (s_[sl + 1] - cy, 2);
+  if (!(D > 1e-12))
+    return p_[2 * N + 2];
+  /* a' P a over the non-zero entries of a = d(heading - phi) / d(state) */
+  std::vector<std::pair<int, double>> a { { 2, 1.0 } };
+  for (int sl : slots) {
+    a.push_back ({ sl, (s_[sl + 1] - cy) / D });
+    a.push_back ({ sl + 1, -(s_[sl] - cx) / D });
+  }
+  double v = 0;
+  for (const auto & [i, ai] : a)
+    for (const auto & [j, aj] : a)
+      v += ai * aj * p_[i * N + j];
+  return std::max (0.0, v);
+}
+
+void
+Slam::joint_cov (size_t k, double cov[25]) const
+{
+  const int N = (int) n ();
+  const int sl = k < slot_.size ()? slot_[k] : -1;
+  const int idx[5] = { 0, 1, 2, sl, sl + 1 };
+  for (int i = 0; i < 5; i++)
+    for (int j = 0; j < 5; j++)
+      cov[i * 5 + j] = init_ && (i < 3 || sl >= 0) && (j < 3 || sl >= 0)
+          ? p_[idx[i] * N + idx[j]] : 0;
 }
 
 void
@@ -1355,14 +1467,21 @@ Slam::update (const std::vector<SlamObservation> & obs)
     }
     /* A landmark starts from the pose: its position is off by
      * r (1 - cos e) ~ r e^2 / 2 for a heading error e, which the
-     * linearised covariance leaves out. With the heading's sigma at
-     * tens of degrees (after a turn bridged on no landmark) that is
-     * decimetres at 2 m: the copy would be confirmed where the pose
-     * was wrong and later pull the pose there. Wait until that error
-     * is within the map accuracy asked for (confirm_sigma); tested
-     * before the gates below, which cost a pairing per landmark of the
-     * class (on a lost frame among many, most of its time) */
-    if (0.5 * obs[i].obs.range () * p_[2 * n () + 2] > opt.confirm_sigma) {
+     * linearised covariance leaves out. What matters is the heading's
+     * error relative to the map the landmark joins: with the heading's
+     * sigma at tens of degrees relative to the mapped landmarks (after a
+     * turn bridged on no landmark) that is decimetres at 2 m, the copy
+     * would be confirmed where the pose was wrong and later pull the
+     * pose there. Wait until that error is within the map accuracy asked
+     * for (confirm_sigma). The heading's error relative to the start is
+     * no reason: without anchors, a heading error shared by the pose and
+     * the map is a turn of the free frame (a robot that drove 7 m before
+     * its first landmark, 20 degrees off the start, still maps; its
+     * covariance holds that turn to first order). Tested before the
+     * gates below, which cost a pairing per landmark of the class (on a
+     * lost frame among many, most of its time) */
+    if (0.5 * obs[i].obs.range () * heading_var_to_map ()
+        > opt.confirm_sigma) {
       f.reasons[i] = "uncertain-heading";
       continue;
     }
@@ -1388,6 +1507,9 @@ Slam::update (const std::vector<SlamObservation> & obs)
       f.reasons[i] = "map-full";
       continue;
     }
+    if (!anchored_ && std::none_of (slot_.begin (), slot_.end (),
+            [](int sl) { return sl >= 0; }))
+      rebase ();
     SlamLandmark l;
     l.class_name = obs[i].class_name;
     l.z = obs[i].marker_z;

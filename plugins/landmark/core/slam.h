@@ -172,6 +172,18 @@ public:
   Pose2 pose () const;
   void pose_cov (double cov[9]) const;
   const std::vector<SlamLandmark> & landmarks () const { return lm_; }
+  /* The joint covariance of the pose (x, y, heading) and landmark k
+   * (x, y), 5 x 5 row-major, as filtered: without the frame's own
+   * uncertainty that pose_cov and the landmarks' cov add (rebase ()),
+   * which a quantity relative to the robot (a landmark's position in its
+   * frame) does not have. An anchor's rows are zero. */
+  void joint_cov (size_t k, double cov[25]) const;
+  /* The heading's variance relative to the map: with anchors, its
+   * marginal; without, that of the heading minus the orientation of the
+   * landmarks in the state (their least-squares turn about their
+   * centroid), 0 with fewer than two (the frame's orientation is then
+   * free: a heading error is the frame's). */
+  double heading_var_to_map () const;
 
   /* Constant-velocity prediction over dt seconds. */
   void predict (double dt);
@@ -233,6 +245,13 @@ private:
 
   size_t n () const { return s_.size (); }
   void init_pose (const Pose2 & p, const double cov[9]);
+  /* without anchors, the pose's uncertainty relative to the first pose
+   * when the filter was rebased (the map empty, a landmark starting),
+   * and that pose: the frame's, reported, not filtered (rebase ()) */
+  double frame_cov_[9] = { 0 };
+  Pose2 frame_;
+  void rebase ();
+  void frame_cov_at (double px, double py, double out[9]) const;
   void add_landmark (const SlamObservation & o, SlamLandmark lm);
   void remove_landmark (size_t k);
   void sync_landmarks ();

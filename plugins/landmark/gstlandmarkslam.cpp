@@ -27,7 +27,9 @@
  *
  * `odometry=PATH` reads a JSON-lines file of robot-frame increments
  * (`{"t": s, "dx": m, "dy": m, "dheading": rad}`, stream time) in place of
- * the constant-velocity model; `camera-forward` says how far ahead of the
+ * the constant-velocity model, a line stamped up to `odometry-tolerance`
+ * (1 ms) after a frame counting for that frame; `camera-forward` says how
+ * far ahead of the
  * point whose motion the odometry reports (a wheeled robot's turning
  * centre) the camera is; `odometry-slip`, `odometry-heading-slip` and
  * `odometry-turn-slip` state its slip (random walks, synth's units), and
@@ -101,6 +103,8 @@ struct Settings {
   gdouble confirm_sigma = 0.03;
   gdouble gate = 13.82;
   gdouble camera_forward = 0;
+  /* ns an odometry line may be stamped after the frame it belongs to */
+  guint64 odometry_tolerance = 1000000;
   /* the odometry's slip, as gst-landmark synth states it (random walks) */
   gdouble odometry_slip = 0.002;
   gdouble odometry_heading_slip = 0.002;
@@ -193,6 +197,11 @@ slam_properties ()
           "JSON lines of robot-frame increments {\"t\", \"dx\", \"dy\", "
           "\"dheading\"} (seconds of stream time, metres, radians); none: "
           "constant-velocity model", &Settings::odometry)
+      .number ("odometry-tolerance", "Odometry tolerance",
+          "Nanoseconds an odometry line's time may be after a frame's and "
+          "still count for that frame (timestamps rounded differently: a "
+          "demuxer truncating, stamps written to the millisecond)",
+          &Settings::odometry_tolerance, (guint64) 0, (guint64) GST_SECOND)
       .number ("camera-forward", "Camera forward",
           "Metres the camera's floor point is ahead of the point whose "
           "motion the odometry reports (the turning centre, the middle of a "
@@ -537,7 +546,11 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
     if (!GST_CLOCK_TIME_IS_VALID (ta) && GST_CLOCK_TIME_IS_VALID (tb)
         && st.last_time < seg->start)
       ta = gst_segment_to_stream_time (seg, GST_FORMAT_TIME, seg->start);
-    const double a = (double) ta / GST_SECOND;
+    /* a line stamped up to odometry-tolerance after a frame is that
+     * frame's: the frames (a, b] take the lines (a + tol, b + tol] */
+    const double tol = (double) st.applied.config.s.odometry_tolerance
+        / GST_SECOND;
+    const double a = (double) ta / GST_SECOND + tol;
     if (log.empty ()) {
       std::unique_lock<std::mutex> lk (st.live_lock);
       const landmark::OdometrySum live = st.live;
@@ -564,7 +577,7 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
       slam.predict (dt);
     } else {
       double dx, dy, dh;
-      landmark::odometry_between (log, a, (double) tb / GST_SECOND,
+      landmark::odometry_between (log, a, (double) tb / GST_SECOND + tol,
           &st.odometry_next, &dx, &dy, &dh);
       slam.predict_odometry (dx, dy, dh, dt);
     }

@@ -278,6 +278,40 @@ def test_frames_before_the_segment_are_not_past_the_odometry(gst, tmp_path):
     assert moved and warnings == []
 
 
+def test_odometry_stamped_after_its_frame(gst, tmp_path):
+    """An odometry line stamped ``ceil(i * 1e9 / 30)`` ns, 1 ns after the
+    frame time a demuxer truncates (``floor``, as avidemux and videotestsrc
+    do) on two frames of three, is applied to its own frame (within
+    odometry-tolerance, 1 ms by default); with odometry-tolerance=0 those
+    lines are applied one frame late (what every line was before the
+    tolerance). Each line moves the robot a different distance, and with no
+    landmark the pose is the sum of the lines applied so far."""
+    n = 30
+    odo = tmp_path / "odometry.jsonl"
+    odo.write_text("".join(json.dumps({
+        "t": -(-i * 10**9 // 30) / 1e9, "dx": 0.001 * i, "dy": 0.0,
+        "dheading": 0.0}) + "\n" for i in range(1, n)))
+    caps = "video/x-raw,width=64,height=48,framerate=30/1"
+
+    def poses(extra):
+        out = []
+        pipeline.run_to_eos(
+            f"videotestsrc num-buffers={n} ! {caps} ! "
+            f"landmarkslam odometry={odo} {extra} ! fakesink name=sink", 30,
+            lambda pad, buf: out.append((buf.pts, meta.pose(buf))))
+        return out
+
+    frames = poses("")
+    assert [t for t, _ in frames] == [i * 10**9 // 30 for i in range(n)]
+    assert sum(1 for i in range(n) if i * 10**9 % 30) == 20
+    want = [0.001 * i * (i + 1) / 2 for i in range(n)]
+    got = [p.x for _, p in frames]
+    assert np.allclose(got, want, atol=1e-9), list(zip(got, want))
+    late = [p.x for _, p in poses("odometry-tolerance=0")]
+    wrong = [i for i in range(n) if abs(late[i] - want[i]) > 1e-9]
+    assert wrong and all(i * 10**9 % 30 for i in wrong), wrong
+
+
 def test_bad_value_while_playing_keeps_previous_settings(gst, tmp_path):
     """A bad odometry file set while playing, together with a new anchor
     map, is one warning naming 'odometry' and the previous settings stay

@@ -478,12 +478,6 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
         cfg.min_ellipse_fit : b.touches_border ? landmark::kShapeFitLarge :
         landmark::shape_fit_threshold (b.ellipse_major, b.ellipse_minor);
     bool marginal = false;
-    if (!reject && cfg.min_ellipse_fit < 0 &&
-        cfg.shape == GST_BLOB_ROUNDNESS_SHAPE_ELLIPSE &&
-        b.ellipse_minor < landmark::kMinBlobThicknessPx) {
-      reject = "thin";
-      marginal = !b.touches_border;
-    }
     if (!reject) {
       if (cfg.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE) {
         if (b.roundness < cfg.min_roundness)
@@ -496,6 +490,11 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
         marginal = cfg.min_ellipse_fit < 0 && !b.touches_border &&
             b.ellipse_fit >= landmark::shape_marginal_threshold
             (b.ellipse_major, b.ellipse_minor);
+      } else if (cfg.min_ellipse_fit < 0 &&
+          b.ellipse_minor < landmark::kMinBlobThicknessPx) {
+        /* elliptical but thin: an edge's blend as much as a far disc */
+        reject = "thin";
+        marginal = !b.touches_border;
       }
     }
     if (reject)

@@ -598,7 +598,7 @@ gst_ipm_range_cut_blob_fits_no_marker (GstIpmRange * self,
 static const char *
 gst_ipm_range_check_size (GstIpmRange * self,
     const landmark::BlobObservation & obs, const landmark::MarkerSpec & m,
-    const landmark::RangeEstimate & e, bool cut, bool marginal,
+    const landmark::RangeEstimate & e, bool cut, bool marginal, bool thin,
     GstStructure * s)
 {
   landmark::ImageEllipse predicted;
@@ -617,10 +617,12 @@ gst_ipm_range_check_size (GstIpmRange * self,
   gst_structure_set (s, "size-agreement", G_TYPE_DOUBLE, agreement,
       "size-threshold", G_TYPE_DOUBLE, threshold, nullptr);
   /* blobroundness's near miss: only an image no rectangle could give
-   * makes it a marker */
+   * makes it a marker; a thin blob passed the shape test, and the image a
+   * marker has there is what tells a far disc from an edge's blend */
   if (marginal)
     gst_structure_set (s, "shape-confirmed", G_TYPE_BOOLEAN,
-        agreement >= landmark::kSizeAgreementMarginal, nullptr);
+        agreement >= (thin ? threshold : landmark::kSizeAgreementMarginal),
+        nullptr);
   return agreement < threshold ? "size" : nullptr;
 }
 
@@ -637,8 +639,11 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   guint fw = 0, fh = 0;
   bool have_centroid = false;
   gboolean marginal = FALSE;
+  bool thin = false;
   if (blob) {
     gst_structure_get_boolean (blob, "shape-marginal", &marginal);
+    thin = g_strcmp0 (gst_structure_get_string (blob, "reject-reason"),
+        "thin") == 0;
     have_centroid = gst_structure_get_double (blob, "centroid-x", &obs.u)
         && gst_structure_get_double (blob, "centroid-y", &obs.v);
     obs.has_ellipse = gst_structure_get_double (blob, "ellipse-x", &obs.eu)
@@ -826,7 +831,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   const char *reject = nullptr;
   if (cfg.s.check_size)
     reject = gst_ipm_range_check_size (self, obs, chosen ? *chosen : marker,
-        e, cut, marginal, s);
+        e, cut, marginal, thin, s);
   gst_structure_set (s, "kept", G_TYPE_BOOLEAN, reject == nullptr, nullptr);
   if (reject)
     gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);

@@ -638,6 +638,9 @@ def test_one_log_per_run_rotated_and_downloaded(gst, tmp_path, browser):
         # about 4 KB a frame: 60 kB rotate within a second or two
         wait_for(browser, lambda d: len(engine.log_files()) >= 3,
                  "a rotated log")
+        # a file just begun holds no frame yet
+        wait_for(browser, lambda d: os.path.getsize(engine.log_path) > 0,
+                 "a frame in the newest log")
         text = browser.execute_async_script("""
             const done = arguments[0];
             fetch("download/log.jsonl").then(r => r.text()).then(done);""")

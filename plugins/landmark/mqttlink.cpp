@@ -62,6 +62,14 @@ std::string
 MqttLink::problem_text (int rc, int err) const
 {
   const std::string where = c_.host + ":" + std::to_string (c_.port);
+  /* libmosquitto 2.0.21 (Debian 13) reports a refused certificate as
+   * errno EPROTO, 2.0.11 (Debian 12) as MOSQ_ERR_TLS */
+  if (rc == MOSQ_ERR_TLS || rc == MOSQ_ERR_TLS_HANDSHAKE ||
+      (rc == MOSQ_ERR_ERRNO && err == EPROTO && !c_.tls_ca_file.empty ()))
+    return "TLS with the broker at " + where + " failed: check "
+        "'tls-ca-file' (it must have signed the broker's certificate, "
+        "whose name must match 'host'), 'tls-cert-file' and "
+        "'tls-key-file'";
   switch (rc) {
     case MOSQ_ERR_EAI:
       return "cannot resolve 'host' \"" + c_.host + "\": " +
@@ -69,12 +77,6 @@ MqttLink::problem_text (int rc, int err) const
     case MOSQ_ERR_ERRNO:
       return "cannot reach the broker at " + where + " ('host', 'port'): " +
           g_strerror (err);
-    case MOSQ_ERR_TLS:
-    case MOSQ_ERR_TLS_HANDSHAKE:
-      return "TLS with the broker at " + where + " failed: check "
-          "'tls-ca-file' (it must have signed the broker's certificate, "
-          "whose name must match 'host'), 'tls-cert-file' and "
-          "'tls-key-file'";
     case MOSQ_ERR_CONN_LOST:
       return "lost the connection to the broker at " + where;
     default:

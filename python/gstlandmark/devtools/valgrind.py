@@ -63,8 +63,10 @@ def _frames(error: ET.Element) -> List[Dict[str, str]]:
 
 
 def _is_ours(frame: Dict[str, str], source_root: str) -> bool:
+    # only an absolute source folder: Debian 13's libc debug data names
+    # relative ones (./elf), which would resolve into the current folder
     return (OUR_OBJECT in os.path.basename(frame["obj"]) or
-            (bool(frame["dir"]) and
+            (os.path.isabs(frame["dir"]) and
              os.path.realpath(frame["dir"]).startswith(source_root)))
 
 

@@ -311,6 +311,24 @@ map_error (const Slam & slam, const std::vector<TruthLandmark> & truth,
   return n ? std::sqrt (sum / n) : NAN;
 }
 
+/* RMS distance of points a to points b after the rigid transform that
+ * best maps a onto b; NAN below two pairs. */
+static double
+aligned_rms (const std::vector<double> & ax, const std::vector<double> & ay,
+    const std::vector<double> & bx, const std::vector<double> & by)
+{
+  if (ax.size () < 2)
+    return NAN;
+  const Rigid r = align (ax, ay, bx, by);
+  double sum = 0;
+  for (size_t i = 0; i < ax.size (); i++) {
+    double x, y;
+    r.apply (ax[i], ay[i], &x, &y);
+    sum += std::pow (x - bx[i], 2) + std::pow (y - by[i], 2);
+  }
+  return std::sqrt (sum / ax.size ());
+}
+
 static double
 aligned_map_rms (const Slam & slam, const std::vector<TruthLandmark> & truth)
 {
@@ -333,16 +351,7 @@ aligned_map_rms (const Slam & slam, const std::vector<TruthLandmark> & truth)
     bx.push_back (t.x);
     by.push_back (t.y);
   }
-  if (ax.size () < 2)
-    return NAN;
-  const Rigid r = align (ax, ay, bx, by);
-  double sum = 0;
-  for (size_t i = 0; i < ax.size (); i++) {
-    double x, y;
-    r.apply (ax[i], ay[i], &x, &y);
-    sum += std::pow (x - bx[i], 2) + std::pow (y - by[i], 2);
-  }
-  return std::sqrt (sum / ax.size ());
+  return aligned_rms (ax, ay, bx, by);
 }
 
 static void
@@ -1258,17 +1267,7 @@ test_blind_start ()
     }
     for (size_t k = 0; k < owner.size (); k++)
       extra += owner[k] < 0 && lms[k].confirmed;
-    double rms = NAN;
-    if (ax.size () >= 2) {
-      const Rigid t = align (ax, ay, bx, by);
-      double sum = 0;
-      for (size_t i = 0; i < ax.size (); i++) {
-        double x, y;
-        t.apply (ax[i], ay[i], &x, &y);
-        sum += std::pow (x - bx[i], 2) + std::pow (y - by[i], 2);
-      }
-      rms = std::sqrt (sum / ax.size ());
-    }
+    const double rms = aligned_rms (ax, ay, bx, by);
     std::printf ("blind start seed %d: odometry scale %+.3f, drift %+.2f "
         "deg/m, heading sigma %.1f deg after %.0f m; %zu landmarks, %zu "
         "matched (truth %zu), missing %d extra %d merged %d, aligned map "

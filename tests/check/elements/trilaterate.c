@@ -66,6 +66,15 @@ add_seen (GstBuffer * buf, gint id, guint k, double x, double y, double h,
   add_seen_sigma (buf, id, k, x, y, h, range_bias, 0.01);
 }
 
+/* Detections 0-2 of the map's landmarks 0-2 from the robot at (3, 1)
+ * heading 2 rad, exactly ranged. */
+static void
+add_seen_three (GstBuffer * buf)
+{
+  for (guint k = 0; k < 3; k++)
+    add_seen (buf, (gint) k, k, 3, 1, 2.0, 0);
+}
+
 /* The same with the range's sigma given. */
 static void
 add_seen_sigma (GstBuffer * buf, gint id, guint k, double x, double y,
@@ -383,9 +392,7 @@ LANDMARK_TEST ("general", test_one_landmark_needs_heading)
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
   GstBuffer *in = frame (0), *out;
-  add_seen (in, 0, 0, 3, 1, 2.0, 0);
-  add_seen (in, 1, 1, 3, 1, 2.0, 0);
-  add_seen (in, 2, 2, 3, 1, 2.0, 0);
+  add_seen_three (in);
   out = gst_harness_push_and_pull (h, in);
   check_pose (out, 3, 1, 2.0, 1e-9, "lsq", 3);
   fail_unless_equals_string (gst_structure_get_string (match_of (out, 2),
@@ -410,9 +417,7 @@ LANDMARK_TEST ("general", test_outlier_and_gate)
   GstHarness *h = harness ("", &bus);
   GstBuffer *in = frame (0), *out;
   /* four landmarks, Y1 ranged 0.7 m too far: rejected */
-  add_seen (in, 0, 0, 3, 1, 2.0, 0);
-  add_seen (in, 1, 1, 3, 1, 2.0, 0);
-  add_seen (in, 2, 2, 3, 1, 2.0, 0);
+  add_seen_three (in);
   add_seen (in, 3, 5, 3, 1, 2.0, 0.7);
   out = gst_harness_push_and_pull (h, in);
   check_pose (out, 3, 1, 2.0, 1e-9, "lsq", 3);

@@ -228,19 +228,21 @@ def class_mapping(pairs: Sequence[str], names: Sequence[str],
     for text in pairs:
         name, sep, marker = text.partition("=")
         name, marker = name.strip(), marker.strip()
-        if not sep or not name or not marker:
-            raise CliError(f"--class: expected NAME=MARKER, got {text!r}")
-        if name not in names:
-            raise CliError(f"--class {text}: {name!r} is not a class of "
-                           f"{names_path} ({', '.join(names)})")
-        if marker not in markers:
-            raise CliError(f"--class {text}: {marker!r} is not a marker "
-                           f"class of the palette ({', '.join(markers)})")
-        if name in mapping and mapping[name] != marker:
-            raise CliError(f"--class: {name!r} mapped twice")
-        if marker in mapping.values() and mapping.get(name) != marker:
-            raise CliError(f"--class: {marker!r} is mapped from two "
-                           f"annotation classes")
+        # the first problem found, in this order, is the one reported
+        problems = (
+            (not sep or not name or not marker,
+             f"--class: expected NAME=MARKER, got {text!r}"),
+            (name not in names, f"--class {text}: {name!r} is not a class "
+             f"of {names_path} ({', '.join(names)})"),
+            (marker not in markers, f"--class {text}: {marker!r} is not a "
+             f"marker class of the palette ({', '.join(markers)})"),
+            (mapping.get(name, marker) != marker,
+             f"--class: {name!r} mapped twice"),
+            (marker in mapping.values() and mapping.get(name) != marker,
+             f"--class: {marker!r} is mapped from two annotation classes"))
+        for bad, why in problems:
+            if bad:
+                raise CliError(why)
         mapping[name] = marker
     return mapping
 
@@ -603,33 +605,38 @@ def add_image_options(p) -> None:
     g = p.add_argument_group(
         "a folder of images or a video against darknet/YOLO boxes "
         "(docs/evaluate.md)")
-    g.add_argument("--palette", metavar="FILE",
-                   help="labsegment's palette (default: built-in)")
-    g.add_argument("--names", metavar="FILE",
-                   help="class names, one a line (default: an obj.names in "
-                        "the folder or a parent)")
-    g.add_argument("--class", dest="classes", action="append", default=[],
-                   metavar="NAME=MARKER",
-                   help="score annotation class NAME as palette marker "
-                        "class MARKER (repeatable; default: the annotation "
-                        "classes named like a marker class)")
-    g.add_argument("--camera-file", metavar="FILE",
-                   help="add ipmrange calibration=FILE to the chain")
-    g.add_argument("--set", dest="sets", action="append", default=[],
-                   metavar="ELEMENT.PROPERTY=VALUE",
-                   help="a property of the chain's labsegment, "
-                        "blobroundness or ipmrange (repeatable)")
-    g.add_argument("--exclude", action="append", default=[], metavar="FILE",
-                   help="leave out this image, or the images a list file "
-                        "names one a line (repeatable)")
-    g.add_argument("--unannotated", choices=("empty", "skip", "error"),
-                   default="empty",
-                   help="an image without a .txt: shows nothing (default, "
-                        "darknet's rule), left out, or an error")
-    g.add_argument("--labels", metavar="DIR",
-                   help="a video's annotations, frame_NNNNNN.txt for frame "
-                        "N from 0 (default: the video's path without its "
-                        "extension)")
+    options = (
+        ("--palette", dict(metavar="FILE", help="labsegment's palette "
+                           "(default: built-in)")),
+        ("--names", dict(metavar="FILE", help="class names, one a line "
+                         "(default: an obj.names in the folder or a "
+                         "parent)")),
+        ("--class", dict(dest="classes", action="append", default=[],
+                         metavar="NAME=MARKER",
+                         help="score annotation class NAME as palette "
+                              "marker class MARKER (repeatable; default: "
+                              "the annotation classes named like a marker "
+                              "class)")),
+        ("--camera-file", dict(metavar="FILE", help="add ipmrange "
+                               "calibration=FILE to the chain")),
+        ("--set", dict(dest="sets", action="append", default=[],
+                       metavar="ELEMENT.PROPERTY=VALUE",
+                       help="a property of the chain's labsegment, "
+                            "blobroundness or ipmrange (repeatable)")),
+        ("--exclude", dict(action="append", default=[], metavar="FILE",
+                           help="leave out this image, or the images a "
+                                "list file names one a line (repeatable)")),
+        ("--unannotated", dict(choices=("empty", "skip", "error"),
+                               default="empty",
+                               help="an image without a .txt: shows "
+                                    "nothing (default, darknet's rule), "
+                                    "left out, or an error")),
+        ("--labels", dict(metavar="DIR",
+                          help="a video's annotations, frame_NNNNNN.txt "
+                               "for frame N from 0 (default: the video's "
+                               "path without its extension)")))
+    for flag, kwargs in options:
+        g.add_argument(flag, **kwargs)
 
 
 def collect(source: str, setup: Setup, excludes: Sequence[str] = (),

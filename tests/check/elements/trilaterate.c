@@ -66,14 +66,6 @@ add_seen (GstBuffer * buf, gint id, guint k, double x, double y, double h,
   add_seen_sigma (buf, id, k, x, y, h, range_bias, 0.01);
 }
 
-/* Detections 0-2 of the map's landmarks 0-2 from the robot at (3, 1)
- * heading 2 rad, exactly ranged. */
-static void
-add_seen_three (GstBuffer * buf)
-{
-  for (guint k = 0; k < 3; k++)
-    add_seen (buf, (gint) k, k, 3, 1, 2.0, 0);
-}
 
 /* The same with the range's sigma given. */
 static void
@@ -142,6 +134,17 @@ static GstBuffer *
 frame (guint n)
 {
   return landmark_check_frame_new (64 * 48, n);
+}
+
+/* Frame n with detections 0-2 of the map's landmarks 0-2 seen from the
+ * robot at (3, 1) heading 2 rad, exactly ranged. */
+static GstBuffer *
+frame_of_three (guint n)
+{
+  GstBuffer *buf = frame (n);
+  for (guint k = 0; k < 3; k++)
+    add_seen (buf, (gint) k, k, 3, 1, 2.0, 0);
+  return buf;
 }
 
 /* one frame through trilaterate with props: no message may come of it */
@@ -391,9 +394,7 @@ LANDMARK_TEST ("general", test_one_landmark_needs_heading)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
-  GstBuffer *in = frame (0), *out;
-  add_seen_three (in);
-  out = gst_harness_push_and_pull (h, in);
+  GstBuffer *out = gst_harness_push_and_pull (h, frame_of_three (0)), *in;
   check_pose (out, 3, 1, 2.0, 1e-9, "lsq", 3);
   fail_unless_equals_string (gst_structure_get_string (match_of (out, 2),
           "matched-by"), "pose");
@@ -415,9 +416,8 @@ LANDMARK_TEST ("general", test_outlier_and_gate)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
-  GstBuffer *in = frame (0), *out;
+  GstBuffer *in = frame_of_three (0), *out;
   /* four landmarks, Y1 ranged 0.7 m too far: rejected */
-  add_seen_three (in);
   add_seen (in, 3, 5, 3, 1, 2.0, 0.7);
   out = gst_harness_push_and_pull (h, in);
   check_pose (out, 3, 1, 2.0, 1e-9, "lsq", 3);

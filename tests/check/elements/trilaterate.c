@@ -147,6 +147,16 @@ frame_of_three (guint n)
   return buf;
 }
 
+/* Pushes frame n with one detection, of blue (the map's landmark 2), seen
+ * from (x, y) at heading h; the output buffer. */
+static GstBuffer *
+push_blue (GstHarness * harness, guint n, double x, double y, double h)
+{
+  GstBuffer *buf = frame (n);
+  add_seen (buf, 0, 2, x, y, h, 0);
+  return gst_harness_push_and_pull (harness, buf);
+}
+
 /* one frame through trilaterate with props: no message may come of it */
 static void
 check_no_messages (const gchar * props)
@@ -347,9 +357,7 @@ LANDMARK_TEST ("general", test_two_and_one)
     gst_buffer_unref (out);
   }
   /* one landmark with the heading property (30 degrees) */
-  in = frame (5);
-  add_seen (in, 0, 2, 1.0, 1.5, M_PI / 6, 0);
-  out = gst_harness_push_and_pull (h, in);
+  out = push_blue (h, 5, 1.0, 1.5, M_PI / 6);
   check_pose (out, 1.0, 1.5, M_PI / 6, 1e-9, "one", 1);
   gst_buffer_unref (out);
   harness_done (h, bus);
@@ -360,11 +368,9 @@ LANDMARK_TEST ("general", test_no_pose)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
-  GstBuffer *in = frame (0), *out;
   /* one landmark, no heading, no previous pose: too few for a pose; the
    * map holds blue once, so the detection is B1 (by colour) */
-  add_seen (in, 0, 2, 2, 2, 0.3, 0);
-  out = gst_harness_push_and_pull (h, in);
+  GstBuffer *in, *out = push_blue (h, 0, 2, 2, 0.3);
   check_no_pose_colour_match (out, bus, "B1");
   fail_unless (!gst_structure_has_field (match_of (out, 0), "residual"));
   gst_buffer_unref (out);
@@ -394,7 +400,7 @@ LANDMARK_TEST ("general", test_one_landmark_needs_heading)
 {
   GstBus *bus;
   GstHarness *h = harness ("", &bus);
-  GstBuffer *out = gst_harness_push_and_pull (h, frame_of_three (0)), *in;
+  GstBuffer *out = gst_harness_push_and_pull (h, frame_of_three (0));
   check_pose (out, 3, 1, 2.0, 1e-9, "lsq", 3);
   fail_unless_equals_string (gst_structure_get_string (match_of (out, 2),
           "matched-by"), "pose");
@@ -402,9 +408,7 @@ LANDMARK_TEST ("general", test_one_landmark_needs_heading)
   gst_structure_free (pop_pose_message (bus));
 
   /* the robot turned 0.2 rad; blue alone */
-  in = frame (1);
-  add_seen (in, 0, 2, 3, 1, 2.2, 0);
-  out = gst_harness_push_and_pull (h, in);
+  out = push_blue (h, 1, 3, 1, 2.2);
   /* no one-landmark pose from the previous pose's heading */
   check_no_pose_colour_match (out, bus, "B1");
   gst_buffer_unref (out);

@@ -585,7 +585,9 @@ def prune_stealing_references(class_refs, class_pixels, seed=0,
     is of another class, counts the same: a marker is a small thing in the
     scene, so a tone of it that claims part of what surrounds it (the dark
     sky beside a ball's shaded side) is the scene's colour, not the
-    marker's.
+    marker's.  A reference of a non-marker class stays while the share
+    of its own class it keeps from a marker (pixels whose next nearest
+    reference is a marker's) is at least the share it takes.
     """
     refs = [np.asarray(r, dtype=np.float64).reshape(-1, 3).copy()
             for r in class_refs]

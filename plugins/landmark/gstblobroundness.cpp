@@ -84,6 +84,7 @@
 #include "landmarkmeta.h"
 #include "analyticsmeta.h"
 #include "markerevidence.h"
+#include "arcfit.h"
 
 GST_DEBUG_CATEGORY_STATIC (gst_blob_roundness_debug);
 #define GST_CAT_DEFAULT gst_blob_roundness_debug
@@ -128,6 +129,8 @@ struct State {
   /* threads of the run search, started on the first frame that needs them */
   landmark::WorkerPool workers;
   landmark::BlobShape shape;
+  landmark::ArcCircleFit arc_fit;
+  landmark::ArcCircle arc;
   std::vector<uint8_t> morph_in, morph_out;
   cv::Mat kernel;
   guint kernel_size = 0;
@@ -367,8 +370,8 @@ gst_blob_roundness_morphology (GstBlobRoundness * self, guint size)
 static void
 gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
     const landmark::BlobShape & b, const char *class_name,
-    const char *reject, bool marginal, double fit_threshold, guint plane_w,
-    guint plane_h)
+    const char *reject, bool marginal, double fit_threshold,
+    const landmark::ArcCircle * arc, guint plane_w, guint plane_h)
 {
   State & st = self->priv->state;
   /* the box in pixels of the current frame (the plane normally is) */
@@ -411,6 +414,10 @@ gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
     gst_structure_set (s, "reject-reason", G_TYPE_STRING, reject, nullptr);
   if (marginal)
     gst_structure_set (s, "shape-marginal", G_TYPE_BOOLEAN, TRUE, nullptr);
+  if (arc)
+    gst_structure_set (s, "shape-evidence", G_TYPE_STRING, "arc",
+        "arc-coverage", G_TYPE_DOUBLE, arc->coverage,
+        "arc-fill", G_TYPE_DOUBLE, arc->fill, nullptr);
   landmark_detection_add_param (buf, roi, s);
 }
 
@@ -478,16 +485,31 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
         cfg.min_ellipse_fit : b.touches_border ? landmark::kShapeFitLarge :
         landmark::shape_fit_threshold (b.ellipse_major, b.ellipse_minor);
     bool marginal = false;
+    const landmark::ArcCircle *arc = nullptr;
     if (!reject) {
       if (cfg.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE) {
         if (b.roundness < cfg.min_roundness)
           reject = "roundness";
       } else if (b.ellipse_fit < fit_threshold) {
         reject = "ellipse-fit";
+        /* part of a ball (its lit side, what a leg leaves, what the frame
+         * holds): its moments describe the part, but its rim is an arc of
+         * the ball's circle, whose image then is the blob's ellipse */
+        if (cfg.min_ellipse_fit < 0 && st.arc_fit.fit (a.contour (), b.area,
+                (int) w, (int) h, &st.arc)) {
+          reject = nullptr;
+          arc = &st.arc;
+          b.ellipse_x = st.arc.cx;
+          b.ellipse_y = st.arc.cy;
+          /* the outline runs through boundary-pixel centres, half a pixel
+           * inside the disc's edge */
+          b.ellipse_major = b.ellipse_minor = 2 * st.arc.r + 1;
+          b.ellipse_angle = 0;
+        }
         /* a near miss travels on as a candidate that only ipmrange's size
          * test and trilaterate's match together can accept; a cut blob has
          * no size to confirm it by */
-        marginal = cfg.min_ellipse_fit < 0 && !b.touches_border &&
+        marginal = reject && cfg.min_ellipse_fit < 0 && !b.touches_border &&
             b.ellipse_fit >= landmark::shape_marginal_threshold
             (b.ellipse_major, b.ellipse_minor);
       } else if (cfg.min_ellipse_fit < 0 &&
@@ -505,7 +527,7 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
       continue;
     const std::string & name = st.classes.names[b.slot - 1];
     gst_blob_roundness_attach (self, buf, b, name.c_str (), reject,
-        marginal, fit_threshold, w, h);
+        marginal, fit_threshold, arc, w, h);
   }
   GST_LOG_OBJECT (self, "%ux%u labels: %zu blobs, %u kept, %u rejected", w,
       h, a.count (), kept, rejected);

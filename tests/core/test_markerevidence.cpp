@@ -9,6 +9,10 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
+#include "arcfit.h"
+#include "blobshape.h"
 #include "markerevidence.h"
 #include "corecheck.h"
 
@@ -244,9 +248,86 @@ test_disc_ahead ()
       "behind");
 }
 
+/* The arc test on one blob drawn into a width x height mask: a disc of
+ * radius r at (cx, cy), of which the pixels below the line v = keep_below
+ * (a ball's shaded side) are cleared, or any shape drawn by the caller. */
+static bool
+arc_of_mask (const cv::Mat & mask, ArcCircle * arc)
+{
+  BlobAnalyzer a;
+  a.begin (mask.cols, mask.rows);
+  a.add_mask_runs (mask, 0, 0, 1);
+  a.label ();
+  if (a.count () != 1)
+    return false;
+  BlobShape b;
+  a.measure (0, &b);
+  ArcCircleFit fit;
+  return fit.fit (a.contour (), b.area, mask.cols, mask.rows, arc);
+}
+
+static void
+test_arc_circle ()
+{
+  ArcCircle arc;
+  /* the lit upper 60 % of a ball of radius 20: accepted, with the ball's
+   * circle (the outline half a pixel inside the edge) to within the rim's
+   * tolerance, kArcOutlinePx */
+  cv::Mat m = cv::Mat::zeros (120, 160, CV_8UC1);
+  cv::circle (m, cv::Point (80, 60), 20, 255, cv::FILLED);
+  m.rowRange (68, 120).setTo (0);
+  CHECK (arc_of_mask (m, &arc), "lit top refused (coverage %.2f, fill %.2f)",
+      arc.coverage, arc.fill);
+  CHECK (std::hypot (arc.cx - 80, arc.cy - 60) < kArcOutlinePx &&
+      std::fabs (arc.r + 0.5 - 20) < kArcOutlinePx, "circle (%.2f, %.2f) r %.2f",
+      arc.cx, arc.cy, arc.r);
+  /* a ball whose lower half the frame's edge cuts */
+  m = cv::Mat::zeros (120, 160, CV_8UC1);
+  cv::circle (m, cv::Point (80, 110), 30, 255, cv::FILLED);
+  CHECK (arc_of_mask (m, &arc) && std::fabs (arc.cy - 110) < 1.5,
+      "cut ball: cy %.2f", arc.cy);
+  /* a ball with a bite out of its side (a leg in front) */
+  m = cv::Mat::zeros (120, 160, CV_8UC1);
+  cv::circle (m, cv::Point (80, 60), 25, 255, cv::FILLED);
+  cv::rectangle (m, cv::Rect (90, 40, 30, 40), 0, cv::FILLED);
+  CHECK (arc_of_mask (m, &arc) && std::hypot (arc.cx - 80, arc.cy - 60) <
+      1.5, "bitten ball: (%.2f, %.2f)", arc.cx, arc.cy);
+  /* a square, an upright and a turned rectangle, a triangle: no arc */
+  const std::vector<std::vector<cv::Point>> shapes = {
+    {{60, 30}, {100, 30}, {100, 70}, {60, 70}},
+    {{40, 50}, {120, 50}, {120, 75}, {40, 75}},
+    {{50, 40}, {110, 80}, {95, 102}, {35, 62}},
+    {{50, 90}, {110, 90}, {80, 30}},
+  };
+  for (const auto & poly : shapes) {
+    m = cv::Mat::zeros (120, 160, CV_8UC1);
+    cv::fillPoly (m, std::vector<std::vector<cv::Point>> {poly}, 255);
+    CHECK (!arc_of_mask (m, &arc), "polygon of %zu corners accepted "
+        "(coverage %.2f, fill %.2f, r %.1f)", poly.size (), arc.coverage,
+        arc.fill, arc.r);
+  }
+  /* a thin crescent along a rim: fills too little of its circle */
+  m = cv::Mat::zeros (120, 160, CV_8UC1);
+  cv::circle (m, cv::Point (80, 60), 30, 255, cv::FILLED);
+  cv::circle (m, cv::Point (80, 68), 27, 0, cv::FILLED);
+  CHECK (!arc_of_mask (m, &arc), "crescent accepted (fill %.2f)", arc.fill);
+  /* a small disc: below kArcMinRadius the arc is no evidence */
+  m = cv::Mat::zeros (120, 160, CV_8UC1);
+  cv::circle (m, cv::Point (80, 60), 8, 255, cv::FILLED);
+  m.rowRange (62, 120).setTo (0);
+  CHECK (!arc_of_mask (m, &arc), "8 px radius accepted");
+  /* the area of a circle inside a frame: pi r^2 inside, a half when the
+   * edge runs through its centre */
+  CHECK (std::fabs (circle_area_in_frame (80, 60, 20, 160, 120) -
+          M_PI * 400) < 0.01 * M_PI * 400, "whole circle's area");
+  CHECK (std::fabs (circle_area_in_frame (80, 119.5, 20, 160, 120) -
+          M_PI * 200) < 0.03 * M_PI * 200, "half circle's area");
+}
+
 int
 main ()
 {
+  test_arc_circle ();
   test_boundary_share ();
   test_polygon_moments ();
   test_shape_iou ();

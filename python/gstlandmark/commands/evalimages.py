@@ -277,6 +277,11 @@ def detection_record(d) -> Dict[str, Any]:
            "area": blob.get("area")}
     if rejected is not None:
         rec["rejected_by"], rec["reason"] = rejected
+    if blob.get("shape-evidence"):
+        rec["shape_evidence"] = blob["shape-evidence"]
+        rec["arc"] = {key: round(float(blob[f"arc-{key}"]), 3)
+                      for key in ("coverage", "fill")
+                      if f"arc-{key}" in blob}
     return rec
 
 

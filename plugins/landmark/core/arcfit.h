@@ -1,0 +1,74 @@
+/* A ball's outline as an arc of a circle: the evidence that a blob holding
+ * only part of a ball (its lit side, the part a leg or a robot does not
+ * hide, the part inside the frame) is a ball. The blob's moments describe
+ * the part, so its ellipse fit fails; but the part of its outline that is
+ * the ball's rim still lies on one circle, the blob lies inside that
+ * circle and fills a good share of it. docs/detection.md. No GStreamer
+ * types. */
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace landmark {
+
+/* Outline points within kArcOutlinePx of the circle are on it: a colour
+ * edge after 4:2:0 chroma (one sample is two pixels) lies anywhere within
+ * a pixel of where it is, and the outline runs through boundary-pixel
+ * centres, half a pixel inside the edge; kArcOutlineShare of the radius
+ * more for a ball that blur and its seams make not quite a circle. */
+constexpr double kArcOutlinePx = 1.5;
+constexpr double kArcOutlineShare = 0.03;
+/* The rim must cover at least half of what the frame shows of its turn ("a ball is a circle even when
+ * half of it is shaded"): any smaller arc fits circles of many radii. */
+constexpr double kArcMinCoverage = 0.5;
+/* and at least a third of the whole turn, for a ball the frame's edge
+ * cuts: a shorter arc fixes no radius */
+constexpr double kArcMinTurn = 1.0 / 3.0;
+/* The blob fills at least a third of the circle (within the frame): a
+ * thin crescent along a rim is as much a ring of another colour. */
+constexpr double kArcMinFill = 1.0 / 3.0;
+/* Outline points outside the circle by more than the tolerance: at most
+ * this share of the outline (a blob is inside its ball). */
+constexpr double kArcMaxOutside = 0.03;
+/* The smallest circle whose arc is evidence (radius, pixels): the band of
+ * the tolerance either side of a smaller circle is a third of its radius
+ * or more, and any outline that is round at all lies in it; the
+ * ellipse fit alone decides such blobs. */
+constexpr double kArcMinRadius = 12.0;
+
+struct ArcCircle {
+  double cx = 0, cy = 0, r = 0;  /* pixel-centre convention */
+  double coverage = 0;   /* share of the visible turn the rim sweeps */
+  double fill = 0;       /* blob area over the circle's area in the frame */
+  double outside = 0;    /* share of outline points outside the circle */
+  int rim_points = 0;    /* outline points on the circle */
+};
+
+/* Fits the circle that most of a blob's outline lies on and tests it with
+ * the thresholds above. contour: the blob's outer outline through
+ * boundary-pixel centres (BlobAnalyzer::contour); points on the frame's
+ * edge (width x height) are not the blob's outline and take no part.
+ * area: the blob's pixels. Deterministic (a fixed sample sequence);
+ * scratch is reused between calls. True when the blob is part of a disc:
+ * out holds the circle and its measures (also when false, for the log,
+ * with r = 0 when no circle was found). */
+class ArcCircleFit {
+public:
+  bool fit (const std::vector<cv::Point> & contour, double area, int width,
+      int height, ArcCircle * out);
+
+private:
+  int count_rim (double cx, double cy, double r) const;
+  bool refine (double *cx, double *cy, double *r) const;
+
+  std::vector<cv::Point2d> points_;
+};
+
+/* Pixel centres inside a circle and a width x height frame. */
+double circle_area_in_frame (double cx, double cy, double r, int width,
+    int height);
+
+}  // namespace landmark

@@ -753,6 +753,91 @@ def test_ten_browsers_keep_up_and_memory_stays_flat(gst, tmp_path):
     asyncio.run(main())
 
 
+def settled_rss_mib():
+    """RSS once the collector has run and glibc has given back its free
+    pages (what is left is held, not merely not yet returned)."""
+    import ctypes
+    import gc
+    gc.collect()
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass                    # another C library: RSS as it is
+    return rss_mib()
+
+
+def test_stop_start_and_source_switches_free_what_they_replace(gst,
+                                                               tmp_path):
+    """Thirty stop/start cycles and source switches with a browser
+    watching (its socket, the overlay and the classes streams): every
+    replaced pipeline is finalized, no thread is left behind, and the
+    process holds no more memory per cycle than noise. Measured on the
+    clip: 0.03-0.13 MiB per cycle after the warm-up (the issue measured
+    1-2 MiB)."""
+    # the first cycles load the test source's plugins and warm the
+    # allocator (123 to 137 MiB); RSS then wanders by +-3 MiB, so the
+    # medians of five cycles at either end are compared
+    cycles, warmup = 30, 10
+    engine = clip_engine(tmp_path, loop_file=True)
+    replaced, finalized, rss = [], [], []
+
+    async def check(client):
+        async def socket():
+            async with client.ws_connect("/ws") as ws:
+                while True:
+                    await ws.receive_json()
+
+        async def stream(view):
+            async with client.get(
+                    "/stream.mjpg", params={"view": view},
+                    timeout=aiohttp.ClientTimeout(total=None)) as r:
+                reader = aiohttp.MultipartReader(r.headers, r.content)
+                while await reader.next() is not None:
+                    pass
+
+        watchers = [asyncio.ensure_future(socket()),
+                    asyncio.ensure_future(stream("overlay")),
+                    asyncio.ensure_future(stream("labels"))]
+        try:
+            for i in range(warmup + cycles):
+                if i == warmup:
+                    threads = len(os.listdir("/proc/self/task"))
+                if i >= warmup:
+                    replaced.append(engine.pipe.get_name())
+                    engine.pipe.weak_ref(finalized.append, 1)
+                if i % 3 == 2:      # the test source and back
+                    source = "testsrc" if i % 2 else "start"
+                    status, reply = await post(client, "/api/source",
+                                               {"id": source})
+                    assert status == 200, reply
+                else:
+                    for action in ("stop", "start"):
+                        status, reply = await post(
+                            client, "/api/control", {"action": action})
+                        assert status == 200, reply
+                await asyncio.sleep(0.3)    # frames to every watcher
+                if i >= warmup:
+                    rss.append(settled_rss_mib())
+            assert not [w for w in watchers if w.done()], "a watcher ended"
+            assert len(os.listdir("/proc/self/task")) <= threads + 2
+        finally:
+            for w in watchers:
+                w.cancel()
+        assert len(finalized) == len(replaced) == cycles
+        growth = float(np.median(rss[-5:]) - np.median(rss[:5]))
+        # 25 cycles apart: 1 MiB a cycle would be 25 MiB
+        assert growth < 0.25 * (cycles - 5), \
+            f"RSS grew {growth:.2f} MiB in {cycles - 5} cycles: {rss}"
+
+    async def main():
+        app = server.make_app(engine)
+        async with TestClient(TestServer(app)) as client:
+            await engine.start()
+            await asyncio.wait_for(check(client), 120)
+        await engine.close()
+    asyncio.run(main())
+
+
 def disc_clip(path, rgb, centre=(160, 120), radius=30, frames=30):
     """An MJPEG clip of one still disc of ``rgb`` on mid grey."""
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"),

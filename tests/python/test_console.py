@@ -879,6 +879,88 @@ def test_a_taught_marker_class_is_detected(gst, tmp_path):
     serve(engine, check)
 
 
+def two_things_clip(path, frames=30):
+    """An MJPEG clip, still: an orange disc and a blue square on mid
+    grey."""
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"),
+                             30, (320, 240))
+    assert writer.isOpened()
+    image = np.full((240, 320, 3), 128, np.uint8)
+    cv2.circle(image, (100, 120), 30, (0, 140, 255), -1, cv2.LINE_AA)
+    image[90:150, 220:280] = (200, 60, 30)
+    for _ in range(frames):
+        writer.write(image)
+    writer.release()
+
+
+# the boxes a user draws: inside the disc (two, pooled), a floor patch,
+# and one over the square and the grey beside it (two colours: a warning)
+TAUGHT_BOXES = [("ball", 85, 105, 30, 30, "marker"),
+                ("ball", 90, 125, 20, 15, "marker"),
+                ("floor", 10, 10, 60, 40, "floor"),
+                ("tile", 200, 80, 60, 60, "marker")]
+
+
+def test_teaching_gives_the_palette_palette_learn_gives(gst, tmp_path,
+                                                        capsys):
+    """The same boxes on the same frame: the console's palette equals
+    ``gst-landmark palette learn --rect``'s, and its warnings are the
+    command's (the frame named instead of the file)."""
+    from gstlandmark.commands.cli import main
+    clip = tmp_path / "things.avi"
+    two_things_clip(clip)
+    engine = Engine(f"filesrc location={clip} ! decodebin",
+                    str(tmp_path / "out"))
+    got = {}
+
+    async def check(client):
+        await frames(client, 1)
+        status, reply = await post(client, "/api/new-palette", {})
+        assert status == 200, reply
+        # the built-in palette stays until the first box
+        assert engine.palette.names == pal.default_palette().names
+        status, still = await post(client, "/api/freeze", {})
+        for name, x, y, w, h, role in TAUGHT_BOXES:
+            status, reply = await post(client, "/api/teach", {
+                "class": name, "x": x, "y": y, "w": w, "h": h,
+                "role": role, "frame": still["frame"]})
+            assert status == 200, reply
+        got["warnings"] = reply["warnings"]
+        async with client.get("/api/state") as r:
+            got["state"] = await r.json()
+        cv2.imwrite(str(tmp_path / "frame.png"),
+                    engine.frozen[still["frame"]]["frame"])
+        got["frame"] = still["frame"]
+
+    serve(engine, check)
+    argv = ["palette", "learn", str(tmp_path / "frame.png")]
+    for name, x, y, w, h, _ in TAUGHT_BOXES:
+        argv += ["--rect", f"{name}:{x},{y},{w},{h}"]
+    argv += ["--floor", "floor", "-o", str(tmp_path / "learned.json")]
+    capsys.readouterr()
+    assert main(argv) == 0
+    printed = [line[len("warning: "):] for line in
+               capsys.readouterr().err.splitlines()
+               if line.startswith("warning: ")]
+    learned = pal.load_palette(tmp_path / "learned.json")
+    assert pal.palette_to_json(engine.palette) == \
+        pal.palette_to_json(learned)
+    assert learned.classes[learned.index("floor")].role == "floor"
+    assert printed, "palette learn warned of nothing"
+    assert got["warnings"] == [
+        w.replace(str(tmp_path / "frame.png"), f"frame {got['frame']}")
+        for w in printed]
+    assert got["state"]["teaching"]["warnings"] == got["warnings"]
+    assert got["state"]["teaching"] | {"warnings": None} == {
+        "boxes": 4, "frames": 1, "beside": [], "warnings": None}
+    # saved with its spreads, as palette learn writes them
+    engine.save_palette()
+    with open(tmp_path / "out" / "palette.json") as f:
+        saved = json.load(f)
+    with open(tmp_path / "learned.json") as f:
+        assert saved["spread"] == json.load(f)["spread"]
+
+
 def test_a_loop_that_falls_behind_gets_the_newest_item_only():
     """1,000 frames handed over while the loop is busy: one callback, the
     newest frame; nothing piles up."""

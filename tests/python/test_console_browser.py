@@ -241,7 +241,7 @@ def test_page_shows_live_results_tunes_and_teaches(gst, tmp_path, browser):
         browser.find_element(By.ID, "teach").click()
         wait_for(browser, lambda d: "taught floorpatch" in message(d)[1],
                  "the teach confirmation")
-        assert engine.palette.names[-1] == "floorpatch"
+        assert "floorpatch" in engine.palette.names
         assert "floorpatch" in engine.palette.background
         wait_for(browser, lambda d: "floorpatch" in d.find_element(
             By.ID, "palette").text, "the palette list")
@@ -656,3 +656,51 @@ def test_one_log_per_run_rotated_and_downloaded(gst, tmp_path, browser):
                 json.loads(line)        # whole lines, none cut
         # checked about once a second: at most one more second of frames
         assert os.path.getsize(path) < 60_000 + 40 * 4_500
+
+
+def test_teaching_shows_palette_learns_warnings(gst, tmp_path, browser):
+    """New palette, then boxes drawn on the page: the palette is the
+    boxes' alone and paletteaudit's warnings are listed under Teach (a
+    box over the blue square and the grey beside it holds two
+    colours)."""
+    from test_console import two_things_clip
+    clip = tmp_path / "things.avi"
+    two_things_clip(clip)
+    engine = Engine(f"filesrc location={clip} ! decodebin",
+                    str(tmp_path / "out"))
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        browser.find_element(By.ID, "new-palette").click()
+        wait_for(browser, lambda d: "new palette" in d.find_element(
+            By.ID, "taught").text, "the new palette announced")
+        size = browser.find_element(By.ID, "box-layer").size
+        scale = size["width"] / 320     # page pixels per frame pixel
+
+        def teach(name, x, y, w, h, marker=True):
+            # from the frame pixel (x, y), relative to the centre
+            drag(browser, round((x - 160) * scale),
+                 round((y - 120) * scale), round(w * scale),
+                 round(h * scale))
+            field = browser.find_element(By.ID, "teach-class")
+            field.clear()
+            field.send_keys(name)
+            tick = browser.find_element(By.ID, "teach-marker")
+            if tick.is_selected() != marker:
+                tick.click()
+            browser.find_element(By.ID, "teach").click()
+            wait_for(browser, lambda d: f"taught {name}" in message(d)[1],
+                     f"{name} taught")
+
+        teach("ball", 88, 108, 24, 24)
+        assert browser.find_element(By.ID, "teach-warnings").text == ""
+        teach("tile", 200, 80, 60, 60)
+        wait_for(browser, lambda d: "holds two colours" in d.find_element(
+            By.ID, "teach-warnings").text, "the two-colours warning")
+        assert "warning(s) below" in message(browser)[1]
+        assert "rectangle tile:" in browser.find_element(
+            By.ID, "teach-warnings").text
+        # the boxes' classes (and the rest of the frame) only
+        assert set(engine.palette.names) <= {"ball", "tile", "untaught"}
+        # still frozen: both on the one frame
+        assert "2 box(es) on 1 frame(s)" in browser.find_element(
+            By.ID, "taught").text

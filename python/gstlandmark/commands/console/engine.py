@@ -22,7 +22,8 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
-from ... import meta, palette as pal, pipeline
+from ... import meta, palette as pal, paletteaudit, pipeline
+from ... import reference
 from ...landmarkmap import MapError, read_map
 from ...gicompat import caps_structure, enum_class
 from .. import runner
@@ -52,6 +53,9 @@ PATH_LENGTH = 2000      # poses kept for browsers that join late
 UNDO_DEPTH = 20
 JPEG_QUALITY = 80
 FROZEN_KEPT = 4         # frozen teaching frames kept (one per browser)
+# what ``palette learn`` does by default, so both give one palette
+TEACH_REFERENCES = "auto"
+UNTAUGHT_CLASS = "untaught"
 LOG_MAX_BYTES = 64 * 1024 * 1024    # a run's log file before it rotates
 LOG_KEEP = 20           # log files kept in OUT/logs (the oldest go)
 # The camera file's keys of the mounting properties: what the file holds
@@ -405,6 +409,62 @@ def _keep_newest(paths: List[str], path: str, keep: int = 3) -> None:
         except OSError:
             pass
 
+class Teaching:
+    """The boxes taught so far, on the frames they were drawn on, and the
+    palette they are learned beside (immutable: each box makes a new
+    one, so undo takes the one before).
+
+    The boxes are learned together by ``palette.learn_from_images`` with
+    ``palette learn``'s defaults (several references per class, the rest
+    of the frames as "untaught"), then take their places in the base
+    palette: a class taught keeps its place, a new one comes after. The
+    rest of the frames is learned only when no class of the base is left
+    beside the taught ones (it would take their colours)."""
+
+    def __init__(self, base: pal.Palette, lessons=(), roles=None):
+        self.base = base
+        # (frame id, frame, (name, x, y, w, h)) in the order taught
+        self.lessons: Tuple[Tuple[int, np.ndarray, tuple], ...] = \
+            tuple(lessons)
+        self.roles: Dict[str, str] = dict(roles or {})
+
+    def add(self, frame_id: int, frame: np.ndarray, rect: tuple,
+            role: str) -> "Teaching":
+        return Teaching(self.base, self.lessons + ((frame_id, frame, rect),),
+                        {**self.roles, rect[0]: role})
+
+    def frames(self) -> List[Tuple[int, np.ndarray, List[tuple]]]:
+        """(frame id, frame, its boxes) in the order first taught on."""
+        grouped: Dict[int, Tuple[int, np.ndarray, List[tuple]]] = {}
+        for frame_id, frame, rect in self.lessons:
+            grouped.setdefault(frame_id, (frame_id, frame, []))[2] \
+                .append(rect)
+        return list(grouped.values())
+
+    def learn(self) -> Tuple[pal.Palette, List[str], Dict[str, float]]:
+        """The palette, the warnings of paletteaudit (texts) and the
+        spreads of the taught classes."""
+        frames = self.frames()
+        kept = [c for c in self.base.classes if c.name not in self.roles]
+        by_role = {r: [n for n, role in self.roles.items() if role == r]
+                   for r in ("background", "floor")}
+        learned = pal.learn_from_images(
+            [(frame, rects) for _, frame, rects in frames],
+            background=by_role["background"], floor=by_role["floor"],
+            references=TEACH_REFERENCES,
+            untaught_class=None if kept else UNTAUGHT_CLASS,
+            sources=[f"frame {frame_id}" for frame_id, _, _ in frames])
+        findings, spread = paletteaudit.teaching_findings(learned, [
+            (f"frame {frame_id}",
+             reference.rgb_to_lab(np.ascontiguousarray(frame[:, :, ::-1])),
+             rects) for frame_id, frame, rects in frames])
+        new = {c.name: c for c in learned.classes}
+        classes = [new.pop(c.name, c) for c in self.base.classes]
+        palette = pal.parse_palette(pal.palette_to_json(
+            pal.Palette(classes + list(new.values()))), "teach")
+        return palette, [f.text for f in findings], spread
+
+
 class Engine:
     """The running chain and what the server needs from it.
 
@@ -439,7 +499,12 @@ class Engine:
         self.palette = (pal.load_palette(palette_path) if palette_path
                         else pal.default_palette())
         self.palette_path = palette_path
-        self.undo_stack: List[Tuple[pal.Palette, Optional[str]]] = []
+        self.undo_stack: List[Tuple[pal.Palette, Optional[str],
+                                    "Teaching"]] = []
+        # the boxes taught so far and the palette they are learned beside
+        self.teaching = Teaching(self.palette)
+        self.teach_warnings: List[str] = []
+        self.palette_spread: Dict[str, float] = {}
         self._live_palettes: List[str] = []
         self._palette_serial = 0
         self.landmarks = read_landmarks(map_path)
@@ -1049,11 +1114,12 @@ class Engine:
     def teach(self, name: str, x, y, w, h,
               marker: Optional[bool] = None, frame_id=None,
               role: Optional[str] = None) -> Dict[str, Any]:
-        """Learns class ``name`` from the pixels in the box of the frozen
-        frame ``frame_id`` (None: the newest frame) and applies the
-        palette; returns the class's new entry. ``role`` (or the older
-        ``marker``) None: a new class is a marker, a known one keeps its
-        role."""
+        """Adds the box of class ``name`` on the frozen frame ``frame_id``
+        (None: the newest frame, frozen now) to the boxes taught so far,
+        learns the palette from all of them as ``palette learn --rect``
+        does and applies it; returns the class's new entry. ``role`` (or
+        the older ``marker``) None: a new class is a marker, a known one
+        keeps its role."""
         for label, v in (("x", x), ("y", y), ("w", w), ("h", h)):
             if not isinstance(v, int) or isinstance(v, bool):
                 raise ConsoleError(f"teach: {label} must be an integer "
@@ -1066,54 +1132,67 @@ class Engine:
             raise ConsoleError(f"teach: role must be one of "
                                f"{', '.join(pal.ROLES)}, got "
                                f"{json.dumps(role)}")
-        if role is None and marker is not None:
-            role = "marker" if marker else None
-        frame = self.frame_bgr if frame_id is None else \
-            self._frozen(frame_id)["frame"]
-        if frame is None:
-            raise ConsoleError("teach: no frame yet")
+        if frame_id is None:
+            if self.frame_bgr is None:
+                raise ConsoleError("teach: no frame yet")
+            frame_id = self.freeze()["frame"]
+        frame = self._frozen(frame_id)["frame"]
+        lessons = self.teaching.add(frame_id, frame, (name, x, y, w, h),
+                                    self._role(name, role, marker))
         try:
-            learned = pal.learn_from_rects(frame, [(name, x, y, w, h)])
+            palette, warnings, spread = lessons.learn()
         except pal.PaletteError as err:
             raise ConsoleError(f"teach: {err}") from None
-        lab = learned.classes[0].lab
-        classes = list(self.palette.classes)
-        names = [c.name for c in classes]
-        if name in names:
-            i = names.index(name)
-            # re-taught, a class keeps its role (a floor class stays
-            # floor) unless told; marker false keeps floor or background
-            old = classes[i].role
-            if role is None:
-                role = old if marker is not False or old != "marker" \
-                    else "background"
-            classes[i] = pal.PaletteClass(name, lab, role=role)
-        else:
-            if role is None:
-                role = "background" if marker is False else "marker"
-            classes.append(pal.PaletteClass(name, lab, role=role))
-        try:
-            new = pal.parse_palette(
-                pal.palette_to_json(pal.Palette(classes)), "teach")
-        except pal.PaletteError as err:
-            raise ConsoleError(str(err)) from None
-        self.undo_stack.append((self.palette, self.palette_path))
+        self.undo_stack.append((self.palette, self.palette_path,
+                                self.teaching))
         del self.undo_stack[:-UNDO_DEPTH]
-        self._apply_palette(new)
-        entry = next(c for c in self.palette_json()["classes"]
-                     if c["name"] == name)
-        return entry
+        self.teaching = lessons
+        self.teach_warnings, self.palette_spread = warnings, spread
+        self._apply_palette(palette)
+        return next(c for c in self.palette_json()["classes"]
+                    if c["name"] == name)
+
+    def _role(self, name: str, role: Optional[str],
+              marker: Optional[bool]) -> str:
+        """The role ``name`` is taught with: ``role``; else a known class
+        keeps its own (marker false keeps floor or background, makes a
+        marker background); else a marker unless marker is false."""
+        if role is not None:
+            return role
+        known = self.teaching.roles.get(name)
+        if known is None and name in self.palette.names:
+            known = self.palette.classes[self.palette.index(name)].role
+        if known is None:
+            return "background" if marker is False else "marker"
+        return "background" if marker is False and known == "marker" \
+            else known
+
+    def new_palette(self) -> None:
+        """The next boxes taught make a palette of their own (as
+        ``palette learn`` does, the rest of the frame learned as
+        "untaught"); the palette in force stays until then."""
+        self.undo_stack.append((self.palette, self.palette_path,
+                                self.teaching))
+        del self.undo_stack[:-UNDO_DEPTH]
+        self.teaching = Teaching(pal.Palette([]))
+        self.teach_warnings, self.palette_spread = [], {}
 
     def undo(self) -> None:
         if not self.undo_stack:
             raise ConsoleError("nothing to undo")
-        previous, _ = self.undo_stack.pop()
-        self._apply_palette(previous)
+        previous, _, self.teaching = self.undo_stack.pop()
+        self.teach_warnings = []
+        if previous is not self.palette:
+            self._apply_palette(previous)
 
     def save_palette(self) -> str:
         path = os.path.join(self.out_dir, "palette.json")
+        # the spreads as palette learn writes them: palette check reads
+        extra = {"spread": self.palette_spread} if self.palette_spread \
+            else {}
         pal.save_palette(self.palette, path,
-                         description="Saved by gst-landmark console.")
+                         description="Saved by gst-landmark console.",
+                         **extra)
         return path
 
     # -- the log ---------------------------------------------------------

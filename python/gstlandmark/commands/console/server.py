@@ -86,7 +86,11 @@ def make_app(engine: Engine, token: Optional[str] = None,
                 "duration": engine.duration(),
                 "source": engine.source_id,
                 "log": os.path.basename(engine.log_path),
-                "can_undo": bool(engine.undo_stack)}
+                "can_undo": bool(engine.undo_stack),
+                "teaching": {"boxes": len(engine.teaching.lessons),
+                             "frames": len(engine.teaching.frames()),
+                             "beside": engine.teaching.base.names,
+                             "warnings": engine.teach_warnings}}
 
     def broadcast_state() -> None:
         engine._notify(state())
@@ -162,7 +166,14 @@ def make_app(engine: Engine, token: Optional[str] = None,
                              frame_id=data.get("frame"),
                              role=data.get("role"))
         broadcast_state()
-        return web.json_response({"class": entry})
+        return web.json_response({"class": entry,
+                                  "warnings": engine.teach_warnings})
+
+    async def api_new_palette(request):
+        await body(request)
+        engine.new_palette()
+        broadcast_state()
+        return web.json_response({"boxes": 0})
 
     async def api_freeze(request):
         await body(request)
@@ -327,6 +338,7 @@ def make_app(engine: Engine, token: Optional[str] = None,
     app.router.add_post("/api/save-config", api_save_config)
     app.router.add_post("/api/teach", api_teach)
     app.router.add_post("/api/undo", api_undo)
+    app.router.add_post("/api/new-palette", api_new_palette)
     app.router.add_post("/api/freeze", api_freeze)
     app.router.add_get("/frozen.jpg", frozen)
     app.router.add_post("/api/save-palette", api_save_palette)

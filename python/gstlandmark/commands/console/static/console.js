@@ -139,8 +139,12 @@ $("teach").addEventListener("click", async () => {
                                          role, frame: still ? still.frame : undefined });
   if (reply) {
     const lab = reply.class.lab.map((v) => v.toFixed(1)).join(", ");
-    showMessage(`taught ${name}: L*a*b* ${lab}`, false);
+    const warned = reply.warnings.length ? ` (${reply.warnings.length} warning(s) below)` : "";
+    showMessage(`taught ${name}: L*a*b* ${lab}${warned}`, false);
   }
+});
+$("new-palette").addEventListener("click", async () => {
+  if (await post("api/new-palette")) showMessage("the next boxes make a new palette", false);
 });
 $("undo").addEventListener("click", async () => {
   if (await post("api/undo")) showMessage("palette change undone", false);
@@ -421,6 +425,13 @@ function onState(s) {
     return li;
   }));
   $("undo").disabled = !s.can_undo;
+  const t = s.teaching;
+  $("taught").textContent = t.boxes
+    ? `${t.boxes} box(es) on ${t.frames} frame(s)` + (t.beside.length ? ", beside the palette's other classes" : "")
+    : (t.beside.length ? "" : "new palette: the next box starts it");
+  $("teach-warnings").replaceChildren(...t.warnings.map((w) => {
+    const li = document.createElement("li"); li.textContent = "warning: " + w; return li;
+  }));
   drawMinimap(lastFrame);
 }
 

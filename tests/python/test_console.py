@@ -398,7 +398,7 @@ def test_bad_requests_are_refused_and_change_nothing(gst, tmp_path):
         await frames(client, 1)     # teaching needs a frame
         status, reply = await post(client, "/api/control",
                                    {"action": "explode"})
-        assert status == 400 and "start, pause or stop" in reply["error"]
+        assert status == 400 and "start, pause, step or stop" in reply["error"]
         for body, expected in (
                 ({"class": "red", "x": 0, "y": 0, "w": 0, "h": 5},
                  "must be positive"),
@@ -893,6 +893,14 @@ def two_things_clip(path, frames=30):
     writer.release()
 
 
+def things_engine(tmp_path):
+    """The console on ``two_things_clip`` with the built-in palette."""
+    clip = tmp_path / "things.avi"
+    two_things_clip(clip)
+    return Engine(f"filesrc location={clip} ! decodebin",
+                  str(tmp_path / "out"))
+
+
 # the boxes a user draws: inside the disc (two, pooled), a floor patch,
 # and one over the square and the grey beside it (two colours: a warning)
 TAUGHT_BOXES = [("ball", 85, 105, 30, 30, "marker"),
@@ -907,10 +915,7 @@ def test_teaching_gives_the_palette_palette_learn_gives(gst, tmp_path,
     ``gst-landmark palette learn --rect``'s, and its warnings are the
     command's (the frame named instead of the file)."""
     from gstlandmark.commands.cli import main
-    clip = tmp_path / "things.avi"
-    two_things_clip(clip)
-    engine = Engine(f"filesrc location={clip} ! decodebin",
-                    str(tmp_path / "out"))
+    engine = things_engine(tmp_path)
     got = {}
 
     async def check(client):

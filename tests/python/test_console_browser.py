@@ -663,11 +663,8 @@ def test_teaching_shows_palette_learns_warnings(gst, tmp_path, browser):
     boxes' alone and paletteaudit's warnings are listed under Teach (a
     box over the blue square and the grey beside it holds two
     colours)."""
-    from test_console import two_things_clip
-    clip = tmp_path / "things.avi"
-    two_things_clip(clip)
-    engine = Engine(f"filesrc location={clip} ! decodebin",
-                    str(tmp_path / "out"))
+    from test_console import things_engine
+    engine = things_engine(tmp_path)
     with ServerThread(engine) as srv:
         open_page(browser, srv)
         browser.find_element(By.ID, "new-palette").click()
@@ -704,3 +701,206 @@ def test_teaching_shows_palette_learns_warnings(gst, tmp_path, browser):
         # still frozen: both on the one frame
         assert "2 box(es) on 1 frame(s)" in browser.find_element(
             By.ID, "taught").text
+
+
+# ---------------------------------------------------------------------------
+# what OpenMV IDE and PixyMon users expect
+
+
+def class_counts(engine, seconds):
+    """[{class: pixels}, ...] of the frames of the next ``seconds``."""
+    got = []
+
+    def listener(m):
+        if m["type"] == "frame":
+            got.append({c["name"]: c["count"] for c in m["classes"]})
+    engine.listeners.append(listener)
+    time.sleep(seconds)
+    engine.listeners.remove(listener)
+    return got
+
+
+def select_class(browser, name):
+    from selenium.webdriver.support.ui import Select
+    wait_for(browser, lambda d: name in [
+        o.text for o in Select(d.find_element(By.ID, "class-select"))
+        .options], f"{name} in the class list")
+    Select(browser.find_element(By.ID, "class-select")) \
+        .select_by_value(name)
+
+
+def test_a_class_is_renamed_and_deleted_in_the_element(gst, tmp_path,
+                                                       browser):
+    engine = clip_engine(tmp_path, loop_file=True)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        select_class(browser, "pink")
+        browser.find_element(By.ID, "class-new-name").send_keys("magenta")
+        browser.find_element(By.ID, "rename").click()
+        wait_for(browser, lambda d: "rename pink -> magenta" in
+                 message(d)[1], "the rename confirmed")
+        # labsegment's labels meta names it so: the element took it
+        wait_for(browser, lambda d: "magenta" in class_counts(engine, 0.3)
+                 [-1], "magenta in the frames")
+        assert "pink" not in class_counts(engine, 0.3)[-1]
+        assert engine.palette.names.index("magenta") == 3
+        select_class(browser, "wall")
+        browser.find_element(By.ID, "delete").click()
+        wait_for(browser, lambda d: "wall" not in class_counts(
+            engine, 0.3)[-1], "wall gone from the frames")
+        assert "wall" not in browser.find_element(By.ID, "palette").text
+        # the wall's pixels went to their next nearest class
+        assert len(class_counts(engine, 0.3)[-1]) == 6
+        browser.find_element(By.ID, "undo").click()
+        wait_for(browser, lambda d: "wall" in class_counts(engine, 0.3)
+                 [-1], "wall back")
+
+
+def test_tolerance_widens_a_class_in_the_element(gst, tmp_path, browser):
+    """A solid red in a sixth of the light it was taught in is nearer
+    black than red; tolerance x4 gives red "shading" [0.25, 4] and the
+    element labels every pixel red."""
+    from gstlandmark import palette as pal
+    red = (41.25, 43.0, 32.0)
+    path = tmp_path / "palette.json"
+    pal.save_palette(pal.Palette([
+        pal.PaletteClass("red", red), pal.PaletteClass("black", (10, 0, 0)),
+        pal.PaletteClass("grey", (53.58, 0, 0), role="floor")]), str(path))
+    # lab_under_light(red, 0.15) in sRGB
+    engine = Engine("videotestsrc is-live=true pattern=solid-color "
+                    "foreground-color=0xff45140c ! video/x-raw,width=160,"
+                    "height=120,framerate=30/1", str(tmp_path / "out"),
+                    palette_path=str(path))
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        assert all(f["black"] == 160 * 120
+                   for f in class_counts(engine, 0.5))
+        select_class(browser, "red")
+        box = browser.find_element(By.ID, "tolerance")
+        assert box.get_attribute("value") == "1"
+        box.clear()
+        box.send_keys("4\n")
+        wait_for(browser, lambda d: "tolerance red -> 4" in message(d)[1],
+                 "the tolerance confirmed")
+        assert engine.palette.classes[0].shading == (0.25, 4.0)
+        with open(engine.palette_path) as f:
+            assert json.load(f)["classes"][0]["shading"] == [0.25, 4]
+        wait_for(browser, lambda d: class_counts(engine, 0.2)[-1]["red"]
+                 == 160 * 120, "every pixel red")
+        # a factor below 1 is refused, the palette unchanged
+        box.clear()
+        box.send_keys("0.5\n")
+        wait_for(browser, lambda d: "tolerance: red: expected a light "
+                 "factor" in message(d)[1], "the refusal")
+        assert engine.palette.classes[0].shading == (0.25, 4.0)
+
+
+def test_binary_view_shows_one_class(gst, tmp_path, browser):
+    import numpy as np
+    engine = clip_engine(tmp_path, loop_file=True)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        select_class(browser, "floor")
+        browser.find_element(By.CSS_SELECTOR,
+                             "input[name=view][value=binary]").click()
+        wait_for(browser, lambda d: "class=floor" in d.find_element(
+            By.ID, "video").get_attribute("src"), "the binary stream")
+        view = engine.views["binary:floor"]
+        wait_for(browser, lambda d: view.seq > 3, "binary frames")
+        pause(browser, engine)
+        counts = class_counts(engine, 0)     # nothing new while paused
+        assert not counts
+        buf = engine._last_buffer
+        from gstlandmark import meta
+        labels = meta.labels(buf)
+        floor = next(c for c in labels.classes if c.name == "floor")
+        share = floor.count / labels.plane.size
+        wait_for(browser, lambda d: view.pts == buf.pts / 1e9,
+                 "the paused frame's binary view")
+        seen = browser_pixels(browser)
+        # black and white only (JPEG edges aside), white where floor is
+        grey = np.mean((seen > 40) & (seen < 215))
+        assert grey < 0.05, grey
+        white = np.mean(seen.mean(axis=2) > 127)
+        assert abs(white - share) < 0.03, (white, share)
+
+
+def test_statistics_of_the_box_drawn(gst, tmp_path, browser):
+    """Mean and spread in L*a*b* of a box inside the orange disc: the
+    disc's colour by the CIE formulas, a spread of JPEG noise."""
+    from test_console import srgb_to_lab, things_engine
+    engine = things_engine(tmp_path)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        size = browser.find_element(By.ID, "box-layer").size
+        scale = size["width"] / 320
+        drag(browser, round(-72 * scale), round(-12 * scale),
+             round(24 * scale), round(24 * scale))
+        wait_for(browser, lambda d: " px " in d.find_element(
+            By.ID, "box-stats").text, "the statistics")
+        text = browser.find_element(By.ID, "box-stats").text
+        got = [float(v) for v in re.findall(
+            r"[Lab]\* (-?\d+\.\d) \u00b1 (\d+\.\d)", text) for v in v]
+        expected = srgb_to_lab((255, 140, 0))
+        for k in range(3):
+            assert abs(got[2 * k] - expected[k]) < 3, (text, expected)
+            assert got[2 * k + 1] < 3, text
+        assert browser.find_element(By.ID, "box-histogram").is_displayed()
+        assert canvas_data(browser, "box-histogram") != \
+            browser.execute_script(
+                "const c = document.createElement('canvas'); c.width = 300;"
+                " c.height = 96; return c.toDataURL()")
+
+
+def test_step_shows_the_next_frame(gst, tmp_path, browser):
+    engine = clip_engine(tmp_path, loop_file=True)
+    view = engine.views["overlay"]
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        wait_for(browser, lambda d: view.pts is not None and
+                 0.3 < view.pts < 1.0, "mid clip")
+        pause(browser, engine)
+        for _ in range(3):
+            before, data = view.pts, view.data
+            browser.find_element(By.CSS_SELECTOR,
+                                 "button[data-action=step]").click()
+            wait_for(browser, lambda d: view.pts != before, "a step")
+            # the next frame of the 30 frames/s clip, still paused
+            assert abs(view.pts - before - 1 / 30) < 0.002, \
+                (before, view.pts)
+            assert engine.state == "paused"
+            wait_for(browser, lambda d: shows(d, view.data, data),
+                     "the next frame on the page")
+
+
+def test_zoom_enlarges_the_video_and_keeps_boxes_in_frame_pixels(
+        gst, tmp_path, browser):
+    from selenium.webdriver.support.ui import Select
+    engine = clip_engine(tmp_path, loop_file=True)
+    with ServerThread(engine) as srv:
+        open_page(browser, srv)
+        width = browser.find_element(By.ID, "video").size["width"]
+        Select(browser.find_element(By.ID, "zoom")).select_by_value("2")
+        # twice the panel's width inside its scroll bar
+        wait_for(browser, lambda d: d.find_element(
+            By.ID, "video").size["width"] > 1.9 * width and abs(
+            d.find_element(By.ID, "video").size["width"] - 2 *
+            d.execute_script("return document.getElementById("
+                             "'video-scroll').clientWidth")) <= 2,
+            "twice as wide")
+        layer = browser.find_element(By.ID, "box-layer")
+        scale = layer.size["width"] / 320
+        # a box in the visible top-left corner of the enlarged video (the
+        # offsets from the centre of the panel that scrolls it)
+        panel = browser.find_element(By.ID, "video-scroll")
+        browser.execute_script("arguments[0].scrollIntoView()", panel)
+        ActionChains(browser).move_to_element_with_offset(
+            panel, round(-panel.size["width"] / 2 + 20 * scale),
+            round(-panel.size["height"] / 2 + 10 * scale)) \
+            .click_and_hold().move_by_offset(round(40 * scale),
+                                             round(30 * scale)) \
+            .release().perform()
+        text = browser.find_element(By.ID, "teach-box").text
+        x, y, w, h = (int(v) for v in re.findall(r"\d+", text))
+        assert abs(x - 20) <= 1 and abs(y - 10) <= 1, text
+        assert abs(w - 40) <= 1 and abs(h - 30) <= 1, text

@@ -10,6 +10,7 @@ the newest one, never a queue); everything else runs on the loop.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import glob
 import json
 import math
@@ -56,6 +57,11 @@ FROZEN_KEPT = 4         # frozen teaching frames kept (one per browser)
 # what ``palette learn`` does by default, so both give one palette
 TEACH_REFERENCES = "auto"
 UNTAUGHT_CLASS = "untaught"
+MAX_TOLERANCE = 64.0    # the palette's widest shading, 1/64 to 64
+# a box's histograms: bins over L*, a*, b*
+STATISTICS_BINS = 32
+STATISTICS_RANGES = (("L", 0.0, 100.0), ("a", -128.0, 128.0),
+                     ("b", -128.0, 128.0))
 LOG_MAX_BYTES = 64 * 1024 * 1024    # a run's log file before it rotates
 LOG_KEEP = 20           # log files kept in OUT/logs (the oldest go)
 # The camera file's keys of the mounting properties: what the file holds
@@ -398,6 +404,14 @@ class LatestJpeg:
 
 
 
+def _check_box(what: str, *xywh) -> None:
+    """x, y, w, h must be integers (frame pixels)."""
+    for label, v in zip("xywh", xywh):
+        if not isinstance(v, int) or isinstance(v, bool):
+            raise ConsoleError(f"{what}: {label} must be an integer "
+                               f"(frame pixels), got {json.dumps(v)}")
+
+
 def _keep_newest(paths: List[str], path: str, keep: int = 3) -> None:
     """Appends path to the files the console wrote for the elements and
     removes the oldest beyond ``keep``: an element may still be reading
@@ -421,17 +435,34 @@ class Teaching:
     rest of the frames is learned only when no class of the base is left
     beside the taught ones (it would take their colours)."""
 
-    def __init__(self, base: pal.Palette, lessons=(), roles=None):
+    def __init__(self, base: pal.Palette, lessons=(), roles=None,
+                 shading=None):
         self.base = base
         # (frame id, frame, (name, x, y, w, h)) in the order taught
         self.lessons: Tuple[Tuple[int, np.ndarray, tuple], ...] = \
             tuple(lessons)
         self.roles: Dict[str, str] = dict(roles or {})
+        # the tolerances set on the page, kept when a class is re-taught
+        self.shading: Dict[str, Tuple[float, float]] = dict(shading or {})
 
     def add(self, frame_id: int, frame: np.ndarray, rect: tuple,
             role: str) -> "Teaching":
         return Teaching(self.base, self.lessons + ((frame_id, frame, rect),),
-                        {**self.roles, rect[0]: role})
+                        {**self.roles, rect[0]: role}, self.shading)
+
+    def edited(self, palette: pal.Palette, rename: Dict[str, str],
+               shading=None) -> "Teaching":
+        """The boxes of the classes still in ``palette`` (a class renamed
+        by ``rename``, old: new), beside ``palette``'s other classes."""
+        def keep(names):
+            return {rename.get(n, n): v for n, v in names.items()
+                    if rename.get(n, n) in palette.names}
+        lessons = [(i, f, (rename.get(r[0], r[0]),) + tuple(r[1:]))
+                   for i, f, r in self.lessons]
+        return Teaching(palette, [x for x in lessons
+                                  if x[2][0] in palette.names],
+                        keep(self.roles), {**keep(self.shading),
+                                           **(shading or {})})
 
     def frames(self) -> List[Tuple[int, np.ndarray, List[tuple]]]:
         """(frame id, frame, its boxes) in the order first taught on."""
@@ -458,7 +489,9 @@ class Teaching:
             (f"frame {frame_id}",
              reference.rgb_to_lab(np.ascontiguousarray(frame[:, :, ::-1])),
              rects) for frame_id, frame, rects in frames])
-        new = {c.name: c for c in learned.classes}
+        new = {c.name: dataclasses.replace(
+            c, shading=self.shading.get(c.name, c.shading))
+            for c in learned.classes}
         classes = [new.pop(c.name, c) for c in self.base.classes]
         palette = pal.parse_palette(pal.palette_to_json(
             pal.Palette(classes + list(new.values()))), "teach")
@@ -519,6 +552,7 @@ class Engine:
         self.views = {"overlay": LatestJpeg(), "labels": LatestJpeg()}
         self.frame_bgr: Optional[np.ndarray] = None
         self.frame_pts: Optional[float] = None
+        self.frame_period: Optional[float] = None     # seconds, files
         # frames frozen for teaching, by id (a few, the newest kept)
         self.frozen: Dict[int, Dict[str, Any]] = {}
         self._freeze_serial = 0
@@ -786,6 +820,8 @@ class Engine:
         buf = sample.get_buffer()
         caps = caps_structure(sample.get_caps())
         width, height = caps.get_value("width"), caps.get_value("height")
+        ok, num, den = caps.get_fraction("framerate")
+        self.frame_period = den / num if ok and num > 0 else None
         ok, info = buf.map(Gst.MapFlags.READ)
         frame = None
         if ok:
@@ -799,8 +835,7 @@ class Engine:
                 buf.unmap(info)
         result = self.frame_json(buf, width, height, now)
         self._last_buffer = buf
-        if self.views["labels"].readers > 0:
-            self._labels_jpeg(buf, now)
+        self._watched_class_views(buf, now)
         result["delay_ms"] = self._delay_ms(sample)
         with self._costs_lock:
             # get, not pop: a prerolled frame comes again as a sample
@@ -821,34 +856,71 @@ class Engine:
         now = clock.get_time() - pipe.get_base_time()
         return (now - running) / 1e6
 
-    def labels_now(self) -> None:
-        """The classes view of the newest frame, at once (on the loop:
+    def class_view(self, name: str, class_name: Optional[str] = None
+                   ) -> Tuple[str, LatestJpeg]:
+        """The view ``name`` (overlay, labels, or binary: white where the
+        palette's class ``class_name`` is, black elsewhere) and its key;
+        the binary views nobody watches are dropped."""
+        if name != "binary":
+            if name not in self.views:
+                raise ConsoleError(f"view must be one of overlay, labels, "
+                                   f"binary, got {name!r}")
+            return name, self.views[name]
+        if class_name not in self.palette.names:
+            raise ConsoleError(f"binary view: no class "
+                               f"{json.dumps(class_name)} (classes: "
+                               f"{', '.join(self.palette.names)})")
+        key = f"binary:{class_name}"
+        for stale in [k for k, v in self.views.items()
+                      if k.startswith("binary:") and k != key and
+                      not v.readers]:
+            del self.views[stale]
+            self._handoffs.pop(stale, None)
+        if key not in self.views:
+            self.views[key] = LatestJpeg()
+            if self.loop is not None:
+                self._handoffs[key] = Handoff(self.loop,
+                                              self.views[key].publish)
+        return key, self.views[key]
+
+    def _watched_class_views(self, buf: Gst.Buffer, now: float) -> None:
+        for key, view in list(self.views.items()):
+            if key != "overlay" and view.readers > 0:
+                self._class_jpeg(buf, now, key)
+
+    def labels_now(self, key: str = "labels") -> None:
+        """The view ``key`` of the newest frame, at once (on the loop:
         while paused no new frame would make it)."""
-        buf, view = self._last_buffer, self.views["labels"]
+        buf, view = self._last_buffer, self.views[key]
         if buf is None:
             return
         pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
         if view.data is None or view.pts != pts:
-            jpeg = self._labels_jpeg(buf, time.time(), handoff=False)
+            jpeg = self._class_jpeg(buf, time.time(), key, handoff=False)
             if jpeg is not None:
                 view.publish(jpeg, time.time(), pts)
 
-    def _labels_jpeg(self, buf: Gst.Buffer, now: float,
-                     handoff: bool = True) -> Optional[bytes]:
-        """The label plane in class colours (black: no class) as JPEG."""
+    def _class_jpeg(self, buf: Gst.Buffer, now: float, key: str,
+                    handoff: bool = True) -> Optional[bytes]:
+        """The label plane as JPEG: "labels" in class colours (black: no
+        class), "binary:NAME" white where the class NAME is."""
         labels = meta.labels(buf)
         if labels is None or self.loop is None:
             return None
         lut = np.zeros((256, 3), np.uint8)
         for c in labels.classes:
-            lut[c.label] = c.rgb[::-1]      # BGR for OpenCV
+            if key == "labels":
+                lut[c.label] = c.rgb[::-1]      # BGR for OpenCV
+            elif key == f"binary:{c.name}":
+                lut[c.label] = 255
         ok, jpg = cv2.imencode(".jpg", lut[labels.plane],
                                [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
         if not ok:
             return None
-        if handoff:
+        handoff_to = self._handoffs.get(key) if handoff else None
+        if handoff_to is not None:
             pts = None if buf.pts == Gst.CLOCK_TIME_NONE else buf.pts / 1e9
-            self._handoffs["labels"].put(jpg.tobytes(), now, pts)
+            handoff_to.put(jpg.tobytes(), now, pts)
         return jpg.tobytes()
 
     @staticmethod
@@ -963,6 +1035,29 @@ class Engine:
                 Gst.SeekFlags.FLUSH | Gst.SeekFlags.ACCURATE,
                 int(seconds * Gst.SECOND)):
             raise ConsoleError("seek: refused by the pipeline")
+
+    async def step(self) -> None:
+        """Pauses and shows the next frame of a file (a seek to its time,
+        and a microsecond: the frame that covers it is shown)."""
+        if not self.is_file:
+            raise ConsoleError("step: only a file steps frame by frame")
+        if self.state not in ("playing", "paused"):
+            raise ConsoleError("step: start first")
+        if self.state == "playing":
+            await self.pause()
+        duration = self.duration()
+        if self.frame_pts is None or not self.frame_period or \
+                duration is None:
+            raise ConsoleError("step: no frame with a time and rate yet")
+        target = self.frame_pts + self.frame_period + 1e-6
+        if target >= duration:
+            raise ConsoleError(f"step: {self.frame_pts:.3f} s is the last "
+                               f"frame")
+        if not self.pipe.seek_simple(
+                Gst.Format.TIME,
+                Gst.SeekFlags.FLUSH | Gst.SeekFlags.ACCURATE,
+                int(target * Gst.SECOND)):
+            raise ConsoleError("step: refused by the pipeline")
 
     def tunables(self) -> Dict[str, List[Dict[str, Any]]]:
         out = {}
@@ -1120,10 +1215,7 @@ class Engine:
         does and applies it; returns the class's new entry. ``role`` (or
         the older ``marker``) None: a new class is a marker, a known one
         keeps its role."""
-        for label, v in (("x", x), ("y", y), ("w", w), ("h", h)):
-            if not isinstance(v, int) or isinstance(v, bool):
-                raise ConsoleError(f"teach: {label} must be an integer "
-                                   f"(frame pixels), got {json.dumps(v)}")
+        _check_box("teach", x, y, w, h)
         if marker is not None and not isinstance(marker, bool):
             raise ConsoleError("teach: marker must be true or false")
         if not isinstance(name, str):
@@ -1176,6 +1268,83 @@ class Engine:
         del self.undo_stack[:-UNDO_DEPTH]
         self.teaching = Teaching(pal.Palette([]))
         self.teach_warnings, self.palette_spread = [], {}
+
+    def edit_class(self, name, action: str, to=None) -> Dict[str, Any]:
+        """Deletes the class ``name`` (``action`` "delete"), renames it
+        ``to`` ("rename") or sets its tolerance ``to`` ("tolerance": it
+        stands for its colours from 1/to to to times the light taught in,
+        the palette's "shading"); applies the palette (undo takes it
+        back)."""
+        names = self.palette.names
+        if not isinstance(name, str) or name not in names:
+            raise ConsoleError(f"{action}: no class {json.dumps(name)} "
+                               f"(classes: {', '.join(names)})")
+        classes = list(self.palette.classes)
+        i = names.index(name)
+        rename, shading = {}, None
+        if action == "delete":
+            if len(classes) == 1:
+                raise ConsoleError(f"delete: {name} is the only class")
+            del classes[i]
+        elif action == "rename":
+            if not isinstance(to, str) or to in names:
+                raise ConsoleError(f"rename: the new name must be a string "
+                                   f"that no class has, got "
+                                   f"{json.dumps(to)}")
+            classes[i] = dataclasses.replace(classes[i], name=to)
+            rename = {name: to}
+        elif action == "tolerance":
+            if not _is_number(to) or not 1 <= to <= MAX_TOLERANCE:
+                raise ConsoleError(f"tolerance: {name}: expected a light "
+                                   f"factor from 1 (the taught colours "
+                                   f"only) to {MAX_TOLERANCE:g}, got "
+                                   f"{json.dumps(to)}")
+            shading = {name: (1 / to, float(to))}
+            classes[i] = dataclasses.replace(classes[i],
+                                             shading=shading[name])
+        else:
+            raise ConsoleError(f"action must be delete, rename or "
+                               f"tolerance, got {json.dumps(action)}")
+        try:
+            palette = pal.parse_palette(pal.palette_to_json(
+                pal.Palette(classes)), action)
+        except pal.PaletteError as err:
+            raise ConsoleError(f"{action}: {err}") from None
+        self.undo_stack.append((self.palette, self.palette_path,
+                                self.teaching))
+        del self.undo_stack[:-UNDO_DEPTH]
+        self.teaching = self.teaching.edited(palette, rename, shading)
+        self.palette_spread = {rename.get(n, n): v for n, v in
+                               self.palette_spread.items()
+                               if rename.get(n, n) in palette.names}
+        self._apply_palette(palette)
+        return {"palette": self.palette_json()}
+
+    def box_statistics(self, frame_id, x, y, w, h) -> Dict[str, Any]:
+        """Mean, spread (standard deviation) and histograms in L*a*b* of
+        the pixels in a box of a frozen frame (None: the newest frame)."""
+        frame = self.frame_bgr if frame_id is None else \
+            self._frozen(frame_id)["frame"]
+        if frame is None:
+            raise ConsoleError("statistics: no frame yet")
+        _check_box("statistics", x, y, w, h)
+        try:
+            pal.check_rects(frame.shape, [("box", x, y, w, h)])
+        except pal.PaletteError as err:
+            raise ConsoleError(f"statistics: {err}") from None
+        rgb = np.ascontiguousarray(frame[y:y + h, x:x + w, ::-1])
+        pixels = reference.rgb_to_lab(rgb).reshape(-1, 3) \
+            .astype(np.float64)
+        out: Dict[str, Any] = {"pixels": len(pixels),
+                               "mean": pixels.mean(axis=0).tolist(),
+                               "std": pixels.std(axis=0).tolist(),
+                               "histograms": {}}
+        for k, (channel, lo, hi) in enumerate(STATISTICS_RANGES):
+            counts, edges = np.histogram(pixels[:, k], STATISTICS_BINS,
+                                         (lo, hi))
+            out["histograms"][channel] = {"from": lo, "to": hi,
+                                          "counts": counts.tolist()}
+        return out
 
     def undo(self) -> None:
         if not self.undo_stack:

@@ -107,8 +107,11 @@ def make_app(engine: Engine, token: Optional[str] = None,
             await engine.pause()
         elif action == "stop":
             await engine.stop()
+        elif action == "step":
+            await engine.step()
         else:
-            raise ConsoleError(f"action must be start, pause or stop, got "
+            raise ConsoleError(f"action must be start, pause, step or stop, "
+                               f"got "
                                f"{json.dumps(action)}")
         broadcast_state()
         return web.json_response({"state": engine.state})
@@ -168,6 +171,21 @@ def make_app(engine: Engine, token: Optional[str] = None,
         broadcast_state()
         return web.json_response({"class": entry,
                                   "warnings": engine.teach_warnings})
+
+    async def api_class(request):
+        data = await body(request)
+        reply = engine.edit_class(data.get("class"), data.get("action"),
+                                  data.get("to"))
+        broadcast_state()
+        return web.json_response(reply)
+
+    async def api_statistics(request):
+        data = await body(request)
+        missing = [k for k in ("x", "y", "w", "h") if k not in data]
+        if missing:
+            raise ConsoleError(f"statistics: missing {', '.join(missing)}")
+        return web.json_response(engine.box_statistics(
+            data.get("frame"), data["x"], data["y"], data["w"], data["h"]))
 
     async def api_new_palette(request):
         await body(request)
@@ -232,13 +250,11 @@ def make_app(engine: Engine, token: Optional[str] = None,
 
     async def stream(request):
         """MJPEG: one JPEG part per frame of a view (``?view=overlay``,
-        the default, or ``labels``), newest first (a slow client skips
-        frames, it never delays others)."""
-        name = request.query.get("view", "overlay")
-        if name not in engine.views:
-            raise ConsoleError(f"view must be one of "
-                               f"{', '.join(engine.views)}, got {name!r}")
-        view = engine.views[name]
+        the default, ``labels``, or ``binary`` with ``class=NAME``),
+        newest first (a slow client skips frames, it never delays
+        others)."""
+        name, view = engine.class_view(request.query.get("view", "overlay"),
+                                       request.query.get("class"))
         response = web.StreamResponse(headers={
             "Content-Type":
                 f"multipart/x-mixed-replace; boundary={BOUNDARY}",
@@ -246,8 +262,8 @@ def make_app(engine: Engine, token: Optional[str] = None,
         await response.prepare(request)
         seq = 0         # the newest frame at once, then each new one
         view.readers += 1
-        if name == "labels":
-            engine.labels_now()     # paused: no new frame would make it
+        if name != "overlay":
+            engine.labels_now(name)     # paused: no new frame would make it
         try:
             # A browser shows a part once the next part's headers have
             # come: so each part's data is followed at once by the
@@ -339,6 +355,8 @@ def make_app(engine: Engine, token: Optional[str] = None,
     app.router.add_post("/api/teach", api_teach)
     app.router.add_post("/api/undo", api_undo)
     app.router.add_post("/api/new-palette", api_new_palette)
+    app.router.add_post("/api/class", api_class)
+    app.router.add_post("/api/statistics", api_statistics)
     app.router.add_post("/api/freeze", api_freeze)
     app.router.add_get("/frozen.jpg", frozen)
     app.router.add_post("/api/save-palette", api_save_palette)

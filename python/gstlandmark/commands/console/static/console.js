@@ -47,7 +47,8 @@ async function post(route, body, onError) {
 let view = "overlay";
 function showVideo() {     // a fresh address: the browser opens a new stream
   if (frozen) return;
-  $("video").src = withToken(`stream.mjpg?view=${view}&n=${Date.now()}`);
+  const one = view === "binary" ? `&class=${encodeURIComponent($("class-select").value)}` : "";
+  $("video").src = withToken(`stream.mjpg?view=${view}${one}&n=${Date.now()}`);
 }
 showVideo();
 $("video").addEventListener("error", () => setTimeout(showVideo, 1000));   // broke: again
@@ -117,6 +118,37 @@ window.addEventListener("mouseup", () => {
   dragStart = null;
   if (box && (box.w < 1 || box.h < 1)) box = null;
   $("teach-box").textContent = box ? `box: ${box.x},${box.y} ${box.w}x${box.h}` : "box: none";
+  if (box) showBoxStatistics(box);
+});
+
+// the box's pixels in L*a*b*: mean, spread and a histogram per channel
+async function showBoxStatistics(b) {
+  const still = frozen || (await freezing);
+  if (!still || b !== box) return;
+  const r = await post("api/statistics", { frame: still.frame, x: b.x, y: b.y, w: b.w, h: b.h });
+  if (!r || b !== box) return;
+  $("box-stats").textContent = `${r.pixels} px  ` + ["L*", "a*", "b*"].map(
+    (c, i) => `${c} ${r.mean[i].toFixed(1)} \u00b1 ${r.std[i].toFixed(1)}`).join("  ");
+  const c = $("box-histogram"), g = c.getContext("2d");
+  c.hidden = false;
+  g.clearRect(0, 0, c.width, c.height);
+  const rows = Object.entries(r.histograms), rh = c.height / rows.length;
+  rows.forEach(([channel, h], k) => {
+    const top = Math.max(1, ...h.counts), bw = (c.width - 24) / h.counts.length;
+    g.fillStyle = "#ccc"; g.font = "11px sans-serif"; g.fillText(channel + "*", 2, k * rh + rh / 2 + 4);
+    g.fillStyle = ["#e0e0e0", "#ff8a80", "#ffd54f"][k];
+    h.counts.forEach((n, i) => {
+      const bar = (n / top) * (rh - 4);
+      g.fillRect(24 + i * bw, (k + 1) * rh - 2 - bar, Math.max(bw - 1, 1), bar);
+    });
+  });
+}
+
+// zoom: the video (and the box layer over it) 1, 2 or 4 times as wide,
+// scrolled in its panel; boxes stay in frame pixels
+$("zoom").addEventListener("change", () => {
+  $("video-box").style.width = `${100 * Number($("zoom").value)}%`;
+  drawBox();
 });
 window.addEventListener("resize", drawBox);
 
@@ -143,6 +175,28 @@ $("teach").addEventListener("click", async () => {
     showMessage(`taught ${name}: L*a*b* ${lab}${warned}`, false);
   }
 });
+// the selected class: binary view, tolerance, rename, delete
+function selectedClass() { return knownClass($("class-select").value); }
+function showSelectedClass() {
+  const c = selectedClass();
+  if (c && document.activeElement !== $("tolerance")) $("tolerance").value = c.shading ? c.shading[1] : 1;
+}
+$("class-select").addEventListener("change", () => { showSelectedClass(); if (view === "binary") goLive(); });
+async function editClass(action, to) {
+  const name = $("class-select").value;
+  const r = await post("api/class", { class: name, action, to });
+  if (r) showMessage(`${action} ${name}` + (to !== undefined ? ` -> ${to}` : ""), false);
+  return r;
+}
+$("tolerance").addEventListener("change", () => {
+  if ($("tolerance").value.trim() !== "") editClass("tolerance", Number($("tolerance").value));
+});
+$("rename").addEventListener("click", async () => {
+  const to = $("class-new-name").value.trim();
+  if (!to) { showMessage("type the class's new name", true); return; }
+  if (await editClass("rename", to)) { $("class-new-name").value = ""; $("class-select").value = to; showSelectedClass(); }
+});
+$("delete").addEventListener("click", () => editClass("delete"));
 $("new-palette").addEventListener("click", async () => {
   if (await post("api/new-palette")) showMessage("the next boxes make a new palette", false);
 });
@@ -425,6 +479,12 @@ function onState(s) {
     return li;
   }));
   $("undo").disabled = !s.can_undo;
+  const chosen = $("class-select").value;
+  $("class-select").replaceChildren(...classes.map((c) => {
+    const o = document.createElement("option"); o.value = o.textContent = c.name; return o;
+  }));
+  if (knownClass(chosen)) $("class-select").value = chosen;
+  showSelectedClass();
   const t = s.teaching;
   $("taught").textContent = t.boxes
     ? `${t.boxes} box(es) on ${t.frames} frame(s)` + (t.beside.length ? ", beside the palette's other classes" : "")

@@ -737,6 +737,10 @@ def test_ten_browsers_keep_up_and_memory_stays_flat(gst, tmp_path):
             for t in tasks:
                 t.cancel()
         rates = {k: (counts[k] - start.get(k, 0)) / elapsed for k in counts}
+        # the figures docs/console.md quotes (pytest -s shows them)
+        print(f"console soak: {elapsed:.0f} s, RSS {before:.1f} MiB "
+              f"{growth:+.2f}, clients {min(rates.values()):.1f}-"
+              f"{max(rates.values()):.1f} frames/s")
         assert len(rates) == 20
         # nobody starves (the clip is 30 frames/s; a loaded machine may
         # make a reader skip frames, never stop)
@@ -1025,5 +1029,52 @@ def test_the_source_is_chosen_by_id_never_by_path(gst, tmp_path):
         state = await (await client.get("/api/state")).json()
         assert state["source"] == "file:clips/disc.avi"
         assert state["duration"] == pytest.approx(1.0, abs=0.04)
+
+    serve(engine, check)
+
+
+def test_class_edits_carry_into_the_next_teaching(gst, tmp_path):
+    """A new palette taught, its untaught rest renamed and a class's
+    tolerance set: teaching one more box keeps both (a class taught is
+    learned again, the others stay as edited)."""
+    engine = things_engine(tmp_path)
+
+    async def check(client):
+        await frames(client, 1)
+        await post(client, "/api/new-palette", {})
+        status, still = await post(client, "/api/freeze", {})
+        for name, x, y, w, h, role in TAUGHT_BOXES[:2]:
+            status, reply = await post(client, "/api/teach", {
+                "class": name, "x": x, "y": y, "w": w, "h": h,
+                "role": role, "frame": still["frame"]})
+            assert status == 200, reply
+        assert engine.palette.names == ["ball", "untaught"]
+        for edit in ({"class": "untaught", "action": "rename", "to": "rest"},
+                     {"class": "ball", "action": "tolerance", "to": 2},
+                     {"class": "ball", "action": "rename", "to": "disc"}):
+            status, reply = await post(client, "/api/class", edit)
+            assert status == 200, reply
+        status, reply = await post(client, "/api/teach", {
+            "class": "disc", "x": 92, "y": 110, "w": 10, "h": 10,
+            "frame": still["frame"]})
+        assert status == 200, reply
+        disc = engine.palette.classes[engine.palette.index("disc")]
+        assert engine.palette.names == ["disc", "rest"]
+        assert disc.shading == (0.5, 2.0) and disc.role == "marker"
+        # three boxes of disc, pooled
+        assert engine.teaching.lessons[-1][2][0] == "disc"
+        assert len(engine.teaching.lessons) == 3
+        for bad, why in (
+                ({"class": "nope", "action": "delete"}, "no class \"nope\""),
+                ({"class": "disc", "action": "rename", "to": "rest"},
+                 "no class has"),
+                ({"class": "disc", "action": "rename", "to": "a b"},
+                 "may only contain"),
+                ({"class": "disc", "action": "tolerance", "to": 65},
+                 "to 64"),
+                ({"class": "disc", "action": "paint"}, "action must be")):
+            status, reply = await post(client, "/api/class", bad)
+            assert status == 400 and why in reply["error"], (bad, reply)
+        assert engine.palette.names == ["disc", "rest"]
 
     serve(engine, check)

@@ -452,15 +452,20 @@ class Teaching:
 
     def edited(self, palette: pal.Palette, rename: Dict[str, str],
                shading=None) -> "Teaching":
-        """The boxes of the classes still in ``palette`` (a class renamed
-        by ``rename``, old: new), beside ``palette``'s other classes."""
-        def keep(names):
-            return {rename.get(n, n): v for n, v in names.items()
+        """The teaching after the user edited the palette into
+        ``palette`` (a class renamed by ``rename``, old: new): the boxes
+        of the classes still in it, learned beside it (so an edited class
+        stays as edited, and the classes keep their places), except the
+        untaught rest, which is learned again."""
+        def keep(by_name):
+            return {rename.get(n, n): v for n, v in by_name.items()
                     if rename.get(n, n) in palette.names}
         lessons = [(i, f, (rename.get(r[0], r[0]),) + tuple(r[1:]))
                    for i, f, r in self.lessons]
-        return Teaching(palette, [x for x in lessons
-                                  if x[2][0] in palette.names],
+        base = [c for c in palette.classes if c.name != UNTAUGHT_CLASS or
+                c.name in self.base.names]
+        return Teaching(pal.Palette(base),
+                        [x for x in lessons if x[2][0] in palette.names],
                         keep(self.roles), {**keep(self.shading),
                                            **(shading or {})})
 
@@ -1279,20 +1284,16 @@ class Engine:
         if not isinstance(name, str) or name not in names:
             raise ConsoleError(f"{action}: no class {json.dumps(name)} "
                                f"(classes: {', '.join(names)})")
-        classes = list(self.palette.classes)
-        i = names.index(name)
-        rename, shading = {}, None
+        rename, shading, change = {}, None, {}
         if action == "delete":
-            if len(classes) == 1:
+            if len(names) == 1:
                 raise ConsoleError(f"delete: {name} is the only class")
-            del classes[i]
         elif action == "rename":
             if not isinstance(to, str) or to in names:
                 raise ConsoleError(f"rename: the new name must be a string "
                                    f"that no class has, got "
                                    f"{json.dumps(to)}")
-            classes[i] = dataclasses.replace(classes[i], name=to)
-            rename = {name: to}
+            rename, change = {name: to}, {"name": to}
         elif action == "tolerance":
             if not _is_number(to) or not 1 <= to <= MAX_TOLERANCE:
                 raise ConsoleError(f"tolerance: {name}: expected a light "
@@ -1300,11 +1301,15 @@ class Engine:
                                    f"only) to {MAX_TOLERANCE:g}, got "
                                    f"{json.dumps(to)}")
             shading = {name: (1 / to, float(to))}
-            classes[i] = dataclasses.replace(classes[i],
-                                             shading=shading[name])
+            change = {"shading": shading[name]}
         else:
             raise ConsoleError(f"action must be delete, rename or "
                                f"tolerance, got {json.dumps(action)}")
+
+        # the class changed, or without a change deleted
+        classes = [dataclasses.replace(c, **change) if c.name == name
+                   else c for c in self.palette.classes
+                   if change or c.name != name]
         try:
             palette = pal.parse_palette(pal.palette_to_json(
                 pal.Palette(classes)), action)

@@ -311,6 +311,11 @@ test_arc_circle ()
   cv::circle (m, cv::Point (80, 60), 30, 255, cv::FILLED);
   cv::circle (m, cv::Point (80, 68), 27, 0, cv::FILLED);
   CHECK (!arc_of_mask (m, &arc), "crescent accepted (fill %.2f)", arc.fill);
+  /* a ring: its hole is no shaded side */
+  m = cv::Mat::zeros (120, 160, CV_8UC1);
+  cv::circle (m, cv::Point (80, 60), 25, 255, cv::FILLED);
+  cv::circle (m, cv::Point (80, 60), 12, 0, cv::FILLED);
+  CHECK (!arc_of_mask (m, &arc), "ring accepted (holes %.2f)", arc.holes);
   /* a small disc: below kArcMinRadius the arc is no evidence */
   m = cv::Mat::zeros (120, 160, CV_8UC1);
   cv::circle (m, cv::Point (80, 60), 8, 255, cv::FILLED);

@@ -232,9 +232,21 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
   const double circle = circle_area_in_frame (best_x, best_y, best_r + 0.5,
       width, height);
   out->fill = circle > 0 ? area / circle : 0.0;
+  /* the pixels the outline encloses: the polygon through boundary-pixel
+   * centres plus the half pixel outside it (half the chain's length, and
+   * a pixel for the turn) */
+  double twice = 0, chain = 0;
+  for (int i = 0; i < m; i++) {
+    const cv::Point & p = contour[i], & q = contour[(i + 1) % m];
+    twice += (double) p.x * q.y - (double) q.x * p.y;
+    chain += std::hypot (q.x - p.x, q.y - p.y);
+  }
+  const double enclosed = std::fabs (twice) / 2 + chain / 2 + 1;
+  out->holes = std::max (0.0, 1.0 - area / enclosed);
   return out->coverage >= kArcMinCoverage &&
       best_turn >= kArcMinTurn * 2 * M_PI &&
-      out->fill >= kArcMinFill && out->outside <= kArcMaxOutside;
+      out->fill >= kArcMinFill && out->outside <= kArcMaxOutside &&
+      out->holes <= kArcMaxHoles;
 }
 
 }  // namespace landmark

@@ -30,6 +30,11 @@ constexpr double kArcMinTurn = 1.0 / 3.0;
 /* The blob fills at least a third of the circle (within the frame): a
  * thin crescent along a rim is as much a ring of another colour. */
 constexpr double kArcMinFill = 1.0 / 3.0;
+/* Holes (pixels inside the outline that are not the blob's) at most this
+ * share of what the outline encloses: a ball's missing part is its
+ * shaded or hidden side, open to the outside; a ring's or a digit's hole
+ * in the middle is no ball. Seams and highlights leave smaller holes. */
+constexpr double kArcMaxHoles = 0.15;
 /* Outline points outside the circle by more than the tolerance: at most
  * this share of the outline (a blob is inside its ball). */
 constexpr double kArcMaxOutside = 0.03;
@@ -44,6 +49,7 @@ struct ArcCircle {
   double coverage = 0;   /* share of the visible turn the rim sweeps */
   double fill = 0;       /* blob area over the circle's area in the frame */
   double outside = 0;    /* share of outline points outside the circle */
+  double holes = 0;      /* share of the enclosed pixels in holes */
   int rim_points = 0;    /* outline points on the circle */
 };
 

@@ -32,9 +32,10 @@ constexpr double kArcMinTurn = 1.0 / 3.0;
 constexpr double kArcMinFill = 1.0 / 3.0;
 /* Holes (pixels inside the outline that are not the blob's) at most this
  * share of what the outline encloses: a ball's missing part is its
- * shaded or hidden side, open to the outside; a ring's or a digit's hole
- * in the middle is no ball. Seams and highlights leave smaller holes. */
-constexpr double kArcMaxHoles = 0.15;
+ * shaded or hidden side, open to the outside; a ring's hole is no ball.
+ * The ellipse fit already refuses rings from r = 0.3 R (a 9 % hole); a
+ * 5 % hole (r = 0.22 R) it still accepts in a whole disc. */
+constexpr double kArcMaxHoles = 0.05;
 /* Outline points outside the circle by more than the tolerance: at most
  * this share of the outline (a blob is inside its ball). */
 constexpr double kArcMaxOutside = 0.03;

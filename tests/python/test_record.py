@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 import pytest
 
+from gstlandmark import rosmessages
 from gstlandmark.commands import record
 from gstlandmark.commands.common import CliError
 
@@ -77,11 +78,11 @@ def test_every_channel_and_count(chain_run):
 
     header, summary, topics = read_mcap(mcap_path)
     assert header.profile == "ros2"
-    every = [record.IMAGE_TOPIC, record.CAMERA_IMAGE_TOPIC,
-             record.CAMERA_INFO_TOPIC, record.POSE_TOPIC,
-             record.DETECTIONS_TOPIC, record.TF_TOPIC,
-             record.TF_STATIC_TOPIC, record.PATH_TOPIC, record.MAP_TOPIC,
-             record.SCAN_TOPIC]
+    every = [rosmessages.IMAGE_TOPIC, rosmessages.CAMERA_IMAGE_TOPIC,
+             rosmessages.CAMERA_INFO_TOPIC, rosmessages.POSE_TOPIC,
+             rosmessages.DETECTIONS_TOPIC, rosmessages.TF_TOPIC,
+             rosmessages.TF_STATIC_TOPIC, rosmessages.PATH_TOPIC, rosmessages.MAP_TOPIC,
+             rosmessages.SCAN_TOPIC]
     assert sorted(c.topic for c in summary.channels.values()) == \
         sorted(every)
     # ROS 2 types throughout: no JSON channel
@@ -90,23 +91,23 @@ def test_every_channel_and_count(chain_run):
         {"cdr"}
     counts = summary.statistics.channel_message_counts
     by_topic = {summary.channels[i].topic: n for i, n in counts.items()}
-    assert by_topic == {record.IMAGE_TOPIC: CLIP_FRAMES,
-                        record.CAMERA_IMAGE_TOPIC: CLIP_FRAMES,
-                        record.CAMERA_INFO_TOPIC: CLIP_FRAMES,
-                        record.POSE_TOPIC: len(with_pose),
-                        record.TF_TOPIC: len(with_pose),
-                        record.TF_STATIC_TOPIC: 1, record.MAP_TOPIC: 1,
-                        record.PATH_TOPIC: 3,      # 1.5 s: 0 s, 1 s, last
-                        record.SCAN_TOPIC: CLIP_FRAMES,
-                        record.DETECTIONS_TOPIC: CLIP_FRAMES}
-    assert f"{record.POSE_TOPIC}: {len(with_pose)} messages" in stdout
+    assert by_topic == {rosmessages.IMAGE_TOPIC: CLIP_FRAMES,
+                        rosmessages.CAMERA_IMAGE_TOPIC: CLIP_FRAMES,
+                        rosmessages.CAMERA_INFO_TOPIC: CLIP_FRAMES,
+                        rosmessages.POSE_TOPIC: len(with_pose),
+                        rosmessages.TF_TOPIC: len(with_pose),
+                        rosmessages.TF_STATIC_TOPIC: 1, rosmessages.MAP_TOPIC: 1,
+                        rosmessages.PATH_TOPIC: 3,      # 1.5 s: 0 s, 1 s, last
+                        rosmessages.SCAN_TOPIC: CLIP_FRAMES,
+                        rosmessages.DETECTIONS_TOPIC: CLIP_FRAMES}
+    assert f"{rosmessages.POSE_TOPIC}: {len(with_pose)} messages" in stdout
     # wall-clock stamps by default: the run began within the last minutes
-    start = topics[record.TF_STATIC_TOPIC][0][3]
+    start = topics[rosmessages.TF_STATIC_TOPIC][0][3]
     assert abs(start / 1e9 - time.time()) < 600
     log = [dict(x, pts=x["pts"] + start) for x in log]
     with_pose = [x for x in log if "pose" in x]
 
-    images = topics[record.IMAGE_TOPIC]
+    images = topics[rosmessages.IMAGE_TOPIC]
     assert {(s, e, m) for s, e, m, _, _ in images} == {
         ("sensor_msgs/msg/CompressedImage", "ros2msg", "cdr")}
     # the images are the overlay video's frames, in order, at the log's
@@ -125,7 +126,7 @@ def test_every_channel_and_count(chain_run):
         assert np.abs(got.astype(int) - frame.astype(int)).mean() < 3.0
     cap.release()
 
-    poses = topics[record.POSE_TOPIC]
+    poses = topics[rosmessages.POSE_TOPIC]
     assert {(s, e, m) for s, e, m, _, _ in poses} == {
         ("geometry_msgs/msg/PoseWithCovarianceStamped", "ros2msg", "cdr")}
     for (_, _, _, t, msg), line in zip(poses, with_pose):
@@ -143,7 +144,7 @@ def test_every_channel_and_count(chain_run):
                 assert cov[a * 6 + b] == c3[i * 3 + j]
         assert cov[2 * 6 + 2] == 0.0
 
-    dets = topics[record.DETECTIONS_TOPIC]
+    dets = topics[rosmessages.DETECTIONS_TOPIC]
     assert {(s, e, m) for s, e, m, _, _ in dets} == {
         ("gst_landmark/msg/LandmarkDetectionArray", "ros2msg", "cdr")}
     for (_, _, _, t, msg), line in zip(dets, log):
@@ -163,7 +164,7 @@ def test_every_channel_and_count(chain_run):
                 assert got.landmark_id == want["match"].get("landmark-id", "")
     assert sum(len(m.detections) for *_, m in dets) > 0
     schema = next(s for s in summary.schemas.values()
-                  if s.name == record.DETECTIONS_TYPE)
+                  if s.name == rosmessages.DETECTIONS_TYPE)
     assert "MSG: gst_landmark/LandmarkDetection\n" in schema.data.decode()
 
 
@@ -183,11 +184,11 @@ def test_rosbags_reads_every_channel_and_the_transforms(chain_run,
         for conn, t, raw in reader.messages():
             msg = reader.deserialize(raw, conn.msgtype)
             got.setdefault(conn.topic, []).append((conn.msgtype, t, msg))
-    assert len(got) == 10 and len(got[record.DETECTIONS_TOPIC]) == \
+    assert len(got) == 10 and len(got[rosmessages.DETECTIONS_TOPIC]) == \
         CLIP_FRAMES
-    start = got[record.TF_STATIC_TOPIC][0][1]
+    start = got[rosmessages.TF_STATIC_TOPIC][0][1]
     with_pose = [x for x in log if "pose" in x]
-    for (typ, t, msg), line in zip(got[record.TF_TOPIC], with_pose):
+    for (typ, t, msg), line in zip(got[rosmessages.TF_TOPIC], with_pose):
         assert typ == "tf2_msgs/msg/TFMessage"
         (tf,) = msg.transforms
         assert (tf.header.frame_id, tf.child_frame_id) == ("map",
@@ -198,7 +199,7 @@ def test_rosbags_reads_every_channel_and_the_transforms(chain_run,
         assert (tr.x, tr.y, tr.z) == (p["x"], p["y"], 0.0)
         yaw = math.atan2(2 * q.w * q.z, 1 - 2 * q.z * q.z)
         assert abs(math.remainder(yaw - p["heading"], 2 * math.pi)) < 1e-12
-    (_, _, static), = got[record.TF_STATIC_TOPIC]
+    (_, _, static), = got[rosmessages.TF_STATIC_TOPIC]
     (cam,) = static.transforms
     assert (cam.header.frame_id, cam.child_frame_id) == ("base_link",
                                                           "camera")
@@ -208,7 +209,7 @@ def test_rosbags_reads_every_channel_and_the_transforms(chain_run,
                        cam.transform.translation.y,
                        cam.transform.translation.z])
     assert origin[2] == 0.5                     # the clip's camera height
-    info = got[record.CAMERA_INFO_TOPIC][0][2]
+    info = got[rosmessages.CAMERA_INFO_TOPIC][0][2]
     assert (info.width, info.height) == (log[0]["width"], log[0]["height"])
     k = np.array(info.k).reshape(3, 3)
     kinds = {lm["id"]: lm.get("kind", "disc") for lm in json.loads(
@@ -237,12 +238,12 @@ def test_rosbags_reads_every_channel_and_the_transforms(chain_run,
     print(f"reprojection: median {errors[len(errors) // 2]:.2f} px, "
           f"p75 {errors[int(len(errors) * 0.75)]:.2f}, max {errors[-1]:.2f}")
     assert errors[-1] < 1.5, errors
-    (_, _, markers), = got[record.MAP_TOPIC]
+    (_, _, markers), = got[rosmessages.MAP_TOPIC]
     landmarks = json.loads(open(os.path.join(CLIP_DIR, "map.json")).read())
     discs = [m for m in markers.markers if m.ns == "landmarks"]
     assert [(m.pose.position.x, m.pose.position.y) for m in discs] == [
         (lm["x"], lm["y"]) for lm in landmarks["landmarks"]]
-    (_, _, path) = got[record.PATH_TOPIC][-1]
+    (_, _, path) = got[rosmessages.PATH_TOPIC][-1]
     assert path.poses[-1].pose.position.x == with_pose[-1]["pose"]["x"]
 
 
@@ -266,13 +267,13 @@ def test_convert_log_and_video(chain_run, tmp_path):
     assert {k: len(v) for k, v in b.items()} == counts
     # without --camera-video, --camera-file and --map: the same channels
     # but the camera's image, its model, base_link -> camera and the map
-    assert set(a) - set(b) == {record.CAMERA_IMAGE_TOPIC,
-                               record.CAMERA_INFO_TOPIC,
-                               record.TF_STATIC_TOPIC, record.MAP_TOPIC}
+    assert set(a) - set(b) == {rosmessages.CAMERA_IMAGE_TOPIC,
+                               rosmessages.CAMERA_INFO_TOPIC,
+                               rosmessages.TF_STATIC_TOPIC, rosmessages.MAP_TOPIC}
     for topic in b:
         assert len(a[topic]) == len(b[topic])
-    assert [repr(m.detections) for *_, m in a[record.DETECTIONS_TOPIC]] == \
-        [repr(m.detections) for *_, m in b[record.DETECTIONS_TOPIC]]
+    assert [repr(m.detections) for *_, m in a[rosmessages.DETECTIONS_TOPIC]] == \
+        [repr(m.detections) for *_, m in b[rosmessages.DETECTIONS_TOPIC]]
 
 
 def test_log_only_has_no_image_channel(chain_run, tmp_path):
@@ -281,10 +282,10 @@ def test_log_only_has_no_image_channel(chain_run, tmp_path):
     counts = record.record(str(path), log=str(out / "log.jsonl"),
                            start_ns=1_700_000_000 * 10**9,
                            stream=open(os.devnull, "w"))
-    assert record.IMAGE_TOPIC not in counts
+    assert rosmessages.IMAGE_TOPIC not in counts
     _, summary, topics = read_mcap(path)
-    assert record.IMAGE_TOPIC not in topics
-    first = topics[record.DETECTIONS_TOPIC][0]
+    assert rosmessages.IMAGE_TOPIC not in topics
+    first = topics[rosmessages.DETECTIONS_TOPIC][0]
     assert first[3] == 1_700_000_000 * 10**9
 
 
@@ -323,13 +324,13 @@ def test_floor_profile_as_laser_scan(tmp_path):
     path = tmp_path / "floor.mcap"
     counts = record.record(str(path), log=str(log),
                            stream=open(os.devnull, "w"))
-    assert counts[record.SCAN_TOPIC] == 1
+    assert counts[rosmessages.SCAN_TOPIC] == 1
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         (schema, channel, _, scan), = reader.iter_decoded_messages(
-            topics=[record.SCAN_TOPIC])
+            topics=[rosmessages.SCAN_TOPIC])
     assert schema.name == "sensor_msgs/msg/LaserScan"
     assert scan.header.frame_id == "base_link"
     assert scan.angle_min == 0.0

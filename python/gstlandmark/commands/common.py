@@ -1,6 +1,6 @@
 """What every command shares: the program name, the error a handler
 raises for bad input (``cli.main`` prints it and exits with its status)
-and the options several commands take alike."""
+and the options and files several commands take alike."""
 
 import argparse
 
@@ -46,3 +46,26 @@ def add_json_option(parser, what="the numbers"):
     """``--json OUT``: a command's results also written as JSON."""
     parser.add_argument("--json", metavar="OUT",
                         help=f"also write {what} to this JSON file")
+
+
+def camera_and_map(camera_path, map_path):
+    """(the camera file with its mounting, the map's landmarks), each
+    None when its path is; CliError naming the file when one is bad or
+    the camera has no mounting (record and run --foxglove place the
+    camera with it)."""
+    from ..camerafile import CalibrationError, read_camera_file, \
+        read_mounting
+    from ..landmarkmap import MapError, read_map
+    camera = landmarks = None
+    try:
+        if camera_path:
+            camera = read_camera_file(camera_path)
+            camera.update(read_mounting(camera_path))
+        if map_path:
+            landmarks = read_map(map_path)
+    except (CalibrationError, MapError, OSError) as err:
+        raise CliError(str(err)) from None
+    if camera is not None and "camera_height" not in camera:
+        raise CliError(f"{camera_path}: no camera_height (the mounting: "
+                       f"write it with 'gst-landmark calibrate floor')")
+    return camera, landmarks

@@ -32,6 +32,21 @@ class PipelineError(RuntimeError):
     pass
 
 
+def elements_by_factory(pipe: Gst.Bin) -> Dict[str, Gst.Element]:
+    """{factory name: the first element of that factory} in the
+    pipeline, bins included."""
+    found: Dict[str, Gst.Element] = {}
+    it = pipe.iterate_recurse()
+    while True:
+        res, element = it.next()
+        if res != Gst.IteratorResult.OK:
+            break
+        factory = element.get_factory()
+        if factory is not None:
+            found.setdefault(factory.get_name(), element)
+    return found
+
+
 def frame_bytes(frame, info: GstVideo.VideoInfo) -> bytes:
     """Packs a frame into GStreamer's default layout for ``info``.
 

@@ -27,7 +27,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 from .. import pipeline, pipelinefile
 from ..landmarklog import LogError, read_jsonl
 from ..landmarkmap import MapError, read_map
-from .common import PROG, CliError
+from .common import PROG, CliError, camera_and_map
+from .foxglovelive import add_foxglove_arguments, foxglove_options
 
 Gst = pipeline.Gst
 
@@ -182,24 +183,18 @@ class Progress:
 def _count_element(pipe):
     """The element whose output buffers count the frames: landmarklog,
     else labsegment, else None."""
-    found = {}
-    it = pipe.iterate_recurse()
-    while True:
-        res, element = it.next()
-        if res != Gst.IteratorResult.OK:
-            break
-        factory = element.get_factory()
-        if factory is not None:
-            found.setdefault(factory.get_name(), element)
+    found = pipeline.elements_by_factory(pipe)
     return found.get("landmarklog") or found.get("labsegment")
 
 
 def run_launch(launch: str, progress: Optional[Progress] = None,
-               poll_s: float = 0.1, out=None) -> Dict[str, Any]:
+               poll_s: float = 0.1, out=None,
+               attach=None) -> Dict[str, Any]:
     """Runs ``launch`` to EOS; Ctrl-C sends EOS (a second one aborts).
     Returns frames (counted after landmarklog or labsegment), wall
     seconds, whether it was interrupted or aborted. Pipeline errors raise
-    CliError."""
+    CliError. attach(pipe), when given, is called before the pipeline
+    plays (the live Foxglove server's probes)."""
     out = out or sys.stderr
     pipeline.init()
     try:
@@ -207,6 +202,8 @@ def run_launch(launch: str, progress: Optional[Progress] = None,
     except Exception as err:    # GLib.Error: no element, bad syntax
         raise CliError(f"cannot build the pipeline: "
                        f"{getattr(err, 'message', err)}") from None
+    if attach is not None:
+        attach(pipe)
     counter = {"frames": 0}
     element = _count_element(pipe)
     if element is not None:
@@ -419,9 +416,17 @@ def format_summary(s: Dict[str, Any]) -> str:
 def run(spec: str, input_path: Optional[str], config: Optional[str] = None,
         out_dir: str = DEFAULT_OUT, truth: Optional[str] = None,
         sets: Sequence[str] = (), progress: Optional[bool] = None,
-        stream=None) -> Tuple[int, Dict[str, Any]]:
-    """The whole command; returns (exit status, summary)."""
+        stream=None, foxglove: Optional[Dict[str, Any]] = None
+        ) -> Tuple[int, Dict[str, Any]]:
+    """The whole command; returns (exit status, summary). foxglove:
+    {port, host, expose, wait} to serve the run live (foxglovelive)."""
     stream = stream or sys.stdout
+    if foxglove is not None:
+        from . import foxglovelive
+        if not 0 <= foxglove["port"] <= 65535:
+            raise CliError(f"--foxglove {foxglove['port']}: a port is "
+                           f"0..65535 (0: any free one)")
+        foxglovelive.check_host(foxglove["host"], foxglove["expose"])
     label, launch = resolve_pipeline(spec)
     variables: Dict[str, str] = {}
     if config is not None:
@@ -457,7 +462,20 @@ def run(spec: str, input_path: Optional[str], config: Optional[str] = None,
     if progress is None:
         progress = sys.stderr.isatty()
     bar = Progress() if progress and not live else None
-    stats = run_launch(description, bar)
+    server = None
+    if foxglove is not None:
+        from . import foxglovelive
+        camera, landmarks = camera_and_map(variables.get("CAMERA"),
+                                           variables.get("MAP"))
+        server = foxglovelive.LiveServer(
+            foxglove["port"], foxglove["host"], camera, landmarks,
+            wait=foxglove["wait"], pace=not live)
+    try:
+        stats = run_launch(description, bar,
+                           attach=server.attach if server else None)
+    finally:
+        if server is not None:
+            server.stop()
     if stats["aborted"]:
         print(f"{PROG}: aborted: the outputs may be incomplete",
               file=sys.stderr)
@@ -555,6 +573,7 @@ def add_run_parser(subparsers):
                           "terminal")
     bar.add_argument("--no-progress", action="store_false",
                      dest="progress", help="no progress bar")
+    add_foxglove_arguments(p)
     p.set_defaults(handler=_handle, parser=p)
 
 
@@ -564,7 +583,8 @@ def _handle(args) -> int:
     try:
         status, _ = run(args.pipeline, args.input, config=args.config,
                         out_dir=args.out, truth=args.truth, sets=args.sets,
-                        progress=args.progress)
+                        progress=args.progress,
+                        foxglove=foxglove_options(args))
     except CliError as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)
         return err.status

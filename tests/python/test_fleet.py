@@ -45,15 +45,20 @@ def chain(port, robot, log, camera_file, ekf):
             f"landmarkpublish port={port} robot={robot} ! fakesink")
 
 
+def fleet_process(port, out, *extra):
+    """`gst-landmark fleet` on the broker's port writing out every 0.2 s,
+    its stderr piped."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "gstlandmark.commands.cli", "fleet", "--port",
+         str(port), "-o", str(out), "--write-every", "0.2", *extra],
+        stderr=subprocess.PIPE, text=True)
+
+
 @needs_mosquitto
 def test_two_robots(gst, tmp_path, camera_file):
     broker = Broker(tmp_path).start()
     out = tmp_path / "fleet.json"
-    fleet = subprocess.Popen(
-        [sys.executable, "-m", "gstlandmark.commands.cli", "fleet", "--port",
-         str(broker.port), "-o", str(out), "--write-every", "0.2",
-         "--path-every", "0"],
-        stderr=subprocess.PIPE, text=True)
+    fleet = fleet_process(broker.port, out, "--path-every", "0")
     try:
         assert wait_for(out.exists, 10), "the fleet wrote nothing"
         # two robots at once (different filters give different paths)
@@ -150,12 +155,59 @@ def test_state_thins_the_path_by_the_robots_clock():
 def test_unreachable_broker_is_a_clear_error(tmp_path):
     from mqttbroker import free_port
     port = free_port()
+    started = time.monotonic()
     done = subprocess.run(
         [sys.executable, "-m", "gstlandmark.commands.cli", "fleet", "--port",
-         str(port), "-o", str(tmp_path / "f.json"), "--duration", "1"],
+         str(port), "-o", str(tmp_path / "f.json"), "--duration", "1",
+         "--broker-wait", "1.5"],
         capture_output=True, text=True, timeout=30)
     assert done.returncode == 1
+    assert f"waiting for the broker at 127.0.0.1:{port} (not reachable: " \
+        f"Connection refused)" in done.stderr
     assert f"cannot reach the broker at 127.0.0.1:{port}" in done.stderr
+    assert "(waited 1.5 s)" in done.stderr
+    assert time.monotonic() - started >= 1.5
+    assert not (tmp_path / "f.json").exists()
+
+
+@needs_mosquitto
+def test_waits_for_a_broker_started_late(tmp_path):
+    """The fleet starts first, says it waits, and follows the robot once a
+    real mosquitto comes up on its port."""
+    import paho.mqtt.client as mqtt
+    broker = Broker(tmp_path)       # its port chosen, not started
+    fleet_file = tmp_path / "f.json"
+    proc = fleet_process(broker.port, fleet_file, "--duration", "2")
+    pub = None
+    try:
+        line = proc.stderr.readline()
+        assert f"waiting for the broker at 127.0.0.1:{broker.port} (not " \
+            f"reachable: Connection refused)" in line
+        time.sleep(1.5)             # a retry or two against nothing
+        assert proc.poll() is None and not fleet_file.exists()
+        broker.start()
+        pub = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id="pub",
+                          protocol=mqtt.MQTTv311)
+        pub.connect("127.0.0.1", broker.port)
+        pub.loop_start()
+        pub.publish("landmark/late/pose", json.dumps(
+            {"robot": "late", "frame": 3, "wall-time": 10.0,
+             "pose": {"x": 1.5, "y": -2.0, "heading": 0.25}}),
+            qos=1, retain=True).wait_for_publish(5)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        if pub is not None:
+            pub.disconnect()
+            pub.loop_stop()
+        if broker.proc is not None:
+            broker.stop()
+    assert proc.returncode == 0, err
+    assert f"the broker at 127.0.0.1:{broker.port} is up" in err
+    assert "1 robot\n" in err
+    late = json.loads(fleet_file.read_text())["robots"]["late"]
+    assert late["pose"]["x"] == 1.5 and late["pose"]["frame"] == 3
 
 
 @needs_mosquitto

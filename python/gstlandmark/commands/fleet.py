@@ -27,6 +27,8 @@ from .common import PROG, CliError, add_token_option
 
 DEFAULT_PATH_LENGTH = 1200
 DEFAULT_PATH_EVERY = 0.5
+# how often a fleet started before its broker tries again
+BROKER_RETRY_S = 1.0
 
 
 class DelayHistogram:
@@ -280,12 +282,43 @@ class Fleet:
             self.live_poses = True
             client.unsubscribe(self.pose_topic)
 
-    def start(self, timeout_s: float = 10.0) -> "Fleet":
-        try:
-            self.client.connect(self.host, self.port, keepalive=30)
-        except OSError as err:
-            raise CliError(f"cannot reach the broker at {self.host}:"
-                           f"{self.port}: {err}") from None
+    def start(self, timeout_s: float = 10.0,
+              broker_wait_s: Optional[float] = 0.0,
+              stream=None) -> "Fleet":
+        """Connects and subscribes. broker_wait_s: how long to keep trying
+        a broker that cannot be reached (not up yet), with one line on
+        stream when it begins and one when it is up; None: until it is,
+        0: not at all. A broker that refuses the connection is an error
+        at once."""
+        stream = stream or sys.stderr
+        deadline = None if broker_wait_s is None \
+            else time.monotonic() + broker_wait_s
+        waiting = False
+        while True:
+            try:
+                self.client.connect(self.host, self.port, keepalive=30)
+                break
+            except OSError as err:
+                left = None if deadline is None \
+                    else deadline - time.monotonic()
+                if left is not None and left <= 0:
+                    waited = f" (waited {broker_wait_s:g} s)" \
+                        if broker_wait_s else ""
+                    raise CliError(f"cannot reach the broker at "
+                                   f"{self.host}:{self.port}: {err}"
+                                   f"{waited}") from None
+                if not waiting:
+                    waiting = True
+                    print(f"{PROG} fleet: waiting for the broker at "
+                          f"{self.host}:{self.port} (not reachable: "
+                          f"{err.strerror or err}); trying every "
+                          f"{BROKER_RETRY_S:g} s, Ctrl-C to stop",
+                          file=stream, flush=True)
+                time.sleep(BROKER_RETRY_S if left is None
+                           else min(BROKER_RETRY_S, left))
+        if waiting:
+            print(f"{PROG} fleet: the broker at {self.host}:{self.port} is "
+                  f"up", file=stream, flush=True)
         self.client.loop_start()
         # subscribed, not only connected: nothing sent after start() is
         # missed
@@ -304,9 +337,10 @@ def run(host, port, output, prefix="landmark", username=None, password=None,
         tls_ca_file=None, duration=None, write_every=1.0,
         path_length=DEFAULT_PATH_LENGTH, path_every=DEFAULT_PATH_EVERY,
         all_poses=False, stream=None, http=None, token=None,
-        map_path=None) -> int:
+        map_path=None, broker_wait=None) -> int:
     """``output``: the fleet file (None: none); ``http``: ``[ADDR:]PORT``
-    of the live map (None: none)."""
+    of the live map (None: none); ``broker_wait``: seconds to wait for a
+    broker not up yet (None: until it is)."""
     stream = stream or sys.stderr
     if output is not None:
         out_dir = os.path.dirname(os.path.abspath(output))
@@ -326,7 +360,13 @@ def run(host, port, output, prefix="landmark", username=None, password=None,
     elif map_path is not None or token is not None:
         raise CliError("--map and --token need --http")
     fleet = Fleet(host, port, prefix, username, password, tls_ca_file,
-                  path_length, path_every, all_poses).start()
+                  path_length, path_every, all_poses)
+    try:
+        fleet.start(broker_wait_s=broker_wait, stream=stream)
+    except KeyboardInterrupt:
+        print(f"{PROG} fleet: stopped before the broker at {host}:{port} "
+              f"was up", file=stream)
+        return 130
     if http is not None:
         try:
             web = fleetweb.MapServer(fleet.state, listen, http_port, token,
@@ -390,6 +430,10 @@ def add_fleet_parser(subparsers):
                         "LANDMARK_MQTT_PASSWORD, kept out of process lists)")
     p.add_argument("--tls-ca-file", metavar="CA.pem",
                    help="TLS with this certificate authority")
+    p.add_argument("--broker-wait", type=float, metavar="S",
+                   help="give up when the broker cannot be reached for S "
+                        "seconds at start (default: wait until it is up, "
+                        "trying every second; 0: do not wait)")
     p.add_argument("--duration", type=float, metavar="S",
                    help="stop after S seconds (default: until Ctrl-C)")
     p.add_argument("--write-every", type=float, default=1.0, metavar="S")
@@ -421,6 +465,8 @@ def _handle(args) -> int:
                            "positive")
         if args.path_every < 0:
             raise CliError("--path-every must be 0 or more")
+        if args.broker_wait is not None and args.broker_wait < 0:
+            raise CliError("--broker-wait must be 0 or more")
         if args.output is None and args.http is None:
             raise CliError("give -o FLEET.json, --http [ADDR:]PORT or both")
         return run(args.host, args.port, args.output, args.prefix,
@@ -428,7 +474,8 @@ def _handle(args) -> int:
                    args.password or os.environ.get("LANDMARK_MQTT_PASSWORD"),
                    args.tls_ca_file, args.duration, args.write_every,
                    args.path_length, args.path_every, args.all_poses,
-                   http=args.http, token=args.token, map_path=args.map)
+                   http=args.http, token=args.token, map_path=args.map,
+                   broker_wait=args.broker_wait)
     except CliError as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)
         return err.status

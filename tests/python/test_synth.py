@@ -897,6 +897,10 @@ def test_variant_changes_the_scene_and_is_recorded(tmp_path):
     assert tuple(scene.light) == tuple(v["light"]["direction"])
     assert {lm.diameter for lm in scene.landmarks} == set(
         v["markers"].values())
+    # and it is not the default scene
+    default, _ = build_scenario("distractors", frames=2)
+    assert default.camera.height_m != scene.camera.height_m
+    assert default.floor_names() != scene.floor_names()
     # overrides still win over the variant
     scene, _ = build_scenario("distractors", frames=2, variant=v,
                               height_m=0.33)
@@ -912,9 +916,28 @@ def test_variant_changes_the_scene_and_is_recorded(tmp_path):
         draw_variant("path", 6)))
     assert scene["camera"]["height_m"] == \
         scene["notes"]["variant"]["camera"]["height_m"]
+    # the camera file's focal length is the pinhole one of the variant's
+    # field of view over the 160 px width
     from gstlandmark.commands.calibrate import read_camera_file
     cam = read_camera_file(str(out / "camera.yml"))
-    assert cam["camera_matrix"][0, 0] == pytest.approx(scene["camera"]["fx"])
+    hfov = math.radians(draw_variant("path", 6)["camera"]["hfov_deg"])
+    assert cam["camera_matrix"][0, 0] == pytest.approx(
+        80 / math.tan(hfov / 2), rel=1e-6)
+    # the rendered floor (the bottom rows, which a 20-40 degree tilt puts
+    # on the floor) has the hue of the variant's floor: of the plain
+    # floors' nominal colours its a*b* is nearest (exposure and gain move
+    # L*, not the hue)
+    from gstlandmark.synth.floors import FLOORS
+    frame = cv2.imread(str(out / "frame0.png"))
+    seen = np.median(reference.rgb_to_lab(np.ascontiguousarray(
+        frame[-12:, :, ::-1])).reshape(-1, 3), axis=0)[1:]
+    hue_gap = {name: np.linalg.norm(reference.rgb_to_lab(
+        np.array([[rgb]], np.uint8))[0, 0, 1:] - seen)
+        for name, (_, rgb) in FLOORS.items() if rgb is not None}
+    assert min(hue_gap, key=hue_gap.get) == \
+        draw_variant("path", 6)["floor"], hue_gap
+    # the palette learned from the chart gives each class the hue of the
+    # scene's class of that name: nearest in a*b* to it of all classes
     names = [c["name"] for c in scene["palette"]["classes"]]
     markers = [c["name"] for c in scene["palette"]["classes"]
                if c["marker"]]
@@ -922,6 +945,14 @@ def test_variant_changes_the_scene_and_is_recorded(tmp_path):
                      str(out / "chart-mask.png"), "--names",
                      ",".join(names), "--markers", ",".join(markers),
                      "-o", str(tmp_path / "learned.json")]) == 0
+    nominal = {c["name"]: np.array(c["lab"][1:])
+               for c in scene["palette"]["classes"]}
+    learned = load_palette(str(tmp_path / "learned.json"))
+    assert learned.names == names
+    for cls in learned.classes:
+        gaps = {n: np.linalg.norm(np.array(cls.lab[1:]) - ab)
+                for n, ab in nominal.items()}
+        assert min(gaps, key=gaps.get) == cls.name, (cls.name, gaps)
 
 
 @pytest.mark.parametrize("name", ["range-sweep", "path", "distractors"])

@@ -369,18 +369,11 @@ def test_bad_value_while_playing_keeps_previous_settings(gst, tmp_path):
     assert len(seen) == 60
 
 
-def test_live_odometry_equals_the_file(gst, clip, slam_run, tmp_path):
-    """Odometry sent live as landmark-odometry events (pipeline.send_odometry,
-    each frame's increment just before the frame) gives the estimate the
-    same increments give from an odometry file, and not the estimate
-    without odometry."""
-    frames_plain, _, truth, _ = slam_run
-    odo = str(tmp_path / "odometry.jsonl")
-    write_odometry(truth, odo)
-    frames_file, _ = run_chain(gst, clip, f"landmarkslam odometry={odo}",
-                               str(tmp_path / "slam-file.jsonl"))
-    steps = list(read_jsonl(odo))
-    log = str(tmp_path / "slam-live.jsonl")
+def live_odometry_run(gst, clip, steps, log, extra=None):
+    """The clip's chain with landmarkslam given ``steps`` (odometry lines)
+    live, each frame's increment just before the frame, and before frame
+    k the structures ``extra`` maps k to (events of the application's own
+    making); returns the frames logged and the warnings, played to EOS."""
     desc = chain_desc(clip, "landmarkslam name=slam",
                       f"landmarklog location={log} ! fakesink")
     pipeline.init()
@@ -395,16 +388,30 @@ def test_live_odometry_equals_the_file(gst, clip, slam_run, tmp_path):
             st = steps[k - 1]
             assert pipeline.send_odometry(slam, st["dx"], st["dy"],
                                           st["dheading"])
+        for structure in (extra or {}).get(k, ()):
+            pad.send_event(gst.Event.new_custom(
+                gst.EventType.CUSTOM_DOWNSTREAM_OOB, structure))
         return gst.PadProbeReturn.OK
 
     slam.get_static_pad("sink").add_probe(gst.PadProbeType.BUFFER,
                                           before_frame)
-    pipe.set_state(gst.State.PLAYING)
-    try:
-        pipeline.wait_eos(pipe, 120, desc)
-    finally:
-        pipe.set_state(gst.State.NULL)
-    frames_live = [f for f in read_jsonl(log) if "frame" in f]
+    warnings = warnings_until_eos(gst, pipe)
+    return [f for f in read_jsonl(log) if "frame" in f], warnings
+
+
+def test_live_odometry_equals_the_file(gst, clip, slam_run, tmp_path):
+    """Odometry sent live as landmark-odometry events (pipeline.send_odometry,
+    each frame's increment just before the frame) gives the estimate the
+    same increments give from an odometry file, and not the estimate
+    without odometry."""
+    frames_plain, _, truth, _ = slam_run
+    odo = str(tmp_path / "odometry.jsonl")
+    write_odometry(truth, odo)
+    frames_file, _ = run_chain(gst, clip, f"landmarkslam odometry={odo}",
+                               str(tmp_path / "slam-file.jsonl"))
+    frames_live, warnings = live_odometry_run(
+        gst, clip, list(read_jsonl(odo)), str(tmp_path / "slam-live.jsonl"))
+    assert warnings == []
     assert len(frames_live) == len(frames_file) == FRAMES
     differs = 0
     for a, b, c in zip(frames_live, frames_file, frames_plain):
@@ -417,34 +424,30 @@ def test_live_odometry_equals_the_file(gst, clip, slam_run, tmp_path):
     assert differs > FRAMES // 2, differs
 
 
-def test_malformed_live_odometry_is_a_warning(gst):
-    """An odometry event without dheading is refused with a warning naming
-    the field; the stream goes on to EOS."""
-    caps = "video/x-raw,width=64,height=48,framerate=30/1"
-    pipe = gst.parse_launch(f"videotestsrc num-buffers=5 ! {caps} ! "
-                            f"landmarkslam name=s ! fakesink")
-    s = pipe.get_by_name("s")
-    bus = pipe.get_bus()
-    kinds = (gst.MessageType.WARNING | gst.MessageType.ERROR |
-             gst.MessageType.EOS)
-    try:
-        pipe.set_state(gst.State.PAUSED)
-        assert pipe.get_state(30 * gst.SECOND)[0] == \
-            gst.StateChangeReturn.SUCCESS
-        bad = gst.Structure.new_empty(pipeline.ODOMETRY_EVENT)
-        bad.set_value("dx", 0.1)
-        s.get_static_pad("sink").send_event(gst.Event.new_custom(
-            gst.EventType.CUSTOM_DOWNSTREAM_OOB, bad))
-        pipe.set_state(gst.State.PLAYING)
-        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
-        assert msg is not None and msg.type == gst.MessageType.WARNING, \
-            msg and msg.type
-        err, _ = msg.parse_warning()
-        assert msg.src is s and "'dheading'" in err.message, err.message
-        msg = bus.timed_pop_filtered(30 * gst.SECOND, kinds)
-        assert msg is not None and msg.type == gst.MessageType.EOS
-    finally:
-        pipe.set_state(gst.State.NULL)
+def test_malformed_live_odometry_is_a_warning(gst, clip, slam_run, tmp_path):
+    """An odometry event without dheading, sent in the middle of the live
+    odometry, is refused with one warning naming the field, and the
+    estimate goes on without it: the path stays on the truth (measured:
+    median 0.09 cm, p95 0.12 cm, worst after the event 0.14 cm; the
+    bounds are five times those). Taking the event's 1 m as a step,
+    dheading 0, throws the pose forward: median 49 cm."""
+    _, _, truth, _ = slam_run
+    odo = str(tmp_path / "odometry.jsonl")
+    write_odometry(truth, odo)
+    bad = gst.Structure.new_empty(pipeline.ODOMETRY_EVENT)
+    bad.set_value("dx", 1.0)
+    frames, warnings = live_odometry_run(
+        gst, clip, list(read_jsonl(odo)), str(tmp_path / "slam-bad.jsonl"),
+        extra={FRAMES // 2: [bad]})
+    assert len(warnings) == 1 and "'dheading'" in warnings[0], warnings
+    assert len(frames) == FRAMES
+    to_truth = to_truth_frame(truth[0]["robot"], frames[0]["pose"])
+    errs = path_errors(frames, truth, to_truth)
+    assert len(errs) == FRAMES
+    assert np.median(errs) < 0.005, np.median(errs)
+    assert np.percentile(errs, 95) < 0.006, np.percentile(errs, 95)
+    late = path_errors(frames[FRAMES // 2:], truth[FRAMES // 2:], to_truth)
+    assert late.max() < 0.007, late.max()
 
 
 def test_map_messages(gst, clip, tmp_path):

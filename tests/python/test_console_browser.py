@@ -52,7 +52,8 @@ pytestmark = [
                        reason="the name localhost does not resolve (no "
                        "/etc/hosts): chromedriver needs it"),
 ]
-WAIT = 20
+# seconds; a loaded 2-core machine has taken over 20 for a paused frame
+WAIT = 40
 
 
 class ServerThread:

@@ -11,8 +11,8 @@ namespace {
  * outline's points from the first few on any blob these thresholds
  * accept */
 constexpr int kSamples = 96;
-/* angle bins of the coverage: 64 bins of 5.6 degrees, finer than any rim
- * gap that matters and coarser than a pixel on a 4 px circle */
+/* directions in which the visible part of the turn is counted: 64 of 5.6
+ * degrees */
 constexpr int kBins = 64;
 /* outline points off the circle a rim may bridge */
 constexpr int kGapPoints = 3;
@@ -177,7 +177,6 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
   out->cx = best_x;
   out->cy = best_y;
   out->r = best_r;
-  out->rim_points = best;
   const double tol = tolerance (best_r);
   /* The rim is one arc of the outline: the longest run of consecutive
    * outline points on the circle, bridging gaps of up to kGapPoints

@@ -21,8 +21,9 @@ namespace landmark {
  * more for a ball that blur and its seams make not quite a circle. */
 constexpr double kArcOutlinePx = 1.5;
 constexpr double kArcOutlineShare = 0.03;
-/* The rim must cover at least half of what the frame shows of its turn ("a ball is a circle even when
- * half of it is shaded"): any smaller arc fits circles of many radii. */
+/* The rim must cover at least half of what the frame shows of its turn
+ * ("a ball is a circle even when half of it is shaded"): any smaller arc
+ * fits circles of many radii. */
 constexpr double kArcMinCoverage = 0.5;
 /* and at least a third of the whole turn, for a ball the frame's edge
  * cuts: a shorter arc fixes no radius */
@@ -51,7 +52,6 @@ struct ArcCircle {
   double fill = 0;       /* blob area over the circle's area in the frame */
   double outside = 0;    /* share of outline points outside the circle */
   double holes = 0;      /* share of the enclosed pixels in holes */
-  int rim_points = 0;    /* outline points on the circle */
 };
 
 /* Fits the circle that most of a blob's outline lies on and tests it with

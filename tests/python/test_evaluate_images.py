@@ -120,6 +120,8 @@ def test_synthetic_recall_and_false_per_image(gst, scene, monkeypatch,
     det = next(d for d in img1["detections"] if d["matched"] == 0)
     assert det["centre"] == pytest.approx([80, 120], abs=0.05)
     assert det["area"] > 1200
+    # a drawn disc fills its moment ellipse (blobshape's IoU)
+    assert 0.95 <= det["ellipse_fit"] <= 1.0
     text = capsys.readouterr().out
     assert "ball -> yellow" in text and "overall" in text
 

@@ -282,6 +282,7 @@ def detection_record(d) -> Dict[str, Any]:
         rec["arc"] = {key: round(float(blob[f"arc-{key}"]), 3)
                       for key in ("coverage", "fill")
                       if f"arc-{key}" in blob}
+    rec["ellipse_fit"] = round(float(blob.get("ellipse-fit", 0)), 3)
     return rec
 
 

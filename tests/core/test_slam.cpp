@@ -608,7 +608,7 @@ test_odometry_noise_over_distance ()
        * rot^2 L^3 / 3; heading rot sqrt(L); a turn turn sqrt(2 pi). On
        * the drive the filter also charges the turning term on the
        * measured |dth|, which is the heading noise itself: 2 to 5 % more,
-       * growing with the rate (docs/landmarkslam-history.md, "Odometry
+       * growing with the rate (docs/landmarkslam.md, "Odometry
        * noise") */
       const double exact[3] = { trans * std::sqrt (total),
         std::sqrt (trans * trans * total + rot * rot * std::pow (total, 3) / 3),

@@ -5,7 +5,7 @@ YAML file (see docs/calibration.md):
 
 - ``seed``: the seed's angle-linear model from a tape on a floor grid
   (camera height, blind distance, view depth, half width), equations
-  (3.1)-(3.4) of the seed (docs: ../shared/SEED-NOTES.md);
+  (3.1)-(3.4) of the seed (docs/calibration.md and docs/ranging.md);
 - ``chessboard``: intrinsics (``camera_matrix``,
   ``distortion_coefficients``) from images of a printed chessboard,
   with OpenCV's calibration;

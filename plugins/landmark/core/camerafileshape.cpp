@@ -162,6 +162,56 @@ const char *const kShapeHint = "a camera file holds top-level keys with a "
     "number, a word, a quoted text, a list of numbers or an opencv-matrix "
     "(rows, cols, dt, data), as OpenCV writes them";
 
+/* Numbers separated by commas between [ and ], fed line by line; the
+ * first line from its [. */
+struct NumberList {
+  bool open = false, need_item = false;
+  size_t items = 0;
+
+  /* "" when line (from line[i] on) continues the list well; else what is
+   * wrong, naming key */
+  std::string feed (const std::string & line, size_t i,
+      const std::string & key)
+  {
+    if (!open) {
+      open = true;
+      need_item = true;
+      items = 0;
+      i++;                      /* the [ */
+    }
+    for (;;) {
+      while (i < line.size () && line[i] == ' ')
+        i++;
+      if (i == line.size ())
+        return need_item ? "" : key + ": a list line must end with a comma "
+            "or ]";
+      if (line[i] == ']') {
+        if (need_item && items > 0)
+          return key + ": a comma before ]";
+        open = false;
+        return i + 1 == line.size () ? "" : key + ": text after the list's ]";
+      }
+      if (!need_item) {
+        if (line[i] != ',')
+          return key + ": expected a comma between numbers";
+        i++;
+        need_item = true;
+        continue;
+      }
+      size_t end = i;
+      while (end < line.size () && line[end] != ',' && line[end] != ' '
+          && line[end] != ']')
+        end++;
+      const std::string item = line.substr (i, end - i);
+      if (!is_number (item))
+        return key + ": `" + item + "` in its list is not a number";
+      items++;
+      need_item = false;
+      i = end;
+    }
+  }
+};
+
 /* YAML, line by line: the %YAML:1.0 header, `---`, then `key: value`
  * lines, `key: !!opencv-matrix` followed by indented rows, cols, dt and
  * data lines, flow lists of numbers that may continue on indented lines,
@@ -185,7 +235,7 @@ public:
     }
     if (why_.empty () && n_ < 2)
       fail ("the YAML header (%YAML:1.0, then ---) is incomplete");
-    if (why_.empty () && (field_ >= 0 || in_list_))
+    if (why_.empty () && (field_ >= 0 || list_.open))
       fail (key_ + ": the file ends inside it");
     if (!why_.empty ())
       *error = why_;
@@ -212,9 +262,9 @@ private:
     const size_t indent = line.find_first_not_of (' ');
     if (indent == std::string::npos)
       return true;
-    if (line[indent] == '#' && !in_list_ && field_ < 0)
+    if (line[indent] == '#' && !list_.open && field_ < 0)
       return true;
-    if (in_list_) {
+    if (list_.open) {
       if (indent == 0)
         return fail (key_ + ": its list of numbers is not closed");
       return list (line, indent);
@@ -270,46 +320,10 @@ private:
     return true;
   }
 
-  /* numbers separated by commas, between [ and ], over several lines */
   bool list (const std::string & line, size_t i)
   {
-    if (!in_list_) {
-      in_list_ = true;
-      need_item_ = true;
-      items_ = 0;
-      i++;                      /* the [ */
-    }
-    for (;;) {
-      while (i < line.size () && line[i] == ' ')
-        i++;
-      if (i == line.size ())
-        return need_item_ ? true :
-            fail (key_ + ": a list line must end with a comma or ]");
-      if (line[i] == ']') {
-        if (need_item_ && items_ > 0)
-          return fail (key_ + ": a comma before ]");
-        in_list_ = false;
-        return i + 1 == line.size () ? true :
-            fail (key_ + ": text after the list's ]");
-      }
-      if (!need_item_) {
-        if (line[i] != ',')
-          return fail (key_ + ": expected a comma between numbers");
-        i++;
-        need_item_ = true;
-        continue;
-      }
-      size_t end = i;
-      while (end < line.size () && line[end] != ',' && line[end] != ' '
-          && line[end] != ']')
-        end++;
-      if (!is_number (line.substr (i, end - i)))
-        return fail (key_ + ": `" + line.substr (i, end - i) + "` in its "
-            "list is not a number");
-      items_++;
-      need_item_ = false;
-      i = end;
-    }
+    const std::string why = list_.feed (line, i, key_);
+    return why.empty () ? true : fail (why);
   }
 
   const std::string & path_;
@@ -317,8 +331,7 @@ private:
   std::set<std::string> keys_;
   int n_ = 0;
   int field_ = -1;              /* next opencv-matrix field, -1: none */
-  bool in_list_ = false, need_item_ = false;
-  size_t items_ = 0;
+  NumberList list_;
 };
 
 /* XML through GMarkup: <opencv_storage> holding elements with a scalar

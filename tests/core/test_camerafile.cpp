@@ -8,6 +8,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -150,7 +151,8 @@ test_refused ()
           "expected a value after `mounting: `" },
     { "this is not a calibration file {\n", path + ": not an OpenCV "
           "FileStorage file (YAML starting with %YAML:1.0, XML with <?xml, or "
-          "JSON with {)" },
+          "JSON with {) nor a ROS camera_info file (camera_matrix, "
+          "distortion_coefficients, ... at the left margin)" },
     { "<?xml version=\"1.0\"?>\n<opencv_storage>\n<a>&lt;</a>\n"
           "</opencv_storage>\n", path + ": '&' (an XML entity) is not read "
           "in a camera file" },
@@ -211,6 +213,202 @@ test_refused ()
       err.c_str ());
   CHECK (!load_camera_file (".", &f, &err) &&
       err == ".: is a directory, not a calibration file", "%s", err.c_str ());
+}
+
+/* ROS camera_info YAML as ROS's tools write it: camera_calibration_parsers
+ * (yaml-cpp: flow lists on one line, no quotes) and the camera_calibration
+ * GUI (lists over lines, numpy's spacing); the values read are those
+ * written. */
+static void
+test_camera_info ()
+{
+  const std::string path = "test-camerafile-info.yaml";
+  CameraFile f;
+  std::string err;
+  /* a serial number for a name: OpenCV's parser alone stops on it */
+  write_text (path, "image_width: 640\nimage_height: 480\n"
+      "camera_name: 00b09d0100990bb6\ncamera_matrix:\n  rows: 3\n  cols: 3\n"
+      "  data: [538.63, 0, 317.698, 0, 539.723, 241.003, 0, 0, 1]\n"
+      "distortion_model: plumb_bob\ndistortion_coefficients:\n  rows: 1\n"
+      "  cols: 5\n  data: [-0.30678, 0.0825017, 0.0028784, -1.5829e-05, 0]\n"
+      "rectification_matrix:\n  rows: 3\n  cols: 3\n"
+      "  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nprojection_matrix:\n  rows: 3\n"
+      "  cols: 4\n  data: [538.63, 0, 317.698, 0, 0, 539.723, 241.003, 0, 0, "
+      "0, 1, 0]\n");
+  CHECK (load_camera_file (path, &f, &err), "yaml-cpp: %s", err.c_str ());
+  CHECK (!f.seed && f.fx == 538.63 && f.fy == 539.723 && f.cx == 317.698 &&
+      f.cy == 241.003 && f.image_width == 640 && f.image_height == 480,
+      "yaml-cpp: intrinsics %g %g %g %g %dx%d", f.fx, f.fy, f.cx, f.cy,
+      f.image_width, f.image_height);
+  CHECK (f.dist == std::vector<double> ({-0.30678, 0.0825017, 0.0028784,
+              -1.5829e-05, 0}), "yaml-cpp: %zu coefficients",
+      f.dist.size ());
+  CHECK (!f.has_camera_height && !f.has_tilt && !f.has_roll,
+      "yaml-cpp: a mounting read");
+
+  /* the calibration GUI's layout, 4-space indents, a --- line, comments,
+   * CRLF, rational_polynomial, and the mounting keys of our files */
+  write_text (path, "---\r\n# left camera\r\nimage_width: 1280\r\n"
+      "image_height: 800\r\ncamera_name: 'elp left'\r\ncamera_matrix: \r\n"
+      "    rows: 3\r\n    cols: 3\r\n"
+      "    data: [ 415.12614,    0.     ,  665.52373,\r\n"
+      "              0.     ,  410.49986,  460.14929,\r\n"
+      "              0.     ,    0.     ,    1.     ]\r\n"
+      "distortion_model: rational_polynomial\r\n"
+      "distortion_coefficients:\r\n    cols: 8\r\n    rows: 1\r\n"
+      "    data: [-0.017697, -0.007270, 0.005751, -0.000139, 0., 0.1, 0.2, "
+      "0.3]\r\n\r\ncamera_height: 0.31\r\ntilt_deg: 27.5\r\n"
+      "roll_deg: -1.25\r\n");
+  CHECK (load_camera_file (path, &f, &err), "GUI: %s", err.c_str ());
+  CHECK (f.fx == 415.12614 && f.fy == 410.49986 && f.cx == 665.52373 &&
+      f.cy == 460.14929 && f.image_width == 1280 && f.image_height == 800,
+      "GUI: intrinsics %g %g %g %g %dx%d", f.fx, f.fy, f.cx, f.cy,
+      f.image_width, f.image_height);
+  CHECK (f.dist == std::vector<double> ({-0.017697, -0.007270, 0.005751,
+              -0.000139, 0., 0.1, 0.2, 0.3}), "GUI: %zu coefficients",
+      f.dist.size ());
+  CHECK (f.has_camera_height && f.camera_height == 0.31 && f.has_tilt &&
+      f.tilt_deg == 27.5 && f.has_roll && f.roll_deg == -1.25,
+      "GUI: mounting %g %g %g", f.camera_height, f.tilt_deg, f.roll_deg);
+
+  /* no distortion_model: plumb_bob, as ROS reads it; no coefficients */
+  write_text (path, "image_width: 320\nimage_height: 240\ncamera_matrix:\n"
+      "  rows: 3\n  cols: 3\n  data: [300, 0, 160, 0, 300, 120, 0, 0, 1]\n"
+      "distortion_coefficients:\n  rows: 1\n  cols: 0\n  data: []\n");
+  CHECK (load_camera_file (path, &f, &err) && f.fx == 300 && f.dist.empty (),
+      "no model, no coefficients: %s", err.c_str ());
+  std::remove (path.c_str ());
+}
+
+/* A bad camera_info file is refused with the file, the key and (for the
+ * shape) the line; the same cases and messages are in
+ * tests/python/test_camerainfo.py for the Python reader. */
+static void
+test_camera_info_refused ()
+{
+  const std::string path = "test-camerafile-info-bad.yaml";
+  const std::string size = "image_width: 640\nimage_height: 480\n";
+  const std::string k = "camera_matrix:\n  rows: 3\n  cols: 3\n"
+      "  data: [500, 0, 320, 0, 500, 240, 0, 0, 1]\n";
+  const std::string d = "distortion_model: plumb_bob\n"
+      "distortion_coefficients:\n  rows: 1\n  cols: 5\n"
+      "  data: [0.1, -0.2, 0, 0, 0.05]\n";
+  const std::string needs = " (a ROS camera_info file needs image_width, "
+      "image_height, camera_matrix and distortion_coefficients)";
+  struct { std::string text, expect; } cases[] = {
+    /* the values */
+    { "image_height: 480\n" + k + d, path + ": no image_width" + needs },
+    { size + d, path + ": no camera_matrix" + needs },
+    { size + k + "distortion_model: plumb_bob\n",
+      path + ": no distortion_coefficients" + needs },
+    { "image_width: wide\nimage_height: 480\n" + k + d,
+      path + ": image_width is not a whole number" },
+    { "image_width: 0\nimage_height: 480\n" + k + d,
+      path + ": image_width and image_height must be within 1..16384, got "
+          "0x480" },
+    { size + "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [500, 0, 320, 0, "
+          "500, 240, 0, 0]\n" + d,
+      path + ": camera_matrix: data has 8 values, rows x cols is 3x3" },
+    { size + "camera_matrix:\n  rows: 3\n  cols: 4\n  data: [500, 0, 320, 0, "
+          "0, 500, 240, 0, 0, 0, 1, 0]\n" + d,
+      path + ": camera_matrix is 3x4, not 3x3" },
+    { size + "camera_matrix: 500\n" + d,
+      path + ": camera_matrix is not a matrix (indented rows, cols and data "
+          "lines)" },
+    { size + "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [500, 0, 320, 0, "
+          "500, 240, 0, 0, 2]\n" + d,
+      path + ": camera_matrix is not a camera matrix (fx, fy > 0, last row "
+          "0 0 1)" },
+    { size + "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [.nan, 0, 320, 0, "
+          "500, 240, 0, 0, 1]\n" + d,
+      path + ": camera_matrix: its data are not all finite numbers" },
+    { size + k + "distortion_model: fisheye\ndistortion_coefficients:\n"
+          "  rows: 1\n  cols: 4\n  data: [0, 0, 0, 0]\n",
+      path + ": unknown distortion_model 'fisheye' (expected plumb_bob or "
+          "rational_polynomial)" },
+    { size + k + "distortion_model: equidistant\ndistortion_coefficients:\n"
+          "  rows: 1\n  cols: 4\n  data: [0.1, 0.01, 0, 0]\n",
+      path + ": distortion_model equidistant (the fisheye model) is not "
+          "supported: the elements have no fisheye camera model (calibrate "
+          "the camera with plumb_bob or rational_polynomial)" },
+    { size + k + "distortion_model: 5\ndistortion_coefficients:\n"
+          "  rows: 1\n  cols: 0\n  data: []\n",
+      path + ": distortion_model is not a name (plumb_bob or "
+          "rational_polynomial)" },
+    { size + k + "distortion_model: plumb_bob\ndistortion_coefficients:\n"
+          "  rows: 1\n  cols: 5\n  data: [0.1, -0.2, 0, 0]\n",
+      path + ": distortion_coefficients: data has 4 values, rows x cols is "
+          "1x5" },
+    { size + k + "distortion_model: rational_polynomial\n"
+          "distortion_coefficients:\n  rows: 1\n  cols: 5\n"
+          "  data: [0.1, -0.2, 0, 0, 0]\n",
+      path + ": distortion_coefficients: rational_polynomial takes 8 (k1 k2 "
+          "p1 p2 k3 k4 k5 k6), has 5" },
+    { size + k + d + "projection_matrix:\n  rows: 3\n  cols: 3\n"
+          "  data: [500, 0, 320, 0, 500, 240, 0, 0, 1]\n",
+      path + ": projection_matrix is 3x3, not 3x4" },
+    { size + k + d + "camera_height: -0.3\n",
+      path + ": camera_height must be positive (metres), got -0.3" },
+    /* the shape: line and key */
+    { size + "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [500, 0, 320, 0, "
+          "500, x, 0, 0, 1]\n" + d,
+      path + ": line 6: camera_matrix: `x` in its list is not a number" },
+    { size + "camera_matrix:\n  rows: 3.0\n  cols: 3\n", path + ": line 4: "
+          "camera_matrix: rows `3.0` is not a whole number" },
+    { size + "camera_matrix:\n  cols: 3\n  data: [500, 0, 320, 0, 500, 240, "
+          "0, 0, 1]\n" + d, path + ": line 3: camera_matrix: a matrix needs "
+          "rows, cols and data; no rows" },
+    { size + "camera_matrix:\n" + d, path + ": line 3: camera_matrix: "
+          "expected a value after `camera_matrix:`, or indented rows, cols "
+          "and data lines" },
+    { size + "camera_matrix: {rows: 3, cols: 3}\n" + d, path + ": line 3: "
+          "camera_matrix: `{rows: 3, cols: 3}`: a ROS camera_info file holds "
+          "top-level keys with a number, a word or a quoted text, or a matrix "
+          "as indented rows, cols and data lines, as "
+          "camera_calibration_parsers writes them" },
+    { size + "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [500, 0, 320,\n"
+          "   0, 500, 240, 0, 0, 1]\n" + d, path + ": line 7: camera_matrix: "
+          "a data list continued on the next line must be indented at least "
+          "2 spaces more than `data:`" },
+    { size + "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [500, 0, 320,\n",
+      path + ": line 6: camera_matrix: the file ends inside its data list" },
+    { size + "camera_matrix:\n  rows: 3\n   cols: 3\n", path + ": line 5: "
+          "camera_matrix: its rows, cols and data lines must be indented "
+          "alike" },
+    { size + "camera_matrix:\n  rows: 3\n  dt: d\n", path + ": line 5: "
+          "camera_matrix: expected `rows: `, `cols: ` or `data: ` (a "
+          "camera_info matrix)" },
+    { "image_width: 99999999999\nimage_height: 480\n" + k + d,
+      path + ": line 1: image_width: `99999999999` is a whole number of "
+          "more than 9 digits (OpenCV does not read it exactly)" },
+    { size + "camera_matrix: !!opencv-matrix\n", path + ": line 3: "
+          "camera_matrix: an opencv-matrix in a file without OpenCV's "
+          "%YAML:1.0 header (an OpenCV file starts with it; a ROS camera_info "
+          "matrix is indented rows, cols and data lines)" },
+    { size + k + d + "image_width: 320\n", path + ": line 12: image_width "
+          "appears twice" },
+    { size + "camera_name: left camera\n" + k + d, path + ": line 3: "
+          "camera_name: `left camera` is not a name (letters, digits, "
+          "_ - . /) or a quoted text" },
+    { size + "camera_name: cam%1\n" + k + d, path + ": line 3: '%' "
+          "(OpenCV's parser, which reads the file, does not end on it)" },
+    { size + k + "distortion_model:\tplumb_bob\n", path + ": line 7: a tab "
+          "(YAML indents with spaces)" },
+    { size + k + d + "image_points: [1, 2]\n", path + ": line 12: "
+          "image_points: `[1, 2]`: a ROS camera_info file holds top-level "
+          "keys with a number, a word or a quoted text, or a matrix as "
+          "indented rows, cols and data lines, as camera_calibration_parsers "
+          "writes them" },
+  };
+  CameraFile f;
+  std::string err;
+  for (const auto & c : cases) {
+    write_text (path, c.text);
+    const bool ok = load_camera_file (path, &f, &err);
+    CHECK (!ok && err == c.expect, "got \"%s\", expected \"%s\"",
+        err.c_str (), c.expect.c_str ());
+  }
+  std::remove (path.c_str ());
 }
 
 /* Random files inside the accepted shape (keys, scalars, number lists and
@@ -330,12 +528,114 @@ test_random_files_in_shape ()
       "%.1f s\n", shape_ok, n, loaded, s);
 }
 
+/* random_number, but no whole number of more than 9 digits (the
+ * camera_info shape refuses those) */
+static std::string
+random_short_number ()
+{
+  const std::string v = random_number ();
+  const bool whole = v.find_first_not_of ("+-0123456789") ==
+      std::string::npos;
+  return whole && v.size () > 9 ? "1e9" : v;
+}
+
+/* A random file inside the camera_info shape: ROS's keys, ours and others,
+ * scalars and matrices of any declared size over one or several lines,
+ * names OpenCV's parser alone refuses, special numbers. */
+static std::string
+random_camera_info ()
+{
+  const char *keys[] = { "image_width", "image_height", "camera_name",
+    "camera_matrix", "distortion_model", "distortion_coefficients",
+    "rectification_matrix", "projection_matrix", "camera_height", "tilt_deg",
+    "roll_deg", "binning_x", "model"
+  };
+  const char *scalars[] = { "plumb_bob", "rational_polynomial",
+    "equidistant", "\"plumb_bob\"", "640", "-3", "0.25", ".nan", "null" };
+  const char *names[] = { "00b09d0100990bb6", "narrow_stereo", "/cam/rgb",
+    "'a b'", "\"x: [y]\"", "8mm", "a.b-c" };
+  const char *counts[] = { "0", "1", "3", "4", "5", "8", "100000" };
+  std::string text = pick (2) ? "---\n" : "";
+  std::set<std::string> used;
+  if (pick (2)) {
+    /* a usable camera, so that some files load */
+    text += "image_width: 640\nimage_height: 480\ncamera_matrix:\n  rows: 3\n"
+        "  cols: 3\n  data: [" + std::to_string (1 + pick (900)) + ", 0, 320, "
+        "0, 500, 240, 0, 0, 1]\ndistortion_coefficients:\n  rows: 1\n"
+        "  cols: 5\n  data: [" + random_short_number () + ", 0, 0, 0, 0]\n";
+    used.insert ({ "image_width", "image_height", "camera_matrix",
+            "distortion_coefficients" });
+  }
+  for (int i = 0, n = 1 + pick (10); i < n; i++) {
+    const std::string key = keys[pick (13)];
+    if (!used.insert (key).second)
+      continue;
+    if (key == "camera_name") {
+      text += key + ": " + names[pick (7)] + "\n";
+      continue;
+    }
+    if (pick (3) == 0) {
+      text += key + ": " + scalars[pick (9)] + "\n";
+      continue;
+    }
+    const std::string indent (1 + pick (4), ' ');
+    const std::string more (indent.size () + 2 + pick (8), ' ');
+    std::string list;
+    for (int j = 0, items = pick (16); j < items; j++) {
+      list += (j ? (pick (4) ? ", " : " ,\n" + more) : "") +
+          random_short_number ();
+    }
+    std::string fields[] = { indent + "rows: " + counts[pick (7)] + "\n",
+      indent + "cols: " + counts[pick (7)] + "\n",
+      indent + "data: [" + list + "]\n"
+    };
+    std::shuffle (fields, fields + 3, rng);
+    text += key + ":" + (pick (2) ? " " : "") + "\n" + fields[0] + fields[1]
+        + (pick (3) ? indent + "# c\n" : "") + fields[2];
+  }
+  return text;
+}
+
+static void
+test_random_camera_info_in_shape ()
+{
+  const std::string path = "test-camerafile-random-info.yaml";
+  int shape_ok = 0, loaded = 0;
+  const int n = 300;
+  double worst = 0;
+  for (int i = 0; i < n; i++) {
+    write_text (path, random_camera_info ());
+    CameraFile f;
+    std::string err;
+    const auto t0 = std::chrono::steady_clock::now ();
+    const bool ok = load_camera_file (path, &f, &err);
+    worst = std::max (worst, std::chrono::duration<double, std::milli>
+        (std::chrono::steady_clock::now () - t0).count ());
+    loaded += ok;
+    shape_ok += ok || err.find (": line ") == std::string::npos;
+    if (!ok)
+      CHECK (err.rfind (path + ": ", 0) == 0 &&
+          err.find ("cannot parse") == std::string::npos,
+          "OpenCV refused a file in shape: %s", err.c_str ());
+  }
+  std::remove (path.c_str ());
+  /* every one passes the shape: its values are OpenCV's to read */
+  CHECK (shape_ok == n, "%d of %d random camera_info files passed the shape",
+      shape_ok, n);
+  CHECK (worst < 100, "%.1f ms for one file", worst);
+  std::printf ("random camera_info files in shape: %d of %d reached OpenCV, "
+      "%d loaded\n", shape_ok, n, loaded);
+}
+
 int
 main ()
 {
   test_opencv_written ();
   test_hand_written ();
   test_refused ();
+  test_camera_info ();
+  test_camera_info_refused ();
   test_random_files_in_shape ();
+  test_random_camera_info_in_shape ();
   return corecheck_summary ();
 }

@@ -74,6 +74,18 @@ def camera(*extra, matrix=True):
             + "".join(line + "\n" for line in extra))
 
 
+# a ROS camera_info file (docs/calibration.md, "ROS camera_info")
+INFO_MATRIX = ("camera_matrix:\n  rows: 3\n  cols: 3\n"
+               "  data: [500, 0, 320, 0, 500, 240, 0, 0, 1]\n")
+
+
+def camera_info(matrix=INFO_MATRIX, model="plumb_bob", dist=True):
+    return (CAM_SIZE + "camera_name: narrow_stereo\n" + matrix +
+            f"distortion_model: {model}\n" +
+            ("distortion_coefficients:\n  rows: 1\n  cols: 5\n"
+             "  data: [0.1, -0.2, 0, 0, 0.05]\n" if dist else ""))
+
+
 MISSING = object()   # the file is not created
 DIRECTORY = object()  # the path is a directory
 DEVICE = object()     # the path is a link to /dev/zero, which never ends
@@ -226,6 +238,15 @@ CASES = [
       ("'calibration'", "view_depth")),
     C("camera-height-wrong-type", camera('camera_height: "high"'),
       ("'calibration'", "camera_height")),
+    C("camera-info-no-distortion", camera_info(dist=False),
+      ("'calibration'", "no distortion_coefficients"),
+      name="camera_info.yaml"),
+    C("camera-info-data-length",
+      camera_info(INFO_MATRIX.replace(", 0, 0, 1]", ", 0, 1]")),
+      ("'calibration'", "camera_matrix", "data has 8 values", "3x3"),
+      name="camera_info.yaml"),
+    C("camera-info-equidistant", camera_info(model="equidistant"),
+      ("'calibration'", "equidistant", "fisheye"), name="camera_info.yaml"),
     # -- ipmrange map= -------------------------------------------------------
     M("ipm-map-missing", "ipmrange", MISSING, ("'map'",)),
     M("ipm-map-malformed", "ipmrange", '{"landmarks": [', ("'map'",)),

@@ -399,3 +399,31 @@ def test_palette_roles_name_the_floor(gst, tmp_path):
         < 0.01 * BOX["x0"], ranges
     # without roles the white box is floor: the walk goes past its face
     assert ranges["flags"][1] > BOX["x0"] + 0.1, ranges
+
+
+def test_camera_info_file_as_the_properties(gst, tmp_path):
+    """calibration= a ROS camera_info file (docs/calibration.md) holding
+    the camera of the properties: the same floor, bin for bin."""
+    info = tmp_path / "camera_info.yaml"
+    info.write_text(
+        f"image_width: {W}\nimage_height: {H}\ncamera_name: front\n"
+        f"camera_matrix:\n  rows: 3\n  cols: 3\n"
+        f"  data: [{F!r}, 0, {CX!r}, 0, {F!r}, {CY!r}, 0, 0, 1]\n"
+        f"distortion_model: plumb_bob\ndistortion_coefficients:\n"
+        f"  rows: 1\n  cols: 5\n  data: [0, 0, 0, 0, 0]\n"
+        f"camera_height: {CAM_H}\ntilt_deg: {TILT}\n")
+    rgb, _ = render(np.random.default_rng(3))
+    caps = f"video/x-raw,format=RGB,width={W},height={H},framerate=30/1"
+    floors = []
+    for camera in ("camera-height=0.3 tilt=25 hfov=60",
+                   f"calibration={info} camera-height=1 tilt=10"):
+        out = pipeline.process_frames(
+            f"labsegment min-class-pixels=0 ! floorboundary "
+            f"floor-classes=grey {camera} max-range=4", [rgb], caps)
+        floors.append(meta.floor(out[0]))
+    a, b = floors
+    assert (a.boundary_state == b.boundary_state).all()
+    for key in ("boundary_x", "boundary_y", "rop_range"):
+        np.testing.assert_allclose(getattr(b, key), getattr(a, key),
+                                   rtol=0, atol=1e-9)
+    assert (a.boundary_state == 2).sum() > 150

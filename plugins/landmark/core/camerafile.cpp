@@ -3,6 +3,7 @@
 
 #include "camerafileshape.h"
 #include "fileutil.h"
+#include "roscamerainfo.h"
 
 #include <opencv2/core.hpp>
 
@@ -62,10 +63,51 @@ read_real (const cv::FileStorage & fs, const std::string & path,
   return true;
 }
 
-/* The values of a file whose shape was checked: OpenCV reads them. */
+/* camera_height, when present: a positive number of metres */
+static bool
+read_camera_height (const cv::FileStorage & fs, const std::string & path,
+    CameraFile * out, std::string * error)
+{
+  double v = 0;
+  bool present = false;
+  if (!read_real (fs, path, "camera_height", &present, &v, error))
+    return false;
+  if (present) {
+    if (!(v > 0)) {
+      *error = path + ": camera_height must be positive (metres), got " +
+          number_text (v);
+      return false;
+    }
+    out->has_camera_height = true;
+    out->camera_height = v;
+  }
+  return true;
+}
+
+/* tilt_deg (within [-90, 90]) and roll_deg, when present */
+static bool
+read_tilt_roll (const cv::FileStorage & fs, const std::string & path,
+    CameraFile * out, std::string * error)
+{
+  if (!read_real (fs, path, "tilt_deg", &out->has_tilt, &out->tilt_deg,
+          error)
+      || !read_real (fs, path, "roll_deg", &out->has_roll, &out->roll_deg,
+          error))
+    return false;
+  if (out->has_tilt && !(out->tilt_deg >= -90 && out->tilt_deg <= 90)) {
+    *error = path + ": tilt_deg must be within [-90, 90] degrees, got " +
+        number_text (out->tilt_deg);
+    return false;
+  }
+  return true;
+}
+
+/* The values of a file whose shape was checked: OpenCV reads them. A
+ * camera_info file (opencv_text made by camera_info_shape_ok) holds the
+ * intrinsics under ROS's keys and may hold the mounting keys. */
 static bool
 read_values (const std::string & path, const std::string & text,
-    CameraFile * out, std::string * error)
+    bool camera_info, CameraFile * out, std::string * error)
 {
   try {
     cv::FileStorage fs (text, cv::FileStorage::READ |
@@ -74,6 +116,10 @@ read_values (const std::string & path, const std::string & text,
       *error = path + ": not an OpenCV FileStorage file (YAML or XML)";
       return false;
     }
+    if (camera_info)
+      return camera_info_values (fs, path, out, error)
+          && read_camera_height (fs, path, out, error)
+          && read_tilt_roll (fs, path, out, error);
     const cv::FileNode model = fs["model"];
     if (!model.empty ()) {
       const std::string name = model.isString ()? (std::string) model : "";
@@ -102,19 +148,8 @@ read_values (const std::string & path, const std::string & text,
           std::to_string (out->image_height);
       return false;
     }
-    double v = 0;
-    bool present = false;
-    if (!read_real (fs, path, "camera_height", &present, &v, error))
+    if (!read_camera_height (fs, path, out, error))
       return false;
-    if (present) {
-      if (!(v > 0)) {
-        *error = path + ": camera_height must be positive (metres), got " +
-            number_text (v);
-        return false;
-      }
-      out->has_camera_height = true;
-      out->camera_height = v;
-    }
 
     if (out->seed) {
       if (!out->has_camera_height) {
@@ -127,6 +162,7 @@ read_values (const std::string & path, const std::string & text,
         &out->half_width
       };
       for (int i = 0; i < 3; i++) {
+        bool present = false;
         if (!read_real (fs, path, keys[i], &present, dst[i], error))
           return false;
         if (!present) {
@@ -145,16 +181,8 @@ read_values (const std::string & path, const std::string & text,
       return true;
     }
 
-    if (!read_real (fs, path, "tilt_deg", &out->has_tilt, &out->tilt_deg,
-            error)
-        || !read_real (fs, path, "roll_deg", &out->has_roll, &out->roll_deg,
-            error))
+    if (!read_tilt_roll (fs, path, out, error))
       return false;
-    if (out->has_tilt && !(out->tilt_deg >= -90 && out->tilt_deg <= 90)) {
-      *error = path + ": tilt_deg must be within [-90, 90] degrees, got " +
-          number_text (out->tilt_deg);
-      return false;
-    }
 
     cv::Mat k, d;
     double declared = 0;
@@ -250,8 +278,13 @@ load_camera_file (const std::string & path, CameraFile * out,
     *error = path + ": the calibration file is empty";
     return false;
   }
+  if (looks_like_camera_info (text)) {
+    std::string opencv_text;
+    return camera_info_shape_ok (text, path, &opencv_text, error)
+        && read_values (path, opencv_text, true, out, error);
+  }
   return camera_file_shape_ok (text, path, error)
-      && read_values (path, text, out, error);
+      && read_values (path, text, false, out, error);
 }
 
 }  // namespace landmark

@@ -1,5 +1,6 @@
 /* Camera files (docs/calibration.md): OpenCV FileStorage YAML, XML or JSON
- * as `gst-landmark calibrate` and OpenCV's calibration sample write them.
+ * as `gst-landmark calibrate` and OpenCV's calibration sample write them,
+ * or ROS camera_info YAML (roscamerainfo.h).
  *
  * OpenCV's FileStorage parsers loop forever, overflow the stack or throw
  * on some malformed files (tests/fuzz/regressions/calibration). They are
@@ -23,7 +24,9 @@ constexpr int kMaxCameraImageSize = 16384;
  * name `seed`) with `camera_height`,
  * `blind_distance`, `view_depth` and `half_width`. The mounting keys
  * `camera_height`, `tilt_deg` and `roll_deg` are optional in a pinhole
- * file (has_* say which are there). */
+ * file (has_* say which are there). A ROS camera_info file is a pinhole
+ * file: its intrinsics and image size fill the same fields
+ * (roscamerainfo.h), and it may hold the mounting keys too. */
 struct CameraFile {
   bool seed = false;                   /* model: angle-linear */
   double fx = 0, fy = 0, cx = 0, cy = 0;   /* pinhole */
@@ -40,7 +43,7 @@ struct CameraFile {
  * angle-linear
  * file missing one of its four lengths or with a non-positive one, a
  * non-positive camera_height, tilt_deg outside [-90, 90], non-finite
- * values. */
+ * values; for a camera_info file, what camera_info_values refuses. */
 bool load_camera_file (const std::string & path, CameraFile * out,
     std::string * error);
 

@@ -162,11 +162,22 @@ const char *const kShapeHint = "a camera file holds top-level keys with a "
     "number, a word, a quoted text, a list of numbers or an opencv-matrix "
     "(rows, cols, dt, data), as OpenCV writes them";
 
+/* A whole number OpenCV reads as a 32-bit int: at most 9 digits */
+bool
+is_short_whole (const std::string & s)
+{
+  const size_t sign = !s.empty () && (s[0] == '-' || s[0] == '+');
+  return s.find_first_not_of ("0123456789", sign) != std::string::npos
+      || s.size () - sign <= 9;
+}
+
 /* Numbers separated by commas between [ and ], fed line by line; the
  * first line from its [. */
 struct NumberList {
   bool open = false, need_item = false;
   size_t items = 0;
+  /* refuse whole numbers of more than 9 digits (a camera_info file) */
+  bool short_wholes = false;
 
   /* "" when line (from line[i] on) continues the list well; else what is
    * wrong, naming key */
@@ -205,6 +216,10 @@ struct NumberList {
       const std::string item = line.substr (i, end - i);
       if (!is_number (item))
         return key + ": `" + item + "` in its list is not a number";
+      if (short_wholes && !is_short_whole (item))
+        return key + ": `" + item + "` in its list is a whole number of "
+            "more than 9 digits (OpenCV does not read it exactly; write it "
+            "with a decimal point)";
       items++;
       need_item = false;
       i = end;
@@ -554,13 +569,241 @@ json_shape_ok (const std::string & text, const std::string & path,
   return ok;
 }
 
-}  // namespace
+/* The keys only a ROS camera_info file has (camera_calibration_parsers) */
+const char *const kCameraInfoKeys[] = { "camera_name", "camera_matrix",
+  "distortion_model", "distortion_coefficients", "rectification_matrix",
+  "projection_matrix"
+};
 
+const char *const kCameraInfoHint = "a ROS camera_info file holds top-level "
+    "keys with a number, a word or a quoted text, or a matrix as indented "
+    "rows, cols and data lines, as camera_calibration_parsers writes them";
+
+/* camera_name: any plain name (letters, digits, _ - . /) or a quoted one */
 bool
-camera_file_shape_ok (const std::string & text, const std::string & path,
+is_camera_name (const std::string & s)
+{
+  if (is_quoted (s))
+    return true;
+  const bool single = s.size () >= 2 && s.front () == '\'' &&
+      s.back () == '\'';
+  const size_t a = single ? 1 : 0, b = single ? s.size () - 1 : s.size ();
+  if (!single && s.empty ())
+    return false;
+  for (size_t i = a; i < b; i++) {
+    const char c = s[i];
+    if (!(is_word_char (c, false) || c == '-' || c == '.' || c == '/'
+            || (single && c == ' ')))
+      return false;
+  }
+  return true;
+}
+
+/* ROS camera_info YAML, line by line, as camera_calibration_parsers and
+ * ROS's camera_calibration write it: an optional `---` first line, then
+ * top-level `key: value` lines, and `key:` lines followed by a matrix:
+ * rows, cols and data lines indented alike, each once, in any order,
+ * data a list of numbers that may continue on lines indented at least 2
+ * more than `data:` (OpenCV's YAML parser needs that much); comments and
+ * blank lines outside a list. What OpenCV parses is built on the way:
+ * the %YAML:1.0 header it needs, the `---` line and camera_name's line
+ * left empty (a name such as 00b09d01 stops OpenCV's parser; the name is
+ * not read). */
+class CameraInfoShape {
+public:
+  explicit CameraInfoShape (const std::string & path) : path_ (path)
+  {
+    list_.short_wholes = true;
+  }
+
+  bool check (const std::string & text, std::string * opencv_text,
+      std::string * error)
+  {
+    std::istringstream in (text);
+    std::string raw;
+    std::string out = "%YAML:1.0\n---\n";
+    while (std::getline (in, raw)) {
+      n_++;
+      std::string line = raw;
+      if (!line.empty () && line.back () == '\r')
+        line.pop_back ();
+      while (!line.empty () && line.back () == ' ')
+        line.pop_back ();
+      keep_ = true;
+      if (!this->line (line))
+        break;
+      out += (keep_ ? raw : std::string ()) + "\n";
+    }
+    if (why_.empty () && list_.open)
+      fail (block_key_ + ": the file ends inside its data list");
+    if (why_.empty ())
+      end_block ();
+    if (!why_.empty ()) {
+      *error = why_;
+      return false;
+    }
+    *opencv_text = out;
+    return true;
+  }
+
+private:
+  bool fail_at (int line, const std::string & what)
+  {
+    why_ = path_ + ": line " + std::to_string (line) + ": " + what;
+    return false;
+  }
+
+  bool fail (const std::string & what)
+  {
+    return fail_at (n_, what);
+  }
+
+  bool line (const std::string & line)
+  {
+    if (n_ == 1 && line == "---") {
+      keep_ = false;
+      return true;
+    }
+    if (line.find ('\t') != std::string::npos)
+      return fail ("a tab (YAML indents with spaces)");
+    if (line.find ('%') != std::string::npos)
+      return fail ("'%' (OpenCV's parser, which reads the file, does not "
+          "end on it)");
+    const size_t indent = line.find_first_not_of (' ');
+    if (indent == std::string::npos)
+      return true;
+    if (list_.open) {
+      if (line[indent] == '#')
+        return fail (block_key_ + ": a comment inside its data list");
+      if (indent < list_indent_)
+        return fail (block_key_ + ": a data list continued on the next "
+            "line must be indented at least 2 spaces more than `data:`");
+      return list (line, indent);
+    }
+    if (line[indent] == '#')
+      return true;
+    if (indent == 0)
+      return end_block () && top (line);
+    if (block_key_.empty ())
+      return fail ("unexpected indentation; " + std::string (kCameraInfoHint));
+    return field (line, indent);
+  }
+
+  bool top (const std::string & line)
+  {
+    const size_t colon = line.find (':');
+    const std::string key = line.substr (0, colon);
+    if (colon == std::string::npos || !is_key (key))
+      return fail ("expected `key: value`; " + std::string (kCameraInfoHint));
+    if (!keys_.insert (key).second)
+      return fail (key + " appears twice");
+    if (colon + 1 == line.size ()) {
+      if (key == "camera_name") {
+        keep_ = false;
+        return true;
+      }
+      block_key_ = key;
+      block_line_ = n_;
+      block_indent_ = 0;
+      fields_.clear ();
+      return true;
+    }
+    if (line[colon + 1] != ' ')
+      return fail (key + ": expected a space after `" + key + ":`");
+    const std::string value = trimmed (line.substr (colon + 1));
+    if (key == "camera_name") {
+      keep_ = false;
+      return is_camera_name (value) ? true : fail ("camera_name: `" + value +
+          "` is not a name (letters, digits, _ - . /) or a quoted text");
+    }
+    if (value == "!!opencv-matrix")
+      return fail (key + ": an opencv-matrix in a file without OpenCV's "
+          "%YAML:1.0 header (an OpenCV file starts with it; a ROS "
+          "camera_info matrix is indented rows, cols and data lines)");
+    if (value[0] == '[' || value[0] == '{')
+      return fail (key + ": `" + value.substr (0, 40) + "`: " +
+          kCameraInfoHint);
+    if (!is_scalar (value))
+      return fail (key + ": `" + value + "` is not a number, a word or a "
+          "quoted text");
+    if (!is_short_whole (value))
+      return fail (key + ": `" + value + "` is a whole number of more than "
+          "9 digits (OpenCV does not read it exactly)");
+    return true;
+  }
+
+  /* rows, cols or data of the matrix under block_key_ */
+  bool field (const std::string & line, size_t indent)
+  {
+    if (block_indent_ == 0)
+      block_indent_ = indent;
+    else if (indent != block_indent_)
+      return fail (block_key_ + ": its rows, cols and data lines must be "
+          "indented alike");
+    const size_t colon = line.find (':', indent);
+    const std::string name = colon == std::string::npos ? std::string () :
+        line.substr (indent, colon - indent);
+    if (name != "rows" && name != "cols" && name != "data")
+      return fail (block_key_ + ": expected `rows: `, `cols: ` or `data: ` "
+          "(a camera_info matrix)");
+    if (!fields_.insert (name).second)
+      return fail (block_key_ + ": " + name + " appears twice");
+    if (colon + 1 >= line.size () || line[colon + 1] != ' ')
+      return fail (block_key_ + ": expected a value after `" + name + ": `");
+    const std::string value = trimmed (line.substr (colon + 1));
+    if (name == "data") {
+      if (value[0] != '[')
+        return fail (block_key_ + ": data must be a list of numbers, "
+            "`data: [ ... ]`, starting on its line");
+      list_indent_ = indent + 2;
+      return list (line, line.find ('[', colon));
+    }
+    if (!is_count (value))
+      return fail (block_key_ + ": " + name + " `" + value + "` is not a "
+          "whole number");
+    return true;
+  }
+
+  /* the matrix under block_key_ (if one was open) has all its fields */
+  bool end_block ()
+  {
+    if (block_key_.empty ())
+      return true;
+    const std::string key = block_key_;
+    block_key_.clear ();
+    if (fields_.empty ())
+      return fail_at (block_line_, key + ": expected a value after `" + key +
+          ":`, or indented rows, cols and data lines");
+    std::string missing;
+    for (const char *f : { "rows", "cols", "data" })
+      if (!fields_.count (f))
+        missing += std::string (missing.empty ()? "" : ", ") + f;
+    if (!missing.empty ())
+      return fail_at (block_line_, key + ": a matrix needs rows, cols and "
+          "data; no " + missing);
+    return true;
+  }
+
+  bool list (const std::string & line, size_t i)
+  {
+    const std::string why = list_.feed (line, i, block_key_);
+    return why.empty () ? true : fail (why);
+  }
+
+  const std::string & path_;
+  std::string why_, block_key_;
+  std::set<std::string> keys_, fields_;
+  int n_ = 0, block_line_ = 0;
+  size_t block_indent_ = 0, list_indent_ = 0;
+  bool keep_ = true;
+  NumberList list_;
+};
+
+/* Bytes no camera file holds: control characters, text that is not UTF-8 */
+bool
+text_ok (const std::string & text, const std::string & path,
     std::string * error)
 {
-  error->clear ();
   for (unsigned char c : text)
     if ((c < 0x20 && c != '\n' && c != '\r' && c != '\t') || c == 0x7f) {
       *error = path + ": control characters in a camera file";
@@ -571,6 +814,18 @@ camera_file_shape_ok (const std::string & text, const std::string & path,
     *error = path + ": not UTF-8 text";
     return false;
   }
+  return true;
+}
+
+}  // namespace
+
+bool
+camera_file_shape_ok (const std::string & text, const std::string & path,
+    std::string * error)
+{
+  error->clear ();
+  if (!text_ok (text, path, error))
+    return false;
   if (text.rfind ("%YAML", 0) == 0)
     return YamlShape (path).check (text, error);
   if (text.rfind ("<?xml", 0) == 0)
@@ -578,8 +833,34 @@ camera_file_shape_ok (const std::string & text, const std::string & path,
   if (text.rfind ("{", 0) == 0)
     return json_shape_ok (text, path, error);
   *error = path + ": not an OpenCV FileStorage file (YAML starting with "
-      "%YAML:1.0, XML with <?xml, or JSON with {)";
+      "%YAML:1.0, XML with <?xml, or JSON with {) nor a ROS camera_info "
+      "file (camera_matrix, distortion_coefficients, ... at the left margin)";
   return false;
+}
+
+bool
+looks_like_camera_info (const std::string & text)
+{
+  if (text.rfind ("%YAML", 0) == 0 || text.rfind ("<?xml", 0) == 0
+      || text.rfind ("{", 0) == 0)
+    return false;
+  for (const char *key : kCameraInfoKeys) {
+    const std::string k = std::string (key) + ":";
+    for (size_t at = text.find (k); at != std::string::npos;
+        at = text.find (k, at + 1))
+      if (at == 0 || text[at - 1] == '\n')
+        return true;
+  }
+  return false;
+}
+
+bool
+camera_info_shape_ok (const std::string & text, const std::string & path,
+    std::string * opencv_text, std::string * error)
+{
+  error->clear ();
+  return text_ok (text, path, error)
+      && CameraInfoShape (path).check (text, opencv_text, error);
 }
 
 }  // namespace landmark

@@ -14,7 +14,7 @@ The library (this folder), what applications import:
   palette      load, validate and learn colour palettes
   landmarkmap  read landmark map files (the one reader)
   landmarklog  read landmarklog (JSON Lines) files
-  camerafile   read and write camera files
+  camerafile   read and write camera files (OpenCV and ROS camera_info)
   reference    plain numpy/OpenCV implementation of the algorithms
   webguard     the access rules of the project's web pages
   synth        the synthetic world with exact ground truth

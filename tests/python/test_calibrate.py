@@ -547,3 +547,222 @@ def test_camera_file_xml_and_thickness(tmp_path):
     thick = calibrate.floor_pose(corners, PATTERN, SQUARE, cam,
                                  thickness=0.004)
     assert thick.height - thin.height == pytest.approx(0.004)
+
+
+# ---------------------------------------------------------------------------
+# ROS camera_info YAML: calibrate camera-info writes it, the camera file
+# reader reads it (its checks are the elements' loader's: the cases with
+# ipmrange are in test_ipmrange.py)
+
+INFO_K = np.array([[612.37, 0.0, 322.71], [0.0, 608.52, 236.14],
+                   [0.0, 0.0, 1.0]])
+INFO_DIST = np.array([-0.1216, 0.0311, 0.00042, -0.00019, 1.7e-05])
+
+
+def _opencv_camera_file(path, dist=INFO_DIST, mounting=True):
+    """A camera file as calibrate chessboard + floor write it."""
+    camera = {calibrate.K_MATRIX: INFO_K, "dist": dist,
+              calibrate.K_WIDTH: WIDTH, calibrate.K_HEIGHT: HEIGHT}
+    fields = calibrate._intrinsic_fields(camera)
+    if mounting:
+        fields.update(camera_height=0.315, tilt_deg=26.5, roll_deg=-1.25)
+    calibrate.write_camera_file(str(path), fields)
+    return str(path)
+
+
+@pytest.mark.parametrize("dist, model", [
+    (INFO_DIST, "plumb_bob"),
+    (INFO_DIST[:4], "plumb_bob"),
+    (np.r_[INFO_DIST, 0.002, -0.0007, 0.0001], "rational_polynomial"),
+    (np.r_[INFO_DIST, 0.002, -0.0007, 0.0001, 0.0, 0.0, 0.0, 0.0],
+     "rational_polynomial"),
+])
+def test_camera_info_cli(tmp_path, capsys, dist, model):
+    """calibrate camera-info: ROS's layout and keys; read back, the
+    intrinsics, distortion and mounting are those of the camera file."""
+    source = _opencv_camera_file(tmp_path / "camera.yml", dist)
+    out = tmp_path / "camera_info.yaml"
+    assert main(["calibrate", "camera-info", source, "-o", str(out)]) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    text = out.read_text()
+    lines = text.splitlines()
+    assert lines[:4] == ["image_width: 640", "image_height: 480",
+                         "camera_name: camera", "camera_matrix:"]
+    assert f"distortion_model: {model}" in lines
+    assert not text.startswith("%YAML")
+    back = calibrate.read_camera_file(str(out))
+    want = calibrate.read_camera_file(source)
+    np.testing.assert_allclose(back["camera_matrix"], want["camera_matrix"],
+                               rtol=0, atol=1e-9)
+    n = 5 if model == "plumb_bob" else 8
+    expect = np.r_[dist, np.zeros(max(0, n - len(dist)))][:n]
+    np.testing.assert_allclose(back["dist"], expect, rtol=0, atol=1e-12)
+    assert (back["image_width"], back["image_height"]) == (WIDTH, HEIGHT)
+    assert back["distortion_model"] == model
+    assert calibrate.read_mounting(str(out)) == pytest.approx(
+        {"camera_height": 0.315, "tilt_deg": 26.5, "roll_deg": -1.25},
+        abs=1e-12)
+
+
+def test_camera_info_is_yaml_as_ros_reads_it(tmp_path):
+    """Read by a YAML parser of its own (PyYAML, what ROS's Python tools
+    use; YAML 1.1, where 1e-05 would be a string): every key
+    camera_calibration_parsers reads, numbers as numbers, rows x cols
+    values; P = [K | 0], R the identity."""
+    yaml = pytest.importorskip("yaml")
+    source = _opencv_camera_file(tmp_path / "camera.yml")
+    out = tmp_path / "camera_info.yaml"
+    assert main(["calibrate", "camera-info", source, "--name",
+                 "head_camera", "-o", str(out)]) == 0
+    doc = yaml.safe_load(out.read_text())
+    assert doc["image_width"] == WIDTH and doc["image_height"] == HEIGHT
+    assert doc["camera_name"] == "head_camera"
+    assert doc["distortion_model"] == "plumb_bob"
+    for key, rows, cols in (("camera_matrix", 3, 3),
+                            ("distortion_coefficients", 1, 5),
+                            ("rectification_matrix", 3, 3),
+                            ("projection_matrix", 3, 4)):
+        m = doc[key]
+        assert (m["rows"], m["cols"]) == (rows, cols)
+        assert len(m["data"]) == rows * cols
+        assert all(isinstance(v, float) for v in m["data"]), m["data"]
+    np.testing.assert_array_equal(
+        np.reshape(doc["camera_matrix"]["data"], (3, 3)), INFO_K)
+    np.testing.assert_array_equal(doc["distortion_coefficients"]["data"],
+                                  INFO_DIST)
+    np.testing.assert_array_equal(
+        np.reshape(doc["projection_matrix"]["data"], (3, 4)),
+        np.hstack([INFO_K, np.zeros((3, 1))]))
+    np.testing.assert_array_equal(doc["rectification_matrix"]["data"],
+                                  np.eye(3).ravel())
+    assert doc["camera_height"] == 0.315
+
+
+def test_camera_info_keeps_its_name(tmp_path, capsys):
+    """A camera_info file converted again keeps its camera_name (and a
+    floor calibration can start from one)."""
+    source = _opencv_camera_file(tmp_path / "camera.yml", mounting=False)
+    first = tmp_path / "a.yaml"
+    assert main(["calibrate", "camera-info", source, "--name", "elp/left",
+                 "-o", str(first)]) == 0
+    second = tmp_path / "b.yaml"
+    assert main(["calibrate", "camera-info", str(first), "-o",
+                 str(second)]) == 0
+    assert "camera_name: elp/left" in second.read_text().splitlines()
+    assert calibrate.read_camera_file(str(second))["camera_name"] == \
+        "elp/left"
+    assert calibrate.read_mounting(str(second)) == {}
+    capsys.readouterr()
+
+
+def test_camera_info_cli_errors(tmp_path, capsys):
+    seed = tmp_path / "seed.yml"
+    assert main(["calibrate", "seed", "--height", "0.3", "--blind", "0.2",
+                 "--depth", "0.6", "--half-width", "0.4", "-o",
+                 str(seed)]) == 0
+    capsys.readouterr()
+    out = str(tmp_path / "info.yaml")
+    assert main(["calibrate", "camera-info", str(seed), "-o", out]) == 1
+    assert "no 3x3 'camera_matrix'" in capsys.readouterr().err
+    # thin-prism coefficients: no ROS model holds them
+    prism = _opencv_camera_file(tmp_path / "prism.yml",
+                                np.r_[INFO_DIST, 0.0, 0.0, 0.0, 0.001, 0.0,
+                                      0.0, 0.0])
+    assert main(["calibrate", "camera-info", prism, "-o", out]) == 1
+    assert "12 distortion coefficients have no ROS distortion model" in \
+        capsys.readouterr().err
+    good = _opencv_camera_file(tmp_path / "camera.yml")
+    assert main(["calibrate", "camera-info", good, "--name", "left cam",
+                 "-o", out]) == 2
+    assert "a camera name takes letters" in capsys.readouterr().err
+    assert main(["calibrate", "camera-info", good, "-o",
+                 str(tmp_path / "no" / "info.yaml")]) == 1
+    assert "cannot write" in capsys.readouterr().err
+
+
+# As ROS's tools write them: camera_calibration_parsers (yaml-cpp) and the
+# camera_calibration GUI (lists over lines in numpy's spacing, 4-space
+# indents in older versions)
+ROS_YAML_CPP = """\
+image_width: 640
+image_height: 480
+camera_name: 00b09d0100990bb6
+camera_matrix:
+  rows: 3
+  cols: 3
+  data: [538.63, 0, 317.698, 0, 539.723, 241.003, 0, 0, 1]
+distortion_model: plumb_bob
+distortion_coefficients:
+  rows: 1
+  cols: 5
+  data: [-0.30678, 0.0825017, 0.0028784, -1.5829e-05, 0]
+rectification_matrix:
+  rows: 3
+  cols: 3
+  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]
+projection_matrix:
+  rows: 3
+  cols: 4
+  data: [538.63, 0, 317.698, 0, 0, 539.723, 241.003, 0, 0, 0, 1, 0]
+"""
+ROS_GUI = """\
+image_width: 1280
+image_height: 800
+camera_name: narrow_stereo
+camera_matrix:
+    rows: 3
+    cols: 3
+    data: [ 415.12614,    0.     ,  665.52373,
+              0.     ,  410.49986,  460.14929,
+              0.     ,    0.     ,    1.     ]
+distortion_model: rational_polynomial
+distortion_coefficients:
+    rows: 1
+    cols: 8
+    data: [-0.017697, -0.007270, 0.005751, -0.000139, 0., 0.1, 0.2, 0.3]
+rectification_matrix:
+    rows: 3
+    cols: 3
+    data: [1., 0., 0.,
+           0., 1., 0.,
+           0., 0., 1.]
+"""
+
+
+def test_read_camera_info_as_ros_writes_it(tmp_path):
+    path = tmp_path / "a.yaml"
+    path.write_text(ROS_YAML_CPP)
+    cam = calibrate.read_camera_file(str(path))
+    np.testing.assert_array_equal(cam["camera_matrix"], [
+        [538.63, 0, 317.698], [0, 539.723, 241.003], [0, 0, 1]])
+    np.testing.assert_array_equal(cam["dist"], [-0.30678, 0.0825017,
+                                                0.0028784, -1.5829e-05, 0])
+    assert (cam["image_width"], cam["image_height"]) == (640, 480)
+    assert cam["camera_name"] == "00b09d0100990bb6"
+    assert calibrate.read_mounting(str(path)) == {}
+    path.write_text(ROS_GUI.replace("\n", "\r\n"))
+    cam = calibrate.read_camera_file(str(path))
+    np.testing.assert_array_equal(cam["camera_matrix"], [
+        [415.12614, 0, 665.52373], [0, 410.49986, 460.14929], [0, 0, 1]])
+    np.testing.assert_array_equal(cam["dist"], [-0.017697, -0.007270,
+                                                0.005751, -0.000139, 0.0,
+                                                0.1, 0.2, 0.3])
+    assert cam["distortion_model"] == "rational_polynomial"
+    assert (cam["image_width"], cam["image_height"]) == (1280, 800)
+
+
+def test_console_tunes_a_camera_info_file(tmp_path):
+    """The console's copy of a camera file for tuning (ipmrange reads the
+    copy) stays camera_info, with the mounting replaced."""
+    from gstlandmark.commands.console import engine
+    source = tmp_path / "camera_info.yaml"
+    source.write_text(ROS_YAML_CPP + "camera_height: 0.3\ntilt_deg: 20\n")
+    assert engine.read_camera_mounting(str(source)) == {
+        "camera-height": 0.3, "tilt": 20.0}
+    copy = tmp_path / "copy.yaml"
+    engine.copy_camera_file(str(source), str(copy), {"tilt_deg": 24.5})
+    assert calibrate.read_mounting(str(copy)) == {"camera_height": 0.3,
+                                                  "tilt_deg": 24.5}
+    cam = calibrate.read_camera_file(str(copy))
+    assert cam["camera_name"] == "00b09d0100990bb6"
+    assert cam["camera_matrix"][0, 0] == 538.63

@@ -390,6 +390,170 @@ def test_bad_camera_files_fail_ready(gst, tmp_path, fields, words):
     assert err is not None and words in err and str(path) in err
 
 
+# ROS camera_info YAML (docs/calibration.md, "ROS camera_info"): read by
+# ipmrange like the OpenCV file it converts to and from
+
+@pytest.mark.parametrize("dist, size", [
+    (DIST_TEST, (W, H)),
+    (np.r_[DIST_TEST, 0.003, -0.0011, 0.0004], (W, H)),
+    (DIST_TEST, (320, 240)),
+])
+def test_camera_info_round_trip(gst, tmp_path, capsys, dist, size):
+    """calibrate camera-info writes the camera file as camera_info; read
+    back by ipmrange (in C++) it ranges as the original does, and by the
+    Python reader its intrinsics are the original's."""
+    source = tmp_path / "cam.yml"
+    C.write_camera_file(str(source), pinhole_fields(0.42, 31.0, 2.5, dist))
+    info = tmp_path / "camera_info.yaml"
+    assert cli.main(["calibrate", "camera-info", str(source), "-o",
+                     str(info)]) == 0
+    capsys.readouterr()
+    want, got = (C.read_camera_file(str(p)) for p in (source, info))
+    np.testing.assert_allclose(got["camera_matrix"], want["camera_matrix"],
+                               rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got["dist"], want["dist"], rtol=0, atol=1e-9)
+    assert C.read_mounting(str(info)) == C.read_mounting(str(source))
+    uv = [(u * size[0] / W, v * size[1] / H) for u, v in UV_GRID]
+    a = range_points(gst, f"calibration={source}", uv, size)
+    b = range_points(gst, f"calibration={info}", uv, size)
+    assert len(a) == len(b) == len(uv)
+    for ra, rb in zip(a, b):
+        assert not ra["no-floor"] and not rb["no-floor"]
+        for key in ("range", "bearing", "ground-x", "ground-y"):
+            assert rb[key] == pytest.approx(ra[key], abs=1e-6), key
+
+
+# A 640x480 USB camera as ROS's camera_calibration writes it (its P from
+# cv2.getOptimalNewCameraMatrix, not read: ipmrange takes raw images), and
+# the same camera written by hand as an OpenCV file
+ROS_CAMERA_INFO = """\
+image_width: 640
+image_height: 480
+camera_name: usb_cam
+camera_matrix:
+  rows: 3
+  cols: 3
+  data: [ 614.85417,    0.     ,  327.43829,
+            0.     ,  615.03981,  236.64318,
+            0.     ,    0.     ,    1.     ]
+distortion_model: plumb_bob
+distortion_coefficients:
+  rows: 1
+  cols: 5
+  data: [0.094813, -0.171602, -0.001135, 0.002612, 0.000000]
+rectification_matrix:
+  rows: 3
+  cols: 3
+  data: [ 1.,  0.,  0.,
+          0.,  1.,  0.,
+          0.,  0.,  1.]
+projection_matrix:
+  rows: 3
+  cols: 4
+  data: [ 622.79553,    0.     ,  329.48901,    0.     ,
+            0.     ,  624.56500,  235.98245,    0.     ,
+            0.     ,    0.     ,    1.     ,    0.     ]
+"""
+OPENCV_CAMERA = """\
+%YAML:1.0
+---
+image_width: 640
+image_height: 480
+camera_matrix: !!opencv-matrix
+   rows: 3
+   cols: 3
+   dt: d
+   data: [ 614.85417, 0., 327.43829, 0., 615.03981, 236.64318, 0., 0., 1. ]
+distortion_coefficients: !!opencv-matrix
+   rows: 1
+   cols: 5
+   dt: d
+   data: [ 0.094813, -0.171602, -0.001135, 0.002612, 0. ]
+"""
+
+
+def test_hand_written_camera_info_ranges_as_opencv_file(gst, tmp_path):
+    """A hand-written camera_info file and the equivalent OpenCV file give
+    ipmrange the same range and bearing for each detection, and both are
+    the floor points OpenCV's undistortion gives for that camera."""
+    info, opencv = tmp_path / "camera_info.yaml", tmp_path / "camera.yml"
+    info.write_text(ROS_CAMERA_INFO)
+    opencv.write_text(OPENCV_CAMERA)
+    mount = "camera-height=0.3 tilt=25 roll=0.5"
+    a = range_points(gst, f"calibration={info} {mount}", UV_GRID)
+    b = range_points(gst, f"calibration={opencv} {mount}", UV_GRID)
+    k = np.array([[614.85417, 0, 327.43829], [0, 615.03981, 236.64318],
+                  [0, 0, 1]])
+    d = np.array([0.094813, -0.171602, -0.001135, 0.002612, 0.0])
+    want = floor_truth(UV_GRID, k, d, 0.3, 25.0, 0.5)
+    for ra, rb, (gx, gy) in zip(a, b, want):
+        for key in ("range", "bearing", "ground-x", "ground-y"):
+            assert ra[key] == pytest.approx(rb[key], abs=1e-12), key
+        assert ra["range"] == pytest.approx(math.hypot(gx, gy), abs=1e-7)
+        assert ra["bearing"] == pytest.approx(math.atan2(gy, gx), abs=1e-7)
+
+
+_INFO_SIZE = "image_width: 640\nimage_height: 480\n"
+_INFO_K = ("camera_matrix:\n  rows: 3\n  cols: 3\n"
+           "  data: [500, 0, 320, 0, 500, 240, 0, 0, 1]\n")
+_INFO_D = ("distortion_model: plumb_bob\ndistortion_coefficients:\n"
+           "  rows: 1\n  cols: 5\n  data: [0.1, -0.2, 0, 0, 0.05]\n")
+
+
+@pytest.mark.parametrize("text, words", [
+    ("image_height: 480\n" + _INFO_K + _INFO_D, ("no image_width",)),
+    (_INFO_SIZE + _INFO_D, ("no camera_matrix",)),
+    (_INFO_SIZE + _INFO_K + "distortion_model: plumb_bob\n",
+     ("no distortion_coefficients",)),
+    ("image_width: 0\nimage_height: 480\n" + _INFO_K + _INFO_D,
+     ("image_width", "0x480")),
+    (_INFO_SIZE + _INFO_K.replace("0, 0, 1]", "0, 1]") + _INFO_D,
+     ("camera_matrix", "data has 8 values", "3x3")),
+    (_INFO_SIZE + _INFO_K + _INFO_D.replace("cols: 5", "cols: 4"),
+     ("distortion_coefficients", "data has 5 values", "1x4")),
+    (_INFO_SIZE + _INFO_K.replace("500, 240", "500, 2x40") + _INFO_D,
+     ("line 6", "camera_matrix", "`2x40`", "not a number")),
+    (_INFO_SIZE + _INFO_K + _INFO_D.replace("plumb_bob", "fisheye"),
+     ("unknown distortion_model 'fisheye'",)),
+    (_INFO_SIZE + _INFO_K + _INFO_D.replace("plumb_bob", "equidistant"),
+     ("equidistant", "not supported")),
+    (_INFO_SIZE + _INFO_K + _INFO_D.replace("plumb_bob",
+                                            "rational_polynomial"),
+     ("rational_polynomial takes 8",)),
+    (_INFO_SIZE + _INFO_K.replace("rows: 3", "rows: 3.0") + _INFO_D,
+     ("line 4", "camera_matrix", "rows `3.0`")),
+    (_INFO_SIZE + _INFO_K.replace("  rows: 3\n", "") + _INFO_D,
+     ("line 3", "camera_matrix", "no rows")),
+    (_INFO_SIZE + "camera_matrix: {rows: 3}\n" + _INFO_D,
+     ("line 3", "camera_matrix")),
+    (_INFO_SIZE + _INFO_K.replace(" 0, 500", "\n   0, 500") + _INFO_D,
+     ("line 7", "indented at least 2 spaces more")),
+    (_INFO_SIZE + _INFO_K + _INFO_D + "tilt_deg: 95\n", ("tilt_deg",)),
+    (_INFO_SIZE + _INFO_K + _INFO_D + "camera_height: high\n",
+     ("camera_height is not a number",)),
+    (_INFO_SIZE + "camera_name: left cam\n" + _INFO_K + _INFO_D,
+     ("line 3", "camera_name")),
+], ids=["no-width", "no-matrix", "no-distortion", "width-zero",
+        "matrix-data-short", "distortion-rows-cols", "not-a-number",
+        "unknown-model", "equidistant", "rational-five", "rows-not-whole",
+        "no-rows", "flow-map", "continuation-indent", "tilt-range",
+        "height-word", "name-space"])
+def test_bad_camera_info_same_error_in_python(gst, tmp_path, text, words):
+    """A bad camera_info file fails ipmrange's READY with the message the
+    Python reader raises, word for word, naming the file and the key."""
+    path = tmp_path / "camera_info.yaml"
+    path.write_text(text)
+    with pytest.raises(C.CalibrationError) as raised:
+        C.read_camera_file(str(path))
+        C.read_mounting(str(path))
+    message = str(raised.value)
+    assert message.startswith(f"{path}: ")
+    for word in words:
+        assert word in message, message
+    err = ready_error(gst, f"calibration={path}")
+    assert err is not None and message in err, (err, message)
+
+
 @pytest.mark.parametrize("z0", [0.0, 0.1])
 def test_element_matches_cv2_projectpoints(gst, tmp_path, z0):
     """Random points on the plane z = z0 projected by cv2.projectPoints

@@ -1,7 +1,7 @@
 """``gst-landmark calibrate``: camera files for ``ipmrange``.
 
 Three ways to describe the camera, each writing an OpenCV FileStorage
-YAML file (see docs/calibration.md):
+YAML file (see docs/calibration.md), and a converter:
 
 - ``seed``: the seed's angle-linear model from a tape on a floor grid
   (camera height, blind distance, view depth, half width), equations
@@ -12,7 +12,9 @@ YAML file (see docs/calibration.md):
 - ``floor``: the mounting (``camera_height``, ``tilt_deg``,
   ``roll_deg``, as docs/conventions.md defines them) from one image of
   a chessboard lying flat on the floor, with the intrinsics of a file
-  the ``chessboard`` command wrote.
+  the ``chessboard`` command wrote;
+- ``camera-info``: a camera file written out as ROS camera_info YAML
+  (camera_calibration_parsers' format), for ROS tools.
 
 The functions here raise ``CalibrationError`` for bad input; the
 command-line handlers turn it into the usual ``gst-landmark: error``.
@@ -30,8 +32,8 @@ import cv2
 import numpy as np
 
 from ..camerafile import (INFO_KEYS, K_DIST, K_HEIGHT, K_MATRIX, K_WIDTH,
-                          CalibrationError, read_camera_file,
-                          write_camera_file)
+                          CalibrationError, read_camera_file, read_mounting,
+                          write_camera_file, write_camera_info)
 from .common import add_actions
 
 MIN_IMAGES = 3
@@ -577,6 +579,33 @@ def _handle_floor(args):
     return 0
 
 
+def _handle_camera_info(args):
+    try:
+        camera = read_camera_file(args.camera)
+        mounting = read_mounting(args.camera)
+        name = args.name or camera.get("camera_name") or "camera"
+        write_camera_info(args.output, camera, name, mounting)
+    except CalibrationError as err:
+        return _fail(err)
+    matrix = camera[K_MATRIX]
+    print(f"camera    {name}, {camera[K_WIDTH]}x{camera[K_HEIGHT]}")
+    print(f"fx {matrix[0, 0]:.3f}  fy {matrix[1, 1]:.3f}  "
+          f"cx {matrix[0, 2]:.3f}  cy {matrix[1, 2]:.3f}")
+    if mounting:
+        print("mounting  " + ", ".join(f"{key} {value:g}"
+                                       for key, value in mounting.items()))
+    print(f"wrote {args.output}")
+    return 0
+
+
+def _camera_name_type(text):
+    if not text or not all(c.isascii() and (c.isalnum() or c in "_./-")
+                           for c in text):
+        raise argparse.ArgumentTypeError(
+            f"a camera name takes letters, digits and _ - . /, got {text!r}")
+    return text
+
+
 def _add_output_option(parser, help="camera file to write"):
     parser.add_argument("-o", "--output", required=True, metavar="OUT.yml",
                         help=help)
@@ -596,7 +625,8 @@ def add_calibrate_parser(subparsers):
         description="Write camera files (OpenCV FileStorage YAML) for "
                     "ipmrange: the seed's model from floor measurements, "
                     "intrinsics from chessboard images, or the mounting "
-                    "from a chessboard on the floor.")
+                    "from a chessboard on the floor; or a camera file as "
+                    "ROS camera_info YAML.")
     actions = add_actions(parser)
 
     seed = actions.add_parser(
@@ -667,3 +697,21 @@ def add_calibrate_parser(subparsers):
                             "to it")
     _add_output_option(floor, "camera file to write (may be --camera)")
     floor.set_defaults(handler=_handle_floor, parser=floor)
+
+    info = actions.add_parser(
+        "camera-info", help="a camera file as ROS camera_info YAML",
+        description="""Write a pinhole camera file (what chessboard or
+            floor wrote, or a camera_info file) as ROS camera_info YAML, as
+            camera_calibration_parsers writes it: image size, camera_matrix,
+            distortion_model (plumb_bob, or rational_polynomial for 8
+            coefficients), distortion_coefficients, an identity
+            rectification_matrix and projection_matrix [K | 0]. The
+            mounting (camera_height, tilt_deg, roll_deg) goes along under
+            its own keys, which ROS ignores and ipmrange reads.""")
+    info.add_argument("camera", metavar="CAMERA.yml",
+                      help="camera file to convert")
+    info.add_argument("--name", type=_camera_name_type, metavar="NAME",
+                      help="camera_name (default: the file's own, or "
+                           "'camera')")
+    _add_output_option(info, "camera_info YAML file to write")
+    info.set_defaults(handler=_handle_camera_info, parser=info)

@@ -25,6 +25,8 @@ import numpy as np
 
 from ... import meta, palette as pal, paletteaudit, pipeline
 from ... import reference
+from ...camerafile import (CalibrationError, is_camera_info_file,
+                           read_camera_file, read_mounting, write_camera_info)
 from ...landmarkmap import MapError, read_map
 from ...gicompat import caps_structure, enum_class
 from .. import runner
@@ -294,6 +296,17 @@ def copy_camera_file(source: str, path: str,
                      values: Dict[str, float]) -> None:
     """Writes the camera file ``source`` to ``path`` (the same format)
     with its top-level ``values`` (file keys) replaced."""
+    if is_camera_info_file(source):
+        try:
+            camera = read_camera_file(source)
+            mounting = read_mounting(source)
+            mounting.update({key: float(v) for key, v in values.items()})
+            write_camera_info(path, camera,
+                              camera.get("camera_name") or "camera",
+                              mounting)
+        except CalibrationError as err:
+            raise ConsoleError(str(err)) from None
+        return
     fs = cv2.FileStorage(source, cv2.FILE_STORAGE_READ)
     out = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
     try:
@@ -321,6 +334,13 @@ def read_camera_mounting(path: Optional[str]) -> Dict[str, float]:
     """The mounting properties a camera file holds ({} without one)."""
     if not path:
         return {}
+    if is_camera_info_file(path):
+        try:
+            mounting = read_mounting(path)
+        except CalibrationError:
+            return {}
+        return {prop: mounting[key] for prop, key in CAMERA_KEYS.items()
+                if key in mounting}
     fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
     try:
         if not fs.isOpened():

@@ -28,6 +28,15 @@ write_text (const std::string & path, const std::string & text)
   out << text;
 }
 
+/* Writes text to path and loads it as a camera file. */
+static bool
+load_text (const std::string & path, const std::string & text,
+    CameraFile * f, std::string * err)
+{
+  write_text (path, text);
+  return load_camera_file (path, f, err);
+}
+
 /* As OpenCV's calibration sample writes a result: a time, counts, a
  * comment, the two matrices, and per-view matrices of other types. */
 static void
@@ -102,11 +111,11 @@ test_hand_written ()
   write_text (path, "%YAML:1.0\n---\nmodel: angle-\n");
   CHECK (!load_camera_file (path, &f, &err), "'angle-' accepted");
   /* a list split over lines, CRLF line ends, no distortion */
-  write_text (path, "%YAML:1.0\r\n---\r\ncameraMatrix: !!opencv-matrix\r\n"
-      "  rows: 3\r\n  cols: 3\r\n  dt: d\r\n  data: [ 400., 0., 160.,\r\n"
-      "      0., 400., 120., 0., 0., 1. ]\r\n");
-  CHECK (load_camera_file (path, &f, &err) && f.fx == 400 && f.cy == 120 &&
-      f.dist.empty () && f.image_width == 0, "split list: %s", err.c_str ());
+  CHECK (load_text (path, "%YAML:1.0\r\n---\r\n"
+      "cameraMatrix: !!opencv-matrix\r\n  rows: 3\r\n  cols: 3\r\n  dt: d\r\n"
+      "  data: [ 400., 0., 160.,\r\n      0., 400., 120., 0., 0., 1. ]\r\n",
+      &f, &err) && f.fx == 400 && f.cy == 120 && f.dist.empty () &&
+      f.image_width == 0, "split list: %s", err.c_str ());
   std::remove (path.c_str ());
 }
 
@@ -226,7 +235,7 @@ test_camera_info ()
   CameraFile f;
   std::string err;
   /* a serial number for a name: OpenCV's parser alone stops on it */
-  write_text (path, "image_width: 640\nimage_height: 480\n"
+  CHECK (load_text (path, "image_width: 640\nimage_height: 480\n"
       "camera_name: 00b09d0100990bb6\ncamera_matrix:\n  rows: 3\n  cols: 3\n"
       "  data: [538.63, 0, 317.698, 0, 539.723, 241.003, 0, 0, 1]\n"
       "distortion_model: plumb_bob\ndistortion_coefficients:\n  rows: 1\n"
@@ -234,8 +243,7 @@ test_camera_info ()
       "rectification_matrix:\n  rows: 3\n  cols: 3\n"
       "  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nprojection_matrix:\n  rows: 3\n"
       "  cols: 4\n  data: [538.63, 0, 317.698, 0, 0, 539.723, 241.003, 0, 0, "
-      "0, 1, 0]\n");
-  CHECK (load_camera_file (path, &f, &err), "yaml-cpp: %s", err.c_str ());
+      "0, 1, 0]\n", &f, &err), "yaml-cpp: %s", err.c_str ());
   CHECK (!f.seed && f.fx == 538.63 && f.fy == 539.723 && f.cx == 317.698 &&
       f.cy == 241.003 && f.image_width == 640 && f.image_height == 480,
       "yaml-cpp: intrinsics %g %g %g %g %dx%d", f.fx, f.fy, f.cx, f.cy,
@@ -248,7 +256,7 @@ test_camera_info ()
 
   /* the calibration GUI's layout, 4-space indents, a --- line, comments,
    * CRLF, rational_polynomial, and the mounting keys of our files */
-  write_text (path, "---\r\n# left camera\r\nimage_width: 1280\r\n"
+  CHECK (load_text (path, "---\r\n# left camera\r\nimage_width: 1280\r\n"
       "image_height: 800\r\ncamera_name: 'elp left'\r\ncamera_matrix: \r\n"
       "    rows: 3\r\n    cols: 3\r\n"
       "    data: [ 415.12614,    0.     ,  665.52373,\r\n"
@@ -258,8 +266,7 @@ test_camera_info ()
       "distortion_coefficients:\r\n    cols: 8\r\n    rows: 1\r\n"
       "    data: [-0.017697, -0.007270, 0.005751, -0.000139, 0., 0.1, 0.2, "
       "0.3]\r\n\r\ncamera_height: 0.31\r\ntilt_deg: 27.5\r\n"
-      "roll_deg: -1.25\r\n");
-  CHECK (load_camera_file (path, &f, &err), "GUI: %s", err.c_str ());
+      "roll_deg: -1.25\r\n", &f, &err), "GUI: %s", err.c_str ());
   CHECK (f.fx == 415.12614 && f.fy == 410.49986 && f.cx == 665.52373 &&
       f.cy == 460.14929 && f.image_width == 1280 && f.image_height == 800,
       "GUI: intrinsics %g %g %g %g %dx%d", f.fx, f.fy, f.cx, f.cy,
@@ -272,12 +279,13 @@ test_camera_info ()
       "GUI: mounting %g %g %g", f.camera_height, f.tilt_deg, f.roll_deg);
 
   /* no distortion_model: plumb_bob, as ROS reads it; no coefficients */
-  write_text (path, "image_width: 320\nimage_height: 240\ncamera_matrix:\n"
-      "  rows: 3\n  cols: 3\n  data: [300, 0, 160, 0, 300, 120, 0, 0, 1]\n"
-      "distortion_coefficients:\n  rows: 1\n  cols: 0\n  data: []\n");
-  CHECK (load_camera_file (path, &f, &err) && f.fx == 300 && f.dist.empty (),
-      "no model, no coefficients: %s", err.c_str ());
+  const bool loaded = load_text (path, "image_width: 320\nimage_height: 240\n"
+      "camera_matrix:\n  rows: 3\n  cols: 3\n"
+      "  data: [300, 0, 160, 0, 300, 120, 0, 0, 1]\ndistortion_coefficients:\n"
+      "  rows: 1\n  cols: 0\n  data: []\n", &f, &err);
   std::remove (path.c_str ());
+  CHECK (loaded && f.fx == 300 && f.dist.empty (),
+      "no model, no coefficients: %s", err.c_str ());
 }
 
 /* A bad camera_info file is refused with the file, the key and (for the

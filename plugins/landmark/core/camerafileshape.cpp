@@ -227,13 +227,57 @@ struct NumberList {
   }
 };
 
+/* What the line-by-line shapes share: the file, the line reached, the
+ * first fault and a list of numbers being read. */
+class LineShape {
+protected:
+  explicit LineShape (const std::string & path) : path_ (path) { }
+
+  bool fail_at (int line, const std::string & what)
+  {
+    why_ = path_ + ": line " + std::to_string (line) + ": " + what;
+    return false;
+  }
+
+  bool fail (const std::string & what)
+  {
+    return fail_at (n_, what);
+  }
+
+  /* 1 and *indent where the line's text starts; 0 for a blank line; -1,
+   * with the fault `percent`, for a '%', on which OpenCV's YAML parser
+   * does not end */
+  int text_start (const std::string & line, const std::string & percent,
+      size_t * indent)
+  {
+    if (line.find ('%') != std::string::npos) {
+      fail (percent);
+      return -1;
+    }
+    *indent = line.find_first_not_of (' ');
+    return *indent == std::string::npos ? 0 : 1;
+  }
+
+  /* line (from line[i] on) continues the list of key */
+  bool list (const std::string & line, size_t i, const std::string & key)
+  {
+    const std::string why = list_.feed (line, i, key);
+    return why.empty () ? true : fail (why);
+  }
+
+  const std::string & path_;
+  std::string why_;
+  int n_ = 0;
+  NumberList list_;
+};
+
 /* YAML, line by line: the %YAML:1.0 header, `---`, then `key: value`
  * lines, `key: !!opencv-matrix` followed by indented rows, cols, dt and
  * data lines, flow lists of numbers that may continue on indented lines,
  * comments and blank lines. */
-class YamlShape {
+class YamlShape : LineShape {
 public:
-  explicit YamlShape (const std::string & path) : path_ (path) { }
+  explicit YamlShape (const std::string & path) : LineShape (path) { }
 
   bool check (const std::string & text, std::string * error)
   {
@@ -258,12 +302,6 @@ public:
   }
 
 private:
-  bool fail (const std::string & what)
-  {
-    why_ = path_ + ": line " + std::to_string (n_) + ": " + what;
-    return false;
-  }
-
   bool line (const std::string & line)
   {
     if (n_ == 1)
@@ -271,12 +309,10 @@ private:
           fail ("not the YAML header %YAML:1.0");
     if (n_ == 2)
       return line == "---" ? true : fail ("expected --- after the header");
-    if (line.find ('%') != std::string::npos)
-      return fail ("'%' outside the header (OpenCV's parser does not end "
-          "on it)");
-    const size_t indent = line.find_first_not_of (' ');
-    if (indent == std::string::npos)
-      return true;
+    size_t indent = 0;
+    if (const int text = text_start (line, "'%' outside the header (OpenCV's parser does not "
+            "end on it)", &indent); text <= 0)
+      return text == 0;
     if (line[indent] == '#' && !list_.open && field_ < 0)
       return true;
     if (list_.open) {
@@ -337,16 +373,12 @@ private:
 
   bool list (const std::string & line, size_t i)
   {
-    const std::string why = list_.feed (line, i, key_);
-    return why.empty () ? true : fail (why);
+    return LineShape::list (line, i, key_);
   }
 
-  const std::string & path_;
-  std::string why_, key_;
+  std::string key_;
   std::set<std::string> keys_;
-  int n_ = 0;
   int field_ = -1;              /* next opencv-matrix field, -1: none */
-  NumberList list_;
 };
 
 /* XML through GMarkup: <opencv_storage> holding elements with a scalar
@@ -609,9 +641,9 @@ is_camera_name (const std::string & s)
  * the %YAML:1.0 header it needs, the `---` line and camera_name's line
  * left empty (a name such as 00b09d01 stops OpenCV's parser; the name is
  * not read). */
-class CameraInfoShape {
+class CameraInfoShape : LineShape {
 public:
-  explicit CameraInfoShape (const std::string & path) : path_ (path)
+  explicit CameraInfoShape (const std::string & path) : LineShape (path)
   {
     list_.short_wholes = true;
   }
@@ -647,17 +679,6 @@ public:
   }
 
 private:
-  bool fail_at (int line, const std::string & what)
-  {
-    why_ = path_ + ": line " + std::to_string (line) + ": " + what;
-    return false;
-  }
-
-  bool fail (const std::string & what)
-  {
-    return fail_at (n_, what);
-  }
-
   bool line (const std::string & line)
   {
     if (n_ == 1 && line == "---") {
@@ -666,12 +687,10 @@ private:
     }
     if (line.find ('\t') != std::string::npos)
       return fail ("a tab (YAML indents with spaces)");
-    if (line.find ('%') != std::string::npos)
-      return fail ("'%' (OpenCV's parser, which reads the file, does not "
-          "end on it)");
-    const size_t indent = line.find_first_not_of (' ');
-    if (indent == std::string::npos)
-      return true;
+    size_t indent = 0;
+    if (const int text = text_start (line, "'%' (OpenCV's parser, which reads the file, does "
+            "not end on it)", &indent); text <= 0)
+      return text == 0;
     if (list_.open) {
       if (line[indent] == '#')
         return fail (block_key_ + ": a comment inside its data list");
@@ -786,17 +805,14 @@ private:
 
   bool list (const std::string & line, size_t i)
   {
-    const std::string why = list_.feed (line, i, block_key_);
-    return why.empty () ? true : fail (why);
+    return LineShape::list (line, i, block_key_);
   }
 
-  const std::string & path_;
-  std::string why_, block_key_;
+  std::string block_key_;
   std::set<std::string> keys_, fields_;
-  int n_ = 0, block_line_ = 0;
+  int block_line_ = 0;
   size_t block_indent_ = 0, list_indent_ = 0;
   bool keep_ = true;
-  NumberList list_;
 };
 
 /* Bytes no camera file holds: control characters, text that is not UTF-8 */

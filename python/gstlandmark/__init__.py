@@ -24,7 +24,8 @@ commands/: the ``gst-landmark`` command (``commands.cli``) and its
   console, floormap, palette).
 
 devtools/: developer tools: benchmarks, regression goldens and
-  ``regress``, soak and valgrind runs, the accuracy sweep.
+  ``regress``, soak and valgrind runs, the accuracy sweep, ``mcapview``
+  (one frame of a recording drawn as a viewer shows it).
 """
 
 __version__ = "0.1.0"

@@ -393,6 +393,7 @@ COMMANDS = [
     _lazy("commands.record", "add_record_parser"),
     _lazy("commands.fleet", "add_fleet_parser"),
     _lazy("devtools.sweep", "add_sweep_parser"),
+    _lazy("devtools.mcapview", "add_mcapview_parser"),
     _lazy("commands.console", "add_console_parser"),
     _lazy("commands.floormap", "add_floormap_parser"),
 ]

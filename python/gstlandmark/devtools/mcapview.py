@@ -425,9 +425,14 @@ def _fixed(pt) -> Tuple[int, int]:
     return int(round(pt[0] * ONE)), int(round(pt[1] * ONE))
 
 
-def _text(img, text, org, color=TEXT, scale=0.42, thickness=1):
-    cv2.putText(img, text, (int(org[0]), int(org[1])),
-                cv2.FONT_HERSHEY_SIMPLEX, scale, color, thickness,
+def _text(img, text, org, color=TEXT, scale=0.42, outline=False):
+    """Text at org (its baseline's left end); outline: edged in black,
+    to read on the camera's image."""
+    org = (int(org[0]), int(org[1]))
+    if outline:
+        cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale,
+                    (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, color, 1,
                 cv2.LINE_AA)
 
 
@@ -538,7 +543,7 @@ def render(frame: Frame, width: int = DEFAULT_WIDTH, name: str = "") -> View:
             label = f"{det.class_id}: {det.rejected_by or 'rejected'}"
         tw = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, 0.38, 1)[0][0]
         _text(cam, label, (min(max(2, p0[0]), cam_w - tw - 2),
-                           max(11, p0[1] - 3)), color, 0.38)
+                           max(11, p0[1] - 3)), color, 0.38, True)
     lms = _landmarks(frame.markers)
     centres = np.array([[m.pose.position.x, m.pose.position.y,
                          m.pose.position.z if m.type == SPHERE else 0.0]
@@ -572,7 +577,7 @@ def render(frame: Frame, width: int = DEFAULT_WIDTH, name: str = "") -> View:
         cv2.circle(cam, _fixed(c), int(3.0 * ONE), color, -1, cv2.LINE_AA,
                    SHIFT)
         if lid not in boxed:        # a box's label names the others
-            _text(cam, lid, (c[0] + 6, c[1] + 14), color, 0.38)
+            _text(cam, lid, (c[0] + 6, c[1] + 14), color, 0.38, True)
         shown.reprojected[lid] = (c[0] + cam_origin[0], c[1] + cam_origin[1])
     canvas[HEADER_H:HEADER_H + panel_h, :cam_w] = cam
 

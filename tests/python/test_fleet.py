@@ -171,6 +171,33 @@ def test_unreachable_broker_is_a_clear_error(tmp_path):
 
 
 @needs_mosquitto
+def test_tls_failure_is_an_error_at_once(tmp_path):
+    """A broker whose certificate another CA signed: an error at once,
+    not a wait for a broker that is up."""
+    from mqttbroker import make_certificates
+    ca, cert, key = make_certificates(tmp_path, "broker")
+    other_ca, _, _ = make_certificates(tmp_path, "other")
+    broker = Broker(tmp_path, tls=(ca, cert, key)).start()
+    try:
+        started = time.monotonic()
+        done = subprocess.run(
+            [sys.executable, "-m", "gstlandmark.commands.cli", "fleet",
+             "--port", str(broker.port), "--tls-ca-file", other_ca,
+             "-o", str(tmp_path / "f.json")],
+            capture_output=True, text=True, timeout=30)
+    finally:
+        broker.stop()
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.startswith(
+        f"gst-landmark: error: TLS with the broker at 127.0.0.1:"
+        f"{broker.port} failed: "), done.stderr
+    assert "CERTIFICATE_VERIFY_FAILED" in done.stderr
+    assert "waiting" not in done.stderr
+    assert time.monotonic() - started < 10
+    assert not (tmp_path / "f.json").exists()
+
+
+@needs_mosquitto
 def test_waits_for_a_broker_started_late(tmp_path):
     """The fleet starts first, says it waits, and follows the robot once a
     real mosquitto comes up on its port."""

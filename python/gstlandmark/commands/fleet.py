@@ -17,6 +17,7 @@ import json
 import math
 import os
 import signal
+import ssl
 import sys
 import threading
 import time
@@ -289,7 +290,7 @@ class Fleet:
         a broker that cannot be reached (not up yet), with one line on
         stream when it begins and one when it is up; None: until it is,
         0: not at all. A broker that refuses the connection is an error
-        at once."""
+        at once, as is a failed TLS handshake."""
         stream = stream or sys.stderr
         deadline = None if broker_wait_s is None \
             else time.monotonic() + broker_wait_s
@@ -298,6 +299,11 @@ class Fleet:
             try:
                 self.client.connect(self.host, self.port, keepalive=30)
                 break
+            except ssl.SSLError as err:
+                # something answered but the TLS handshake failed (another
+                # CA, not a TLS port): trying again would not help
+                raise CliError(f"TLS with the broker at {self.host}:"
+                               f"{self.port} failed: {err}") from None
             except OSError as err:
                 left = None if deadline is None \
                     else deadline - time.monotonic()

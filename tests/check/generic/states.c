@@ -11,7 +11,9 @@
 #include <unistd.h>
 
 #define PLUGIN_NAME "landmark"
-#define STATE_TIMEOUT (10 * GST_SECOND)
+/* a state is reached or the element is stuck; under the sanitizers on a
+ * loaded 2-core machine a first preroll took over 10 s */
+#define STATE_TIMEOUT (40 * GST_SECOND)
 
 /* Names of the element factories of our plugin, sorted; the caller frees
  * the list with g_list_free_full (l, g_free). */

@@ -240,7 +240,9 @@ def _is_number(value):
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def _valid_name(name):
+def valid_class_name(name):
+    """Whether ``name`` may name a class: 1 to 32 of A-Z a-z 0-9 _ . -
+    (so a coded marker's code, its bands joined by "/", reads back)."""
     return (isinstance(name, str) and 0 < len(name) <= MAX_NAME_LENGTH
             and _NAME_RE.fullmatch(name) is not None)
 
@@ -277,7 +279,7 @@ def _parse_class(entry, index, source):
         raise PaletteError(f"{where}: must be an object, got "
                            f"{_json_type(entry)}")
     name = entry.get("name")
-    if _valid_name(name):
+    if valid_class_name(name):
         where += f" ({json.dumps(name)})"
 
     for key in entry:
@@ -297,7 +299,7 @@ def _parse_class(entry, index, source):
     if len(name) > MAX_NAME_LENGTH:
         raise PaletteError(f"{where}: \"name\" must be at most "
                            f"{MAX_NAME_LENGTH} characters, got {len(name)}")
-    if not _valid_name(name):
+    if not valid_class_name(name):
         raise PaletteError(f"{where}: \"name\" {json.dumps(name)} may only "
                            f"contain A-Z a-z 0-9 _ . -")
 

@@ -1,5 +1,6 @@
 /* Tests of the algorithm code without GStreamer: L*a*b* conversion, the
- * exactness of the class table over every 8-bit colour, palette parsing. */
+ * exactness of the class table over every 8-bit colour, palette and map
+ * parsing. */
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -500,6 +501,126 @@ test_map_bounds ()
   }
 }
 
+/* Coded markers (docs/beacons.md): beacons, posts and cones read with their
+ * bands, band heights and code; discs and balls beside them as before. */
+static void
+test_map_coded_markers ()
+{
+  const std::string good = "{\"landmarks\": ["
+      "{\"id\": \"D1\", \"class\": \"red\", \"x\": 0, \"y\": 0, "
+      "\"diameter\": 0.1},"
+      "{\"id\": \"B1\", \"kind\": \"beacon\", \"x\": 1, \"y\": 2, "
+      "\"diameter\": 0.1, \"height\": 0.3, \"bands\": [\"pink\", \"yellow\"]},"
+      "{\"id\": \"B2\", \"kind\": \"beacon\", \"x\": 1, \"y\": -2, "
+      "\"diameter\": 0.1, \"height\": 0.3, \"bands\": [\"yellow\", \"pink\"],"
+      " \"band-heights\": [0.1, 0.2]},"
+      "{\"id\": \"P1\", \"kind\": \"post\", \"x\": 3, \"y\": 0, \"z\": 0.05,"
+      " \"diameter\": 0.04, \"height\": 1.0, \"bands\": [\"blue\"]},"
+      "{\"id\": \"C1\", \"kind\": \"cone\", \"x\": 4, \"y\": 1, "
+      "\"diameter\": 0.2, \"height\": 0.3, "
+      "\"bands\": [\"yellow\", \"blue\", \"yellow\"]}]}";
+  LandmarkMap map;
+  std::string err;
+  CHECK (map_parse (good, "m.json", &map, &err) && map.landmarks.size () == 5,
+      "%s", err.c_str ());
+  if (map.landmarks.size () == 5) {
+    const MapLandmark & d = map.landmarks[0], &b1 = map.landmarks[1],
+        &b2 = map.landmarks[2], &p = map.landmarks[3], &c = map.landmarks[4];
+    CHECK (d.kind == MapKind::Disc && !d.coded () && d.class_name == "red"
+        && d.code.empty (), "disc %s", d.class_name.c_str ());
+    CHECK (b1.kind == MapKind::Beacon && b1.coded () && b1.code ==
+        "pink/yellow" && b1.class_name == b1.code && b1.z == 0 &&
+        b1.height == 0.3 && b1.band_heights.size () == 2 &&
+        std::fabs (b1.band_heights[0] - 0.15) < 1e-12 &&
+        std::fabs (b1.band_heights[1] - 0.15) < 1e-12, "beacon %s",
+        b1.code.c_str ());
+    CHECK (b2.code == "yellow/pink" && b2.band_heights[0] == 0.1 &&
+        b2.band_heights[1] == 0.2, "band heights as given");
+    CHECK (p.kind == MapKind::Post && p.code == "blue" && p.z == 0.05 &&
+        p.band_heights.size () == 1 && p.band_heights[0] == 1.0, "post");
+    CHECK (c.kind == MapKind::Cone && c.bands.size () == 3 &&
+        c.code == "yellow/blue/yellow" && !c.ball, "cone %s", c.code.c_str ());
+    const auto round = map_discs_and_balls (map);
+    CHECK (round.size () == 1 && round[0].id == "D1", "%zu discs and balls",
+        round.size ());
+  }
+  for (MapKind k : { MapKind::Disc, MapKind::Ball, MapKind::Beacon,
+        MapKind::Post, MapKind::Cone })
+    CHECK (map_kind_name (k) != nullptr, "kind %d", (int) k);
+
+  /* one entry B1 with these members, after a beacon "pink/yellow" A1 */
+  auto beacon = [](const std::string & members) {
+    return "{\"landmarks\": [{\"id\": \"A1\", \"kind\": \"beacon\", \"x\": 0,"
+        " \"y\": 0, \"diameter\": 0.1, \"height\": 0.2, \"bands\": [\"pink\","
+        " \"yellow\"]}, {\"id\": \"B1\", \"x\": 1, \"y\": 1, " + members +
+        "}]}";
+  };
+  const std::string at = "m.json: landmarks[1] (\"B1\"): ";
+  struct { std::string json, expect; } cases[] = {
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": [\"pink\"]"), at + "\"bands\" must hold 2 to 3 class "
+          "names for a beacon, got 1" },
+    { beacon ("\"kind\": \"post\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": []"), at + "\"bands\" must hold 1 to 3 class names for "
+          "a post, got 0" },
+    { beacon ("\"kind\": \"cone\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": [\"a\", \"b\", \"c\", \"d\"]"), at + "\"bands\" must "
+          "hold 1 to 3 class names for a cone, got 4" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2"),
+      at + "\"bands\" must be an array of class names, top first" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": \"pink/yellow\""), at + "\"bands\" must be an array of "
+          "class names, top first" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": [\"pink\", \"a/b\"]"), at + "\"bands\"[1] must be a "
+          "class name (1 to 32 of A-Z a-z 0-9 _ . -)" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": [\"pink\", 3]"), at + "\"bands\"[1] must be a class "
+          "name (1 to 32 of A-Z a-z 0-9 _ . -)" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": [\"pink\", \"yellow\"]"), at + "\"bands\" give the "
+          "code pink/yellow of landmark \"A1\" too: each coded marker needs "
+          "a code of its own" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": [\"yellow\", \"pink\"], \"band-heights\": [0.1]"),
+      at + "\"band-heights\" must hold one positive number (metres) per "
+          "band, 2 here, top first" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": [\"yellow\", \"pink\"], \"band-heights\": [0.3, -0.1]"),
+      at + "\"band-heights\" must hold one positive number (metres) per "
+          "band, 2 here, top first" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": 0.1, \"height\": 0.2, "
+          "\"bands\": [\"yellow\", \"pink\"], \"band-heights\": [0.1, 0.2]"),
+      at + "\"band-heights\" must sum to \"height\" (0.2 m), got 0.3 m" },
+    { beacon ("\"kind\": \"beacon\", \"height\": 0.2, "
+          "\"bands\": [\"yellow\", \"pink\"]"), at + "\"diameter\" must be a "
+          "positive number (metres)" },
+    { beacon ("\"kind\": \"beacon\", \"diameter\": -0.1, \"height\": 0.2, "
+          "\"bands\": [\"yellow\", \"pink\"]"), at + "\"diameter\" must be a "
+          "positive number (metres)" },
+    { beacon ("\"kind\": \"post\", \"diameter\": 0.05, \"height\": 0, "
+          "\"bands\": [\"blue\"]"), at + "\"height\" must be a positive "
+          "number (metres)" },
+    { beacon ("\"kind\": \"post\", \"diameter\": 0.05, "
+          "\"bands\": [\"blue\"]"), at + "\"height\" must be a positive "
+          "number (metres)" },
+    { beacon ("\"kind\": \"post\", \"diameter\": 0.05, \"height\": 500, "
+          "\"bands\": [\"blue\"]"), at + "\"height\" must be at most 100 "
+          "(metres), got 500" },
+    { beacon ("\"kind\": \"post\", \"class\": \"blue\", \"diameter\": 0.05, "
+          "\"height\": 1, \"bands\": [\"blue\"]"), at + "a post has no "
+          "\"class\": its classes are its \"bands\"" },
+    { beacon ("\"class\": \"red\", \"kind\": \"pyramid\""), at + "\"kind\" "
+          "must be \"disc\" or \"ball\", or a coded marker's \"beacon\", "
+          "\"post\" or \"cone\"" },
+  };
+  for (const auto & c : cases) {
+    err.clear ();
+    CHECK (!map_parse (c.json, "m.json", &map, &err) && err == c.expect,
+        "got \"%s\", expected \"%s\"", err.c_str (), c.expect.c_str ());
+  }
+}
+
 int
 main ()
 {
@@ -510,6 +631,7 @@ main ()
   test_subset_classification ();
   test_palette_parsing ();
   test_map_bounds ();
+  test_map_coded_markers ();
   test_single_reference_table_unchanged ();
   test_two_tone_class ();
   test_table_exact ();

@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from gstlandmark.landmarkmap import MapError, read_map
+from gstlandmark.landmarkmap import MapError, check_band_classes, read_map
 
 SOURCE_ROOT = os.environ.get(
     "LANDMARK_SOURCE_ROOT",
@@ -26,6 +26,24 @@ def lm(**changes):
 def two(**changes):
     second = dict({"id": "L2", "x": 3.0}, **changes)
     return {"landmarks": [lm(), lm(**second)]}
+
+
+def coded(**changes):
+    """L1 a disc, L2 a beacon (pink over yellow) with these changes."""
+    beacon = {"class": None, "kind": "beacon", "height": 0.3,
+              "bands": ["pink", "yellow"]}
+    beacon.update(changes)
+    return two(**beacon)
+
+
+def beacons(*codes):
+    """L1 a disc, then a beacon per code (L2, L3, ...)."""
+    marks = [lm()]
+    for i, code in enumerate(codes):
+        marks.append({"id": f"L{i + 2}", "kind": "beacon", "x": 1.0 + i,
+                      "y": 0.0, "diameter": 0.1, "height": 0.3,
+                      "bands": code.split("/")})
+    return {"landmarks": marks}
 
 
 # (case, map text, what the error says after the file name; None: valid)
@@ -57,6 +75,49 @@ CASES = [
     ("too-many", json.dumps({"landmarks": [lm(id=f"L{i}")
                                            for i in range(257)]}),
      "257 landmarks; at most 256 are supported"),
+    # coded markers (docs/beacons.md)
+    ("valid-beacon", json.dumps(coded()), None),
+    ("valid-beacon-band-heights",
+     json.dumps(coded(**{"band-heights": [0.1, 0.2]})), None),
+    ("valid-post-one-band", json.dumps(coded(kind="post", diameter=0.03,
+                                             bands=["blue"])), None),
+    ("valid-cone-stripes", json.dumps(coded(
+        kind="cone", bands=["yellow", "blue", "yellow"])), None),
+    ("beacon-one-band", json.dumps(coded(bands=["pink"])),
+     'landmarks[1] ("L2"): "bands" must hold 2 to 3 class names for a '
+     'beacon, got 1'),
+    ("post-four-bands", json.dumps(coded(kind="post",
+                                         bands=["a", "b", "c", "d"])),
+     'landmarks[1] ("L2"): "bands" must hold 1 to 3 class names for a '
+     'post, got 4'),
+    ("cone-no-bands", json.dumps(coded(kind="cone", bands=None)),
+     'landmarks[1] ("L2"): "bands" must be an array of class names, top '
+     'first'),
+    ("band-not-a-name", json.dumps(coded(bands=["pink", "a/b"])),
+     'landmarks[1] ("L2"): "bands"[1] must be a class name'),
+    ("band-heights-count", json.dumps(coded(**{"band-heights": [0.3]})),
+     'landmarks[1] ("L2"): "band-heights" must hold one positive number '
+     '(metres) per band, 2 here'),
+    ("band-heights-sum", json.dumps(coded(**{"band-heights": [0.1, 0.1]})),
+     'landmarks[1] ("L2"): "band-heights" must sum to "height" (0.3 m), '
+     'got 0.2 m'),
+    ("band-height-zero", json.dumps(coded(**{"band-heights": [0.3, 0]})),
+     'landmarks[1] ("L2"): "band-heights" must hold one positive number'),
+    ("beacon-no-height", json.dumps(coded(height=None)),
+     'landmarks[1] ("L2"): "height" must be a positive number (metres)'),
+    ("beacon-negative-height", json.dumps(coded(height=-0.3)),
+     'landmarks[1] ("L2"): "height" must be a positive number (metres)'),
+    ("beacon-no-diameter", json.dumps(coded(diameter=None)),
+     'landmarks[1] ("L2"): "diameter" must be a positive number (metres)'),
+    ("beacon-zero-diameter", json.dumps(coded(diameter=0)),
+     'landmarks[1] ("L2"): "diameter" must be a positive number (metres)'),
+    ("beacon-with-class", json.dumps(coded(**{"class": "pink"})),
+     'landmarks[1] ("L2"): a beacon has no "class": its classes are its '
+     '"bands"'),
+    ("duplicate-code", json.dumps(beacons("pink/yellow", "yellow/pink",
+                                          "pink/yellow")),
+     'landmarks[3] ("L4"): "bands" give the code pink/yellow of landmark '
+     '"L2" too: each coded marker needs a code of its own'),
 ]
 
 
@@ -111,3 +172,47 @@ def test_a_missing_file_is_named(tmp_path):
     missing = tmp_path / "none.json"
     with pytest.raises(MapError, match=f"^{missing}: No such file"):
         read_map(str(missing))
+
+
+def test_coded_markers_read_with_their_code(tmp_path):
+    path = tmp_path / "map.json"
+    path.write_text(json.dumps(coded(**{"band-heights": [0.1, 0.2]})))
+    disc, beacon = read_map(str(path))
+    assert disc["kind"] == "disc" and "code" not in disc
+    assert beacon == {"id": "L2", "class": "pink/yellow", "kind": "beacon",
+                      "x": 3.0, "y": 2.0, "z": None, "diameter": 0.2,
+                      "height": 0.3, "bands": ["pink", "yellow"],
+                      "band_heights": [0.1, 0.2], "code": "pink/yellow"}
+    path.write_text(json.dumps(coded(kind="cone",
+                                     bands=["yellow", "blue", "yellow"])))
+    cone = read_map(str(path))[1]
+    assert cone["code"] == "yellow/blue/yellow"
+    assert cone["band_heights"] == pytest.approx([0.1, 0.1, 0.1])
+
+
+def test_a_band_the_palette_lacks_is_named(tmp_path):
+    path = tmp_path / "map.json"
+    path.write_text(json.dumps(beacons("pink/yellow", "yellow/purple")))
+    landmarks = read_map(str(path))
+    check_band_classes(landmarks, ["red", "pink", "yellow", "purple"],
+                       str(path))
+    with pytest.raises(MapError) as err:
+        check_band_classes(landmarks, ["red", "pink", "yellow", "blue"],
+                           str(path))
+    assert str(err.value) == (
+        f'{path}: landmarks[2] ("L3"): "bands"[1] purple is not a class of '
+        f'the palette (red, pink, yellow, blue)')
+
+
+def test_a_map_of_coded_markers_alone_is_refused_by_trilaterate(gst,
+                                                                 tmp_path):
+    """No detection reads a code yet: trilaterate positions from discs and
+    balls, and says so when the map has none."""
+    path = tmp_path / "map.json"
+    marks = beacons("pink/yellow", "yellow/pink")["landmarks"][1:]
+    path.write_text(json.dumps({"landmarks": marks}))
+    assert len(read_map(str(path))) == 2
+    err = element_error(gst, str(path))
+    assert err is not None and (
+        f"{path}: the map has no disc or ball landmarks (coded markers are "
+        f"not positioned from yet" in err)

@@ -38,7 +38,9 @@ marker_classes_load (const std::string & map_path,
   LandmarkMap map;
   if (!map_load_file (map_path, &map, error))
     return false;
-  for (const auto & lm : map.landmarks) {
+  /* ipmrange ranges discs and balls; upright coded markers are not
+   * ranged yet (docs/beacons.md) */
+  for (const auto & lm : map_discs_and_balls (map)) {
     /* the same rule as marker-height: a marker plane at or above the
      * camera is never seen from above */
     if (lm.z >= camera_height) {

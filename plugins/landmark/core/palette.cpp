@@ -15,19 +15,6 @@ namespace {
 
 constexpr gsize kMaxNameLength = 32;
 
-bool
-valid_name (const char *name)
-{
-  const gsize len = strlen (name);
-  if (len == 0 || len > kMaxNameLength)
-    return false;
-  for (const char *p = name; *p; p++) {
-    if (!g_ascii_isalnum (*p) && *p != '_' && *p != '.' && *p != '-')
-      return false;
-  }
-  return true;
-}
-
 std::string
 entry_label (guint index, const char *name)
 {
@@ -92,7 +79,7 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
     *why = entry_label (index, nullptr) + ": \"name\" must be a string";
     return false;
   }
-  if (!valid_name (name)) {
+  if (!palette_valid_class_name (name)) {
     *why = entry_label (index, name) + ": \"name\" must be 1 to 32 "
         "characters from A-Z a-z 0-9 _ . -";
     return false;
@@ -205,6 +192,19 @@ parse_class (JsonNode * node, guint index, PaletteClass * out,
 }
 
 }  // namespace
+
+bool
+palette_valid_class_name (const char *name)
+{
+  const gsize len = strlen (name);
+  if (len == 0 || len > kMaxNameLength)
+    return false;
+  for (const char *p = name; *p; p++) {
+    if (!g_ascii_isalnum (*p) && *p != '_' && *p != '.' && *p != '-')
+      return false;
+  }
+  return true;
+}
 
 const char *
 palette_role_name (PaletteRole role)

@@ -25,6 +25,11 @@ enum class PaletteRole { Marker, Floor, Background };
 /* "marker", "floor", "background": the palette file's spelling. */
 const char *palette_role_name (PaletteRole role);
 
+/* Whether `name` may name a class: 1 to 32 of A-Z a-z 0-9 _ . - (so a
+ * coded marker's code, its band classes joined by "/", reads back
+ * unambiguously). */
+bool palette_valid_class_name (const char *name);
+
 struct PaletteClass {
   std::string name;
   /* The class's colour (false-colour output, reported rgb); its only

@@ -793,6 +793,202 @@ def test_seed_robot_is_the_default_and_sizes_a_disc_as_a_pinhole(rng_m):
     assert not entry["cut"] and entry["occluded_fraction"] == 0.0
 
 
+# -- coded markers: beacons, posts, cones (docs/beacons.md) ----------------
+
+def band_boxes_by_pinhole(lm, pose, camera, count=3600):
+    """Each band's image box [u0, v0, u1, v1], top first, from
+    cv2.projectPoints of its edge circles: the points of each circle on
+    the side facing the camera (a convex body hides nothing of its own
+    surface that faces the camera), and the whole top circle of a
+    cylinder seen from above it (its cap)."""
+    a = np.linspace(0.0, 2 * math.pi, count, endpoint=False)
+    ring = np.stack([np.cos(a), np.sin(a)], axis=1)
+    eye = np.array([pose.x, pose.y, camera.height_m])
+    cone = lm.kind == "cone"
+    top = lm.z + lm.height
+    edges = [top - sum(lm.band_heights[:k])
+             for k in range(len(lm.band_heights) + 1)]
+    boxes = []
+    for k in range(len(lm.band_heights)):
+        pts = []
+        for z in (edges[k], edges[k + 1]):
+            r = lm.radius * ((top - z) / lm.height if cone else 1.0)
+            p = np.column_stack([lm.x + r * ring[:, 0],
+                                 lm.y + r * ring[:, 1], np.full(count, z)])
+            # outward normal of the side at each point of the circle
+            n = np.column_stack([ring * (lm.height if cone else 1.0),
+                                 np.full(count, lm.radius if cone else 0.0)])
+            facing = ((eye - p) * n).sum(axis=1) >= 0
+            if not cone and k == 0 and z == top and eye[2] > top:
+                facing[:] = True
+            pts.append(p[facing])
+        uv = project(np.concatenate(pts), pose, camera)
+        boxes.append(np.array([uv[:, 0].min(), uv[:, 1].min(),
+                               uv[:, 0].max(), uv[:, 1].max()]))
+    return boxes
+
+
+def mask_box(mask, value, near):
+    """[u0, v0, u1, v1] of the mask's pixels of ``value`` in the window
+    ``near`` (u0, v0, u1, v1), as pixel edges."""
+    u0, v0, u1, v1 = (int(round(x)) for x in near)
+    win = mask[max(v0 - 3, 0):v1 + 4, max(u0 - 3, 0):u1 + 4] == value
+    vv, uu = np.nonzero(win)
+    return np.array([uu.min() + max(u0 - 3, 0) - 0.5,
+                     vv.min() + max(v0 - 3, 0) - 0.5,
+                     uu.max() + max(u0 - 3, 0) + 0.5,
+                     vv.max() + max(v0 - 3, 0) + 0.5])
+
+
+@pytest.mark.parametrize("rng_m, height", [(0.8, 0.16), (1.2, 0.16),
+                                           (2.0, 0.25)])
+def test_beacon_straight_ahead_has_the_pinholes_band_boxes(rng_m, height):
+    """A beacon straight ahead at a known range, the seed robot's camera:
+    the truth's band boxes and the rendered mask's are those of the
+    pinhole projection of the band edges, within 1 px; the floor contact
+    and the range are the axis's."""
+    from gstlandmark.synth import build_scenario
+    lm = Landmark("B1", "pink/yellow", rng_m, 0.0, 0.10, kind="beacon",
+                  height=height, band_heights=(0.4 * height, 0.6 * height))
+    scene, _ = build_scenario("custom", map=[lm], pose=(0, 0, 0), frames=1)
+    scene = scene.with_(effects=quiet_effects())
+    cam, pose = scene.camera, Pose(0.0, 0.0, 0.0)
+    assert (cam.height_m, cam.tilt_deg) == (0.2, 18.0)
+    _, truth, mask = render_frame(scene, pose, frame=0)
+    (entry,) = truth["landmarks"]
+    assert (entry["class"], entry["code"], entry["kind"]) == (
+        "pink/yellow", "pink/yellow", "beacon")
+    assert entry["range"] == pytest.approx(rng_m, abs=1e-6)
+    assert entry["bearing"] == pytest.approx(0.0, abs=1e-6)
+    assert not entry["cut"] and entry["occluded_fraction"] == 0.0
+    expected = band_boxes_by_pinhole(lm, pose, cam)
+    names = scene.scene_palette().names
+    for band, want, cls in zip(entry["bands"], expected, lm.bands):
+        assert band["class"] == cls
+        got = np.array(band["box"])
+        assert np.abs(got - want).max() < 1.0, (cls, got, want)
+        drawn = mask_box(mask, names.index(cls) + 1, want)
+        assert np.abs(drawn - want).max() < 1.0, (cls, drawn, want)
+    whole = np.array([min(b[0] for b in expected),
+                      min(b[1] for b in expected),
+                      max(b[2] for b in expected),
+                      max(b[3] for b in expected)])
+    assert np.abs(np.array(entry["box"]) - whole).max() < 1.0
+    # the floor contact: the axis's foot, and the base's nearest point,
+    # the lowest point of the outline below the axis
+    foot = project([[lm.x, lm.y, 0.0]], pose, cam)[0]
+    front = project([[lm.x - lm.radius, lm.y, 0.0]], pose, cam)[0]
+    assert (entry["u_base"], entry["v_base"]) == pytest.approx(
+        tuple(foot), abs=1e-3)
+    assert (entry["u_front"], entry["v_front"]) == pytest.approx(
+        tuple(front), abs=1e-3)
+    assert entry["box"][3] == pytest.approx(front[1], abs=0.5)
+    # the bands stack: the top one's box above the bottom one's
+    assert entry["bands"][0]["box"][1] < entry["bands"][1]["box"][1]
+    assert entry["pixels"] == pytest.approx(
+        sum(b["pixels"] for b in entry["bands"]), abs=1e-3)
+
+
+def test_cone_and_post_off_axis_with_roll_have_the_pinholes_boxes():
+    """A striped cone and a one-colour post to either side, the camera
+    rolled: the band boxes are still the pinhole's within 1 px."""
+    camera = Camera(640, 480, hfov_deg=60, height_m=0.3, tilt_deg=20,
+                    roll_deg=6.0)
+    pose = Pose(0.5, -0.3, 0.4)
+    cone = Landmark("C1", "yellow/blue/yellow",
+                    pose.x + 1.3 * math.cos(0.6), pose.y + 1.3 * math.sin(0.6),
+                    0.2, kind="cone", height=0.3)
+    post = Landmark("P1", "red", pose.x + 1.1 * math.cos(0.15),
+                    pose.y + 1.1 * math.sin(0.15), 0.03, kind="post",
+                    height=0.33)
+    scene = Scene(camera=camera, landmarks=[cone, post],
+                  effects=quiet_effects())
+    _, truth, _ = render_frame(scene, pose, frame=0)
+    got = {e["id"]: e for e in truth["landmarks"]}
+    assert got["C1"]["code"] == "yellow/blue/yellow"
+    assert got["P1"]["code"] == "red" and len(got["P1"]["bands"]) == 1
+    assert not got["C1"]["cut"] and not got["P1"]["cut"]
+    for lm in (cone, post):
+        expected = band_boxes_by_pinhole(lm, pose, camera)
+        for band, want in zip(got[lm.id]["bands"], expected):
+            assert np.abs(np.array(band["box"]) - want).max() < 1.0, (
+                lm.id, band, want)
+
+
+def test_upright_markers_are_shaded_by_the_light():
+    """The side facing the light is brighter, as on a ball."""
+    camera = Camera(320, 240, hfov_deg=60, height_m=0.3, tilt_deg=15)
+    lm = Landmark("B1", "pink/yellow", 1.0, 0.0, 0.3, kind="beacon",
+                  height=0.3)
+    lit = {}
+    for name, light in (("left", (0.0, 1.0, 0.3)), ("right",
+                                                    (0.0, -1.0, 0.3))):
+        scene = Scene(camera=camera, landmarks=[lm], light=light,
+                      effects=Effects(noise_sigma=0.0, ball_shading=0.8))
+        rgb, truth, _ = render_frame(scene, Pose(0.0, 0.0, 0.0), frame=0)
+        box = truth["landmarks"][0]["bands"][1]["box"]
+        v = int((box[1] + box[3]) / 2)
+        left = rgb[v, int(box[0]) + 4].astype(int).sum()
+        right = rgb[v, int(box[2]) - 4].astype(int).sum()
+        lit[name] = left - right
+    # a light from the robot's left (+y) lights the image's left side
+    assert lit["left"] > 40 and lit["right"] < -40
+
+
+def test_coded_markers_in_the_map_and_the_palette(tmp_path):
+    from gstlandmark.landmarkmap import MapError, parse_map
+    from gstlandmark.synth import load_map
+    lm = Landmark("B1", "pink/yellow", 1.0, 0.5, 0.1, kind="beacon",
+                  height=0.3, band_heights=(0.1, 0.2))
+    cone = Landmark("C1", "blue", 2.0, 0.0, 0.2, kind="cone", height=0.3)
+    scene = Scene(landmarks=[lm, cone])
+    (read, read_cone) = parse_map(scene.map_json())
+    assert (read["code"], read["bands"], read["band_heights"],
+            read["height"]) == ("pink/yellow", ["pink", "yellow"],
+                                [0.1, 0.2], 0.3)
+    assert read_cone["band_heights"] == [0.3]
+    path = tmp_path / "map.json"
+    path.write_text(json.dumps(scene.map_json()))
+    again = load_map(str(path), scene.palette.names)
+    assert [(m.cls, m.kind, tuple(m.band_heights)) for m in again] == [
+        ("pink/yellow", "beacon", (0.1, 0.2)), ("blue", "cone", (0.3,))]
+    # a band the palette lacks: the file, the landmark and the band
+    with pytest.raises(MapError, match=r'map.json: landmarks\[0\] \("B1"\): '
+                       r'"bands"\[1\] yellow is not a class of the palette'):
+        load_map(str(path), ["pink", "blue"])
+    with pytest.raises(ValueError, match="'purple' is not a marker"):
+        Scene(landmarks=[Landmark("B2", "purple/pink", 0, 0, 0.1,
+                                  kind="beacon", height=0.2)])
+    # the map's rules hold for the synthetic world's markers too
+    with pytest.raises(ValueError, match='"bands" must hold 2 to 3'):
+        Landmark("B3", "pink", 0, 0, 0.1, kind="beacon", height=0.2)
+    with pytest.raises(ValueError, match='"height" must be a positive'):
+        Landmark("B4", "pink/blue", 0, 0, 0.1, kind="beacon")
+
+
+def test_evaluate_counts_a_beacon_by_its_code():
+    """A detection that carries the code matches the beacon's truth; a
+    chain that reads no code misses it, under the code's name."""
+    from gstlandmark.commands import evaluate
+    lm = Landmark("B1", "pink/yellow", 1.2, 0.0, 0.1, kind="beacon",
+                  height=0.16)
+    scene = Scene(camera=Camera(640, 480, hfov_deg=54, height_m=0.2,
+                                tilt_deg=18), landmarks=[lm],
+                  effects=quiet_effects())
+    _, truth, _ = render_frame(scene, Pose(0.0, 0.0, 0.0), frame=0)
+    mark = truth["landmarks"][0]
+    u0, v0, u1, v1 = mark["box"]
+    found = {"frame": 0, "detections": [{
+        "class": "pink/yellow", "accepted": True,
+        "bbox": [round(u0 + 0.5), round(v0 + 0.5), round(u1 - u0),
+                 round(v1 - v0)],
+        "blob": {"centroid-x": mark["u"], "centroid-y": mark["v"]}}]}
+    ev = evaluate.evaluate([found], [truth])
+    assert ev.by_class["pink/yellow"].tp == 1
+    ev = evaluate.evaluate([{"frame": 0, "detections": []}], [truth])
+    assert ev.by_class["pink/yellow"].fn == 1
+
+
 def test_seed_robot_scenarios_use_its_markers():
     from gstlandmark.synth import build_scenario
     for name in ("range-sweep", "path", "distractors", "backgrounds"):

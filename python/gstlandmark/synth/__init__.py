@@ -1,8 +1,9 @@
 """Synthetic camera views of the landmark world with exact ground truth.
 
 No camera is needed: ``gst-landmark synth SCENARIO --out DIR`` renders a
-robot's camera view of a flat floor with coloured discs and balls by
-exact ray casting (numpy; 4 x 4 rays per pixel wherever an object or a
+robot's camera view of a flat floor with coloured discs and balls (and
+coded markers: banded beacons and posts, striped cones) by exact ray
+casting (numpy; 4 x 4 rays per pixel wherever an object or a
 surface boundary may be) and writes, in DIR:
 
 - ``clip.avi``: the frames as MJPEG in AVI (appsrc ! videoconvert !
@@ -13,7 +14,8 @@ surface boundary may be) and writes, in DIR:
   "ground_y", "cut", "occluded"}]}`` for every landmark with visible
   pixels (``u, v``: coverage-weighted centroid of the visible pixels;
   ``u_centre, v_centre``: projection of the 3-D centre, null behind the
-  camera);
+  camera; a coded marker adds ``code``, its and each band's image
+  ``box`` and the image of its floor contact, docs/synth.md);
 - ``scene.json`` (camera, palette, map, floor, effects, ...), ``map.json``
   (docs/conventions.md), ``palette.json`` (the scene palette);
 - ``odometry.jsonl``: wheel odometry from the true path with a scale

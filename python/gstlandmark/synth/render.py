@@ -36,12 +36,13 @@ LUT_SIZE = 16384
 
 
 class _Object:
-    """A landmark or distractor prepared for tracing."""
+    """A landmark or distractor prepared for tracing; a coded marker is
+    one object per band (``band``: its index, top first)."""
 
     def __init__(self, index, kind, cls_value, colour, x, y, z, radius,
-                 verts, present, landmark=None):
+                 verts, present, landmark=None, band=None):
         self.index = index
-        self.kind = kind          # "disc", "poly" or "ball"
+        self.kind = kind          # "disc", "poly", "ball", "cyl" or "cone"
         self.cls_value = cls_value
         self.colour = colour
         self.x, self.y, self.z = x, y, z
@@ -49,10 +50,28 @@ class _Object:
         self.verts = verts        # (N, 2) for polygons
         self.present = present
         self.landmark = landmark
+        self.band = band
+        if band is not None:
+            # the band's slice [z0, z1] of the marker standing on z; a
+            # cone's radius falls from `radius` at its base to 0 at its top
+            lm = landmark
+            self.base, self.height = lm.z, lm.height
+            top = lm.z + lm.height - sum(lm.band_heights[:band])
+            self.z0, self.z1 = top - lm.band_heights[band], top
 
     @property
     def flat(self):
-        return self.kind != "ball"
+        return self.kind in ("disc", "poly")
+
+    @property
+    def upright(self):
+        return self.kind in ("cyl", "cone")
+
+    def radius_at(self, z):
+        """The upright marker's radius at height z."""
+        if self.kind == "cyl":
+            return self.radius
+        return self.radius * (self.base + self.height - z) / self.height
 
     @property
     def centre(self):
@@ -102,11 +121,23 @@ class Renderer:
         self.n_classes = len(names)
         srgb = scene.marker_srgb8()
         objects = []
+        # each landmark's objects: one, or a coded marker's bands
+        self.marker_objects = []
         for lm in scene.landmarks:
-            objects.append(_Object(
-                len(objects), lm.kind, names.index(lm.cls) + 1,
-                srgb8_to_linear(srgb[lm.cls]), lm.x, lm.y, lm.z, lm.radius,
-                None, lm.present, landmark=lm))
+            first = len(objects)
+            if lm.coded:
+                kind = "cone" if lm.kind == "cone" else "cyl"
+                for k, cls in enumerate(lm.bands):
+                    objects.append(_Object(
+                        len(objects), kind, names.index(cls) + 1,
+                        srgb8_to_linear(srgb[cls]), lm.x, lm.y, lm.z,
+                        lm.radius, None, lm.present, landmark=lm, band=k))
+            else:
+                objects.append(_Object(
+                    len(objects), lm.kind, names.index(lm.cls) + 1,
+                    srgb8_to_linear(srgb[lm.cls]), lm.x, lm.y, lm.z,
+                    lm.radius, None, lm.present, landmark=lm))
+            self.marker_objects.append(objects[first:])
         self.n_landmarks = len(objects)
         for d in scene.distractors:
             verts = d.polygon()
@@ -115,6 +146,7 @@ class Renderer:
                 names.index(d.cls) + 1, srgb8_to_linear(srgb[d.cls]),
                 d.x, d.y, 0.0, d.size / 2.0, verts, d.present))
         self.objects = objects
+        self.has_upright = any(o.upright for o in objects)
         # Flat things on the floor: distractors under landmark discs; balls
         # after them (depth-tested).
         self.draw_order = (
@@ -142,10 +174,12 @@ class Renderer:
             name: names.index(scene.floor_class_name(name)) + 1
             for name in scene.floor_names()}
         self.is_ball = np.zeros(n_ids, bool)
+        self.is_upright = np.zeros(n_ids, bool)
         self.centres = np.zeros((n_ids, 3), np.float32)
         self.radii = np.ones(n_ids, np.float32)
         for o in objects:
             self.is_ball[OBJ0 + o.index] = o.kind == "ball"
+            self.is_upright[OBJ0 + o.index] = o.upright
             self.centres[OBJ0 + o.index] = o.centre
             self.radii[OBJ0 + o.index] = o.radius
 
@@ -222,11 +256,79 @@ class Renderer:
         hit = (near <= far) & (near > 0)
         return np.where(hit, near, np.inf).astype(np.float32)
 
+    @staticmethod
+    def _upright_hit(o, dirs, centre):
+        """Where rays from centre enter the upright marker that band ``o``
+        belongs to: (t, z, outward normal) of the entry, t = inf where they
+        miss it.  The side is the first crossing of the cylinder (or the
+        cone's lower sheet) between the base and the top; a cap is entered
+        only from the side it faces."""
+        d = dirs.astype(np.float64)
+        dx, dy, dz = d[:, 0], d[:, 1], d[:, 2]
+        wx, wy, cz = centre[0] - o.x, centre[1] - o.y, float(centre[2])
+        base, top = o.base, o.base + o.height
+        n = len(d)
+        t = np.full(n, np.inf)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            if o.kind == "cyl":
+                a = dx * dx + dy * dy
+                b = 2.0 * (wx * dx + wy * dy)
+                c = wx * wx + wy * wy - o.radius ** 2
+                disc = b * b - 4.0 * a * c
+                roots = [(-b - np.sqrt(np.maximum(disc, 0))) / (2.0 * a)]
+            else:
+                k2 = (o.radius / o.height) ** 2
+                wz = cz - top
+                a = dx * dx + dy * dy - k2 * dz * dz
+                b = 2.0 * (wx * dx + wy * dy - k2 * wz * dz)
+                c = wx * wx + wy * wy - k2 * wz * wz
+                disc = b * b - 4.0 * a * c
+                # the two roots without cancellation
+                q = -0.5 * (b + np.copysign(np.sqrt(np.maximum(disc, 0)), b))
+                t1, t2 = q / a, c / q
+                roots = [np.fmin(t1, t2), np.fmax(t1, t2)]
+            for root in roots:
+                z = cz + root * dz
+                ok = ((disc >= 0) & (root > 0) & (z >= base) & (z <= top)
+                      & (root < t))
+                t = np.where(ok, root, t)
+            side = np.isfinite(t)
+            caps = []
+            if cz > top and o.kind == "cyl":
+                caps.append((top, 1.0))
+            if cz < base:
+                caps.append((base, -1.0))
+            cap_sign = np.zeros(n)
+            for zc, sign in caps:
+                tc = (zc - cz) / dz
+                px, py = wx + tc * dx, wy + tc * dy
+                ok = ((tc > 0) & (px * px + py * py
+                                  <= o.radius_at(zc) ** 2) & (tc < t))
+                t = np.where(ok, tc, t)
+                cap_sign = np.where(ok, sign, cap_sign)
+                side &= ~ok
+            z = cz + t * dz
+            px, py = wx + t * dx, wy + t * dy
+            rho = np.hypot(px, py)
+            normal = np.zeros((n, 3))
+            if o.kind == "cyl":
+                normal[:, 0], normal[:, 1] = px / rho, py / rho
+            else:
+                slant = math.hypot(o.height, o.radius)
+                normal[:, 0] = px / rho * (o.height / slant)
+                normal[:, 1] = py / rho * (o.height / slant)
+                normal[:, 2] = o.radius / slant
+            normal[~side] = 0.0
+            normal[:, 2] += cap_sign
+        return t, z, normal
+
     def _outline(self, o, centre, count, circumscribed):
         """World points bounding the object's image: a polygon around the
         disc, the polygon itself, or the ball's silhouette circle.  None if
         the camera is inside a ball."""
         grow = 1.0 / math.cos(math.pi / count) if circumscribed else 1.0
+        if o.upright:
+            return self._upright_outline(o, o.z0, o.z1, count, grow)
         if o.kind == "poly":
             return np.column_stack([o.verts, np.zeros(len(o.verts))])
         if o.kind == "disc":
@@ -246,11 +348,48 @@ class Renderer:
         q = o.centre - (o.radius ** 2 / dist) * n
         return _circle(q, e1, e2, rho * grow, count)
 
+    @staticmethod
+    def _upright_outline(o, z0, z1, count, grow=1.0):
+        """The circles at z0 and z1 of an upright marker (radius grown by
+        ``grow``), (2 count, 3): the corners of the prism around that slice
+        of it, bottom then top."""
+        e1, e2 = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
+        return np.concatenate([
+            _circle(np.array([o.x, o.y, z]), e1, e2,
+                    o.radius_at(z) * grow, count) for z in (z0, z1)])
+
+    @staticmethod
+    def _clip_prism(pc, count):
+        """The corners of the prism ``pc`` (camera coordinates, two rings
+        of ``count``) in front of the near plane, with the points where its
+        edges cross it: the corners of the clipped prism, whose image is
+        the convex hull of theirs."""
+        ring = np.arange(count)
+        edges = np.concatenate([
+            np.stack([ring, (ring + 1) % count], 1),
+            np.stack([ring, (ring + 1) % count], 1) + count,
+            np.stack([ring, ring + count], 1)])
+        a, b = pc[edges[:, 0]], pc[edges[:, 1]]
+        out = [pc[pc[:, 2] >= NEAR]]
+        cross = (a[:, 2] >= NEAR) != (b[:, 2] >= NEAR)
+        if cross.any():
+            a, b = a[cross], b[cross]
+            f = (NEAR - a[:, 2]) / (b[:, 2] - a[:, 2])
+            out.append(a + f[:, None] * (b - a))
+        return np.concatenate(out)
+
     def _bbox(self, o, rot, centre):
         """Inclusive pixel box (u0, u1, v0, v1) where the object may be
         seen, or None."""
         cam = self.camera
         w, h = cam.width, cam.height
+        if o.upright:
+            pc = (self._outline(o, centre, OUTLINE_POINTS, True) - centre) \
+                @ rot.T
+            pc = self._clip_prism(pc, OUTLINE_POINTS)
+            if len(pc) == 0:
+                return None
+            return self._pixel_box(pc)
         if o.kind == "ball":
             zc = (o.centre - centre) @ rot[2]
             if zc + o.radius <= NEAR:
@@ -265,6 +404,13 @@ class Renderer:
             pc = _clip_near(pc)
             if len(pc) == 0:
                 return None
+        return self._pixel_box(pc)
+
+    def _pixel_box(self, pc):
+        """Inclusive pixel box (u0, u1, v0, v1) around camera points in
+        front of the near plane, or None outside the image."""
+        cam = self.camera
+        w, h = cam.width, cam.height
         u = cam.fx * pc[:, 0] / pc[:, 2] + cam.cx
         v = cam.fy * pc[:, 1] / pc[:, 2] + cam.cy
         # the sub-samples of a pixel reach half a pixel beyond its centre
@@ -278,9 +424,14 @@ class Renderer:
 
     def is_cut(self, o, rot, centre):
         """Whether the image border cuts the object's outline (or part of
-        it lies behind the camera)."""
+        it lies behind the camera); of a band, the whole marker's."""
         cam = self.camera
-        pts = self._outline(o, centre, CUT_POINTS, False)
+        if o.upright:
+            lm = o.landmark
+            pts = self._upright_outline(o, lm.z, lm.z + lm.height,
+                                        CUT_POINTS)
+        else:
+            pts = self._outline(o, centre, CUT_POINTS, False)
         if pts is None:
             return True
         pc = (pts - centre) @ rot.T
@@ -359,7 +510,7 @@ class Renderer:
         geo = {"rot": rot, "centre": centre, "boxes": boxes,
                "coverage": np.zeros(n_obj), "sum_u": np.zeros(n_obj),
                "sum_v": np.zeros(n_obj), "hidden": np.zeros(n_obj),
-               "pure": np.ones(h * w, bool)}
+               "band_box": {}, "pure": np.ones(h * w, bool)}
         if len(cidx):
             self._trace_samples(cidx, rot32, centre, floor, floor_value,
                                 boxes, lin, mask, geo)
@@ -386,6 +537,9 @@ class Renderer:
             sy = cy + s_floor * sdirs[:, 1]
         sub = np.arange(ss2)
         records = []
+        # outward normals where an upright marker is hit (its shading)
+        normals = np.zeros((len(sids), 3), np.float32) \
+            if self.has_upright else None
         for o in self.draw_order:
             box = boxes.get(o.index)
             if box is None:
@@ -394,7 +548,14 @@ class Renderer:
             si = (pix_index[v0:v1 + 1, u0:u1 + 1].reshape(-1, 1) * ss2
                   + sub).ravel()
             with np.errstate(divide="ignore", invalid="ignore"):
-                if o.kind == "ball":
+                if o.upright:
+                    t, z, normal = self._upright_hit(o, sdirs[si], centre)
+                    # the entry belongs to the band whose slice holds it
+                    raw = np.isfinite(t) & (z >= o.z0) & (z <= o.z1)
+                    t = t.astype(np.float32)
+                    hit = raw & (t < s_cur[si])
+                    normals[si[hit]] = normal[hit]
+                elif o.kind == "ball":
                     d = sdirs[si]
                     oc = (centre - o.centre).astype(np.float32)
                     a = np.einsum("ij,ij->i", d, d)
@@ -446,6 +607,11 @@ class Renderer:
                 / self.radii[sids[balls], None]
             lam = np.clip(normal @ self.light, 0.0, 1.0)
             scol[balls] *= (1.0 - k + k * lam)[:, None]
+        if normals is not None and k:
+            # lit as the balls are: Lambert on the surface's normal
+            up = np.flatnonzero(self.is_upright[sids])
+            lam = np.clip(normals[up] @ self.light, 0.0, 1.0)
+            scol[up] *= (1.0 - k + k * lam)[:, None]
         lin[cidx] = scol.reshape(n_c, ss2, 3).mean(axis=1)
 
         # majority class per supersampled pixel
@@ -470,6 +636,18 @@ class Renderer:
         for index, raw_si in records:
             geo["hidden"][index] = np.count_nonzero(
                 sids[raw_si] != OBJ0 + index) / ss2
+        if self.has_upright:
+            # each band's image box: its visible samples' extent, out by
+            # half a sample spacing (within 1 / (2 ss) px of the edge)
+            half = 0.5 / self.ss
+            for o in self.objects[:self.n_landmarks]:
+                mine = on_obj[kk == o.index] if o.upright else ()
+                if len(mine):
+                    geo["band_box"][o.index] = (
+                        float(su[mine].min() - half),
+                        float(sv[mine].min() - half),
+                        float(su[mine].max() + half),
+                        float(sv[mine].max() + half))
 
     # -- frames -------------------------------------------------------------
 
@@ -551,39 +729,71 @@ class Renderer:
         rgb = np.clip(np.rint(out), 0, 255).astype(np.uint8)
         return rgb.reshape(cam.height, cam.width, 3)
 
+    def _image_point(self, name, point, pose):
+        """{"u_NAME", "v_NAME"}: the projection of a world point, null
+        behind the camera."""
+        uv, _ = self.camera.project(np.asarray(point)[None, :], pose)
+        u, v = (None if not np.isfinite(x) else round(float(x), 4)
+                for x in uv[0])
+        return {f"u_{name}": u, f"v_{name}": v}
+
+    def _coded_truth(self, lm, objs, geo, pose):
+        """A coded marker's own truth: its code, its and each band's image
+        box of visible pixels, and the image of its floor contact: the
+        foot of its axis (``base``) and the base's point nearest the
+        camera (``front``, the lowest point of its outline there)."""
+        boxes = [geo["band_box"].get(o.index) for o in objs]
+        out = {"code": lm.cls, "box": _rounded_box(_union_box(boxes)),
+               "bands": [{"class": cls, "box": _rounded_box(box),
+                          "pixels": round(float(geo["coverage"][o.index]),
+                                          4)}
+                         for cls, box, o in zip(lm.bands, boxes, objs)]}
+        out.update(self._image_point("base", (lm.x, lm.y, lm.z), pose))
+        away = np.array([lm.x - pose.x, lm.y - pose.y])
+        dist = float(np.hypot(*away))
+        if dist > lm.radius:
+            fx, fy = np.array([lm.x, lm.y]) - lm.radius * away / dist
+            out.update(self._image_point("front", (fx, fy, lm.z), pose))
+        else:
+            out.update({"u_front": None, "v_front": None})
+        return out
+
     def _truth(self, pose, geo, frame, t):
-        cam = self.camera
         out = {}
         if frame is not None:
             out["frame"] = int(frame)
             out["pts"] = int(frame) * 1_000_000_000 // int(self.scene.fps)
         out["robot"] = pose.to_json()
         lms = []
-        for o in self.objects[:self.n_landmarks]:
-            cov = geo["coverage"][o.index]
-            if cov <= 0 or o.index not in geo["boxes"]:
+        for objs in self.marker_objects:
+            cov = sum(geo["coverage"][o.index] for o in objs)
+            if cov <= 0 or not any(o.index in geo["boxes"] for o in objs):
                 continue
-            lm = o.landmark
-            uv, _ = cam.project(o.centre[None, :], pose)
+            lm = objs[0].landmark
+            hidden = sum(geo["hidden"][o.index] for o in objs)
+            centre = (np.array([lm.x, lm.y, lm.z + lm.height / 2.0])
+                      if lm.coded else objs[0].centre)
             gx, gy, rng, bearing = ground_coordinates(pose, lm.x, lm.y)
-            uc, vc = (None if not np.isfinite(x) else round(float(x), 4)
-                      for x in uv[0])
-            lms.append({
+            mark = {
                 "id": lm.id, "class": lm.cls, "kind": lm.kind,
-                "u": round(float(geo["sum_u"][o.index] / cov), 4),
-                "v": round(float(geo["sum_v"][o.index] / cov), 4),
-                "u_centre": uc, "v_centre": vc,
+                "u": round(float(sum(geo["sum_u"][o.index]
+                                     for o in objs) / cov), 4),
+                "v": round(float(sum(geo["sum_v"][o.index]
+                                     for o in objs) / cov), 4)}
+            mark.update(self._image_point("centre", centre, pose))
+            mark.update({
                 "pixels": round(float(cov), 4),
                 "range": round(rng, 7), "bearing": round(bearing, 7),
                 "ground_x": round(gx, 7), "ground_y": round(gy, 7),
-                "cut": self.is_cut(o, geo["rot"], geo["centre"]),
-                "occluded": bool(geo["hidden"][o.index]
-                                 >= OCCLUDED_MIN_PIXELS),
+                "cut": self.is_cut(objs[0], geo["rot"], geo["centre"]),
+                "occluded": bool(hidden >= OCCLUDED_MIN_PIXELS),
                 # hidden share of the pixels it would cover unoccluded
-                "occluded_fraction": round(float(
-                    geo["hidden"][o.index]
-                    / (cov + geo["hidden"][o.index])), 4),
+                "occluded_fraction": round(float(hidden / (cov + hidden)),
+                                           4),
             })
+            if lm.coded:
+                mark.update(self._coded_truth(lm, objs, geo, pose))
+            lms.append(mark)
         out["landmarks"] = lms
         if self.scene.obstacles:
             # the free floor per bearing bin from the camera's floor point
@@ -593,7 +803,7 @@ class Renderer:
             segs = [self.floor_segments] + [
                 circle_edges(o.x, o.y, o.radius)
                 for o in self.objects[:self.n_landmarks]
-                if o.kind == "ball" and o.present(frame)]
+                if (o.kind == "ball" or o.band == 0) and o.present(frame)]
             free = free_ranges(pose.x, pose.y, pose.heading,
                                np.concatenate(segs), FLOOR_TRUTH_BINS)
             out["floor"] = {
@@ -601,6 +811,18 @@ class Renderer:
                 "free-range": [round(float(r), 5) if np.isfinite(r)
                                else None for r in free]}
         return out
+
+
+def _rounded_box(box):
+    return [round(v, 4) for v in box] if box is not None else None
+
+
+def _union_box(boxes):
+    boxes = [b for b in boxes if b is not None]
+    if not boxes:
+        return None
+    return (min(b[0] for b in boxes), min(b[1] for b in boxes),
+            max(b[2] for b in boxes), max(b[3] for b in boxes))
 
 
 def renderer(scene):

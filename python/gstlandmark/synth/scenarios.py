@@ -526,7 +526,8 @@ def _custom(ctx):
     spec = ctx["overrides"].pop("map", None)
     if spec is None:
         raise ValueError("the custom scenario needs a map (--map FILE)")
-    landmarks = load_map(spec) if isinstance(spec, str) else list(spec)
+    landmarks = (load_map(spec, ctx["palette"].names)
+                 if isinstance(spec, str) else list(spec))
     poses = ctx["overrides"].pop("poses", None)
     pose = ctx["overrides"].pop("pose", None)
     if poses is not None:

@@ -8,14 +8,15 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import reference
-from ..landmarkmap import read_map
+from ..landmarkmap import CODED_KINDS, check_band_classes, parse_map, \
+    read_map
 from ..palette import (Palette, PaletteClass, default_palette,
                                  load_palette, parse_palette)
 
 from .camera import Camera
 from .floors import FLOORS, FloorTexture
 
-KINDS = ("disc", "ball")
+KINDS = ("disc", "ball") + CODED_KINDS
 SHAPES = ("square", "stripe", "triangle", "speck")
 
 
@@ -31,7 +32,14 @@ def _present(frames, frame):
 class Landmark:
     """A map landmark.  ``z`` defaults to 0 for a disc and the radius for
     a ball; ``frames`` lists inclusive [first, last] frame intervals in
-    which it exists (None: always)."""
+    which it exists (None: always).
+
+    A coded marker (``kind`` beacon, post or cone; docs/beacons.md) stands
+    upright on the floor: ``cls`` is its code, its band classes joined by
+    "/" top first (``"pink/yellow"``), ``x, y`` its axis, ``z`` its
+    base's height (default 0), ``diameter`` the cylinder's or the cone's
+    base, ``height`` metres, ``band_heights`` metres top first (default:
+    equal bands)."""
 
     id: str
     cls: str
@@ -41,6 +49,8 @@ class Landmark:
     kind: str = "disc"
     z: Optional[float] = None
     frames: Optional[Sequence[Tuple[int, int]]] = None
+    height: Optional[float] = None
+    band_heights: Optional[Sequence[float]] = None
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -49,7 +59,20 @@ class Landmark:
         if not self.diameter > 0:
             raise ValueError(f"landmark {self.id}: diameter must be > 0")
         if self.z is None:
-            self.z = 0.0 if self.kind == "disc" else self.diameter / 2.0
+            self.z = (self.diameter / 2.0 if self.kind == "ball" else 0.0)
+        if self.coded:
+            # the map's own rules, and its equal bands by default
+            marker = parse_map({"landmarks": [self.to_map()]})[0]
+            self.band_heights = tuple(marker["band_heights"])
+
+    @property
+    def coded(self):
+        return self.kind in CODED_KINDS
+
+    @property
+    def bands(self):
+        """A coded marker's band classes, top first."""
+        return tuple(self.cls.split("/")) if self.coded else ()
 
     @property
     def radius(self):
@@ -59,9 +82,18 @@ class Landmark:
         return _present(self.frames, frame)
 
     def to_map(self):
-        return {"id": self.id, "class": self.cls, "x": round(self.x, 6),
-                "y": round(self.y, 6), "z": round(self.z, 6),
-                "diameter": round(self.diameter, 6), "kind": self.kind}
+        out = {"id": self.id, "class": self.cls, "x": round(self.x, 6),
+               "y": round(self.y, 6), "z": round(self.z, 6),
+               "diameter": round(self.diameter, 6), "kind": self.kind}
+        if self.coded:
+            del out["class"]
+            out["height"] = (round(self.height, 6) if self.height is not None
+                             else None)
+            out["bands"] = list(self.bands)
+            if self.band_heights is not None:
+                out["band-heights"] = [round(h, 6)
+                                       for h in self.band_heights]
+        return out
 
 
 @dataclass
@@ -281,9 +313,11 @@ class Scene:
             raise ValueError("landmark ids must be unique")
         names = self.palette.names
         for item in list(self.landmarks) + list(self.distractors):
-            if item.cls not in names:
-                raise ValueError(f"class {item.cls!r} is not a marker of "
-                                 f"the scene palette ({', '.join(names)})")
+            for cls in getattr(item, "bands", ()) or (item.cls,):
+                if cls not in names:
+                    raise ValueError(f"class {cls!r} is not a marker of "
+                                     f"the scene palette "
+                                     f"({', '.join(names)})")
         for name in self.floor_names():
             if name not in FLOORS:
                 raise ValueError(f"unknown floor {name!r}")
@@ -421,15 +455,22 @@ def palette_json(palette):
                          "marker": c.marker} for c in palette.classes]}
 
 
-def load_map(path):
+def load_map(path, classes=None):
     """Landmarks of a map file (docs/conventions.md, read by
-    ``landmarkmap``); the synthetic world needs every diameter."""
+    ``landmarkmap``); the synthetic world needs every diameter.
+    ``classes``: the palette's names, which every band of a coded marker
+    must be one of (MapError naming the file, the landmark and the
+    band)."""
+    marks = read_map(path)
+    if classes is not None:
+        check_band_classes(marks, classes, path)
     out = []
-    for m in read_map(path):
+    for m in marks:
         if m["diameter"] is None:
             raise ValueError(f"{path}: landmark {m['id']}: the synthetic "
                              f"world needs its \"diameter\"")
         out.append(Landmark(id=m["id"], cls=m["class"], x=m["x"], y=m["y"],
                             diameter=m["diameter"], kind=m["kind"],
-                            z=m["z"]))
+                            z=m["z"], height=m.get("height"),
+                            band_heights=m.get("band_heights")))
     return out

@@ -150,14 +150,12 @@ trilaterate_parse (const Settings & s, Config * cfg,
   std::string why;
   if (!landmark::map_load_file (s.map, &map, &why))
     return err->fail ("map", why);
+  cfg->s = s;
   /* no detection reads a code yet: position from discs and balls */
   cfg->map = landmark::map_discs_and_balls (map);
-  if (cfg->map.empty ())
-    return err->fail ("map", s.map + ": the map has no disc or ball "
-        "landmarks (coded markers are not positioned from yet: "
-        "docs/beacons.md)");
-  cfg->s = s;
-  return true;
+  return !cfg->map.empty () || err->fail ("map", s.map + ": the map has no "
+      "disc or ball landmarks (coded markers are not positioned from yet: "
+      "docs/beacons.md)");
 }
 
 static const landmark::PropertyTable<Settings> &

@@ -108,4 +108,14 @@ json_entry_label (const char *name, unsigned index, const char *label)
   return s;
 }
 
+JsonObject *
+json_entry_object (JsonNode * node, const char *name, unsigned index,
+    std::string * why)
+{
+  if (JSON_NODE_HOLDS_OBJECT (node))
+    return json_node_get_object (node);
+  *why = json_entry_label (name, index, nullptr) + ": must be an object";
+  return nullptr;
+}
+
 }  // namespace landmark

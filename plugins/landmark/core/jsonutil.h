@@ -40,4 +40,9 @@ bool json_read_file (const std::string & path, std::string * text,
 std::string json_entry_label (const char *name, unsigned index,
     const char *label);
 
+/* The object that entry `index` of the list `name` must be; nullptr, with
+ * *why "name[index]: must be an object", when it is not. */
+JsonObject *json_entry_object (JsonNode * node, const char *name,
+    unsigned index, std::string * why);
+
 }  // namespace landmark

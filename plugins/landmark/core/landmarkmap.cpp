@@ -29,6 +29,18 @@ entry_label (guint index, const char *id)
   return json_entry_label ("landmarks", index, id);
 }
 
+/* An entry's "id": a non-empty string; nullptr, with *why naming the
+ * entry, when it is not */
+const char *
+entry_id (JsonObject * obj, guint index, std::string * why)
+{
+  const char *id = json_string (json_object_get_member (obj, "id"));
+  if (id && *id)
+    return id;
+  *why = entry_label (index, nullptr) + ": \"id\" must be a non-empty string";
+  return nullptr;
+}
+
 /* x, y (required) and z (optional, 0) within the map's bounds. */
 bool
 parse_position (JsonObject * obj, const std::string & where,
@@ -185,17 +197,10 @@ bool
 parse_landmark (JsonNode * node, guint index, MapLandmark * out,
     std::string * why)
 {
-  if (!JSON_NODE_HOLDS_OBJECT (node)) {
-    *why = entry_label (index, nullptr) + ": must be an object";
+  JsonObject *obj = json_entry_object (node, "landmarks", index, why);
+  const char *id = obj ? entry_id (obj, index, why) : nullptr;
+  if (!id)
     return false;
-  }
-  JsonObject *obj = json_node_get_object (node);
-  const char *id = json_string (json_object_get_member (obj, "id"));
-  if (!id || !*id) {
-    *why = entry_label (index, nullptr) +
-        ": \"id\" must be a non-empty string";
-    return false;
-  }
   const std::string where = entry_label (index, id);
   out->id = id;
   JsonNode *n = json_object_get_member (obj, "kind");

@@ -68,11 +68,9 @@ bool
 parse_class (JsonNode * node, guint index, PaletteClass * out,
     std::string * why)
 {
-  if (!JSON_NODE_HOLDS_OBJECT (node)) {
-    *why = entry_label (index, nullptr) + ": must be an object";
+  JsonObject *obj = json_entry_object (node, "classes", index, why);
+  if (!obj)
     return false;
-  }
-  JsonObject *obj = json_node_get_object (node);
 
   const char *name = json_string (json_object_get_member (obj, "name"));
   if (!name) {

@@ -34,7 +34,9 @@
  *   first pose is the origin with heading 0.
  *
  * No GStreamer types: tested on its own (suite 'core'). Frames and units as
- * docs/conventions.md. */
+ * docs/conventions.md. The filter (prediction, update, slip) is in
+ * slam.cpp, the association (gates, JCBB, relocalisation) in
+ * slamassociation.cpp, the landmarks' bookkeeping in slamlandmarks.cpp. */
 #pragma once
 
 #include <cmath>
@@ -258,6 +260,30 @@ private:
   void confirm_known ();
   bool relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
       std::vector<int> *assign) const;
+
+  /* update ()'s steps, in its order */
+  struct Pairing;                 /* slaminternal.h */
+  bool place_first_pose (const std::vector<SlamObservation> & obs,
+      SlamFrame & f);
+  bool make_pairing (const std::vector<SlamObservation> & obs, int i, int k,
+      const cv::Mat & P, Pairing * pr) const;
+  void gate_pairings (const std::vector<SlamObservation> & obs,
+      const cv::Mat & P, std::vector<std::vector<Pairing>> & cand) const;
+  static double joint_nis (const std::vector<const Pairing *> &h);
+  double jcbb (const std::vector<std::vector<Pairing>> & cand,
+      std::vector<const Pairing *> & best);
+  double pair_relocalised (const std::vector<SlamObservation> & obs,
+      const cv::Mat & P, const std::vector<double> & prior,
+      std::vector<Pairing> & found, std::vector<const Pairing *> & best);
+  void filter_update (const std::vector<const Pairing *> & best,
+      const std::vector<double> & prior, const cv::Mat & P,
+      bool relocalised);
+  void count_views (const SlamFrame & f);
+  double matched_residual (const std::vector<SlamObservation> & obs,
+      const SlamFrame & f) const;
+  void start_landmarks (const std::vector<SlamObservation> & obs,
+      SlamFrame & f);
+  void drop_unseen (SlamFrame & f);
 };
 
 }  // namespace landmark

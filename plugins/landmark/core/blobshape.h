@@ -35,7 +35,10 @@
  * scores >= 0.94, a square of side >= 20 px <= 0.79 at any rotation
  * (tests/core/test_blobshape.cpp prints the table). Degenerate outlines
  * (one pixel thick) use the chain length + 4, exact for axis-aligned
- * rectangles. */
+ * rectangles.
+ *
+ * The runs and components are in blobruns.cpp, the measurement in
+ * blobshape.cpp, the perimeter estimator in blobperimeter.cpp. */
 #pragma once
 
 #include <cstddef>
@@ -118,6 +121,15 @@ struct BlobLineFit {
   std::vector<int> verts;
   std::vector<Line> lines;
 };
+
+/* The perimeter BlobAnalyzer::measure gives a traced outline of a blob
+ * whose moment ellipse has minor semi-axis b: the line-fit polygon (into
+ * polygon) at blob_perimeter_tolerance (b), blended by
+ * blob_polygon_weight (b) with the smoothed length + pi. False (the
+ * chain length + 4, polygon empty) when the outline has no area. */
+bool blob_outline_perimeter (const cv::Point * contour, int n,
+    double minor_semi_axis, BlobLineFit & scratch,
+    std::vector<cv::Point2d> & polygon, double *perimeter);
 
 class BlobAnalyzer {
 public:

@@ -1,7 +1,9 @@
 /* labsegment's passes over the pixels of a mapped frame: labelling through
  * the class table, the class histogram, the dominant-colour rule and the
  * false-colour view. Kept apart from the element so that gstlabsegment.cpp
- * holds only the element (properties, states, caps, metadata). */
+ * holds only the element (properties, states, caps, metadata). The
+ * labelling and its histogram are in labsegmentpixels.cpp, the passes over
+ * the labels in labsegmentrule.cpp. */
 #pragma once
 
 #include <gst/video/video.h>

@@ -85,7 +85,6 @@
 #include <gst/video/video.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -95,6 +94,7 @@
 #include "elementsettings.h"
 #include "fileutil.h"
 #include "frameformat.h"
+#include "framelight.h"
 #include "camerasetup.h"
 #include "landmarkmeta.h"
 #include "analyticsmeta.h"
@@ -140,18 +140,7 @@ struct State {
   bool readable = false;
   GstVideoFrame frame;
   bool mapped = false;
-  /* the mapped frame's component planes, read once per frame */
-  struct Plane {
-    const guint8 *data;
-    int stride, pstride, wsub, hsub, width, height;
-  } planes[3];
-  /* the format's components to sRGB, an affine map (before clipping) */
-  double to_srgb[3][4];
-  /* where each of sRGB's components is one of the format's alone (the
-   * RGB formats): that component, and its linear light per byte value */
-  bool by_byte = false;
-  int byte_of[3];
-  double byte_light[3][256];
+  landmark::FrameLight light;             /* of the mapped frame */
   std::vector<double> outline;            /* size test scratch */
   std::vector<GstVideoRegionOfInterestMeta *> rois;
   bool map_classes_checked = false;       /* against the first labels */
@@ -373,29 +362,6 @@ gst_ipm_range_stop (GstBaseTransform * trans)
   return TRUE;
 }
 
-/* The model's components to sRGB as m[row] = (3 coefficients, offset):
- * the conversion is affine until it clips, so its differences at mid-grey
- * (unclipped in every model) give it exactly */
-static void
-gst_ipm_range_affine_srgb (const landmark::InputModel & model,
-    double m[3][4])
-{
-  const double mid = 128;
-  double at[3];
-  model.to_srgb (mid, mid, mid, at);
-  for (int k = 0; k < 3; k++) {
-    double c[3] = {mid, mid, mid}, step[3];
-    c[k] += 1;
-    model.to_srgb (c[0], c[1], c[2], step);
-    for (int r = 0; r < 3; r++)
-      m[r][k] = step[r] - at[r];
-  }
-  for (int r = 0; r < 3; r++)
-    m[r][3] = at[r] - mid * (m[r][0] + m[r][1] + m[r][2]);
-}
-
-static void gst_ipm_range_byte_light (State & st);
-
 static gboolean
 gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
     GstCaps * outcaps)
@@ -422,8 +388,7 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
     case GST_VIDEO_FORMAT_I420: case GST_VIDEO_FORMAT_NV12:
     case GST_VIDEO_FORMAT_YUY2:
       st.readable = landmark_frame_format (&info, &st.format);
-      gst_ipm_range_affine_srgb (st.format.model, st.to_srgb);
-      gst_ipm_range_byte_light (st);
+      st.light.set_model (st.format.model);
       break;
     default:
       /* any other format is ranged from the blobs' ellipses alone */
@@ -443,151 +408,6 @@ gst_ipm_range_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 
 /* ---- streaming ------------------------------------------------------ */
 
-/* sRGB in [0, 1] to linear light, as a table interpolated linearly
- * (within 4e-7 of the formula; std::pow per sample was most of a ball's
- * outline's cost) */
-static constexpr int kDecodeSteps = 1024;
-
-static double
-gst_ipm_range_decode (double e)
-{
-  static const std::array<double, kDecodeSteps + 2> table = [] {
-    std::array<double, kDecodeSteps + 2> t;
-    for (int i = 0; i <= kDecodeSteps; i++)
-      t[i] = landmark::srgb_to_linear ((double) i / kDecodeSteps);
-    t[kDecodeSteps + 1] = t[kDecodeSteps];
-    return t;
-  }();
-  const double x = std::min (1.0, std::max (0.0, e)) * kDecodeSteps;
-  const int i = (int) x;
-  return table[i] + (x - i) * (table[i + 1] - table[i]);
-}
-
-/* The mapped frame's planes into st.planes. */
-static void
-gst_ipm_range_read_planes (State & st)
-{
-  const GstVideoFrame *f = &st.frame;
-  const GstVideoFormatInfo *finfo = f->info.finfo;
-  for (int c = 0; c < 3; c++)
-    st.planes[c] = {(const guint8 *) GST_VIDEO_FRAME_COMP_DATA (f, c),
-      GST_VIDEO_FRAME_COMP_STRIDE (f, c), GST_VIDEO_FRAME_COMP_PSTRIDE (f, c),
-      (int) GST_VIDEO_FORMAT_INFO_W_SUB (finfo, c),
-      (int) GST_VIDEO_FORMAT_INFO_H_SUB (finfo, c),
-      GST_VIDEO_FRAME_COMP_WIDTH (f, c), GST_VIDEO_FRAME_COMP_HEIGHT (f, c)};
-}
-
-/* st.byte_light where each sRGB component is one of the format's,
- * scaled: a byte's light by one table look-up, not the affine map and the
- * decoding per pixel. */
-static void
-gst_ipm_range_byte_light (State & st)
-{
-  st.by_byte = true;
-  for (int r = 0; r < 3 && st.by_byte; r++) {
-    int from = -1;
-    for (int k = 0; k < 3; k++)
-      if (st.to_srgb[r][k] != 0)
-        from = from < 0 ? k : 3;
-    st.by_byte = from >= 0 && from < 3;
-    if (!st.by_byte)
-      break;
-    st.byte_of[r] = from;
-    for (int v = 0; v < 256; v++)
-      st.byte_light[r][v] = gst_ipm_range_decode (st.to_srgb[r][from] * v
-          + st.to_srgb[r][3]);
-  }
-}
-
-/* The frame's linear light of n pixels of row y from column x: each
- * component from its plane (a subsampled one at the sample covering the
- * pixel), then sRGB decoded. False where one is outside. */
-static bool
-gst_ipm_range_row_light (const State & st, int x, int y, int n, double *rgb)
-{
-  const State::Plane *p = st.planes;
-  if (x < 0 || y < 0 || x + n > p[0].width || y >= p[0].height)
-    return false;
-  const guint8 *row[3];
-  for (int c = 0; c < 3; c++)
-    row[c] = p[c].data + (y >> p[c].hsub) * p[c].stride;
-  if (st.by_byte) {
-    for (int c = 0; c < 3; c++) {
-      const State::Plane & q = p[st.byte_of[c]];
-      const guint8 *from = row[st.byte_of[c]];
-      for (int i = 0; i < n; i++)
-        rgb[3 * i + c] = st.byte_light[c][from[((x + i) >> q.wsub)
-                * q.pstride]];
-    }
-    return true;
-  }
-  for (int i = 0; i < n; i++) {
-    double comp[3];
-    for (int c = 0; c < 3; c++)
-      comp[c] = row[c][((x + i) >> p[c].wsub) * p[c].pstride];
-    for (int c = 0; c < 3; c++) {
-      const double *m = st.to_srgb[c];
-      rgb[3 * i + c] = gst_ipm_range_decode (m[0] * comp[0] + m[1] * comp[1]
-          + m[2] * comp[2] + m[3]);
-    }
-  }
-  return true;
-}
-
-/* How well the blob's ellipse agrees with the image a marker m has at the
- * floor position e placed it (docs/detection.md): 0..1, or -1 when it
- * cannot tell (no diameter, no ellipse, not wholly in front). */
-static double
-gst_ipm_range_size_agreement (GstIpmRange * self,
-    const landmark::BlobObservation & obs, const landmark::MarkerSpec & m,
-    const landmark::RangeEstimate & e, landmark::ImageEllipse * predicted)
-{
-  State & st = self->priv->state;
-  if (!obs.has_ellipse || !landmark::predict_marker_image (st.geometry, m,
-          e.ground_x, e.ground_y, obs.sx, obs.sy, predicted, &st.outline))
-    return -1;
-  const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
-    obs.minor, obs.angle};
-  return landmark::ellipse_shape_iou (measured, *predicted);
-}
-
-/* A blob cut by the frame's edge may be smaller than its marker's image,
- * never larger. Its size cannot tell which marker of its class it is (the
- * visible part's centroid biases the range each kind gives, and the test
- * is one-sided), so it is ranged as the properties' marker, as a class the
- * map lacks; but when it is larger than every marker's image it is none of
- * them (a line of mixed pixels along the horizon from the frame's edge).
- * Then: the first marker whose image could be predicted, with its range in
- * e, for the size test to reject the blob; otherwise nullptr. */
-static const landmark::MarkerSpec *
-gst_ipm_range_cut_blob_fits_no_marker (GstIpmRange * self,
-    const landmark::BlobObservation & obs,
-    const std::vector<landmark::MarkerSpec> & hypotheses,
-    const landmark::MountingSigma & mounting, landmark::RangeEstimate * e)
-{
-  const Config & cfg = self->priv->state.applied.config;
-  const landmark::MarkerSpec *first = nullptr;
-  landmark::RangeEstimate first_range;
-  const landmark::ImageEllipse measured {obs.eu, obs.ev, obs.major,
-    obs.minor, obs.angle};
-  for (const landmark::MarkerSpec & h : hypotheses) {
-    const landmark::RangeEstimate t = landmark::estimate_range
-        (self->priv->state.geometry, obs, h, cfg.s.pixel_sigma, mounting);
-    landmark::ImageEllipse predicted;
-    if (t.no_floor || gst_ipm_range_size_agreement (self, obs, h, t,
-            &predicted) < 0)
-      continue;
-    if (landmark::cut_blob_fits (measured, predicted))
-      return nullptr;
-    if (!first) {
-      first = &h;
-      first_range = t;
-    }
-  }
-  if (first)
-    *e = first_range;
-  return first;
-}
 
 /* The size evidence: a marker of known diameter at the floor position the
  * blob was ranged to images at a known size and aspect; a blob that
@@ -601,9 +421,10 @@ gst_ipm_range_check_size (GstIpmRange * self,
     const landmark::RangeEstimate & e, bool cut, bool marginal, bool thin,
     GstStructure * s)
 {
+  State & st = self->priv->state;
   landmark::ImageEllipse predicted;
-  const double agreement = gst_ipm_range_size_agreement (self, obs, m, e,
-      &predicted);
+  const double agreement = landmark::marker_size_agreement (st.geometry, obs,
+      m, e, &predicted, &st.outline);
   if (agreement < 0)
     return nullptr;
   gst_structure_set (s, "predicted-major", G_TYPE_DOUBLE, predicted.major,
@@ -705,7 +526,7 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
       && (gint) fh == GST_VIDEO_FRAME_HEIGHT (&st.frame))
     landmark::measure_end_offsets (&obs, landmark::ball_axis_angle
         (st.geometry, obs), [&st](int x, int y, int n, double *rgb) {
-          return gst_ipm_range_row_light (st, x, y, n, rgb);
+          return st.light.row_light (x, y, n, rgb);
         });
 
   landmark::MountingSigma mounting;
@@ -716,64 +537,21 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   /* a blob cut by the frame's edge has no trustworthy size to choose by */
   const bool cut = roi->x == 0 || roi->y == 0 || roi->x + roi->w >= fw
       || roi->y + roi->h >= fh;
-  if (hypotheses && !cut) {
-    /* One class, several kinds of marker (a yellow disc and a yellow
-     * ball): keep the one whose predicted image agrees best with the
-     * blob's ellipse in size and aspect (a disc on the floor is a flat
-     * ellipse, a ball round). Where no image can be predicted, the one
-     * whose floor range and size range agree best. Without either nothing
-     * can choose: the properties' marker applies, as for a class the map
-     * lacks. */
-    double best_agreement = -1, best_score = HUGE_VAL;
-    for (const landmark::MarkerSpec & h : *hypotheses) {
-      const landmark::RangeEstimate t = landmark::estimate_range
-          (st.geometry, obs, h, cfg.s.pixel_sigma, mounting);
-      if (t.no_floor)
-        continue;
-      landmark::ImageEllipse predicted;
-      const double agreement = gst_ipm_range_size_agreement (self, obs, h, t,
-          &predicted);
-      if (agreement >= 0 || best_agreement >= 0) {
-        if (agreement > best_agreement) {
-          best_agreement = agreement;
-          e = t;
-          chosen = &h;
-        }
-        continue;
-      }
-      if (!t.has_size)
-        continue;
-      const double spread = std::hypot (t.range_ground_sigma,
-          t.range_size_sigma);
-      const double score = std::fabs (t.range_ground - t.range_size) /
-          (spread > 0 ? spread : 1e-9);
-      if (score < best_score) {
-        best_score = score;
-        e = t;
-        chosen = &h;
-      }
-    }
-  }
+  /* one class, several kinds of marker: the blob's size and aspect
+   * choose among them (markerevidence.h); when nothing can choose, the
+   * properties' marker applies, as for a class the map lacks */
+  if (hypotheses && !cut)
+    chosen = landmark::choose_marker (st.geometry, obs, *hypotheses,
+        cfg.s.pixel_sigma, mounting, &e, &st.outline);
   if (hypotheses && cut)
-    chosen = gst_ipm_range_cut_blob_fits_no_marker (self, obs, *hypotheses,
-        mounting, &e);
+    chosen = landmark::cut_blob_fits_no_marker (st.geometry, obs,
+        *hypotheses, cfg.s.pixel_sigma, mounting, &e, &st.outline);
   if (!chosen)
     e = landmark::estimate_range (st.geometry, obs, marker,
         cfg.s.pixel_sigma, mounting);
-  if (!chosen && hypotheses && !e.no_floor) {
-    /* several markers and none chosen: the range is the properties'
-     * marker's and may be any of theirs, so its sigma covers them all */
-    for (const landmark::MarkerSpec & h : *hypotheses) {
-      const landmark::RangeEstimate t = landmark::estimate_range
-          (st.geometry, obs, h, cfg.s.pixel_sigma, mounting);
-      if (t.no_floor)
-        continue;
-      e.kind_range_spread = std::max (e.kind_range_spread,
-          std::fabs (t.range_ground - e.range_ground));
-      e.kind_bearing_spread = std::max (e.kind_bearing_spread,
-          std::fabs (std::remainder (t.bearing - e.bearing, 2 * M_PI)));
-    }
-  }
+  if (!chosen && hypotheses && !e.no_floor)
+    landmark::add_marker_kind_spread (st.geometry, obs, *hypotheses,
+        cfg.s.pixel_sigma, mounting, &e);
 
   GstStructure *s;
   if (e.no_floor) {
@@ -866,7 +644,7 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
             && gst_video_frame_map (&st.frame, &st.info, buf, (GstMapFlags)
             (GST_MAP_READ | GST_VIDEO_FRAME_MAP_FLAG_NO_REF));
         if (st.mapped)
-          gst_ipm_range_read_planes (st);
+          st.light.read_planes (&st.frame);
         struct Unmap {
           State & st;
           ~Unmap () {

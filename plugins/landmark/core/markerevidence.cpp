@@ -191,4 +191,104 @@ ellipse_shape_iou (const ImageEllipse & a, const ImageEllipse & b)
   return uni > 0 ? inter / uni : 0;
 }
 
+
+double
+marker_size_agreement (const CameraGeometry & geometry,
+    const BlobObservation & obs, const MarkerSpec & m,
+    const RangeEstimate & e, ImageEllipse * predicted,
+    std::vector<double> *scratch)
+{
+  if (!obs.has_ellipse || !predict_marker_image (geometry, m,
+          e.ground_x, e.ground_y, obs.sx, obs.sy, predicted, scratch))
+    return -1;
+  const ImageEllipse measured {obs.eu, obs.ev, obs.major,
+    obs.minor, obs.angle};
+  return ellipse_shape_iou (measured, *predicted);
+}
+
+const MarkerSpec *
+choose_marker (const CameraGeometry & geometry, const BlobObservation & obs,
+    const std::vector<MarkerSpec> & hypotheses, double pixel_sigma,
+    const MountingSigma & mounting, RangeEstimate * e,
+    std::vector<double> *scratch)
+{
+  const MarkerSpec *chosen = nullptr;
+  double best_agreement = -1, best_score = HUGE_VAL;
+  for (const MarkerSpec & h : hypotheses) {
+    const RangeEstimate t = estimate_range (geometry, obs, h, pixel_sigma,
+        mounting);
+    if (t.no_floor)
+      continue;
+    ImageEllipse predicted;
+    const double agreement = marker_size_agreement (geometry, obs, h, t,
+        &predicted, scratch);
+    if (agreement >= 0 || best_agreement >= 0) {
+      if (agreement > best_agreement) {
+        best_agreement = agreement;
+        *e = t;
+        chosen = &h;
+      }
+      continue;
+    }
+    if (!t.has_size)
+      continue;
+    const double spread = std::hypot (t.range_ground_sigma,
+        t.range_size_sigma);
+    const double score = std::fabs (t.range_ground - t.range_size) /
+        (spread > 0 ? spread : 1e-9);
+    if (score < best_score) {
+      best_score = score;
+      *e = t;
+      chosen = &h;
+    }
+  }
+  return chosen;
+}
+
+const MarkerSpec *
+cut_blob_fits_no_marker (const CameraGeometry & geometry,
+    const BlobObservation & obs, const std::vector<MarkerSpec> & hypotheses,
+    double pixel_sigma, const MountingSigma & mounting, RangeEstimate * e,
+    std::vector<double> *scratch)
+{
+  const MarkerSpec *first = nullptr;
+  RangeEstimate first_range;
+  const ImageEllipse measured {obs.eu, obs.ev, obs.major,
+    obs.minor, obs.angle};
+  for (const MarkerSpec & h : hypotheses) {
+    const RangeEstimate t = estimate_range (geometry, obs, h, pixel_sigma,
+        mounting);
+    ImageEllipse predicted;
+    if (t.no_floor || marker_size_agreement (geometry, obs, h, t,
+            &predicted, scratch) < 0)
+      continue;
+    if (cut_blob_fits (measured, predicted))
+      return nullptr;
+    if (!first) {
+      first = &h;
+      first_range = t;
+    }
+  }
+  if (first)
+    *e = first_range;
+  return first;
+}
+
+void
+add_marker_kind_spread (const CameraGeometry & geometry,
+    const BlobObservation & obs, const std::vector<MarkerSpec> & hypotheses,
+    double pixel_sigma, const MountingSigma & mounting, RangeEstimate * e)
+{
+  for (const MarkerSpec & h : hypotheses) {
+    const RangeEstimate t = estimate_range (geometry, obs, h, pixel_sigma,
+        mounting);
+    if (t.no_floor)
+      continue;
+    e->kind_range_spread = std::max (e->kind_range_spread,
+        std::fabs (t.range_ground - e->range_ground));
+    e->kind_bearing_spread = std::max (e->kind_bearing_spread,
+        std::fabs (std::remainder (t.bearing - e->bearing, 2 * M_PI)));
+  }
+}
+
 }  // namespace landmark

@@ -97,4 +97,44 @@ bool cut_blob_fits (const ImageEllipse & measured,
  * polar area integral. 0 when either is degenerate. */
 double ellipse_shape_iou (const ImageEllipse & a, const ImageEllipse & b);
 
+
+/* How well the blob's ellipse agrees with the image a marker m has at the
+ * floor position e placed it (docs/detection.md): 0..1, or -1 when it
+ * cannot tell (no diameter, no ellipse, not wholly in front); *predicted
+ * is that image (predict_marker_image; scratch is its). */
+double marker_size_agreement (const CameraGeometry & geometry,
+    const BlobObservation & obs, const MarkerSpec & m,
+    const RangeEstimate & e, ImageEllipse * predicted,
+    std::vector<double> *scratch);
+
+/* One class, several kinds of marker (a yellow disc and a yellow ball),
+ * and a blob wholly in the frame: the one whose predicted image agrees
+ * best with the blob's ellipse in size and aspect (a disc on the floor is
+ * a flat ellipse, a ball round), its range in *e. Where no image can be
+ * predicted, the one whose floor range and size range agree best. Without
+ * either nothing can choose: nullptr. */
+const MarkerSpec *choose_marker (const CameraGeometry & geometry,
+    const BlobObservation & obs, const std::vector<MarkerSpec> & hypotheses,
+    double pixel_sigma, const MountingSigma & mounting, RangeEstimate * e,
+    std::vector<double> *scratch);
+
+/* A blob cut by the frame's edge may be smaller than its marker's image,
+ * never larger. Its size cannot tell which marker of its class it is (the
+ * visible part's centroid biases the range each kind gives, and the test
+ * is one-sided), so it is ranged as the properties' marker, as a class the
+ * map lacks; but when it is larger than every marker's image it is none of
+ * them (a line of mixed pixels along the horizon from the frame's edge).
+ * Then: the first marker whose image could be predicted, with its range in
+ * e, for the size test to reject the blob; otherwise nullptr. */
+const MarkerSpec *cut_blob_fits_no_marker (const CameraGeometry & geometry,
+    const BlobObservation & obs, const std::vector<MarkerSpec> & hypotheses,
+    double pixel_sigma, const MountingSigma & mounting, RangeEstimate * e,
+    std::vector<double> *scratch);
+
+/* Several markers and none chosen: the range e is the properties'
+ * marker's and may be any of theirs, so its kind spreads cover them all. */
+void add_marker_kind_spread (const CameraGeometry & geometry,
+    const BlobObservation & obs, const std::vector<MarkerSpec> & hypotheses,
+    double pixel_sigma, const MountingSigma & mounting, RangeEstimate * e);
+
 }  // namespace landmark

@@ -30,11 +30,25 @@ def test_run_file_yields_every_frame_with_metadata(gst, clip):
                                      if c.active]
 
 
-def test_closing_early_stops_the_pipeline(gst, clip):
+def test_closing_early_stops_the_pipeline(gst, clip, monkeypatch):
+    made = []
+    parse_launch = pipeline.Gst.parse_launch
+
+    def keep(description):
+        made.append(parse_launch(description))
+        return made[-1]
+
+    monkeypatch.setattr(pipeline.Gst, "parse_launch", keep)
     gen = pipeline.run_file(clip)
     first = next(gen)
     assert first.frame == 0
-    gen.close()   # must not hang or leak a playing pipeline
+    pipe = made[0]
+    assert pipe.get_state(0)[1] == pipeline.Gst.State.PLAYING
+    gen.close()
+    # stopped (streaming threads joined), and nothing but this test holds it
+    assert pipe.get_state(0)[1] == pipeline.Gst.State.NULL
+    del gen, first
+    assert pipe.__grefcount__ == 1
 
 
 def test_errors_raise(gst, tmp_path):

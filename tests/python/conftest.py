@@ -1,4 +1,5 @@
 import os
+import sys
 
 import pytest
 
@@ -6,6 +7,12 @@ import gi
 
 gi.require_version("Gst", "1.0")
 from gi.repository import Gst  # noqa: E402
+
+# the research tools beside the package (tools/: not installed) for the
+# tests of their helpers
+sys.path.insert(0, os.path.join(os.environ.get(
+    "LANDMARK_SOURCE_ROOT",
+    os.path.join(os.path.dirname(__file__), "..", "..")), "tools"))
 
 
 @pytest.fixture(scope="session")

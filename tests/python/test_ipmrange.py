@@ -177,7 +177,7 @@ def test_sigmas_describe_rendered_errors(gst, sweep, tmp_path, kind):
     either way, and the share within two sigma within a third of it. The
     former sigmas, half a pixel of centre error whatever the blob's size,
     were 5 to 8 times the errors (RMS under 0.2)."""
-    from gstlandmark.devtools import sigmastudy
+    import sigmastudy
     results = range_run(gst, sweep, kind, "ground", tmp_path / "log.jsonl")
     truth = read_jsonl(str(sweep / "truth.jsonl"))
     recs = [r for r in sigmastudy.records(results, truth)

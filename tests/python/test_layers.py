@@ -1,9 +1,13 @@
 """The gstlandmark package in layers, read from its source (ast, nothing
 imported): the library (top-level modules, synth/) imports nothing from
 commands/ or devtools/; commands/ import the library and each other, not
-devtools/; devtools/ may import both. No import cycle, function-level
-imports included, and no private name (``_x``) of one module used by
-another. The checker is tried on planted packages so that it can fail."""
+devtools/; devtools/ may import both; commands.cli, the dispatcher, may
+load any of them, and the sub-commands it names by string (``_lazy``) count
+as its imports. The research tools in tools/ (not installed) may import
+the package; the package never imports them. No import cycle,
+function-level imports included, and no private name (``_x``) of one
+module used by another. The checker is tried on planted packages so that
+it can fail."""
 
 import ast
 import os
@@ -14,8 +18,11 @@ SOURCE_ROOT = os.environ.get(
     "LANDMARK_SOURCE_ROOT",
     os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..")))
 PACKAGE_DIR = os.path.join(SOURCE_ROOT, "python", "gstlandmark")
+TOOLS_DIR = os.path.join(SOURCE_ROOT, "tools")
+CLI = "gstlandmark.commands.cli"
 
-LAYERS = ("library", "commands", "devtools")   # each may import leftwards
+# each may import leftwards
+LAYERS = ("library", "commands", "devtools", "cli", "tools")
 
 
 def modules(package_dir, package="gstlandmark"):
@@ -36,10 +43,26 @@ def modules(package_dir, package="gstlandmark"):
     return found
 
 
+def tool_modules(tools_dir):
+    """{"tools.NAME": file path} of the scripts in tools/ (each imports
+    another as ``NAME``, its folder being on sys.path when it runs)."""
+    return {f"tools.{name[:-3]}": os.path.join(tools_dir, name)
+            for name in sorted(os.listdir(tools_dir)) if name.endswith(".py")}
+
+
 def layer(module):
     parts = module.split(".")
-    return parts[1] if len(parts) > 1 and parts[1] in LAYERS[1:] \
+    if parts[0] == "tools":
+        return "tools"
+    if module == CLI:
+        return "cli"
+    return parts[1] if len(parts) > 1 and parts[1] in LAYERS[1:3] \
         else "library"
+
+
+def _absolute(name, mods):
+    """An absolute import's module; a tool's ``NAME`` is tools.NAME."""
+    return f"tools.{name}" if f"tools.{name}" in mods else name
 
 
 def _resolve(module, is_package, node):
@@ -65,12 +88,17 @@ def imports(mods):
         for node in ast.walk(tree):
             if isinstance(node, ast.Import):
                 for alias in node.names:
-                    if alias.name in mods:
-                        edges.setdefault(alias.name, [])
-                        if alias.asname:
-                            bound[alias.asname] = alias.name
+                    name = _absolute(alias.name, mods)
+                    if name in mods:
+                        edges.setdefault(name, [])
+                        bound[alias.asname or alias.name] = name
+            elif (mod == CLI and isinstance(node, ast.Call)
+                  and getattr(node.func, "id", None) == "_lazy"):
+                edges.setdefault(f"gstlandmark.{node.args[0].value}", [])
             elif isinstance(node, ast.ImportFrom):
                 target = _resolve(mod, is_package, node)
+                if node.level == 0:
+                    target = _absolute(target, mods)
                 for alias in node.names:
                     sub = f"{target}.{alias.name}"
                     if sub in mods:           # a module: from . import x
@@ -133,7 +161,7 @@ def cycles(graph):
 
 @pytest.fixture(scope="module")
 def package():
-    mods = modules(PACKAGE_DIR)
+    mods = {**modules(PACKAGE_DIR), **tool_modules(TOOLS_DIR)}
     graph, private = imports(mods)
     return mods, graph, private
 
@@ -146,6 +174,17 @@ def test_the_layers_are_there(package):
         assert name in mods
     assert "gstlandmark.scenes" not in mods
     assert {layer(m) for m in mods} == set(LAYERS)
+    # the research tools are not in the installed package
+    for name in ("sigmastudy", "odometrydraws", "mapreuse"):
+        assert f"tools.{name}" in mods
+        assert f"gstlandmark.devtools.{name}" not in mods
+
+
+def test_the_dispatcher_loads_its_sub_commands(package):
+    _, graph, _ = package
+    assert "gstlandmark.devtools.bench" in graph[CLI]
+    assert "gstlandmark.commands.console" in graph[CLI] or any(
+        m.startswith("gstlandmark.commands.") for m in graph[CLI])
 
 
 def test_no_import_cycle(package):
@@ -191,20 +230,50 @@ def test_the_checker_finds_a_planted_cycle_and_layer_break(tmp_path):
         "__init__.py": "",
         "meta.py": "from .commands.runner import run\n",      # library up
         "commands/__init__.py": "",
-        "commands/runner.py": "def f():\n    from . import cli\n",
-        "commands/cli.py": "from .runner import _quiet\n",   # cycle, private
+        "commands/runner.py": "def f():\n    from . import common\n",
+        "commands/common.py": "from .runner import _quiet\n",  # cycle
         "devtools/__init__.py": "",
-        "devtools/bench.py": "from ..commands import cli\n"
+        "devtools/bench.py": "from ..commands import common\n"
                              "import gstlandmark.meta as m\nm._x\n",
     })
     graph, private = imports(mods)
-    assert cycles(graph) == [["gstlandmark.commands.cli",
+    assert cycles(graph) == [["gstlandmark.commands.common",
                               "gstlandmark.commands.runner"]]
     assert layer_breaks(graph) == [("gstlandmark.meta",
                                     "gstlandmark.commands.runner")]
     assert sorted(private) == [
-        ("gstlandmark.commands.cli", "gstlandmark.commands.runner._quiet"),
+        ("gstlandmark.commands.common",
+         "gstlandmark.commands.runner._quiet"),
         ("gstlandmark.devtools.bench", "gstlandmark.meta._x")]
+
+
+def test_the_checker_sees_the_dispatchers_names_and_the_tools(tmp_path):
+    """A sub-command named by string is an import of the dispatcher (a
+    tool importing the dispatcher is a cycle); a tool's bare import of
+    another tool resolves to it; the package importing a tool breaks."""
+    mods = _plant(tmp_path, {
+        "__init__.py": "",
+        "meta.py": "import study\n",
+        "commands/__init__.py": "",
+        "commands/cli.py": "_lazy('devtools.bench', 'add')\n",
+        "devtools/__init__.py": "",
+        "devtools/bench.py": "from ..commands.cli import main\n",
+    })
+    tools = tmp_path / "tools"
+    tools.mkdir()
+    (tools / "study.py").write_text("from helper import _f\n"
+                                    "from gstlandmark import meta\n")
+    (tools / "helper.py").write_text("")
+    mods.update(tool_modules(str(tools)))
+    graph, private = imports(mods)
+    assert graph[CLI] == {"gstlandmark.devtools.bench": []}
+    assert sorted(cycles(graph)) == [
+        sorted([CLI, "gstlandmark.devtools.bench"]),
+        ["gstlandmark.meta", "tools.study"]]
+    assert layer_breaks(graph) == [
+        ("gstlandmark.devtools.bench", CLI),
+        ("gstlandmark.meta", "tools.study")]
+    assert private == [("tools.study", "tools.helper._f")]
 
 
 def test_the_checker_passes_a_clean_planted_package(tmp_path):

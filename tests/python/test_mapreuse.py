@@ -1,4 +1,4 @@
-"""gstlandmark.devtools.mapreuse's alignment of a written map to the true
+"""tools/mapreuse.py's alignment of a written map to the true
 one (docs/landmarkslam.md, "The written map on a third loop"): on a map
 turned and shifted by a known transform, with repeated colours and a
 spurious landmark."""
@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from gstlandmark.devtools import mapreuse
+import mapreuse
 
 TRUE = [{"class": c, "x": x, "y": y} for c, x, y in (
     ("red", 0.5, 0.4), ("red", 2.5, 0.6), ("green", 1.2, 2.2),

@@ -1,10 +1,10 @@
-"""gstlandmark.devtools.odometrydraws (docs/landmarkslam.md, "Over five
+"""tools/odometrydraws.py (docs/landmarkslam.md, "Over five
 odometry draws"): its arguments, and the table row it prints from the
 draws' scores (median and range of the pose NEES inside)."""
 
 import pytest
 
-from gstlandmark.devtools import odometrydraws
+import odometrydraws
 
 
 def test_arguments():

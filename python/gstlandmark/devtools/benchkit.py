@@ -5,6 +5,8 @@ build directory holding the C bench programs."""
 import json
 import os
 import shutil
+import subprocess
+import sys
 
 import cv2
 
@@ -14,6 +16,15 @@ from ..commands.common import add_json_option
 
 class BenchError(Exception):
     """The benchmark cannot run (no build, bench program failed, ...)."""
+
+
+def run_command(argv):
+    """``gst-landmark ARGV...`` in a process of its own, as a user runs it
+    (the dispatcher loads the developer tools: importing it from one would
+    be a cycle); returns the finished process, output captured."""
+    return subprocess.run(
+        [sys.executable, "-m", "gstlandmark.commands.cli", *argv],
+        capture_output=True, text=True)
 
 
 class OneCore:

@@ -109,12 +109,15 @@ def run_sweep(out_dir):
     """Renders the range sweep into out_dir and runs ipmrange with each
     method on discs and balls; returns {(kind, method): (dist, rel)}."""
     Gst, _ = _gst()
-    from ..commands import cli, evaluate as E
+    from ..commands import evaluate as E
     from ..landmarklog import read_jsonl
+    from .benchkit import run_command
     if not os.path.exists(os.path.join(out_dir, "clip.avi")):
-        if cli.main(["synth", "range-sweep", "--out", out_dir,
-                     "--robot", "comfortable", "--no-progress"]) != 0:
-            raise RuntimeError("synth range-sweep failed")
+        done = run_command(["synth", "range-sweep", "--out", out_dir,
+                            "--robot", "comfortable", "--no-progress"])
+        if done.returncode != 0:
+            raise RuntimeError(
+                f"synth range-sweep failed: {done.stderr.strip()}")
     scene = json.load(open(os.path.join(out_dir, "scene.json")))
     cam = scene["camera"]
     camera = (f"camera-height={cam['height_m']} tilt={cam['tilt_deg']} "

@@ -38,8 +38,6 @@ Writes ``report.json`` and ``report.md`` in the output folder.
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import math
 import os
@@ -50,6 +48,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..commands import evaluate as E
+from .benchkit import run_command
 
 DEFAULT_SCENARIOS = ("range-sweep", "path", "distractors")
 DEFAULT_VARIANTS = 20
@@ -262,7 +261,6 @@ def render_in_parallel(out_dir: str, pairs: Sequence[Tuple[str, int]],
     ``gst-landmark synth`` in a process of its own; returns the seconds
     each took (a failed one is left for ``run_variant`` to report)."""
     import shutil
-    import subprocess
     from concurrent.futures import ThreadPoolExecutor
 
     todo = [(sc, n) for sc, n in pairs if not os.path.exists(
@@ -273,10 +271,8 @@ def render_in_parallel(out_dir: str, pairs: Sequence[Tuple[str, int]],
         folder = clip_folder(out_dir, sc, n, frames)
         partial = folder + ".partial"
         t0 = time.perf_counter()
-        done = subprocess.run(
-            [sys.executable, "-m", "gstlandmark.commands.cli", "synth", sc,
-             "--variant", str(n), "--frames", str(frames), "--out",
-             partial, "--no-progress"], capture_output=True, text=True)
+        done = run_command(["synth", sc, "--variant", str(n), "--frames",
+                            str(frames), "--out", partial, "--no-progress"])
         if done.returncode == 0:
             if os.path.exists(folder):
                 shutil.rmtree(folder)
@@ -294,21 +290,17 @@ def render_in_parallel(out_dir: str, pairs: Sequence[Tuple[str, int]],
 def learn_palette(folder: str, out: str) -> str:
     """``gst-landmark palette learn`` on the clip's chart, as docs/palette.md
     shows a user."""
-    from ..commands.cli import main
     with open(os.path.join(folder, "scene.json"), encoding="utf-8") as f:
         classes = json.load(f)["palette"]["classes"]
     names = [c["name"] for c in classes]
     markers = [c["name"] for c in classes if c.get("marker", True)]
-    err = io.StringIO()
-    with contextlib.redirect_stdout(io.StringIO()), \
-            contextlib.redirect_stderr(err):
-        status = main(["palette", "learn",
-                       os.path.join(folder, "chart.png"), "--mask",
-                       os.path.join(folder, "chart-mask.png"), "--names",
-                       ",".join(names), "--markers", ",".join(markers),
-                       "-o", out])
-    if status != 0:
-        raise RuntimeError(f"palette learn failed: {err.getvalue().strip()}")
+    done = run_command(["palette", "learn",
+                        os.path.join(folder, "chart.png"), "--mask",
+                        os.path.join(folder, "chart-mask.png"), "--names",
+                        ",".join(names), "--markers", ",".join(markers),
+                        "-o", out])
+    if done.returncode != 0:
+        raise RuntimeError(f"palette learn failed: {done.stderr.strip()}")
     return out
 
 

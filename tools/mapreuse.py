@@ -1,4 +1,4 @@
-"""``python -m gstlandmark.devtools.mapreuse``: does the map ``landmarkslam``
+"""``python tools/mapreuse.py``: does the map ``landmarkslam``
 writes serve ``trilaterate`` as well as the true map (docs/landmarkslam.md,
 "The written map on a third loop")?
 
@@ -28,9 +28,9 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .. import pipeline
-from ..landmarklog import read_jsonl
-from ..synth import render_scenario
+from gstlandmark import pipeline
+from gstlandmark.landmarklog import read_jsonl
+from gstlandmark.synth import render_scenario
 
 FRAMES, MAPPED = 900, 600
 SEED_CAMERA = {"hfov_deg": 54.0, "height_m": 0.2, "tilt_deg": 18.0}
@@ -149,7 +149,7 @@ def score(clip: str, out: str) -> Dict[str, Any]:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python -m gstlandmark.devtools.mapreuse",
+        prog="python tools/mapreuse.py",
         description=__doc__.split("\n\n")[0])
     ap.add_argument("--variant", type=int, action="append", default=[],
                     help="a variant of the path field with the seed camera "

@@ -1,4 +1,4 @@
-"""``python -m gstlandmark.devtools.sigmastudy``: how well ``ipmrange``'s
+"""``python tools/sigmastudy.py``: how well ``ipmrange``'s
 ``range-sigma`` and ``bearing-sigma`` describe its real errors on rendered
 clips (docs/ranging.md, "Uncertainty").
 
@@ -32,8 +32,8 @@ from typing import Any, Dict, Iterable, List, Optional, Sequence
 
 import numpy as np
 
-from . import sweep as S
-from ..commands import evaluate as E
+from gstlandmark.devtools import sweep as S
+from gstlandmark.commands import evaluate as E
 
 DIAMETER_BINS = (0, 12, 20, 30, 45, 70, 1e9)
 RANGE_BINS = (0, 0.5, 1, 1.5, 2, 3, 1e9)
@@ -66,7 +66,7 @@ def run_clip(clip: Dict[str, Any], run_dir: str,
              settings: Sequence[str]) -> str:
     """The sweep's chain on one clip, ``ipmrange`` given ``settings``
     (``name=value``); returns the log's path."""
-    from ..commands.runner import run_launch
+    from gstlandmark.commands.runner import run_launch
     os.makedirs(run_dir, exist_ok=True)
     palette = S.learn_palette(clip["folder"],
                               os.path.join(run_dir, "palette.json"))
@@ -218,7 +218,7 @@ def format_report(rep: Dict[str, Any], per_clip: Dict[str, Dict]) -> str:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     p = argparse.ArgumentParser(
-        prog="python -m gstlandmark.devtools.sigmastudy",
+        prog="python tools/sigmastudy.py",
         description=__doc__.split("\n\n")[0])
     p.add_argument("--clips", default=os.path.join(S.DEFAULT_OUT, "clips"),
                    help="folder of the sweep's rendered clips")
@@ -234,7 +234,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="read the logs of an earlier run in --out")
     p.add_argument("--json", help="write every record here")
     args = p.parse_args(argv)
-    from ..landmarklog import read_jsonl
+    from gstlandmark.landmarklog import read_jsonl
     clips = clip_folders(args.clips, args.half,
                          args.scenario or S.DEFAULT_SCENARIOS, args.renderer)
     if not clips:

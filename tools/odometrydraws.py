@@ -1,4 +1,4 @@
-"""``python -m gstlandmark.devtools.odometrydraws``: ``landmarkslam``'s
+"""``python tools/odometrydraws.py``: ``landmarkslam``'s
 accuracy and pose NEES with odometry over several draws of the odometry log
 (docs/landmarkslam.md, "Over five odometry draws").
 
@@ -27,14 +27,14 @@ from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
-from .. import pipeline
-from ..commands.evaluate import slam_evaluation
-from ..landmarklog import read_jsonl
-from ..landmarkmap import read_map
-from ..synth.odometry import OdometryErrors, scene_odometry, write_odometry
-from ..synth.scenarios import build_scenario
-from ..synth.variants import draw_variant
-from .mapreuse import SEED_CAMERA, chain_head
+from gstlandmark import pipeline
+from gstlandmark.commands.evaluate import slam_evaluation
+from gstlandmark.landmarklog import read_jsonl
+from gstlandmark.landmarkmap import read_map
+from gstlandmark.synth.odometry import OdometryErrors, scene_odometry, write_odometry
+from gstlandmark.synth.scenarios import build_scenario
+from gstlandmark.synth.variants import draw_variant
+from mapreuse import SEED_CAMERA, chain_head
 
 
 def rebuild_scene(clip: str, variant: Optional[int]):
@@ -124,7 +124,7 @@ def summary_row(name: str, draws: Sequence[Dict[str, float]]) -> str:
 
 def parse_args(argv: Optional[List[str]] = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
-        prog="python -m gstlandmark.devtools.odometrydraws",
+        prog="python tools/odometrydraws.py",
         description=__doc__.split("\n\n")[1].replace("``", ""))
     p.add_argument("clip", help="folder synth wrote (clip.avi, scene.json, "
                                 "truth.jsonl, map.json, camera.yml)")

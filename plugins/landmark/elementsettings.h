@@ -250,6 +250,12 @@ public:
     generation_++;
   }
 
+  guint generation () const
+  {
+    std::lock_guard<std::mutex> lk (lock_);
+    return generation_;
+  }
+
   Settings copy (guint *generation = nullptr) const
   {
     std::lock_guard<std::mutex> lk (lock_);
@@ -484,6 +490,12 @@ public:
     return true;
   }
 
+  /* True when no property changed since the last start or sync. */
+  bool current (const SharedSettings<Settings> &shared) const
+  {
+    return shared.generation () == generation_;
+  }
+
   /* While playing: parses settings changed since the last call. A bad
    * value is warned about (once: it is not parsed again until the next
    * change) and the previous Config stays in force. True when config
@@ -510,6 +522,30 @@ public:
 private:
   guint generation_ = G_MAXUINT;
 };
+
+/* The one validation point of every element: one function `apply` (bool
+ * (), posting the ERROR) parses its settings and reads the files they name
+ * when it goes from NULL to READY, so that a bad value fails READY naming
+ * the property or file; change_state returns this. When it starts (READY
+ * to PAUSED), start_with_settings applies them again only if a property
+ * changed in READY: the files read at READY are the ones the run uses. */
+template <typename Apply>
+GstStateChangeReturn
+check_settings_at_ready (GstElement *element, GstElementClass *parent,
+    GstStateChange transition, Apply apply)
+{
+  if (transition == GST_STATE_CHANGE_NULL_TO_READY && !apply ())
+    return GST_STATE_CHANGE_FAILURE;
+  return parent->change_state (element, transition);
+}
+
+template <typename Settings, typename Config, typename Apply>
+bool
+start_with_settings (const AppliedSettings<Settings, Config> &applied,
+    const SharedSettings<Settings> &shared, Apply apply)
+{
+  return applied.current (shared) || apply ();
+}
 
 /* The class set-up of an element that reads and writes metadata and
  * passes any video through unchanged: ANY video caps on both pads. */

@@ -319,25 +319,39 @@ birds_eye_load_map (const std::string & path, landmark::LandmarkMap * map,
   return path.empty () || landmark::map_load_file (path, map, why);
 }
 
-static GstStateChangeReturn
-gst_birds_eye_change_state (GstElement * element, GstStateChange transition)
+/* the settings (those that need no frame size; set_info checks the rest)
+ * and the map file (landmark::check_settings_at_ready) */
+static bool
+gst_birds_eye_apply_settings (GstBirdsEye * self)
 {
-  auto self = GST_BIRDS_EYE (element);
   auto check = [](const Settings & s, Config * cfg,
       landmark::SettingsError * err) {
     return birds_eye_configure (s, 0, 0, 0, 0, cfg, err);
   };
   State & st = self->priv->state;
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
-    if (!st.applied.start (element, self->priv->settings, check))
-      return GST_STATE_CHANGE_FAILURE;
-    const Settings & s = st.applied.config.s;
-    if (!st.map.start (element, "map", s.map, s.map_generation,
-            birds_eye_load_map))
-      return GST_STATE_CHANGE_FAILURE;
-  }
-  return GST_ELEMENT_CLASS (gst_birds_eye_parent_class)->change_state
-      (element, transition);
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings, check))
+    return false;
+  const Settings & s = st.applied.config.s;
+  return st.map.start (GST_ELEMENT (self), "map", s.map, s.map_generation,
+      birds_eye_load_map);
+}
+
+static GstStateChangeReturn
+gst_birds_eye_change_state (GstElement * element, GstStateChange transition)
+{
+  auto self = GST_BIRDS_EYE (element);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_birds_eye_parent_class), transition,
+      [self] { return gst_birds_eye_apply_settings (self); });
+}
+
+static gboolean
+gst_birds_eye_start (GstBaseTransform * trans)
+{
+  auto self = GST_BIRDS_EYE (trans);
+  return landmark::start_with_settings (self->priv->state.applied,
+      self->priv->settings,
+      [self] { return gst_birds_eye_apply_settings (self); });
 }
 
 /* Output caps: the input's with the bird's-eye size (square pixels);
@@ -585,6 +599,8 @@ gst_birds_eye_class_init (GstBirdsEyeClass * klass)
   gst_element_class_add_static_pad_template (element_class, &src_template);
 
   element_class->change_state = GST_DEBUG_FUNCPTR (gst_birds_eye_change_state);
+  trans_class->start =
+      GST_DEBUG_FUNCPTR (gst_birds_eye_start);
   gst_type_mark_as_plugin_api (GST_TYPE_BIRDS_EYE_DRAW, (GstPluginAPIFlags) 0);
   trans_class->transform_caps =
       GST_DEBUG_FUNCPTR (gst_birds_eye_transform_caps);

@@ -226,13 +226,29 @@ blob_roundness_properties ()
 
 /* ---- states and caps ------------------------------------------------ */
 
+static GstStateChangeReturn
+gst_blob_roundness_change_state (GstElement * element,
+    GstStateChange transition)
+{
+  auto self = GST_BLOB_ROUNDNESS (element);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_blob_roundness_parent_class), transition,
+      [self] {
+        return self->priv->state.applied.start (GST_ELEMENT (self),
+            self->priv->settings, blob_roundness_parse);
+      });
+}
+
 static gboolean
 gst_blob_roundness_start (GstBaseTransform * trans)
 {
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
-  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
-          blob_roundness_parse))
+  if (!landmark::start_with_settings (st.applied, self->priv->settings,
+          [self, &st] {
+            return st.applied.start (GST_ELEMENT (self),
+                self->priv->settings, blob_roundness_parse);
+          }))
     return FALSE;
   st.classes.reset ();
   st.warned_no_meta = false;
@@ -546,6 +562,8 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
       "round ones and attaches them as region-of-interest metadata");
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
+  GST_ELEMENT_CLASS (klass)->change_state =
+      GST_DEBUG_FUNCPTR (gst_blob_roundness_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);

@@ -238,14 +238,12 @@ gst_floor_boundary_change_state (GstElement * element,
     GstStateChange transition)
 {
   auto self = GST_FLOOR_BOUNDARY (element);
-  /* bad settings and camera files fail READY, as in ipmrange; the camera
-   * file is read here once */
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY &&
-      !self->priv->state.applied.start (element, self->priv->settings,
-          floor_boundary_parse))
-    return GST_STATE_CHANGE_FAILURE;
-  return GST_ELEMENT_CLASS (gst_floor_boundary_parent_class)->change_state
-      (element, transition);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_floor_boundary_parent_class), transition,
+      [self] {
+        return self->priv->state.applied.start (GST_ELEMENT (self),
+            self->priv->settings, floor_boundary_parse);
+      });
 }
 
 static gboolean
@@ -253,6 +251,12 @@ gst_floor_boundary_start (GstBaseTransform * trans)
 {
   auto self = GST_FLOOR_BOUNDARY (trans);
   State & st = self->priv->state;
+  if (!landmark::start_with_settings (st.applied, self->priv->settings,
+          [self, &st] {
+            return st.applied.start (GST_ELEMENT (self),
+                self->priv->settings, floor_boundary_parse);
+          }))
+    return FALSE;
   st.built_w = st.built_h = 0;
   st.classes.reset ();
   st.warned_no_meta = false;

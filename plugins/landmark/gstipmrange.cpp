@@ -323,23 +323,30 @@ gst_ipm_range_sync_settings (GstIpmRange * self)
   }
 }
 
+/* the settings, the map and the camera file
+ * (landmark::check_settings_at_ready) */
+static bool
+gst_ipm_range_apply_settings (GstIpmRange * self)
+{
+  State & st = self->priv->state;
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
+          ipm_range_parse))
+    return false;
+  for (const auto & h : st.applied.config.markers.hypotheses)
+    GST_INFO_OBJECT (self, "map %s: the '%s' landmarks differ in height, "
+        "diameter or kind: each detection is ranged under every spec and "
+        "the one whose ground and size ranges agree is kept",
+        st.applied.config.s.map.c_str (), h.first.c_str ());
+  return true;
+}
+
 static GstStateChangeReturn
 gst_ipm_range_change_state (GstElement * element, GstStateChange transition)
 {
   auto self = GST_IPM_RANGE (element);
-  /* bad settings and files fail READY; the files are read here once */
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
-    State & st = self->priv->state;
-    if (!st.applied.start (element, self->priv->settings, ipm_range_parse))
-      return GST_STATE_CHANGE_FAILURE;
-    for (const auto & h : st.applied.config.markers.hypotheses)
-      GST_INFO_OBJECT (self, "map %s: the '%s' landmarks differ in height, "
-          "diameter or kind: each detection is ranged under every spec and "
-          "the one whose ground and size ranges agree is kept",
-          st.applied.config.s.map.c_str (), h.first.c_str ());
-  }
-  return GST_ELEMENT_CLASS (gst_ipm_range_parent_class)->change_state
-      (element, transition);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_ipm_range_parent_class), transition,
+      [self] { return gst_ipm_range_apply_settings (self); });
 }
 
 static gboolean
@@ -347,6 +354,9 @@ gst_ipm_range_start (GstBaseTransform * trans)
 {
   auto self = GST_IPM_RANGE (trans);
   State & st = self->priv->state;
+  if (!landmark::start_with_settings (st.applied, self->priv->settings,
+          [self] { return gst_ipm_range_apply_settings (self); }))
+    return FALSE;
   st.geometry_w = st.geometry_h = 0;
   st.caps_w = st.caps_h = 0;
   st.map_classes_checked = false;

@@ -312,20 +312,40 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
 
 /* ---- states and caps ------------------------------------------------ */
 
+/* the settings and the palette file (landmark::check_settings_at_ready) */
+static bool
+gst_lab_segment_apply_settings (GstLabSegment * self)
+{
+  State & st = self->priv->state;
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
+          landmark::accept_settings<Settings, Config>))
+    return false;
+  const Settings & s = st.applied.config.s;
+  if (!st.palette.start (GST_ELEMENT (self), "palette", s.palette,
+          s.palette_generation, lab_segment_load_palette))
+    return false;
+  gst_lab_segment_palette_changed (self);
+  return true;
+}
+
+static GstStateChangeReturn
+gst_lab_segment_change_state (GstElement * element, GstStateChange transition)
+{
+  auto self = GST_LAB_SEGMENT (element);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_lab_segment_parent_class), transition,
+      [self] { return gst_lab_segment_apply_settings (self); });
+}
+
 static gboolean
 gst_lab_segment_start (GstBaseTransform * trans)
 {
   auto self = GST_LAB_SEGMENT (trans);
-  State & st = self->priv->state;
-  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
-          landmark::accept_settings<Settings, Config>))
+  if (!landmark::start_with_settings (self->priv->state.applied,
+          self->priv->settings,
+          [self] { return gst_lab_segment_apply_settings (self); }))
     return FALSE;
-  const Settings & s = st.applied.config.s;
-  if (!st.palette.start (GST_ELEMENT (self), "palette", s.palette,
-          s.palette_generation, lab_segment_load_palette))
-    return FALSE;
-  gst_lab_segment_palette_changed (self);
-  st.warned_no_class = false;
+  self->priv->state.warned_no_class = false;
   return TRUE;
 }
 
@@ -603,6 +623,8 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
       "Labels every pixel with its nearest palette colour in CIE L*a*b*, "
       "with the dominant-colour rule, as buffer metadata");
 
+  GST_ELEMENT_CLASS (klass)->change_state =
+      GST_DEBUG_FUNCPTR (gst_lab_segment_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_lab_segment_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_lab_segment_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is

@@ -249,8 +249,11 @@ gst_landmark_log_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
-  if (!priv->applied.start (GST_ELEMENT (self), priv->settings,
-          landmark::accept_settings<Settings, Config>))
+  if (!landmark::start_with_settings (priv->applied, priv->settings,
+          [self, priv] {
+            return priv->applied.start (GST_ELEMENT (self), priv->settings,
+                landmark::accept_settings<Settings, Config>);
+          }))
     return FALSE;
   const std::string & path = priv->applied.config.s.location;
   const gboolean append = priv->applied.config.s.append;
@@ -456,9 +459,13 @@ gst_landmark_log_change_state (GstElement * element,
     GstStateChange transition)
 {
   auto self = GST_LANDMARK_LOG (element);
-  GstStateChangeReturn ret =
-      GST_ELEMENT_CLASS (gst_landmark_log_parent_class)->change_state
-      (element, transition);
+  GstStateChangeReturn ret = landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_landmark_log_parent_class), transition,
+      [self] {
+        return self->priv->applied.start (GST_ELEMENT (self),
+            self->priv->settings, landmark::accept_settings<Settings,
+            Config>);
+      });
   /* a paused pipeline has its file up to date */
   if (ret != GST_STATE_CHANGE_FAILURE &&
       transition == GST_STATE_CHANGE_PLAYING_TO_PAUSED)

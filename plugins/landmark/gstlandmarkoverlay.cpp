@@ -209,20 +209,41 @@ gst_landmark_overlay_init (GstLandmarkOverlay * self)
 
 /* ---- states and caps ------------------------------------------------ */
 
+/* the settings and the map file (landmark::check_settings_at_ready) */
+static bool
+gst_landmark_overlay_apply_settings (GstLandmarkOverlay * self)
+{
+  State & st = self->priv->state;
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
+          landmark::accept_settings<Settings, Config>))
+    return false;
+  const Settings & s = st.applied.config.s;
+  if (!st.map.start (GST_ELEMENT (self), "map", s.map, s.map_generation,
+          landmark_overlay_load_map))
+    return false;
+  gst_landmark_overlay_map_changed (self);
+  return true;
+}
+
+static GstStateChangeReturn
+gst_landmark_overlay_change_state (GstElement * element,
+    GstStateChange transition)
+{
+  auto self = GST_LANDMARK_OVERLAY (element);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_landmark_overlay_parent_class), transition,
+      [self] { return gst_landmark_overlay_apply_settings (self); });
+}
+
 static gboolean
 gst_landmark_overlay_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
-  State & st = self->priv->state;
-  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
-          landmark::accept_settings<Settings, Config>))
+  if (!landmark::start_with_settings (self->priv->state.applied,
+          self->priv->settings,
+          [self] { return gst_landmark_overlay_apply_settings (self); }))
     return FALSE;
-  const Settings & s = st.applied.config.s;
-  if (!st.map.start (GST_ELEMENT (self), "map", s.map, s.map_generation,
-          landmark_overlay_load_map))
-    return FALSE;
-  gst_landmark_overlay_map_changed (self);
-  st.colours.init_defaults ();
+  self->priv->state.colours.init_defaults ();
   return TRUE;
 }
 
@@ -468,6 +489,8 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
       "Draws landmark detections, robot pose, class histogram, class "
       "indicators and a mini-map of the landmark map onto the video");
 
+  GST_ELEMENT_CLASS (klass)->change_state =
+      GST_DEBUG_FUNCPTR (gst_landmark_overlay_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_overlay_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_overlay_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is

@@ -136,7 +136,8 @@ struct State {
 
 struct GstLandmarkPublishPrivate {
   landmark::SharedSettings<Settings> settings;
-  Config config;                      /* written in start() only */
+  /* config: written when the settings are checked (READY, start) */
+  landmark::AppliedSettings<Settings, Config> applied;
   State state;
   landmark::MqttLink link;
 
@@ -336,22 +337,32 @@ gst_landmark_publish_init (GstLandmarkPublish * self)
 
 /* ---- start and stop ------------------------------------------------- */
 
+static GstStateChangeReturn
+gst_landmark_publish_change_state (GstElement * element,
+    GstStateChange transition)
+{
+  auto self = GST_LANDMARK_PUBLISH (element);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_landmark_publish_parent_class), transition,
+      [self] {
+        return self->priv->applied.start (GST_ELEMENT (self),
+            self->priv->settings, publish_parse);
+      });
+}
+
 static gboolean
 gst_landmark_publish_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_PUBLISH (trans);
   auto priv = self->priv;
-  Config cfg;
-  landmark::SettingsError err;
-  if (!publish_parse (priv->settings.copy (), &cfg, &err)) {
-    /* the setting and why in the message: the user's first read */
-    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
-        ("Invalid '%s': %s.", err.property, err.why.c_str ()), (nullptr));
+  if (!landmark::start_with_settings (priv->applied, priv->settings,
+          [self, priv] {
+            return priv->applied.start (GST_ELEMENT (self), priv->settings,
+                publish_parse);
+          }))
     return FALSE;
-  }
-  priv->config = std::move (cfg);
   priv->state = State ();
-  const Config & c = priv->config;
+  const Config & c = priv->applied.config;
   if (!priv->link.start (c.connection))
     return FALSE;
   GST_INFO_OBJECT (self, "publishing to %s:%d on %s as %s",
@@ -367,7 +378,7 @@ gst_landmark_publish_stop (GstBaseTransform * trans)
   auto priv = self->priv;
   if (!priv->link.running ())
     return TRUE;
-  const Config & c = priv->config;
+  const Config & c = priv->applied.config;
   priv->link.stop (landmark::publish_status_payload (c.s.robot,
           c.connection.client_id, "offline"));
   GST_INFO_OBJECT (self, "stopped after %" G_GUINT64_FORMAT " frames",
@@ -397,7 +408,7 @@ gst_landmark_publish_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LANDMARK_PUBLISH (trans);
   auto priv = self->priv;
-  const Config & c = priv->config;
+  const Config & c = priv->applied.config;
   State & st = priv->state;
   /* the queue bounds may change while playing */
   const Settings now = priv->settings.copy ();
@@ -454,6 +465,8 @@ gst_landmark_publish_class_init (GstLandmarkPublishClass * klass)
 
   trans_class->passthrough_on_same_caps = TRUE;
   trans_class->transform_ip_on_passthrough = TRUE;
+  GST_ELEMENT_CLASS (klass)->change_state =
+      GST_DEBUG_FUNCPTR (gst_landmark_publish_change_state);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_publish_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_publish_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_landmark_publish_set_caps);

@@ -353,21 +353,26 @@ gst_landmark_slam_change_state (GstElement * element,
     GstStateChange transition)
 {
   auto self = GST_LANDMARK_SLAM (element);
-  /* a missing or malformed map or odometry file fails READY; the files
-   * are read here once */
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY
-      && !self->priv->state.applied.start (element, self->priv->settings,
-          slam_parse))
-    return GST_STATE_CHANGE_FAILURE;
-  return GST_ELEMENT_CLASS (gst_landmark_slam_parent_class)->change_state
-      (element, transition);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_landmark_slam_parent_class), transition,
+      [self] {
+        return self->priv->state.applied.start (GST_ELEMENT (self),
+            self->priv->settings, slam_parse);
+      });
 }
 
 static gboolean
 gst_landmark_slam_start (GstBaseTransform * trans)
 {
-  State & st = GST_LANDMARK_SLAM (trans)->priv->state;
+  auto self = GST_LANDMARK_SLAM (trans);
+  State & st = self->priv->state;
   std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
+  if (!landmark::start_with_settings (st.applied, self->priv->settings,
+          [self, &st] {
+            return st.applied.start (GST_ELEMENT (self),
+                self->priv->settings, slam_parse);
+          }))
+    return FALSE;
   st.frames = 0;
   {
     std::lock_guard<std::mutex> writing (st.write_lock);

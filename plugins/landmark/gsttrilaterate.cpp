@@ -200,13 +200,12 @@ static GstStateChangeReturn
 gst_trilaterate_change_state (GstElement * element, GstStateChange transition)
 {
   auto self = GST_TRILATERATE (element);
-  /* a missing or malformed map fails READY; the map is read here once */
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY
-      && !self->priv->state.applied.start (element, self->priv->settings,
-          trilaterate_parse))
-    return GST_STATE_CHANGE_FAILURE;
-  return GST_ELEMENT_CLASS (gst_trilaterate_parent_class)->change_state
-      (element, transition);
+  return landmark::check_settings_at_ready (element,
+      GST_ELEMENT_CLASS (gst_trilaterate_parent_class), transition,
+      [self] {
+        return self->priv->state.applied.start (GST_ELEMENT (self),
+            self->priv->settings, trilaterate_parse);
+      });
 }
 
 static void
@@ -221,6 +220,12 @@ gst_trilaterate_start (GstBaseTransform * trans)
 {
   auto self = GST_TRILATERATE (trans);
   State & st = self->priv->state;
+  if (!landmark::start_with_settings (st.applied, self->priv->settings,
+          [self, &st] {
+            return st.applied.start (GST_ELEMENT (self),
+                self->priv->settings, trilaterate_parse);
+          }))
+    return FALSE;
   gst_trilaterate_reset (st);
   st.map_classes_checked = false;
   GST_INFO_OBJECT (self, "map %s: %zu landmarks",

@@ -396,24 +396,33 @@ landmark_check_bad_settings (const gchar * factory,
     const gchar * const *settings)
 {
   for (; *settings; settings++) {
-    GstElement *e = gst_element_factory_make (factory, NULL);
     gchar **words = g_strsplit (*settings, ";", -1);
     gchar **kv = NULL, *named;
-    guint i;
-    fail_unless (e != NULL, "no element %s", factory);
-    for (i = 0; words[i]; i++) {
+    guint i, in_ready;
+
+    /* set in NULL the values fail READY; set in READY, they fail PAUSED */
+    for (in_ready = 0; in_ready < 2; in_ready++) {
+      GstElement *e = gst_element_factory_make (factory, NULL);
+      fail_unless (e != NULL, "no element %s", factory);
+      if (in_ready)
+        fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
+            GST_STATE_CHANGE_SUCCESS);
+      for (i = 0; words[i]; i++) {
+        g_strfreev (kv);
+        kv = g_strsplit (words[i], "=", 2);
+        fail_unless (kv[0] && kv[1], "not property=value: %s", words[i]);
+        gst_util_set_object_arg (G_OBJECT (e), kv[0], kv[1]);
+      }
       g_strfreev (kv);
-      kv = g_strsplit (words[i], "=", 2);
-      fail_unless (kv[0] && kv[1], "not property=value: %s", words[i]);
-      gst_util_set_object_arg (G_OBJECT (e), kv[0], kv[1]);
+      kv = g_strsplit (words[0], "=", 2);
+      named = g_strdup_printf ("'%s'", kv[0]);
+      landmark_check_start_fails (e,
+          in_ready ? GST_STATE_PAUSED : GST_STATE_READY,
+          LANDMARK_CHECK_IN_MESSAGE, named, NULL);
+      g_free (named);
+      g_strfreev (kv);
+      kv = NULL;
     }
-    g_strfreev (kv);
-    kv = g_strsplit (words[0], "=", 2);
-    named = g_strdup_printf ("'%s'", kv[0]);
-    landmark_check_start_fails (e, GST_STATE_PAUSED, LANDMARK_CHECK_IN_MESSAGE,
-        named, NULL);
-    g_free (named);
-    g_strfreev (kv);
     g_strfreev (words);
   }
 }
@@ -429,11 +438,17 @@ landmark_check_refuses_paused (GstElement * e, GstBus * bus)
 }
 
 void
+landmark_check_refuses_ready (GstElement * e, GstBus * bus)
+{
+  gst_element_set_bus (e, bus);
+  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
+      GST_STATE_CHANGE_FAILURE);
+}
+
+void
 landmark_check_fixed_setting_starts (GstElement * e, GstBus * bus,
     const gchar * property, const gchar * value)
 {
-  fail_unless_equals_int (gst_element_set_state (e, GST_STATE_READY),
-      GST_STATE_CHANGE_SUCCESS);
   g_object_set (e, property, value, NULL);
   fail_unless_equals_int (gst_element_set_state (e, GST_STATE_PAUSED),
       GST_STATE_CHANGE_SUCCESS);

@@ -156,18 +156,23 @@ void landmark_check_configure_element (GstElement * e);
 
 /* For each entry of the NULL-terminated `settings` ("property=value", or
  * several separated by ';'): a new `factory` element so configured fails
- * to reach PAUSED with one RESOURCE/SETTINGS error naming the first
- * property in quotes ('property'). */
+ * to reach READY, and one so configured while in READY fails to reach
+ * PAUSED, each with one RESOURCE/SETTINGS error naming the first property
+ * in quotes ('property'). */
 void landmark_check_bad_settings (const gchar * factory,
     const gchar * const *settings);
 
-/* e, its bus set to bus, reaches READY but refuses PAUSED (settings checked
- * when it starts). */
+/* e, its bus set to bus, reaches READY but refuses PAUSED (a resource it
+ * opens when it starts). */
 void landmark_check_refuses_paused (GstElement * e, GstBus * bus);
 
-/* After a failed start of e (its bus set to bus): setting `property` to
- * the good `value` is enough to start, without another error. Takes e and
- * bus. */
+/* e, its bus set to bus, refuses READY (its settings and their files are
+ * checked there: landmark::check_settings_at_ready). */
+void landmark_check_refuses_ready (GstElement * e, GstBus * bus);
+
+/* After a failed start of e (its bus set to bus; e in NULL or READY):
+ * setting `property` to the good `value` is enough to start, without
+ * another error. Takes e and bus. */
 void landmark_check_fixed_setting_starts (GstElement * e, GstBus * bus,
     const gchar * property, const gchar * value);
 

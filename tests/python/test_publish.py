@@ -21,6 +21,8 @@ import os
 import shutil
 import time
 
+import re
+
 import pytest
 
 from gi.repository import Gst
@@ -305,8 +307,10 @@ def test_small_bound_drops_the_oldest_and_counts(gst, tmp_path):
 
 
 def settings_error(settings):
-    """The message of the SETTINGS error landmarkpublish with ``settings``
-    posts when it fails to reach PAUSED (it must fail)."""
+    """The message and debug text of the SETTINGS error landmarkpublish
+    with ``settings`` posts when it fails to reach PAUSED (it must fail;
+    it fails READY, as every element: the message names the property,
+    the debug text says why)."""
     e = Gst.ElementFactory.make("landmarkpublish", None)
     for key, value in settings.items():
         e.set_property(key, value)
@@ -317,10 +321,12 @@ def settings_error(settings):
             Gst.StateChangeReturn.FAILURE
         msg = bus.timed_pop_filtered(Gst.SECOND, Gst.MessageType.ERROR)
         assert msg is not None
-        err, _ = msg.parse_error()
+        err, debug = msg.parse_error()
         assert err.matches(Gst.ResourceError.quark(),
                            Gst.ResourceError.SETTINGS)
-        return err.message
+        assert re.fullmatch(r"Invalid '[a-z-]+' value\.", err.message), \
+            err.message
+        return f"{err.message}\n{debug}"
     finally:
         e.set_state(Gst.State.NULL)
 

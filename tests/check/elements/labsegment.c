@@ -1669,7 +1669,7 @@ LANDMARK_TEST_LOOP ("configuration", test_bad_palette_fails_start,
 
   fail_unless (e != NULL);
   g_object_set (e, "palette", path, NULL);
-  landmark_check_refuses_paused (e, bus);
+  landmark_check_refuses_ready (e, bus);
   check_palette_error (bus, e, b, path, GST_MESSAGE_ERROR);
 
   /* fixing the setting is enough to start */

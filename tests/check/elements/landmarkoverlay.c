@@ -1611,7 +1611,7 @@ LANDMARK_TEST_LOOP ("configuration", test_bad_map_fails_start,
   GstBus *bus = gst_bus_new ();
 
   g_object_set (e, "map", path, NULL);
-  landmark_check_refuses_paused (e, bus);
+  landmark_check_refuses_ready (e, bus);
   check_map_error (bus, path, b->expect, GST_MESSAGE_ERROR);
 
   /* a good map is enough to start */

@@ -221,9 +221,6 @@ blob_roundness_properties ()
   return table;
 }
 
-/* ---- GObject -------------------------------------------------------- */
-
-
 /* ---- states and caps ------------------------------------------------ */
 
 static GstStateChangeReturn

@@ -228,9 +228,6 @@ floor_boundary_properties ()
   return table;
 }
 
-/* ---- GObject -------------------------------------------------------- */
-
-
 /* ---- states --------------------------------------------------------- */
 
 static GstStateChangeReturn

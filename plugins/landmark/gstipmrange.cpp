@@ -281,8 +281,6 @@ gst_ipm_range_build (GstIpmRange * self, gint width, gint height,
   return FALSE;
 }
 
-/* ---- GObject -------------------------------------------------------- */
-
 /* ---- states and caps ------------------------------------------------ */
 
 /* Settings changed while playing: parsed, and the geometry rebuilt at the

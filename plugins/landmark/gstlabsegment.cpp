@@ -308,8 +308,6 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
       gains[1], gains[2]);
 }
 
-/* ---- GObject -------------------------------------------------------- */
-
 /* ---- states and caps ------------------------------------------------ */
 
 /* the settings and the palette file (landmark::check_settings_at_ready) */

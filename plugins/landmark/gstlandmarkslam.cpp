@@ -344,8 +344,6 @@ gst_landmark_slam_sync_settings (GstLandmarkSlam * self)
   slam_apply_options (st);
 }
 
-/* ---- GObject -------------------------------------------------------- */
-
 /* ---- states and events ---------------------------------------------- */
 
 static GstStateChangeReturn

@@ -109,10 +109,11 @@ def frame_bgr(caps, buffer) -> Optional[np.ndarray]:
     convert (the packed RGB family, I420, NV12 and YUY2 of even size)."""
     import cv2
     from gi.repository import Gst, GstVideo
+    from ..gicompat import caps_structure
     info = GstVideo.VideoInfo.new_from_caps(caps)
     if info is None:
         return None
-    fmt = caps.get_structure(0).get_string("format")
+    fmt = caps_structure(caps).get_string("format")
     w, h = info.width, info.height
     ok, mapped = buffer.map(Gst.MapFlags.READ)
     if not ok:
@@ -260,8 +261,16 @@ class LiveServer:
 
     def _on_camera_frame(self, pad, info):
         from gi.repository import Gst
-        self._camera_images.append(self._jpeg_if_wanted(
-            ros.CAMERA_IMAGE_TOPIC, pad, info.get_buffer()))
+        try:
+            image = self._jpeg_if_wanted(ros.CAMERA_IMAGE_TOPIC, pad,
+                                         info.get_buffer())
+        except Exception as err:    # a viewer must never stop the robot
+            # (a probe that raises returns None: DROP, and the chain
+            # would see no frame)
+            self._warn_once("camera", f"Foxglove: a camera image was not "
+                            f"made ({type(err).__name__}: {err})")
+            image = None
+        self._camera_images.append(image)
         return Gst.PadProbeReturn.OK
 
     def _next_line(self) -> Optional[Dict[str, Any]]:

@@ -496,6 +496,9 @@ public:
     return shared.generation () == generation_;
   }
 
+  /* After a failed check: the next start parses again, whatever changed. */
+  void invalidate () { generation_ = G_MAXUINT; }
+
   /* While playing: parses settings changed since the last call. A bad
    * value is warned about (once: it is not parsed again until the next
    * change) and the previous Config stays in force. True when config
@@ -541,10 +544,16 @@ check_settings_at_ready (GstElement *element, GstElementClass *parent,
 
 template <typename Settings, typename Config, typename Apply>
 bool
-start_with_settings (const AppliedSettings<Settings, Config> &applied,
+start_with_settings (AppliedSettings<Settings, Config> &applied,
     const SharedSettings<Settings> &shared, Apply apply)
 {
-  return applied.current (shared) || apply ();
+  if (applied.current (shared))
+    return true;
+  if (apply ())
+    return true;
+  /* a refused value stays refused when the start is tried again */
+  applied.invalidate ();
+  return false;
 }
 
 /* The class set-up of an element that reads and writes metadata and

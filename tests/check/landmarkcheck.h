@@ -157,8 +157,8 @@ void landmark_check_configure_element (GstElement * e);
 /* For each entry of the NULL-terminated `settings` ("property=value", or
  * several separated by ';'): a new `factory` element so configured fails
  * to reach READY, and one so configured while in READY fails to reach
- * PAUSED, each with one RESOURCE/SETTINGS error naming the first property
- * in quotes ('property'). */
+ * PAUSED (and again when tried again), each with one RESOURCE/SETTINGS
+ * error naming the first property in quotes ('property'). */
 void landmark_check_bad_settings (const gchar * factory,
     const gchar * const *settings);
 

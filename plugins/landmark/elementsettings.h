@@ -527,33 +527,47 @@ private:
 };
 
 /* The one validation point of every element: one function `apply` (bool
- * (), posting the ERROR) parses its settings and reads the files they name
- * when it goes from NULL to READY, so that a bad value fails READY naming
- * the property or file; change_state returns this. When it starts (READY
- * to PAUSED), start_with_settings applies them again only if a property
- * changed in READY: the files read at READY are the ones the run uses. */
-template <typename Apply>
+ * (Self *), posting the ERROR) parses its settings and reads the files
+ * they name when it goes from NULL to READY, so that a bad value fails
+ * READY naming the property or file: the element's change_state is
+ * change_state_checking_settings. When it starts (READY to PAUSED),
+ * start_with_settings applies them again only if a property changed in
+ * READY: the files read at READY are the ones the run uses. */
+template <typename Self, GType (*get_type) (), bool (*apply) (Self *)>
 GstStateChangeReturn
-check_settings_at_ready (GstElement *element, GstElementClass *parent,
-    GstStateChange transition, Apply apply)
+change_state_checking_settings (GstElement *element,
+    GstStateChange transition)
 {
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY && !apply ())
+  if (transition == GST_STATE_CHANGE_NULL_TO_READY
+      && !apply (reinterpret_cast<Self *> (element)))
     return GST_STATE_CHANGE_FAILURE;
+  auto parent = GST_ELEMENT_CLASS (g_type_class_peek_parent (
+          g_type_class_peek (get_type ())));
   return parent->change_state (element, transition);
 }
 
-template <typename Settings, typename Config, typename Apply>
+template <typename Self, bool (*apply) (Self *), typename Applied,
+    typename Shared>
 bool
-start_with_settings (AppliedSettings<Settings, Config> &applied,
-    const SharedSettings<Settings> &shared, Apply apply)
+start_with_settings (Self *self, Applied &applied, const Shared &shared)
 {
   if (applied.current (shared))
     return true;
-  if (apply ())
+  if (apply (self))
     return true;
   /* a refused value stays refused when the start is tried again */
   applied.invalidate ();
   return false;
+}
+
+/* The `apply` of an element whose settings are all it checks: its State's
+ * AppliedSettings parsed by `parse`. */
+template <typename Self, auto parse>
+bool
+apply_parsed (Self *self)
+{
+  return self->priv->state.applied.start (GST_ELEMENT (self),
+      self->priv->settings, parse);
 }
 
 /* The class set-up of an element that reads and writes metadata and

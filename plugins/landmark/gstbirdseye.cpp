@@ -320,7 +320,7 @@ birds_eye_load_map (const std::string & path, landmark::LandmarkMap * map,
 }
 
 /* the settings (those that need no frame size; set_info checks the rest)
- * and the map file (landmark::check_settings_at_ready) */
+ * and the map file (landmark::change_state_checking_settings) */
 static bool
 gst_birds_eye_apply_settings (GstBirdsEye * self)
 {
@@ -336,22 +336,13 @@ gst_birds_eye_apply_settings (GstBirdsEye * self)
       birds_eye_load_map);
 }
 
-static GstStateChangeReturn
-gst_birds_eye_change_state (GstElement * element, GstStateChange transition)
-{
-  auto self = GST_BIRDS_EYE (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_birds_eye_parent_class), transition,
-      [self] { return gst_birds_eye_apply_settings (self); });
-}
-
 static gboolean
 gst_birds_eye_start (GstBaseTransform * trans)
 {
   auto self = GST_BIRDS_EYE (trans);
-  return landmark::start_with_settings (self->priv->state.applied,
-      self->priv->settings,
-      [self] { return gst_birds_eye_apply_settings (self); });
+  return landmark::start_with_settings<GstBirdsEye,
+      gst_birds_eye_apply_settings> (self, self->priv->state.applied,
+      self->priv->settings);
 }
 
 /* Output caps: the input's with the bird's-eye size (square pixels);
@@ -598,7 +589,9 @@ gst_birds_eye_class_init (GstBirdsEyeClass * klass)
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);
 
-  element_class->change_state = GST_DEBUG_FUNCPTR (gst_birds_eye_change_state);
+  element_class->change_state =
+      landmark::change_state_checking_settings<GstBirdsEye,
+      gst_birds_eye_get_type, gst_birds_eye_apply_settings>;
   trans_class->start =
       GST_DEBUG_FUNCPTR (gst_birds_eye_start);
   gst_type_mark_as_plugin_api (GST_TYPE_BIRDS_EYE_DRAW, (GstPluginAPIFlags) 0);

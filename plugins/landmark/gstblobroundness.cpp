@@ -223,29 +223,17 @@ blob_roundness_properties ()
 
 /* ---- states and caps ------------------------------------------------ */
 
-static GstStateChangeReturn
-gst_blob_roundness_change_state (GstElement * element,
-    GstStateChange transition)
-{
-  auto self = GST_BLOB_ROUNDNESS (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_blob_roundness_parent_class), transition,
-      [self] {
-        return self->priv->state.applied.start (GST_ELEMENT (self),
-            self->priv->settings, blob_roundness_parse);
-      });
-}
+static constexpr auto gst_blob_roundness_apply_settings =
+    landmark::apply_parsed<GstBlobRoundness, blob_roundness_parse>;
 
 static gboolean
 gst_blob_roundness_start (GstBaseTransform * trans)
 {
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
-  if (!landmark::start_with_settings (st.applied, self->priv->settings,
-          [self, &st] {
-            return st.applied.start (GST_ELEMENT (self),
-                self->priv->settings, blob_roundness_parse);
-          }))
+  if (!landmark::start_with_settings<GstBlobRoundness,
+          gst_blob_roundness_apply_settings> (self, st.applied,
+          self->priv->settings))
     return FALSE;
   st.classes.reset ();
   st.warned_no_meta = false;
@@ -560,7 +548,8 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   GST_ELEMENT_CLASS (klass)->change_state =
-      GST_DEBUG_FUNCPTR (gst_blob_roundness_change_state);
+      landmark::change_state_checking_settings<GstBlobRoundness,
+      gst_blob_roundness_get_type, gst_blob_roundness_apply_settings>;
   trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);

@@ -230,29 +230,17 @@ floor_boundary_properties ()
 
 /* ---- states --------------------------------------------------------- */
 
-static GstStateChangeReturn
-gst_floor_boundary_change_state (GstElement * element,
-    GstStateChange transition)
-{
-  auto self = GST_FLOOR_BOUNDARY (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_floor_boundary_parent_class), transition,
-      [self] {
-        return self->priv->state.applied.start (GST_ELEMENT (self),
-            self->priv->settings, floor_boundary_parse);
-      });
-}
+static constexpr auto gst_floor_boundary_apply_settings =
+    landmark::apply_parsed<GstFloorBoundary, floor_boundary_parse>;
 
 static gboolean
 gst_floor_boundary_start (GstBaseTransform * trans)
 {
   auto self = GST_FLOOR_BOUNDARY (trans);
   State & st = self->priv->state;
-  if (!landmark::start_with_settings (st.applied, self->priv->settings,
-          [self, &st] {
-            return st.applied.start (GST_ELEMENT (self),
-                self->priv->settings, floor_boundary_parse);
-          }))
+  if (!landmark::start_with_settings<GstFloorBoundary,
+          gst_floor_boundary_apply_settings> (self, st.applied,
+          self->priv->settings))
     return FALSE;
   st.built_w = st.built_h = 0;
   st.classes.reset ();
@@ -621,7 +609,8 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   GST_ELEMENT_CLASS (klass)->change_state =
-      GST_DEBUG_FUNCPTR (gst_floor_boundary_change_state);
+      landmark::change_state_checking_settings<GstFloorBoundary,
+      gst_floor_boundary_get_type, gst_floor_boundary_apply_settings>;
   trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);

@@ -322,7 +322,7 @@ gst_ipm_range_sync_settings (GstIpmRange * self)
 }
 
 /* the settings, the map and the camera file
- * (landmark::check_settings_at_ready) */
+ * (landmark::change_state_checking_settings) */
 static bool
 gst_ipm_range_apply_settings (GstIpmRange * self)
 {
@@ -338,22 +338,14 @@ gst_ipm_range_apply_settings (GstIpmRange * self)
   return true;
 }
 
-static GstStateChangeReturn
-gst_ipm_range_change_state (GstElement * element, GstStateChange transition)
-{
-  auto self = GST_IPM_RANGE (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_ipm_range_parent_class), transition,
-      [self] { return gst_ipm_range_apply_settings (self); });
-}
-
 static gboolean
 gst_ipm_range_start (GstBaseTransform * trans)
 {
   auto self = GST_IPM_RANGE (trans);
   State & st = self->priv->state;
-  if (!landmark::start_with_settings (st.applied, self->priv->settings,
-          [self] { return gst_ipm_range_apply_settings (self); }))
+  if (!landmark::start_with_settings<GstIpmRange,
+          gst_ipm_range_apply_settings> (self, st.applied,
+          self->priv->settings))
     return FALSE;
   st.geometry_w = st.geometry_h = 0;
   st.caps_w = st.caps_h = 0;
@@ -680,7 +672,9 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
   GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  element_class->change_state = GST_DEBUG_FUNCPTR (gst_ipm_range_change_state);
+  element_class->change_state =
+      landmark::change_state_checking_settings<GstIpmRange,
+      gst_ipm_range_get_type, gst_ipm_range_apply_settings>;
   trans_class->start = GST_DEBUG_FUNCPTR (gst_ipm_range_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_ipm_range_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_ipm_range_set_caps);

@@ -310,7 +310,8 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
 
 /* ---- states and caps ------------------------------------------------ */
 
-/* the settings and the palette file (landmark::check_settings_at_ready) */
+/* the settings and the palette file
+ * (landmark::change_state_checking_settings) */
 static bool
 gst_lab_segment_apply_settings (GstLabSegment * self)
 {
@@ -326,22 +327,13 @@ gst_lab_segment_apply_settings (GstLabSegment * self)
   return true;
 }
 
-static GstStateChangeReturn
-gst_lab_segment_change_state (GstElement * element, GstStateChange transition)
-{
-  auto self = GST_LAB_SEGMENT (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_lab_segment_parent_class), transition,
-      [self] { return gst_lab_segment_apply_settings (self); });
-}
-
 static gboolean
 gst_lab_segment_start (GstBaseTransform * trans)
 {
   auto self = GST_LAB_SEGMENT (trans);
-  if (!landmark::start_with_settings (self->priv->state.applied,
-          self->priv->settings,
-          [self] { return gst_lab_segment_apply_settings (self); }))
+  if (!landmark::start_with_settings<GstLabSegment,
+          gst_lab_segment_apply_settings> (self, self->priv->state.applied,
+          self->priv->settings))
     return FALSE;
   self->priv->state.warned_no_class = false;
   return TRUE;
@@ -622,7 +614,8 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
       "with the dominant-colour rule, as buffer metadata");
 
   GST_ELEMENT_CLASS (klass)->change_state =
-      GST_DEBUG_FUNCPTR (gst_lab_segment_change_state);
+      landmark::change_state_checking_settings<GstLabSegment,
+      gst_lab_segment_get_type, gst_lab_segment_apply_settings>;
   trans_class->start = GST_DEBUG_FUNCPTR (gst_lab_segment_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_lab_segment_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is

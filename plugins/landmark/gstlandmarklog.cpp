@@ -244,16 +244,22 @@ landmark_log_properties ()
 }
 
 
+/* the settings (landmark::change_state_checking_settings) */
+static bool
+gst_landmark_log_apply_settings (GstLandmarkLog * self)
+{
+  return self->priv->applied.start (GST_ELEMENT (self),
+      self->priv->settings, landmark::accept_settings<Settings, Config>);
+}
+
 static gboolean
 gst_landmark_log_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
-  if (!landmark::start_with_settings (priv->applied, priv->settings,
-          [self, priv] {
-            return priv->applied.start (GST_ELEMENT (self), priv->settings,
-                landmark::accept_settings<Settings, Config>);
-          }))
+  if (!landmark::start_with_settings<GstLandmarkLog,
+          gst_landmark_log_apply_settings> (self, priv->applied,
+          self->priv->settings))
     return FALSE;
   const std::string & path = priv->applied.config.s.location;
   const gboolean append = priv->applied.config.s.append;
@@ -459,13 +465,10 @@ gst_landmark_log_change_state (GstElement * element,
     GstStateChange transition)
 {
   auto self = GST_LANDMARK_LOG (element);
-  GstStateChangeReturn ret = landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_landmark_log_parent_class), transition,
-      [self] {
-        return self->priv->applied.start (GST_ELEMENT (self),
-            self->priv->settings, landmark::accept_settings<Settings,
-            Config>);
-      });
+  GstStateChangeReturn ret =
+      landmark::change_state_checking_settings<GstLandmarkLog,
+      gst_landmark_log_get_type, gst_landmark_log_apply_settings> (element,
+      transition);
   /* a paused pipeline has its file up to date */
   if (ret != GST_STATE_CHANGE_FAILURE &&
       transition == GST_STATE_CHANGE_PLAYING_TO_PAUSED)

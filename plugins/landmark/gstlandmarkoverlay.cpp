@@ -209,7 +209,8 @@ gst_landmark_overlay_init (GstLandmarkOverlay * self)
 
 /* ---- states and caps ------------------------------------------------ */
 
-/* the settings and the map file (landmark::check_settings_at_ready) */
+/* the settings and the map file
+ * (landmark::change_state_checking_settings) */
 static bool
 gst_landmark_overlay_apply_settings (GstLandmarkOverlay * self)
 {
@@ -225,23 +226,13 @@ gst_landmark_overlay_apply_settings (GstLandmarkOverlay * self)
   return true;
 }
 
-static GstStateChangeReturn
-gst_landmark_overlay_change_state (GstElement * element,
-    GstStateChange transition)
-{
-  auto self = GST_LANDMARK_OVERLAY (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_landmark_overlay_parent_class), transition,
-      [self] { return gst_landmark_overlay_apply_settings (self); });
-}
-
 static gboolean
 gst_landmark_overlay_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
-  if (!landmark::start_with_settings (self->priv->state.applied,
-          self->priv->settings,
-          [self] { return gst_landmark_overlay_apply_settings (self); }))
+  if (!landmark::start_with_settings<GstLandmarkOverlay,
+          gst_landmark_overlay_apply_settings> (self, self->priv->state.applied,
+          self->priv->settings))
     return FALSE;
   self->priv->state.colours.init_defaults ();
   return TRUE;
@@ -490,7 +481,8 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
       "indicators and a mini-map of the landmark map onto the video");
 
   GST_ELEMENT_CLASS (klass)->change_state =
-      GST_DEBUG_FUNCPTR (gst_landmark_overlay_change_state);
+      landmark::change_state_checking_settings<GstLandmarkOverlay,
+      gst_landmark_overlay_get_type, gst_landmark_overlay_apply_settings>;
   trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_overlay_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_overlay_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is

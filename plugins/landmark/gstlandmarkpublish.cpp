@@ -337,17 +337,12 @@ gst_landmark_publish_init (GstLandmarkPublish * self)
 
 /* ---- start and stop ------------------------------------------------- */
 
-static GstStateChangeReturn
-gst_landmark_publish_change_state (GstElement * element,
-    GstStateChange transition)
+/* the settings (landmark::change_state_checking_settings) */
+static bool
+gst_landmark_publish_apply_settings (GstLandmarkPublish * self)
 {
-  auto self = GST_LANDMARK_PUBLISH (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_landmark_publish_parent_class), transition,
-      [self] {
-        return self->priv->applied.start (GST_ELEMENT (self),
-            self->priv->settings, publish_parse);
-      });
+  return self->priv->applied.start (GST_ELEMENT (self),
+      self->priv->settings, publish_parse);
 }
 
 static gboolean
@@ -355,11 +350,9 @@ gst_landmark_publish_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_PUBLISH (trans);
   auto priv = self->priv;
-  if (!landmark::start_with_settings (priv->applied, priv->settings,
-          [self, priv] {
-            return priv->applied.start (GST_ELEMENT (self), priv->settings,
-                publish_parse);
-          }))
+  if (!landmark::start_with_settings<GstLandmarkPublish,
+          gst_landmark_publish_apply_settings> (self, priv->applied,
+          self->priv->settings))
     return FALSE;
   priv->state = State ();
   const Config & c = priv->applied.config;
@@ -466,7 +459,8 @@ gst_landmark_publish_class_init (GstLandmarkPublishClass * klass)
   trans_class->passthrough_on_same_caps = TRUE;
   trans_class->transform_ip_on_passthrough = TRUE;
   GST_ELEMENT_CLASS (klass)->change_state =
-      GST_DEBUG_FUNCPTR (gst_landmark_publish_change_state);
+      landmark::change_state_checking_settings<GstLandmarkPublish,
+      gst_landmark_publish_get_type, gst_landmark_publish_apply_settings>;
   trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_publish_start);
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_publish_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_landmark_publish_set_caps);

@@ -346,18 +346,8 @@ gst_landmark_slam_sync_settings (GstLandmarkSlam * self)
 
 /* ---- states and events ---------------------------------------------- */
 
-static GstStateChangeReturn
-gst_landmark_slam_change_state (GstElement * element,
-    GstStateChange transition)
-{
-  auto self = GST_LANDMARK_SLAM (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_landmark_slam_parent_class), transition,
-      [self] {
-        return self->priv->state.applied.start (GST_ELEMENT (self),
-            self->priv->settings, slam_parse);
-      });
-}
+static constexpr auto gst_landmark_slam_apply_settings =
+    landmark::apply_parsed<GstLandmarkSlam, slam_parse>;
 
 static gboolean
 gst_landmark_slam_start (GstBaseTransform * trans)
@@ -365,11 +355,9 @@ gst_landmark_slam_start (GstBaseTransform * trans)
   auto self = GST_LANDMARK_SLAM (trans);
   State & st = self->priv->state;
   std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
-  if (!landmark::start_with_settings (st.applied, self->priv->settings,
-          [self, &st] {
-            return st.applied.start (GST_ELEMENT (self),
-                self->priv->settings, slam_parse);
-          }))
+  if (!landmark::start_with_settings<GstLandmarkSlam,
+          gst_landmark_slam_apply_settings> (self, st.applied,
+          self->priv->settings))
     return FALSE;
   st.frames = 0;
   {
@@ -693,7 +681,8 @@ gst_landmark_slam_class_init (GstLandmarkSlamClass * klass)
       "Robot pose and landmark map together from the ranges and bearings "
       "of the detections (EKF, joint compatibility association)");
   GST_ELEMENT_CLASS (klass)->change_state =
-      GST_DEBUG_FUNCPTR (gst_landmark_slam_change_state);
+      landmark::change_state_checking_settings<GstLandmarkSlam,
+      gst_landmark_slam_get_type, gst_landmark_slam_apply_settings>;
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_slam_start);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_landmark_slam_sink_event);

@@ -196,18 +196,6 @@ trilaterate_properties ()
 
 /* ---- instance and states -------------------------------------------- */
 
-static GstStateChangeReturn
-gst_trilaterate_change_state (GstElement * element, GstStateChange transition)
-{
-  auto self = GST_TRILATERATE (element);
-  return landmark::check_settings_at_ready (element,
-      GST_ELEMENT_CLASS (gst_trilaterate_parent_class), transition,
-      [self] {
-        return self->priv->state.applied.start (GST_ELEMENT (self),
-            self->priv->settings, trilaterate_parse);
-      });
-}
-
 static void
 gst_trilaterate_reset (State & st)
 {
@@ -215,16 +203,17 @@ gst_trilaterate_reset (State & st)
   st.frames = 0;
 }
 
+static constexpr auto gst_trilaterate_apply_settings =
+    landmark::apply_parsed<GstTrilaterate, trilaterate_parse>;
+
 static gboolean
 gst_trilaterate_start (GstBaseTransform * trans)
 {
   auto self = GST_TRILATERATE (trans);
   State & st = self->priv->state;
-  if (!landmark::start_with_settings (st.applied, self->priv->settings,
-          [self, &st] {
-            return st.applied.start (GST_ELEMENT (self),
-                self->priv->settings, trilaterate_parse);
-          }))
+  if (!landmark::start_with_settings<GstTrilaterate,
+          gst_trilaterate_apply_settings> (self, st.applied,
+          self->priv->settings))
     return FALSE;
   gst_trilaterate_reset (st);
   st.map_classes_checked = false;
@@ -394,7 +383,8 @@ gst_trilaterate_class_init (GstTrilaterateClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   element_class->change_state =
-      GST_DEBUG_FUNCPTR (gst_trilaterate_change_state);
+      landmark::change_state_checking_settings<GstTrilaterate,
+      gst_trilaterate_get_type, gst_trilaterate_apply_settings>;
   trans_class->start = GST_DEBUG_FUNCPTR (gst_trilaterate_start);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_trilaterate_sink_event);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_trilaterate_transform_ip);

@@ -10,6 +10,7 @@
 
 #include <gst/base/gstbasetransform.h>
 #include <gst/gst.h>
+#include <gst/video/video.h>
 
 #include <exception>
 
@@ -467,16 +468,16 @@ accept_settings (const Settings &s, Config *cfg, SettingsError *)
 
 /* The streaming thread's view of the settings: the Config parsed from a
  * generation of them. parse is bool (const Settings &, Config *,
- * SettingsError *). */
+ * SettingsError *); without one every value is accepted as set. */
 template <typename Settings, typename Config> class AppliedSettings {
 public:
   Config config;
 
   /* At start: parses the current settings; a bad value posts an ERROR
    * naming the property and returns false. */
-  template <typename Parse>
+  template <typename Parse = decltype (&accept_settings<Settings, Config>)>
   bool start (GstElement *element, const SharedSettings<Settings> &shared,
-      Parse parse)
+      Parse parse = accept_settings<Settings, Config>)
   {
     const Settings s = shared.copy (&generation_);
     Config cfg;
@@ -503,9 +504,9 @@ public:
    * value is warned about (once: it is not parsed again until the next
    * change) and the previous Config stays in force. True when config
    * changed. */
-  template <typename Parse>
+  template <typename Parse = decltype (&accept_settings<Settings, Config>)>
   bool sync (GstElement *element, const SharedSettings<Settings> &shared,
-      Parse parse)
+      Parse parse = accept_settings<Settings, Config>)
   {
     Settings s;
     if (!shared.changed_since (&generation_, &s))
@@ -525,6 +526,51 @@ public:
 private:
   guint generation_ = G_MAXUINT;
 };
+
+/* A file an element's settings name (labsegment's palette, the overlay's
+ * map), whose other values are all valid as set: where State keeps it,
+ * the Settings members of its path and of its sets, how it is read. */
+template <typename State, typename Settings, typename Contents>
+struct FileSetting {
+  SettingsFile<Contents> State::*file;
+  std::string Settings::*path;
+  guint Settings::*generation;
+  const char *what;
+  bool (*load) (const std::string &, Contents *, std::string *);
+};
+
+/* The `apply` of such an element: its settings, then the file; read
+ * (self) is told the file's contents are new. */
+template <typename Self, typename State, typename Settings, typename Contents>
+bool
+apply_settings_and_file (Self *self,
+    const FileSetting<State, Settings, Contents> &f, void (*read) (Self *))
+{
+  State &st = self->priv->state;
+  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings))
+    return false;
+  const Settings &s = st.applied.config.s;
+  if (!(st.*f.file).start (GST_ELEMENT (self), f.what, s.*f.path,
+          s.*f.generation, f.load))
+    return false;
+  read (self);
+  return true;
+}
+
+/* While playing: settings changed since the last frame, and the file again
+ * if a new one was set (a bad one: a warning, the previous stays). */
+template <typename Self, typename State, typename Settings, typename Contents>
+void
+sync_settings_and_file (Self *self,
+    const FileSetting<State, Settings, Contents> &f, void (*read) (Self *))
+{
+  State &st = self->priv->state;
+  const Settings &s = st.applied.config.s;   /* the Config synced below */
+  if (st.applied.sync (GST_ELEMENT (self), self->priv->settings)
+      && (st.*f.file).sync (GST_ELEMENT (self), f.what, s.*f.path,
+          s.*f.generation, f.load))
+    read (self);
+}
 
 /* The one validation point of every element: one function `apply` (bool
  * (Self *), posting the ERROR) parses its settings and reads the files
@@ -546,18 +592,47 @@ change_state_checking_settings (GstElement *element,
   return parent->change_state (element, transition);
 }
 
-template <typename Self, bool (*apply) (Self *), typename Applied,
-    typename Shared>
-bool
-start_with_settings (Self *self, Applied &applied, const Shared &shared)
+/* An element's AppliedSettings: in its State (`priv->state.applied`) or,
+ * for an element with a private struct of its own, `priv->applied`. */
+template <typename Private>
+auto applied_settings_of (Private *priv) -> decltype ((priv->state.applied))
 {
-  if (applied.current (shared))
+  return priv->state.applied;
+}
+
+template <typename Private>
+auto applied_settings_of (Private *priv) -> decltype ((priv->applied))
+{
+  return priv->applied;
+}
+
+template <typename Self, bool (*apply) (Self *)>
+bool
+start_with_settings (Self *self)
+{
+  auto &applied = applied_settings_of (self->priv);
+  if (applied.current (self->priv->settings))
     return true;
   if (apply (self))
     return true;
   /* a refused value stays refused when the start is tried again */
   applied.invalidate ();
   return false;
+}
+
+/* Sets the element's change_state (change_state_checking_settings) and
+ * BaseTransform's start and stop (a null stop: the parent's). */
+template <typename Self, GType (*get_type) (), bool (*apply) (Self *)>
+void
+set_settings_lifecycle (gpointer klass,
+    gboolean (*start) (GstBaseTransform *),
+    gboolean (*stop) (GstBaseTransform *) = nullptr)
+{
+  GST_ELEMENT_CLASS (klass)->change_state =
+      change_state_checking_settings<Self, get_type, apply>;
+  GST_BASE_TRANSFORM_CLASS (klass)->start = start;
+  if (stop)
+    GST_BASE_TRANSFORM_CLASS (klass)->stop = stop;
 }
 
 /* The `apply` of an element whose settings are all it checks: its State's
@@ -629,10 +704,36 @@ run_frame (GstElement *element, const char *what, Work work)
   }
 }
 
+/* What an element that measures labsegment's labels keeps of its input:
+ * the classes the labels name (the element derives its tables from them
+ * and sets classes.valid), the video's size from the caps (0: unknown)
+ * and the warnings it gives once a run. */
+struct LabelsInput {
+  LandmarkLabelClasses classes;
+  gint video_width = 0, video_height = 0;
+  bool warned_no_meta = false;
+  bool warned_bad_plane = false;
+
+  void start ()
+  {
+    classes.reset ();
+    warned_no_meta = warned_bad_plane = false;
+  }
+
+  /* any caps are fine: their size only scales boxes to the label plane */
+  void set_caps (GstCaps *caps)
+  {
+    GstVideoInfo info;
+    const bool video = gst_video_info_from_caps (&info, caps);
+    video_width = video ? GST_VIDEO_INFO_WIDTH (&info) : 0;
+    video_height = video ? GST_VIDEO_INFO_HEIGHT (&info) : 0;
+  }
+};
+
 /* transform_ip of an element that measures labsegment's labels: its
  * settings brought up to date (sync), then process (self, buf, labels)
  * under run_frame; a buffer without labels passes unmeasured, with one
- * warning. Self's priv->state has `bool warned_no_meta`. */
+ * warning. Self's priv->state has a LabelsInput `input`. */
 template <typename Self, void (*sync) (Self *),
     GstFlowReturn (*process) (Self *, GstBuffer *, const GstStructure *)>
 GstFlowReturn
@@ -641,7 +742,7 @@ measure_labels_ip (GstBaseTransform *trans, GstBuffer *buf)
   Self *self = (Self *) trans;
   sync (self);
   const GstStructure *labels = landmark_labels_or_warn (GST_ELEMENT (trans),
-      buf, &self->priv->state.warned_no_meta);
+      buf, &self->priv->state.input.warned_no_meta);
   if (!labels)
     return GST_FLOW_OK;
   return run_frame (GST_ELEMENT (trans),

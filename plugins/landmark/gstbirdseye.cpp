@@ -341,8 +341,7 @@ gst_birds_eye_start (GstBaseTransform * trans)
 {
   auto self = GST_BIRDS_EYE (trans);
   return landmark::start_with_settings<GstBirdsEye,
-      gst_birds_eye_apply_settings> (self, self->priv->state.applied,
-      self->priv->settings);
+          gst_birds_eye_apply_settings> (self);
 }
 
 /* Output caps: the input's with the bird's-eye size (square pixels);
@@ -589,11 +588,9 @@ gst_birds_eye_class_init (GstBirdsEyeClass * klass)
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);
 
-  element_class->change_state =
-      landmark::change_state_checking_settings<GstBirdsEye,
-      gst_birds_eye_get_type, gst_birds_eye_apply_settings>;
-  trans_class->start =
-      GST_DEBUG_FUNCPTR (gst_birds_eye_start);
+  landmark::set_settings_lifecycle<GstBirdsEye,
+      gst_birds_eye_get_type, gst_birds_eye_apply_settings> (klass,
+      gst_birds_eye_start);
   gst_type_mark_as_plugin_api (GST_TYPE_BIRDS_EYE_DRAW, (GstPluginAPIFlags) 0);
   trans_class->transform_caps =
       GST_DEBUG_FUNCPTR (gst_birds_eye_transform_caps);

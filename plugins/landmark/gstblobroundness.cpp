@@ -120,8 +120,8 @@ struct Config {
 struct State {
   landmark::AppliedSettings<Settings, Config> applied;
 
-  /* label -> slot, rebuilt when the palette or `classes` change */
-  LandmarkLabelClasses classes;
+  /* the labels' classes, the video size, the warnings given */
+  landmark::LabelsInput input;
   uint8_t slot_of[256] = { 0 };
   std::vector<guint> wanted_labels;
 
@@ -135,9 +135,6 @@ struct State {
   cv::Mat kernel;
   guint kernel_size = 0;
 
-  gint video_width = 0, video_height = 0;   /* from the caps, 0: unknown */
-  bool warned_no_meta = false;
-  bool warned_bad_plane = false;
 };
 
 }  // namespace
@@ -232,14 +229,10 @@ gst_blob_roundness_start (GstBaseTransform * trans)
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
   if (!landmark::start_with_settings<GstBlobRoundness,
-          gst_blob_roundness_apply_settings> (self, st.applied,
-          self->priv->settings))
+          gst_blob_roundness_apply_settings> (self))
     return FALSE;
-  st.classes.reset ();
-  st.warned_no_meta = false;
-  st.warned_bad_plane = false;
-  st.video_width = st.video_height = 0;
-  const Settings & s = st.applied.config.s;
+  st.input.start ();
+    const Settings & s = st.applied.config.s;
   GST_INFO_OBJECT (self, "shape %s, min-area %u, max-area %u, max-aspect "
       "%.2f, min-roundness %.3f, min-ellipse-fit %.3f, morphology %u, "
       "classes %s", s.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE ?
@@ -254,7 +247,7 @@ gst_blob_roundness_stop (GstBaseTransform * trans)
 {
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
-  st.classes.reset ();
+  st.input.classes.reset ();
   st.workers.resize (1);
   return TRUE;
 }
@@ -266,15 +259,7 @@ gst_blob_roundness_set_caps (GstBaseTransform * trans, GstCaps * incaps,
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
   (void) outcaps;
-  GstVideoInfo info;
-  /* any caps are fine; the size is only used to rescale boxes if the
-   * label plane does not match the frame */
-  if (gst_video_info_from_caps (&info, incaps)) {
-    st.video_width = GST_VIDEO_INFO_WIDTH (&info);
-    st.video_height = GST_VIDEO_INFO_HEIGHT (&info);
-  } else {
-    st.video_width = st.video_height = 0;
-  }
+  st.input.set_caps (incaps);
   /* the run search's vector level follows labsegment's (LANDMARK_SIMD) */
   st.analyzer.set_avx2 (landmark::simd_level () == landmark::SimdLevel::AVX2);
   GST_DEBUG_OBJECT (self, "caps %" GST_PTR_FORMAT, incaps);
@@ -291,7 +276,7 @@ gst_blob_roundness_sync_settings (GstBlobRoundness * self)
   State & st = self->priv->state;
   if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
           blob_roundness_parse)) {
-    st.classes.valid = false;   /* `classes` may have changed */
+    st.input.classes.valid = false;   /* `classes` may have changed */
     GST_INFO_OBJECT (self, "settings changed");
   }
 }
@@ -303,23 +288,23 @@ gst_blob_roundness_update_slots (GstBlobRoundness * self,
     const GstStructure * labels)
 {
   State & st = self->priv->state;
-  if (!st.classes.changed (labels))
+  if (!st.input.classes.changed (labels))
     return TRUE;
   memset (st.slot_of, 0, sizeof (st.slot_of));
   if (st.applied.config.classes.empty ()) {
-    for (size_t k = 0; k < st.classes.markers.size (); k++)
-      if (st.classes.markers[k])
+    for (size_t k = 0; k < st.input.classes.markers.size (); k++)
+      if (st.input.classes.markers[k])
         st.slot_of[k + 1] = k + 1;
   } else {
-    if (!st.classes.labels_of (GST_ELEMENT (self), "classes",
+    if (!st.input.classes.labels_of (GST_ELEMENT (self), "classes",
             st.applied.config.classes, &st.wanted_labels))
       return FALSE;
     for (guint label : st.wanted_labels)
       st.slot_of[label] = label;
   }
-  st.classes.valid = true;
+  st.input.classes.valid = true;
   GST_DEBUG_OBJECT (self, "%zu classes in the labels",
-      st.classes.names.size ());
+      st.input.classes.names.size ());
   return TRUE;
 }
 
@@ -377,11 +362,11 @@ gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
   State & st = self->priv->state;
   /* the box in pixels of the current frame (the plane normally is) */
   gint x = b.bbox_x, y = b.bbox_y, w = b.bbox_w, h = b.bbox_h;
-  if (st.video_width > 0 && st.video_height > 0 &&
-      ((guint) st.video_width != plane_w ||
-          (guint) st.video_height != plane_h)) {
-    const double sx = (double) st.video_width / plane_w;
-    const double sy = (double) st.video_height / plane_h;
+  if (st.input.video_width > 0 && st.input.video_height > 0 &&
+      ((guint) st.input.video_width != plane_w ||
+          (guint) st.input.video_height != plane_h)) {
+    const double sx = (double) st.input.video_width / plane_w;
+    const double sy = (double) st.input.video_height / plane_h;
     const gint x1 = (gint) std::ceil ((b.bbox_x + b.bbox_w) * sx);
     const gint y1 = (gint) std::ceil ((b.bbox_y + b.bbox_h) * sy);
     x = (gint) std::floor (b.bbox_x * sx);
@@ -432,11 +417,11 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
   GstBuffer *plane;
   guint w, h, stride;
   if (!landmark_labels_get_plane (labels, &plane, &w, &h, &stride)) {
-    if (!st.warned_bad_plane) {
+    if (!st.input.warned_bad_plane) {
       GST_ELEMENT_WARNING (self, STREAM, FORMAT,
           ("The labels metadata has no usable label plane."),
           ("missing or inconsistent plane fields; buffers pass unmeasured"));
-      st.warned_bad_plane = true;
+      st.input.warned_bad_plane = true;
     }
     return GST_FLOW_OK;
   }
@@ -526,7 +511,7 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
       kept++;
     if (reject && !marginal && !cfg.keep_rejected)
       continue;
-    const std::string & name = st.classes.names[b.slot - 1];
+    const std::string & name = st.input.classes.names[b.slot - 1];
     gst_blob_roundness_attach (self, buf, b, name.c_str (), reject,
         marginal, fit_threshold, arc, w, h);
   }
@@ -547,11 +532,9 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
       "round ones and attaches them as region-of-interest metadata");
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  GST_ELEMENT_CLASS (klass)->change_state =
-      landmark::change_state_checking_settings<GstBlobRoundness,
-      gst_blob_roundness_get_type, gst_blob_roundness_apply_settings>;
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_blob_roundness_start);
-  trans_class->stop = GST_DEBUG_FUNCPTR (gst_blob_roundness_stop);
+  landmark::set_settings_lifecycle<GstBlobRoundness,
+      gst_blob_roundness_get_type, gst_blob_roundness_apply_settings> (klass,
+      gst_blob_roundness_start, gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
   trans_class->transform_ip = landmark::measure_labels_ip<GstBlobRoundness,
       gst_blob_roundness_sync_settings, gst_blob_roundness_process>;

@@ -113,18 +113,14 @@ struct State {
   landmark::FloorProfile profile;
   guint built_w = 0, built_h = 0;     /* what profile was built for */
 
-  /* label -> role, rebuilt when the palette or the classes change */
-  LandmarkLabelClasses classes;
+  /* the labels' classes, the video size, the warnings given */
+  landmark::LabelsInput input;
   std::vector<guint> floor_labels;
   landmark::LabelRole role[256];
 
   std::vector<landmark::MarkerBox> marker_boxes;   /* markers=detections */
   std::vector<landmark::RangedBall> balls;   /* ranged by ipmrange */
   std::vector<landmark::ImageEllipse> discs;   /* the other landmarks */
-  gint video_width = 0, video_height = 0;   /* from the caps, 0: unknown */
-
-  bool warned_no_meta = false;
-  bool warned_bad_plane = false;
 };
 
 }  // namespace
@@ -239,13 +235,10 @@ gst_floor_boundary_start (GstBaseTransform * trans)
   auto self = GST_FLOOR_BOUNDARY (trans);
   State & st = self->priv->state;
   if (!landmark::start_with_settings<GstFloorBoundary,
-          gst_floor_boundary_apply_settings> (self, st.applied,
-          self->priv->settings))
+          gst_floor_boundary_apply_settings> (self))
     return FALSE;
   st.built_w = st.built_h = 0;
-  st.classes.reset ();
-  st.warned_no_meta = false;
-  st.warned_bad_plane = false;
+  st.input.start ();
   return TRUE;
 }
 
@@ -254,7 +247,7 @@ gst_floor_boundary_stop (GstBaseTransform * trans)
 {
   State & st = GST_FLOOR_BOUNDARY (trans)->priv->state;
   st.built_w = st.built_h = 0;
-  st.classes.valid = false;
+  st.input.classes.valid = false;
   return TRUE;
 }
 
@@ -264,14 +257,7 @@ gst_floor_boundary_set_caps (GstBaseTransform * trans, GstCaps * incaps,
 {
   State & st = GST_FLOOR_BOUNDARY (trans)->priv->state;
   (void) outcaps;
-  GstVideoInfo info;
-  /* any caps; the size only scales detection boxes to the label plane */
-  if (gst_video_info_from_caps (&info, incaps)) {
-    st.video_width = GST_VIDEO_INFO_WIDTH (&info);
-    st.video_height = GST_VIDEO_INFO_HEIGHT (&info);
-  } else {
-    st.video_width = st.video_height = 0;
-  }
+  st.input.set_caps (incaps);
   return TRUE;
 }
 
@@ -289,8 +275,8 @@ gst_floor_boundary_sync_settings (GstFloorBoundary * self)
   /* before the first frame the caps' size stands in for the label plane's
    * (labsegment labels every pixel), so a camera set then that sees no floor
    * is refused here too instead of failing the first frame */
-  const guint check_w = st.built_w > 0 ? st.built_w : st.video_width;
-  const guint check_h = st.built_w > 0 ? st.built_h : st.video_height;
+  const guint check_w = st.built_w > 0 ? st.built_w : st.input.video_width;
+  const guint check_h = st.built_w > 0 ? st.built_h : st.input.video_height;
   auto parse_and_build = [&](const Settings & s, Config * cfg,
       landmark::SettingsError * err) {
     return floor_boundary_parse (s, cfg, err) && (check_w < 2 || check_h < 2
@@ -300,7 +286,7 @@ gst_floor_boundary_sync_settings (GstFloorBoundary * self)
   if (!st.applied.sync (GST_ELEMENT (self), self->priv->settings,
           parse_and_build))
     return;
-  st.classes.valid = false;     /* floor-classes or markers may have changed */
+  st.input.classes.valid = false;     /* floor-classes or markers may have changed */
   if (st.built_w > 0) {
     st.geometry = std::move (geometry);
     st.profile = std::move (profile);
@@ -315,9 +301,9 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
     const GstStructure * labels)
 {
   State & st = self->priv->state;
-  if (!st.classes.changed (labels))
+  if (!st.input.classes.changed (labels))
     return TRUE;
-  const guint n = st.classes.names.size ();
+  const guint n = st.input.classes.names.size ();
   /* label 0 (no class) and labels beyond the palette: not floor */
   for (auto & r : st.role)
     r = landmark::LabelRole::Obstacle;
@@ -329,18 +315,18 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
    * roles (or with no floor class) makes every non-marker class floor */
   bool palette_names_floor = false;
   for (guint k = 0; k < n; k++)
-    palette_names_floor |= st.classes.roles[k] == "floor";
+    palette_names_floor |= st.input.classes.roles[k] == "floor";
   guint floors = 0;
   for (guint k = 0; k < n; k++) {
-    if (st.classes.markers[k]) {
+    if (st.input.classes.markers[k]) {
       st.role[k + 1] = marker_role;
     } else if (cfg.floor_classes.empty () && (!palette_names_floor
-            || st.classes.roles[k] == "floor")) {
+            || st.input.classes.roles[k] == "floor")) {
       st.role[k + 1] = landmark::LabelRole::Floor;
       floors++;
     }
   }
-  if (!st.classes.labels_of (GST_ELEMENT (self), "floor-classes",
+  if (!st.input.classes.labels_of (GST_ELEMENT (self), "floor-classes",
           cfg.floor_classes, &st.floor_labels))
     return FALSE;
   for (guint label : st.floor_labels) {
@@ -351,10 +337,10 @@ gst_floor_boundary_update_roles (GstFloorBoundary * self,
     GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS,
         ("No floor class: every class of the labels is a marker; set "
             "'floor-classes'."), ("the palette has: %s",
-            st.classes.list ().c_str ()));
+            st.input.classes.list ().c_str ()));
     return FALSE;
   }
-  st.classes.valid = true;
+  st.input.classes.valid = true;
   return TRUE;
 }
 
@@ -497,10 +483,10 @@ gst_floor_boundary_read_detections (GstFloorBoundary * self, GstBuffer * buf,
   st.marker_boxes.clear ();
   st.balls.clear ();
   st.discs.clear ();
-  const double sx = st.video_width > 0 ? (double) plane_w / st.video_width :
+  const double sx = st.input.video_width > 0 ? (double) plane_w / st.input.video_width :
       1.0;
-  const double sy = st.video_height > 0 ? (double) plane_h /
-      st.video_height : 1.0;
+  const double sy = st.input.video_height > 0 ? (double) plane_h /
+      st.input.video_height : 1.0;
   gpointer iter = nullptr;
   GstMeta *meta;
   while ((meta = gst_buffer_iterate_meta_filtered (buf, &iter,
@@ -551,12 +537,12 @@ gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
   if (!have || w < 2 || h < 2) {
     if (have)
       gst_buffer_unref (plane);
-    if (!st.warned_bad_plane) {
+    if (!st.input.warned_bad_plane) {
       GST_ELEMENT_WARNING (self, STREAM, FORMAT,
           ("The labels metadata has no usable label plane."),
           ("missing or inconsistent plane fields, or smaller than 2x2; "
               "buffers pass unmeasured"));
-      st.warned_bad_plane = true;
+      st.input.warned_bad_plane = true;
     }
     return GST_FLOW_OK;
   }
@@ -608,11 +594,9 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
       "profile (free range per bearing) as metadata");
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  GST_ELEMENT_CLASS (klass)->change_state =
-      landmark::change_state_checking_settings<GstFloorBoundary,
-      gst_floor_boundary_get_type, gst_floor_boundary_apply_settings>;
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_floor_boundary_start);
-  trans_class->stop = GST_DEBUG_FUNCPTR (gst_floor_boundary_stop);
+  landmark::set_settings_lifecycle<GstFloorBoundary,
+      gst_floor_boundary_get_type, gst_floor_boundary_apply_settings> (klass,
+      gst_floor_boundary_start, gst_floor_boundary_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
   trans_class->transform_ip = landmark::measure_labels_ip<GstFloorBoundary,
       gst_floor_boundary_sync_settings, gst_floor_boundary_process>;

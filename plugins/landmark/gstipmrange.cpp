@@ -344,8 +344,7 @@ gst_ipm_range_start (GstBaseTransform * trans)
   auto self = GST_IPM_RANGE (trans);
   State & st = self->priv->state;
   if (!landmark::start_with_settings<GstIpmRange,
-          gst_ipm_range_apply_settings> (self, st.applied,
-          self->priv->settings))
+          gst_ipm_range_apply_settings> (self))
     return FALSE;
   st.geometry_w = st.geometry_h = 0;
   st.caps_w = st.caps_h = 0;
@@ -669,14 +668,11 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
       "Filter/Analyzer/Video",
       "Adds range and bearing (robot frame) to every landmark detection, "
       "from a pinhole or the seed's camera model and the markers' size");
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  element_class->change_state =
-      landmark::change_state_checking_settings<GstIpmRange,
-      gst_ipm_range_get_type, gst_ipm_range_apply_settings>;
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_ipm_range_start);
-  trans_class->stop = GST_DEBUG_FUNCPTR (gst_ipm_range_stop);
+  landmark::set_settings_lifecycle<GstIpmRange,
+      gst_ipm_range_get_type, gst_ipm_range_apply_settings> (klass,
+      gst_ipm_range_start, gst_ipm_range_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_ipm_range_set_caps);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_ipm_range_transform_ip);
 

@@ -310,21 +310,18 @@ gst_lab_segment_build_table (GstLabSegment * self, gdouble max_distance,
 
 /* ---- states and caps ------------------------------------------------ */
 
+static const landmark::FileSetting<State, Settings, landmark::Palette>
+    palette_file = { &State::palette, &Settings::palette,
+  &Settings::palette_generation, "palette", lab_segment_load_palette
+};
+
 /* the settings and the palette file
  * (landmark::change_state_checking_settings) */
 static bool
 gst_lab_segment_apply_settings (GstLabSegment * self)
 {
-  State & st = self->priv->state;
-  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
-          landmark::accept_settings<Settings, Config>))
-    return false;
-  const Settings & s = st.applied.config.s;
-  if (!st.palette.start (GST_ELEMENT (self), "palette", s.palette,
-          s.palette_generation, lab_segment_load_palette))
-    return false;
-  gst_lab_segment_palette_changed (self);
-  return true;
+  return landmark::apply_settings_and_file (self, palette_file,
+      gst_lab_segment_palette_changed);
 }
 
 static gboolean
@@ -332,8 +329,7 @@ gst_lab_segment_start (GstBaseTransform * trans)
 {
   auto self = GST_LAB_SEGMENT (trans);
   if (!landmark::start_with_settings<GstLabSegment,
-          gst_lab_segment_apply_settings> (self, self->priv->state.applied,
-          self->priv->settings))
+          gst_lab_segment_apply_settings> (self))
     return FALSE;
   self->priv->state.warned_no_class = false;
   return TRUE;
@@ -570,13 +566,8 @@ gst_lab_segment_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
       "Colour segmentation failed.", [&] {
         /* the settings are copied only after a change, so the steady
          * state allocates nothing here */
-        if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
-                landmark::accept_settings<Settings, Config>)) {
-          const Settings & s = st.applied.config.s;
-          if (st.palette.sync (GST_ELEMENT (self), "palette", s.palette,
-                  s.palette_generation, lab_segment_load_palette))
-            gst_lab_segment_palette_changed (self);
-        }
+        landmark::sync_settings_and_file (self, palette_file,
+            gst_lab_segment_palette_changed);
         const Settings & s = st.applied.config.s;
         static constexpr std::array<double, 3> kNoGains {1.0, 1.0, 1.0};
         if (!s.adapt && st.table_gains != kNoGains) {
@@ -613,11 +604,9 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
       "Labels every pixel with its nearest palette colour in CIE L*a*b*, "
       "with the dominant-colour rule, as buffer metadata");
 
-  GST_ELEMENT_CLASS (klass)->change_state =
-      landmark::change_state_checking_settings<GstLabSegment,
-      gst_lab_segment_get_type, gst_lab_segment_apply_settings>;
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_lab_segment_start);
-  trans_class->stop = GST_DEBUG_FUNCPTR (gst_lab_segment_stop);
+  landmark::set_settings_lifecycle<GstLabSegment,
+      gst_lab_segment_get_type, gst_lab_segment_apply_settings> (klass,
+      gst_lab_segment_start, gst_lab_segment_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is
    * mapped for writing only when output=labels, so analysing a shared
    * buffer (after a tee) does not copy it. */

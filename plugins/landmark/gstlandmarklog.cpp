@@ -249,7 +249,7 @@ static bool
 gst_landmark_log_apply_settings (GstLandmarkLog * self)
 {
   return self->priv->applied.start (GST_ELEMENT (self),
-      self->priv->settings, landmark::accept_settings<Settings, Config>);
+      self->priv->settings);
 }
 
 static gboolean
@@ -258,8 +258,7 @@ gst_landmark_log_start (GstBaseTransform * trans)
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
   if (!landmark::start_with_settings<GstLandmarkLog,
-          gst_landmark_log_apply_settings> (self, priv->applied,
-          self->priv->settings))
+          gst_landmark_log_apply_settings> (self))
     return FALSE;
   const std::string & path = priv->applied.config.s.location;
   const gboolean append = priv->applied.config.s.append;
@@ -401,8 +400,7 @@ gst_landmark_log_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 {
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
-  priv->applied.sync (GST_ELEMENT (self), priv->settings,
-      landmark::accept_settings<Settings, Config>);
+  priv->applied.sync (GST_ELEMENT (self), priv->settings);
   const guint flush_every = priv->applied.config.s.flush_every;
 
   int err = 0;

@@ -209,21 +209,18 @@ gst_landmark_overlay_init (GstLandmarkOverlay * self)
 
 /* ---- states and caps ------------------------------------------------ */
 
+static const landmark::FileSetting<State, Settings, ov::LandmarkMap>
+    map_file = { &State::map, &Settings::map, &Settings::map_generation,
+  "map", landmark_overlay_load_map
+};
+
 /* the settings and the map file
  * (landmark::change_state_checking_settings) */
 static bool
 gst_landmark_overlay_apply_settings (GstLandmarkOverlay * self)
 {
-  State & st = self->priv->state;
-  if (!st.applied.start (GST_ELEMENT (self), self->priv->settings,
-          landmark::accept_settings<Settings, Config>))
-    return false;
-  const Settings & s = st.applied.config.s;
-  if (!st.map.start (GST_ELEMENT (self), "map", s.map, s.map_generation,
-          landmark_overlay_load_map))
-    return false;
-  gst_landmark_overlay_map_changed (self);
-  return true;
+  return landmark::apply_settings_and_file (self, map_file,
+      gst_landmark_overlay_map_changed);
 }
 
 static gboolean
@@ -231,8 +228,7 @@ gst_landmark_overlay_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
   if (!landmark::start_with_settings<GstLandmarkOverlay,
-          gst_landmark_overlay_apply_settings> (self, self->priv->state.applied,
-          self->priv->settings))
+          gst_landmark_overlay_apply_settings> (self))
     return FALSE;
   self->priv->state.colours.init_defaults ();
   return TRUE;
@@ -349,13 +345,8 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
       "Drawing the overlay failed.", [&] {
         /* the settings are copied only after a change, so the steady state
          * allocates nothing here */
-        if (st.applied.sync (GST_ELEMENT (self), self->priv->settings,
-                landmark::accept_settings<Settings, Config>)) {
-          const Settings & s = st.applied.config.s;
-          if (st.map.sync (GST_ELEMENT (self), "map", s.map, s.map_generation,
-                  landmark_overlay_load_map))
-            gst_landmark_overlay_map_changed (self);
-        }
+        landmark::sync_settings_and_file (self, map_file,
+            gst_landmark_overlay_map_changed);
         const Settings & s = st.applied.config.s;
         const bool has_map = !st.map.path.empty ();
 
@@ -480,11 +471,10 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
       "Draws landmark detections, robot pose, class histogram, class "
       "indicators and a mini-map of the landmark map onto the video");
 
-  GST_ELEMENT_CLASS (klass)->change_state =
-      landmark::change_state_checking_settings<GstLandmarkOverlay,
-      gst_landmark_overlay_get_type, gst_landmark_overlay_apply_settings>;
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_overlay_start);
-  trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_overlay_stop);
+  landmark::set_settings_lifecycle<GstLandmarkOverlay,
+      gst_landmark_overlay_get_type,
+      gst_landmark_overlay_apply_settings> (klass,
+      gst_landmark_overlay_start, gst_landmark_overlay_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is
    * mapped for writing only when there is something to draw. */
   trans_class->transform_ip =

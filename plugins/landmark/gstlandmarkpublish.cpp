@@ -351,8 +351,7 @@ gst_landmark_publish_start (GstBaseTransform * trans)
   auto self = GST_LANDMARK_PUBLISH (trans);
   auto priv = self->priv;
   if (!landmark::start_with_settings<GstLandmarkPublish,
-          gst_landmark_publish_apply_settings> (self, priv->applied,
-          self->priv->settings))
+          gst_landmark_publish_apply_settings> (self))
     return FALSE;
   priv->state = State ();
   const Config & c = priv->applied.config;
@@ -458,11 +457,10 @@ gst_landmark_publish_class_init (GstLandmarkPublishClass * klass)
 
   trans_class->passthrough_on_same_caps = TRUE;
   trans_class->transform_ip_on_passthrough = TRUE;
-  GST_ELEMENT_CLASS (klass)->change_state =
-      landmark::change_state_checking_settings<GstLandmarkPublish,
-      gst_landmark_publish_get_type, gst_landmark_publish_apply_settings>;
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_publish_start);
-  trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_publish_stop);
+  landmark::set_settings_lifecycle<GstLandmarkPublish,
+      gst_landmark_publish_get_type,
+      gst_landmark_publish_apply_settings> (klass,
+      gst_landmark_publish_start, gst_landmark_publish_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_landmark_publish_set_caps);
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_publish_transform_ip);

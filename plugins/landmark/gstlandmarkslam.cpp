@@ -356,8 +356,7 @@ gst_landmark_slam_start (GstBaseTransform * trans)
   State & st = self->priv->state;
   std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
   if (!landmark::start_with_settings<GstLandmarkSlam,
-          gst_landmark_slam_apply_settings> (self, st.applied,
-          self->priv->settings))
+          gst_landmark_slam_apply_settings> (self))
     return FALSE;
   st.frames = 0;
   {
@@ -680,11 +679,10 @@ gst_landmark_slam_class_init (GstLandmarkSlamClass * klass)
       "Landmark SLAM", "Filter/Analyzer/Video",
       "Robot pose and landmark map together from the ranges and bearings "
       "of the detections (EKF, joint compatibility association)");
-  GST_ELEMENT_CLASS (klass)->change_state =
-      landmark::change_state_checking_settings<GstLandmarkSlam,
-      gst_landmark_slam_get_type, gst_landmark_slam_apply_settings>;
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_slam_start);
+  landmark::set_settings_lifecycle<GstLandmarkSlam,
+      gst_landmark_slam_get_type, gst_landmark_slam_apply_settings> (klass,
+      gst_landmark_slam_start);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_landmark_slam_sink_event);
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_slam_transform_ip);

@@ -212,8 +212,7 @@ gst_trilaterate_start (GstBaseTransform * trans)
   auto self = GST_TRILATERATE (trans);
   State & st = self->priv->state;
   if (!landmark::start_with_settings<GstTrilaterate,
-          gst_trilaterate_apply_settings> (self, st.applied,
-          self->priv->settings))
+          gst_trilaterate_apply_settings> (self))
     return FALSE;
   gst_trilaterate_reset (st);
   st.map_classes_checked = false;
@@ -379,13 +378,11 @@ gst_trilaterate_class_init (GstTrilaterateClass * klass)
       "Landmark trilateration", "Filter/Analyzer/Video",
       "Robot pose on a landmark map from the ranges and bearings of the "
       "detections: one, two or many landmarks, optional EKF");
-  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  element_class->change_state =
-      landmark::change_state_checking_settings<GstTrilaterate,
-      gst_trilaterate_get_type, gst_trilaterate_apply_settings>;
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_trilaterate_start);
+  landmark::set_settings_lifecycle<GstTrilaterate,
+      gst_trilaterate_get_type, gst_trilaterate_apply_settings> (klass,
+      gst_trilaterate_start);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_trilaterate_sink_event);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_trilaterate_transform_ip);
 

@@ -408,12 +408,7 @@ put_detection (std::string & o, GstBuffer * buf,
    * structure of each name counts (as with
    * gst_video_region_of_interest_meta_get_param); later ones of the same
    * name would repeat a JSON key and are left out. */
-  const GstStructure *blob = landmark_detection_get_param (buf, roi,
-      LANDMARK_BLOB_PARAMS);
-  const GstStructure *range = landmark_detection_get_param (buf, roi,
-      LANDMARK_RANGE_PARAMS);
-  const GstStructure *match = landmark_detection_get_param (buf, roi,
-      LANDMARK_MATCH_PARAMS);
+  const auto [blob, range, match] = landmark_detection_params (buf, roi);
   bool others = false;
   for (GList * l = roi->params; l && !others; l = l->next) {
     const GQuark name = gst_structure_get_name_id ((GstStructure *) l->data);

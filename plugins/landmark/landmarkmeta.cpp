@@ -439,17 +439,21 @@ param_not_kept (const GstStructure * p)
 
 }  // namespace
 
+LandmarkDetectionParams
+landmark_detection_params (GstBuffer * buffer,
+    const GstVideoRegionOfInterestMeta * roi)
+{
+  return { landmark_detection_get_param (buffer, roi, LANDMARK_BLOB_PARAMS),
+    landmark_detection_get_param (buffer, roi, LANDMARK_RANGE_PARAMS),
+    landmark_detection_get_param (buffer, roi, LANDMARK_MATCH_PARAMS) };
+}
+
 gboolean
 landmark_detection_rejected (GstBuffer * buffer,
     const GstVideoRegionOfInterestMeta * roi, const gchar ** element,
     const gchar ** reason)
 {
-  const GstStructure *blob = landmark_detection_get_param (buffer, roi,
-      LANDMARK_BLOB_PARAMS);
-  const GstStructure *range = landmark_detection_get_param (buffer, roi,
-      LANDMARK_RANGE_PARAMS);
-  const GstStructure *match = landmark_detection_get_param (buffer, roi,
-      LANDMARK_MATCH_PARAMS);
+  const auto [blob, range, match] = landmark_detection_params (buffer, roi);
   /* blobroundness's marginal shape stands when ipmrange's size against
    * range and trilaterate's map both confirmed it (docs/detection.md) */
   const bool shape_confirmed = param_flag (range, "shape-confirmed")

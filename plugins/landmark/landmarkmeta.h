@@ -98,6 +98,15 @@ void landmark_detection_add_param (GstBuffer * buffer,
  * buffer's metas are unchanged. */
 const GstStructure *landmark_detection_get_param (GstBuffer * buffer,
     const GstVideoRegionOfInterestMeta * roi, const gchar * name);
+/* A detection's parameter structures of blobroundness, ipmrange and
+ * trilaterate (landmark_detection_get_param; NULL where absent). */
+struct LandmarkDetectionParams
+{
+  const GstStructure *blob, *range, *match;
+};
+LandmarkDetectionParams landmark_detection_params (GstBuffer * buffer,
+    const GstVideoRegionOfInterestMeta * roi);
+
 /* Whether a stage of the chain rejected a detection (docs/detection.md):
  * blobroundness (landmark-blob kept=false: area or shape), ipmrange
  * (landmark-range kept=false: size against range) or trilaterate

@@ -236,48 +236,28 @@ bool
 map_parse (const std::string & json, const std::string & source,
     LandmarkMap * out, std::string * error)
 {
-  JsonParserPtr parser (nullptr, g_object_unref);
-  JsonArray *array = json_parse_list (json, source, "landmarks",
-      kMaxMapLandmarks, parser, error);
-  if (!array)
-    return false;
-  const guint n = json_array_get_length (array);
-  LandmarkMap map;
-  std::set<std::string> ids;
   std::map<std::string, std::string> codes;   /* code -> landmark id */
-  for (guint i = 0; i < n; i++) {
-    MapLandmark lm;
-    std::string why;
-    if (!parse_landmark (json_array_get_element (array, i), i, &lm, &why)) {
-      *error = source + ": " + why;
-      return false;
-    }
-    if (!ids.insert (lm.id).second) {
-      *error = source + ": " + entry_label (i, lm.id.c_str ()) +
-          ": duplicate id";
-      return false;
-    }
-    /* identity comes from the code: two markers with one code are one */
-    if (lm.coded () && !codes.insert ({ lm.code, lm.id }).second) {
-      *error = source + ": " + entry_label (i, lm.id.c_str ()) +
-          ": \"bands\" give the code " + lm.code + " of landmark \"" +
-          codes[lm.code] + "\" too: each coded marker needs a code of its "
-          "own";
-      return false;
-    }
-    map.landmarks.push_back (std::move (lm));
-  }
-  *out = std::move (map);
-  return true;
+  /* identity comes from the code: two markers with one code are one */
+  auto own_code = [&](guint i, const MapLandmark & lm, std::string * why) {
+    if (!lm.coded () || codes.insert ({ lm.code, lm.id }).second)
+      return true;
+    *why = entry_label (i, lm.id.c_str ()) + ": \"bands\" give the code " +
+        lm.code + " of landmark \"" + codes[lm.code] + "\" too: each coded "
+        "marker needs a code of its own";
+    return false;
+  };
+  /* *out is left as it was on failure */
+  return json_parse_unique_list (json, source, "landmarks",
+      kMaxMapLandmarks, "id", parse_landmark,
+      [](const MapLandmark & lm) { return lm.id; }, own_code,
+      &out->landmarks, error);
 }
 
 bool
 map_load_file (const std::string & path, LandmarkMap * out,
     std::string * error)
 {
-  std::string text;
-  return json_read_file (path, &text, error) &&
-      map_parse (text, path, out, error);
+  return json_load_file (path, out, error, map_parse);
 }
 
 std::vector<MapLandmark>

@@ -216,40 +216,19 @@ bool
 palette_parse (const std::string & json, const std::string & source,
     Palette * out, std::string * error)
 {
-  JsonParserPtr parser (nullptr, g_object_unref);
-  JsonArray *classes = json_parse_list (json, source, "classes",
-      (unsigned) kMaxClasses, parser, error);
-  if (!classes)
-    return false;
-  const guint n = json_array_get_length (classes);
-
-  Palette palette;
-  std::set<std::string> names;
-  for (guint i = 0; i < n; i++) {
-    PaletteClass cls;
-    std::string why;
-    if (!parse_class (json_array_get_element (classes, i), i, &cls, &why)) {
-      *error = source + ": " + why;
-      return false;
-    }
-    if (!names.insert (cls.name).second) {
-      *error = source + ": " + entry_label (i, cls.name.c_str ()) +
-          ": duplicate class name";
-      return false;
-    }
-    palette.classes.push_back (cls);
-  }
-  *out = std::move (palette);
-  return true;
+  /* *out is left as it was on failure */
+  return json_parse_unique_list (json, source, "classes",
+      (unsigned) kMaxClasses, "class name", parse_class,
+      [](const PaletteClass & cls) { return cls.name; },
+      [](guint, const PaletteClass &, std::string *) { return true; },
+      &out->classes, error);
 }
 
 bool
 palette_load_file (const std::string & path, Palette * out,
     std::string * error)
 {
-  std::string text;
-  return json_read_file (path, &text, error) &&
-      palette_parse (text, path, out, error);
+  return json_load_file (path, out, error, palette_parse);
 }
 
 void

@@ -69,10 +69,7 @@ bool
 odometry_load_file (const std::string & path,
     std::vector<OdometryStep> * out, std::string * error)
 {
-  std::string text;
-  if (!json_read_file (path, &text, error))
-    return false;
-  return odometry_parse (text, path, out, error);
+  return json_load_file (path, out, error, odometry_parse);
 }
 
 void

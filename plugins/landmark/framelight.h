@@ -1,6 +1,6 @@
 /* The linear light of a mapped frame's pixels, in any format the plugin
  * reads (frameformat.h): what ipmrange samples across a ball's outline
- * (core/rangeestimate.h, measure_end_offsets). Kept apart from the element
+ * (core/geometry/rangeestimate.h, measure_end_offsets). Kept apart from the element
  * so that gstipmrange.cpp holds only the element. */
 #pragma once
 

@@ -22,7 +22,7 @@
  *
  * `filter=ekf` runs an extended Kalman filter over the ranges and bearings
  * with a ground robot's constant-velocity motion (it drives along its
- * heading: core/groundmotion.h), which smooths the poses and bridges frames
+ * heading: core/estimation/groundmotion.h), which smooths the poses and bridges frames
  * with too few landmarks for up to `max-age` seconds.
  *
  * Output, per frame:

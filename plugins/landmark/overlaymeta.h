@@ -1,5 +1,5 @@
 /* Reading a frame's metadata (docs/metadata.md) into what the overlay's
- * Renderer draws (core/overlaydraw.h): the class colours of the labels
+ * Renderer draws (core/drawing/overlaydraw.h): the class colours of the labels
  * meta, the detections with their parameters and the chain's verdict, the
  * floor meta's arrays. Shared by landmarkoverlay and birdseye. */
 #pragma once

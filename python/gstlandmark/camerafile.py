@@ -7,7 +7,7 @@ with the intrinsics (``camera_matrix``, ``distortion_coefficients``,
 ROS camera_info YAML files (camera_calibration_parsers' format, section
 "ROS camera_info" of docs/calibration.md) are camera files too: read
 with the checks and messages of the elements' loader
-(plugins/landmark/core/camerafileshape.cpp, roscamerainfo.cpp), written
+(plugins/landmark/core/geometry/camerafileshape.cpp, roscamerainfo.cpp), written
 by ``write_camera_info``."""
 
 import math

@@ -1,5 +1,5 @@
 """The landmark map file (docs/conventions.md), read as the elements read
-it (plugins/landmark/core/landmarkmap.cpp): ``{"landmarks": [{"id",
+it (plugins/landmark/core/support/landmarkmap.cpp): ``{"landmarks": [{"id",
 "class", "x", "y", "z", "diameter", "kind"}, ...]}`` with ``id``,
 ``class``, ``x`` and ``y`` required, the others checked when present.
 Coded markers (``kind`` beacon, post or cone; docs/beacons.md) have

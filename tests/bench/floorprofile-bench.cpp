@@ -1,5 +1,5 @@
 /* floorprofile-bench: the cost of the floor profile core
- * (plugins/landmark/core/floorprofile.h) on the 640x480 label plane of two
+ * (plugins/landmark/core/geometry/floorprofile.h) on the 640x480 label plane of two
  * ray-cast boxes (tests/core/floorscene.h): configuring once, then the
  * median and 90th percentile of 500 scans, in CPU time of this thread (the
  * machine may be shared; wall-clock time would count the time other

@@ -1,4 +1,4 @@
-/* Tests of the blob shape measurement (plugins/landmark/core/blobshape.h)
+/* Tests of the blob shape measurement (plugins/landmark/core/shape/blobshape.h)
  * without GStreamer. Shapes are drawn here by sampling each pixel centre
  * against the analytic shape; expectations come from the analytic shapes
  * and, for outlines and moments, from OpenCV's own findContours and

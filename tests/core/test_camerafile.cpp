@@ -1,4 +1,4 @@
-/* Camera files (plugins/landmark/core/camerafile.h): what OpenCV writes
+/* Camera files (plugins/landmark/core/geometry/camerafile.h): what OpenCV writes
  * (YAML, XML, JSON, also the extra keys of its calibration sample) reads
  * back to the values written; malformed files, among them those on which
  * OpenCV's own parser hangs or throws (tests/fuzz/regressions/calibration),

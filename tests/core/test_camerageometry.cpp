@@ -1,4 +1,4 @@
-/* Camera geometry (plugins/landmark/core/camerageometry.h) against
+/* Camera geometry (plugins/landmark/core/geometry/camerageometry.h) against
  * cv::projectPoints and the seed's equations (3.1)-(3.6), and the range
  * estimate (rangeestimate.h) against known markers. */
 #include "camerageometry.h"

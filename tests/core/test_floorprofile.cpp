@@ -1,4 +1,4 @@
-/* Floor boundary and Radial Obstacle Profile (core/floorprofile.h) against
+/* Floor boundary and Radial Obstacle Profile (core/geometry/floorprofile.h) against
  * analytic geometry: label planes ray-cast here with the pinhole model of
  * docs/conventions.md written out independently of camerageometry.cpp. */
 #include "floorscene.h"

@@ -1,4 +1,4 @@
-/* Tests of the detection evidence (plugins/landmark/core/markerevidence.h)
+/* Tests of the detection evidence (plugins/landmark/core/shape/markerevidence.h)
  * against analytic geometry: moments of sampled ellipses, the overlap of an
  * ellipse with itself turned a quarter (4ab atan(b/a)), a disc seen
  * straight from above (f d / h), a ball on the optical axis

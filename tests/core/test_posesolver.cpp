@@ -1,4 +1,4 @@
-/* Pose solvers (plugins/landmark/core/posesolver.h): exact observations
+/* Pose solvers (plugins/landmark/core/estimation/posesolver.h): exact observations
  * recover the exact pose for each solver, both two-landmark ambiguities,
  * degenerate geometry reported, an outlier rejected, association with
  * repeated colours, the EKF bridging a gap and a turn on one landmark, the

@@ -1,5 +1,5 @@
 /* Fuzz target: the camera (calibration) file loader of ipmrange,
- * floorboundary and birdseye, core/camerafile.cpp load_camera_file
+ * floorboundary and birdseye, core/geometry/camerafile.cpp load_camera_file
  * (OpenCV FileStorage YAML, XML or JSON, its shape checked before OpenCV
  * parses it in this process). The loader takes a path, so each input is
  * written to one temporary file. An input on which OpenCV's parser hangs

@@ -1,4 +1,4 @@
-/* Fuzz target: the landmark map parser (core/landmarkmap.cpp) on arbitrary
+/* Fuzz target: the landmark map parser (core/support/landmarkmap.cpp) on arbitrary
  * bytes. An accepted map must be one the elements can use as is (bounded
  * count, finite and bounded coordinates, unique ids; a coded marker's
  * bands, their heights and its unique code); a refused one must come with

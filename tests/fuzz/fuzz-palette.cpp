@@ -1,4 +1,4 @@
-/* Fuzz target: the palette parser (core/palette.cpp) on arbitrary bytes.
+/* Fuzz target: the palette parser (core/colour/palette.cpp) on arbitrary bytes.
  * Whatever it accepts must satisfy docs/palette.md's rules; whatever it
  * refuses must come with an error naming the source. */
 #include <glib.h>

@@ -174,7 +174,7 @@ def test_blobroundness_threads_identical(gst):
 
 
 def thread_count():
-    """The process's worker threads (core/workerpool.h names them)."""
+    """The process's worker threads (core/support/workerpool.h names them)."""
     n = 0
     for task in os.listdir("/proc/self/task"):
         try:

@@ -5,7 +5,7 @@
  * - pinhole: OpenCV intrinsics (fx, fy, cx, cy, optional distortion,
  *   undone with cv::undistortPoints), camera height, tilt and roll;
  *   exact ray-plane intersection;
- * - seed: the seed's angle-linear model (SEED-NOTES.md, eqs 3.1-3.6) from
+ * - seed: the thesis's angle-linear model (docs/ipmrange.md) from
  *   camera height h, blind distance b, view depth d and half-width w.
  *
  * Everything that depends only on the configuration (rotation, seed

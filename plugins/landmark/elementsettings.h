@@ -299,34 +299,21 @@ template <typename Settings, typename State> struct ElementPrivate {
   State state;
 };
 
-/* Defines an element of this pattern, whose private part is
- * landmark::ElementPrivate<Settings, State>: the instance struct with its
- * priv, the GType (parent ParentName, PARENT_TYPE) with a debug category
- * named like the element (declare type_name##_debug with
- * GST_DEBUG_CATEGORY_STATIC first), the element's registration,
- * type_name##_finalize (deleting priv) and type_name##_settings. */
-#define LANDMARK_DEFINE_ELEMENT(TypeName, type_name, ParentName, PARENT_TYPE, \
-    element, description)                                                     \
-  using TypeName##Private = landmark::ElementPrivate<Settings, State>;         \
-  LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (TypeName, type_name, ParentName,      \
-      PARENT_TYPE, element, description)
-
-/* The same, with the instance init of an element that works in place and
- * never drops a frame (init_metadata_element). */
-#define LANDMARK_DEFINE_IN_PLACE_ELEMENT(TypeName, type_name, ParentName,    \
-    PARENT_TYPE, element, description)                                        \
-  LANDMARK_DEFINE_ELEMENT (TypeName, type_name, ParentName, PARENT_TYPE,      \
-      element, description);                                                  \
-  static void type_name##_init (TypeName * self)                              \
-  {                                                                           \
-    self->priv = new TypeName##Private ();                                    \
-    landmark::init_metadata_element (GST_BASE_TRANSFORM (self));              \
-  }
-
-/* The same for an element that declares its own TypeName##Private struct
- * (holding `landmark::SharedSettings<Settings> settings`). */
-#define LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE(TypeName, type_name, ParentName,  \
-    PARENT_TYPE, element, description)                                        \
+/* The GObject skeleton of an element of this pattern, as G_DEFINE_TYPE is
+ * GLib's. LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (TypeName, type_name,
+ * SettingsType, ParentName, PARENT_TYPE, element, description) defines:
+ * - struct _TypeName { ParentName parent; TypeName##Private *priv; };
+ * - type_name##_get_type and type_name##_parent_class (G_DEFINE_TYPE),
+ *   with the debug category type_name##_debug named `element` (declare it
+ *   with GST_DEBUG_CATEGORY_STATIC first);
+ * - the element's registration, GST_ELEMENT_REGISTER_DEFINE (element);
+ * - static void type_name##_finalize (GObject *): deletes priv;
+ * - static landmark::SharedSettings<SettingsType> &type_name##_settings
+ *   (GObject *): the settings the property table reads and writes.
+ * The element declares TypeName##Private itself (holding
+ * `landmark::SharedSettings<SettingsType> settings`) and its _init. */
+#define LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE(TypeName, type_name, SettingsType,\
+    ParentName, PARENT_TYPE, element, description)                            \
   struct _##TypeName                                                          \
   {                                                                           \
     ParentName parent;                                                        \
@@ -341,10 +328,31 @@ template <typename Settings, typename State> struct ElementPrivate {
     delete ((TypeName *) object)->priv;                                       \
     G_OBJECT_CLASS (type_name##_parent_class)->finalize (object);             \
   }                                                                           \
-  static landmark::SharedSettings<Settings> &type_name##_settings (           \
+  static landmark::SharedSettings<SettingsType> &type_name##_settings (       \
       GObject * object)                                                       \
   {                                                                           \
     return ((TypeName *) object)->priv->settings;                             \
+  }
+
+/* The same for an element whose private part is
+ * landmark::ElementPrivate<SettingsType, StateType> (TypeName##Private). */
+#define LANDMARK_DEFINE_ELEMENT(TypeName, type_name, SettingsType, StateType, \
+    ParentName, PARENT_TYPE, element, description)                            \
+  using TypeName##Private = landmark::ElementPrivate<SettingsType, StateType>;\
+  LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (TypeName, type_name, SettingsType,    \
+      ParentName, PARENT_TYPE, element, description)
+
+/* LANDMARK_DEFINE_ELEMENT and also static void type_name##_init
+ * (TypeName *): priv created, the element set to work in place and never
+ * drop a frame (init_metadata_element). */
+#define LANDMARK_DEFINE_IN_PLACE_ELEMENT(TypeName, type_name, SettingsType,   \
+    StateType, ParentName, PARENT_TYPE, element, description)                 \
+  LANDMARK_DEFINE_ELEMENT (TypeName, type_name, SettingsType, StateType,      \
+      ParentName, PARENT_TYPE, element, description);                         \
+  static void type_name##_init (TypeName * self)                              \
+  {                                                                           \
+    self->priv = new TypeName##Private ();                                    \
+    landmark::init_metadata_element (GST_BASE_TRANSFORM (self));              \
   }
 
 /* Installs the table's properties and the set/get functions that read and

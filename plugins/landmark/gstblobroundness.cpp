@@ -142,7 +142,7 @@ struct State {
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstBlobRoundness, gst_blob_roundness,
-    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, blobroundness,
+    Settings, State, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, blobroundness,
     "Landmark blob measurement");
 
 LANDMARK_DEFINE_ENUM_TYPE (gst_blob_roundness_shape_get_type,

@@ -128,7 +128,7 @@ struct State {
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstFloorBoundary, gst_floor_boundary,
-    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, floorboundary,
+    Settings, State, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, floorboundary,
     "Floor boundary and radial obstacle profile");
 
 LANDMARK_DEFINE_ENUM_TYPE (gst_floor_boundary_markers_get_type,

@@ -127,7 +127,7 @@ struct GstLandmarkLogPrivate {
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (GstLandmarkLog, gst_landmark_log,
-    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, landmarklog,
+    Settings, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, landmarklog,
     "Landmark metadata to JSON Lines");
 
 /* ---- JSON text ------------------------------------------------------ */

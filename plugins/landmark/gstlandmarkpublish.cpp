@@ -147,7 +147,7 @@ struct GstLandmarkPublishPrivate {
 /* *INDENT-ON* */
 
 LANDMARK_DEFINE_ELEMENT_WITH_PRIVATE (GstLandmarkPublish, gst_landmark_publish,
-    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, landmarkpublish,
+    Settings, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, landmarkpublish,
     "Landmark results to an MQTT broker");
 
 /* ---- configuration -------------------------------------------------- */

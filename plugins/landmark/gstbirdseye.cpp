@@ -125,8 +125,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstBirdsEye, gst_birds_eye, Settings, State,
-    GstVideoFilter, GST_TYPE_VIDEO_FILTER, birdseye,
+LANDMARK_DEFINE_ELEMENT (GstBirdsEye, gst_birds_eye,
+    Settings, State, GstVideoFilter, GST_TYPE_VIDEO_FILTER, birdseye,
     "Bird's-eye view of the floor");
 
 GType

@@ -150,8 +150,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstIpmRange, gst_ipm_range, Settings, State,
-    GstBaseTransform, GST_TYPE_BASE_TRANSFORM, ipmrange,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstIpmRange, gst_ipm_range,
+    Settings, State, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, ipmrange,
     "Landmark range and bearing by inverse perspective mapping");
 
 LANDMARK_DEFINE_ENUM_TYPE (gst_ipm_range_model_get_type, "GstIpmRangeModel",

@@ -138,8 +138,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstLabSegment, gst_lab_segment, Settings,
-    State, GstVideoFilter, GST_TYPE_VIDEO_FILTER, labsegment,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstLabSegment, gst_lab_segment,
+    Settings, State, GstVideoFilter, GST_TYPE_VIDEO_FILTER, labsegment,
     "CIE L*a*b* colour segmentation");
 
 LANDMARK_DEFINE_ENUM_TYPE (gst_lab_segment_output_get_type,

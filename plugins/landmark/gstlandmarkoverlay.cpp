@@ -132,8 +132,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_ELEMENT (GstLandmarkOverlay, gst_landmark_overlay, Settings,
-    State, GstVideoFilter, GST_TYPE_VIDEO_FILTER, landmarkoverlay,
+LANDMARK_DEFINE_ELEMENT (GstLandmarkOverlay, gst_landmark_overlay,
+    Settings, State, GstVideoFilter, GST_TYPE_VIDEO_FILTER, landmarkoverlay,
     "Draws landmark detections, pose, class histogram and map");
 
 /* ---- configuration -------------------------------------------------- */

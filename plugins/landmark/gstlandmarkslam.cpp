@@ -155,8 +155,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstLandmarkSlam, gst_landmark_slam, Settings,
-    State, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, landmarkslam,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstLandmarkSlam, gst_landmark_slam,
+    Settings, State, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, landmarkslam,
     "Landmark SLAM: robot pose and landmark map together");
 
 /* ---- configuration -------------------------------------------------- */

@@ -125,8 +125,8 @@ struct State {
 
 /* *INDENT-ON* */
 
-LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstTrilaterate, gst_trilaterate, Settings,
-    State, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, trilaterate,
+LANDMARK_DEFINE_IN_PLACE_ELEMENT (GstTrilaterate, gst_trilaterate,
+    Settings, State, GstBaseTransform, GST_TYPE_BASE_TRANSFORM, trilaterate,
     "Robot pose from landmark ranges and bearings");
 
 LANDMARK_DEFINE_ENUM_TYPE (gst_trilaterate_filter_get_type,

@@ -126,6 +126,8 @@ Slam::reset ()
   last_view_.assign (lm_.size (), Pose2 ());
   unseen_.assign (lm_.size (), 0);
   pass_views_.assign (lm_.size (), 0);
+  bias_slot_.assign (lm_.size (), -1);
+  bias_left_.assign (lm_.size (), 1);
 }
 
 void
@@ -262,6 +264,7 @@ Slam::predict (double dt)
     for (int j = 0; j < M; j++)
       P[i * N + j] += step.Q[i * M + j];
   std::copy (step.s, step.s + M, s_.begin ());
+  decay_biases ((std::fabs (s_[3]) + std::fabs (s_[5])) * dt);
 }
 
 void
@@ -370,6 +373,7 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   s_[0] += c * ex - s * ey;
   s_[1] += s * ex + c * ey;
   s_[2] = wrap_angle (s_[2] + dth);
+  decay_biases (d + std::fabs (dth));
   if (dt > 0) {
     /* the speed and turn rate follow the odometry, for a later
      * constant-velocity prediction */
@@ -551,13 +555,15 @@ Slam::update (const std::vector<SlamObservation> & obs)
     best_nis = jcbb (cand, best);
   }
 
-  const std::vector<double> prior = s_;
-  std::vector<Pairing> found;
+  std::vector<double> prior = s_;
+  std::vector<Pairing> found, with_bias;
   if (lost)
     best_nis = pair_relocalised (obs, P, prior, found, best);
 
   if (!best.empty ()) {
-    filter_update (best, prior, P, lost);
+    attach_biases (obs, best, with_bias, prior);
+    const int N2 = (int) n ();
+    filter_update (best, prior, cv::Mat (N2, N2, CV_64F, p_.data ()), lost);
     f.joint_nis = best_nis;
     for (const Pairing *pr : best) {
       f.match[pr->obs] = pr->lm;
@@ -567,6 +573,7 @@ Slam::update (const std::vector<SlamObservation> & obs)
   sync_landmarks ();
 
   count_views (f);
+  drop_biases ();
   confirm_known ();
   f.residual = matched_residual (obs, f);
   start_landmarks (obs, f);
@@ -608,6 +615,34 @@ Slam::place_first_pose (const std::vector<SlamObservation> & obs,
     init_pose (Pose2 (), zero);
   }
   return true;
+}
+
+/* The paired landmarks' slow errors as states before the update (each
+ * appended uncorrelated, the pairings then made again over the grown
+ * state, into store; prior grown alike) */
+void
+Slam::attach_biases (const std::vector<SlamObservation> & obs,
+    std::vector<const Pairing *> & best, std::vector<Pairing> & store,
+    std::vector<double> & prior)
+{
+  if (!slow_errors ())
+    return;
+  bool grown = false;
+  for (const Pairing *pr : best)
+    if (bias_slot_[pr->lm] < 0) {
+      add_bias ((size_t) pr->lm);
+      grown = true;
+    }
+  if (!grown)
+    return;
+  prior.resize (n (), 0);
+  const int N = (int) n ();
+  const cv::Mat P (N, N, CV_64F, p_.data ());
+  store.assign (best.size (), Pairing ());
+  for (size_t a = 0; a < best.size (); a++) {
+    make_pairing (obs, best[a]->obs, best[a]->lm, P, &store[a]);
+    best[a] = &store[a];
+  }
 }
 
 /* The update over the jointly compatible set, linearised where the

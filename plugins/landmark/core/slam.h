@@ -107,6 +107,18 @@ struct SlamOptions {
    * middle of its axle); 0: the odometry reports the camera's own motion
    * (docs/landmarkslam.md, "The odometry's frame") */
   double odo_camera_forward = 0;  /* m */
+  /* The measurements' slow error: this share of each detection's stated
+   * variance is an error that changes only slowly with the viewpoint
+   * (a blob's outline cut the same way frame after frame,
+   * docs/ranging.md item 7), the rest white. Each landmark in view
+   * carries it as two states (range and bearing, in stated sigmas), a
+   * first-order Gauss-Markov process over the distance driven plus the
+   * angle turned (a radian as a metre: the landmark moves in the
+   * image), correlation length meas_slow_length, marginalised once the
+   * landmark is out of view for three lengths; 0: every error white
+   * (docs/landmarkslam.md, "Slow measurement errors") */
+  double meas_slow_share = 0.5;
+  double meas_slow_length = 0.3;  /* m */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
   /* relocalisation: landmark comparisons per frame (about 1 ms), and the
    * largest probability, over all the hypotheses of a frame, that chance
@@ -217,6 +229,10 @@ private:
   std::vector<Pose2> last_view_;  /* per landmark: pose of counted view */
   std::vector<int> unseen_;       /* per landmark: updates since seen */
   std::vector<int> pass_views_;   /* per landmark: views in this pass */
+  /* per landmark: state index of its slow error (range, bearing), -1
+   * none; and how much of it is left since it was last seen */
+  std::vector<int> bias_slot_;
+  std::vector<double> bias_left_;
   int next_id_ = 1;
   /* slip adaptation: dp_[0] = dP / d(slip variance scale), dp_[1] =
    * dP / d(measurement variance scale), n x n like p_; the weighted
@@ -256,6 +272,15 @@ private:
   void frame_cov_at (double px, double py, double out[9]) const;
   void add_landmark (const SlamObservation & o, SlamLandmark lm);
   void remove_landmark (size_t k);
+  /* the slow measurement errors' states (slamlandmarks.cpp) */
+  bool slow_errors () const {
+    return opt.meas_slow_share > 0 && opt.meas_slow_share < 1;
+  }
+  void grow_states (int count, double p_var, double meas_var);
+  void remove_states (int first, int count);
+  void add_bias (size_t k);
+  void decay_biases (double distance);
+  void drop_biases ();
   void sync_landmarks ();
   void confirm_known ();
   bool relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
@@ -263,6 +288,9 @@ private:
 
   /* update ()'s steps, in its order */
   struct Pairing;                 /* slaminternal.h */
+  void attach_biases (const std::vector<SlamObservation> & obs,
+      std::vector<const Pairing *> & best, std::vector<Pairing> & store,
+      std::vector<double> & prior);
   bool place_first_pose (const std::vector<SlamObservation> & obs,
       SlamFrame & f);
   bool make_pairing (const std::vector<SlamObservation> & obs, int i, int k,

@@ -113,7 +113,17 @@ Slam::make_pairing (const std::vector<SlamObservation> & obs, int i, int k,
     h1[sl] = -dy / q;
     h1[sl + 1] = dx / q;
   }
-  pr->R = cv::Matx22d (sr * sr, 0, 0, sb * sb);
+  /* the slow error: a state once the landmark carries it, else in R as
+   * the white part is (the same distribution: it is still uncorrelated) */
+  const int bs = bias_slot_[k];
+  const double white = bs >= 0 ? 1 - opt.meas_slow_share : 1;
+  if (bs >= 0) {
+    pr->cols[pr->n_cols++] = bs;
+    pr->cols[pr->n_cols++] = bs + 1;
+    h0[bs] = sr;
+    h1[bs + 1] = sb;
+  }
+  pr->R = cv::Matx22d (white * sr * sr, 0, 0, white * sb * sb);
   pr->PHt = jacobian_times (pr->H, P).t ();
   cv::Mat S = pr->H * pr->PHt + cv::Mat (pr->R);
   cv::Mat nu (pr->nu);

@@ -122,6 +122,7 @@ Slam::reset ()
       keep.push_back (l);
   lm_ = keep;
   slip_reset ();
+  reloc_pending_ = RelocPending ();
   slot_.assign (lm_.size (), -1);
   last_view_.assign (lm_.size (), Pose2 ());
   unseen_.assign (lm_.size (), 0);
@@ -534,6 +535,7 @@ SlamFrame
 Slam::update (const std::vector<SlamObservation> & obs)
 {
   SlamFrame f;
+  frame_no_++;
   f.match.assign (obs.size (), -1);
   f.reasons.assign (obs.size (), "");
   if (!init_ && !place_first_pose (obs, f))
@@ -602,13 +604,14 @@ Slam::place_first_pose (const std::vector<SlamObservation> & obs,
       dets.push_back (d);
     }
     const LocaliseResult r = localise (map, dets, LocaliseOptions ());
-    if (!r.ok) {
+    if (!r.ok && !first_pose_relocalised (obs)) {
       f.why = "no-pose";
       for (auto & s : f.reasons)
         s = "no-pose";
       return false;
     }
-    init_pose (r.solution.pose, r.solution.cov);
+    if (r.ok)
+      init_pose (r.solution.pose, r.solution.cov);
   } else {
     /* no map: the first pose defines the frame */
     const double zero[9] = { 0 };

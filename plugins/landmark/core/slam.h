@@ -126,6 +126,13 @@ struct SlamOptions {
    * (docs/landmarkslam.md, "A lost pose") */
   long reloc_max_comparisons = 40000;
   double reloc_chance = 0.01;
+  /* with a given map (anchors), two detections relocalise a lost pose
+   * whose predicted position is no help (its sigma beyond their
+   * separation), or place the first pose where the map's repeated
+   * colours leave trilaterate's solvers none, when no other pairing with
+   * the map explains them, in this many consecutive frames (a blob seen
+   * once is not taken for a landmark) */
+  int reloc_confirm_frames = 3;
 };
 
 /* A map landmark (id, class, position, and the marker: the given map's,
@@ -284,7 +291,17 @@ private:
   void sync_landmarks ();
   void confirm_known ();
   bool relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
-      std::vector<int> *assign) const;
+      std::vector<int> *assign, bool *weak) const;
+  /* two detections accepted on the given map alone: the landmarks they
+   * were paired with, in how many consecutive frames, the last one */
+  struct RelocPending {
+    int lm[2] = { -1, -1 };
+    int frames = 0;
+    long frame = -1;
+  } reloc_pending_;
+  long frame_no_ = 0;             /* update ()s */
+  bool reloc_confirmed (const std::vector<int> & assign, bool weak);
+  bool first_pose_relocalised (const std::vector<SlamObservation> & obs);
 
   /* update ()'s steps, in its order */
   struct Pairing;                 /* slaminternal.h */

@@ -225,6 +225,9 @@ public:
    * opt.odo_slip_adapt changed): the scale is 1 again and the evidence
    * gathers afresh from the next odometry. */
   void restart_slip_learning () { slip_reset (); }
+  /* opt.meas_slow_share and opt.meas_slow_length; a change marginalises
+   * the slow errors' states (each starts again from its prior) */
+  void set_slow_errors (double share, double length);
 
 private:
   bool init_ = false;

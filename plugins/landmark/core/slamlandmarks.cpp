@@ -213,6 +213,20 @@ Slam::decay_biases (double distance)
   }
 }
 
+void
+Slam::set_slow_errors (double share, double length)
+{
+  if (share == opt.meas_slow_share && length == opt.meas_slow_length)
+    return;
+  for (size_t k = 0; k < bias_slot_.size (); k++)
+    if (bias_slot_[k] >= 0) {
+      remove_states (bias_slot_[k], 2);
+      bias_slot_[k] = -1;
+    }
+  opt.meas_slow_share = share;
+  opt.meas_slow_length = length;
+}
+
 /* a slow error of a landmark out of view that has decayed to e^-3 of
  * what it was when last seen is independent of what follows:
  * marginalised (its rows and columns dropped), so the state holds the

@@ -111,6 +111,9 @@ struct Settings {
   gdouble odometry_turn_slip = 0.002;
   gboolean odometry_slip_adapt = TRUE;
   gdouble odometry_slip_scale_min = 1.0;
+  /* the detections' slow error (docs/landmarkslam.md) */
+  gdouble measurement_slow_share = 0.5;
+  gdouble measurement_slow_length = 0.3;
   gboolean post_messages = FALSE;
 };
 
@@ -229,6 +232,15 @@ slam_properties ()
           "slip larger than stated (the filter never more confident than "
           "the statement); below 1 it may also learn a smaller one",
           &Settings::odometry_slip_scale_min, 0.25, 1.0)
+      .number ("measurement-slow-share", "Measurement slow share",
+          "Share of each detection's stated variance taken as an error that "
+          "changes only slowly with the viewpoint (states per landmark in "
+          "view); 0: every error white",
+          &Settings::measurement_slow_share, 0.0, 0.95)
+      .number ("measurement-slow-length", "Measurement slow length",
+          "Metres driven (a radian turned counted as a metre) over which "
+          "the slow error changes: its correlation length",
+          &Settings::measurement_slow_length, 0.01, 100.0)
       .number ("confirm-views", "Confirm views",
           "Frames a landmark must be paired in (views, counted from poses "
           "confirm-baseline apart) before it is confirmed: that it exists",
@@ -315,6 +327,8 @@ slam_apply_options (State & st)
   o.odo_slip_scale_min = s.odometry_slip_scale_min;
   if (slip_changed)
     st.slam.restart_slip_learning ();
+  st.slam.set_slow_errors (s.measurement_slow_share,
+      s.measurement_slow_length);
 }
 
 /* Brings the state up to date with settings changed while playing (a bad

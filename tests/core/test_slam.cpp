@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <random>
 #include <string>
@@ -59,18 +60,31 @@ struct SimOptions {
   /* the odometry's slip: this many times the filter's stated sigmas,
    * drawn as the filter models it (random walks over distance and turn) */
   double odo_slip = 0;
+  /* or of its own (synth's model, python/gstlandmark/synth/odometry.py):
+   * m per sqrt(m) along and across, rad per sqrt(m), rad per sqrt(rad) */
+  double slip_trans = 0, slip_heading = 0, slip_turn = 0;
   /* the measurements' noise: this many times their stated sigmas */
   double meas_noise = 1;
+  /* this share of their variance an error that changes slowly with the
+   * viewpoint (a first-order Gauss-Markov process per landmark over the
+   * distance driven, correlation length meas_corr_length metres), the
+   * rest white: docs/ranging.md, item 7 */
+  double meas_corr_share = 0, meas_corr_length = 0.3;
+  /* their stated sigmas: range s0 + s1 r + s2 r^2, bearing b0 + b1 r */
+  double range_sigma[3] = { 0.01, 0.01, 0 };
+  double bearing_sigma[2] = { 0.01, 0 };
   /* the path frame by frame instead of the circle (from start) */
   const std::vector<Pose2> *path = nullptr;
   SlamOptions slam;
 };
 
 struct SimResult {
-  std::vector<double> pose_err, nees;
+  /* per posed frame: position error, heading error (rad), heading sigma */
+  std::vector<double> pose_err, head_err, head_sigma, nees;
   std::vector<Pose2> est, true_path;
   std::vector<int> seen;          /* per truth landmark: frames seen */
   std::vector<int> in_view;       /* per posed frame: observations */
+  std::vector<int> in_view_classes;   /* and their distinct classes */
   /* observations at bearings beyond +-90 degrees after the first frame,
    * and how many of them were paired with a landmark */
   int behind = 0, behind_paired = 0;
@@ -113,8 +127,25 @@ run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
   Pose2 prev = truth_pose (o, 0);
   /* without a map the estimate is in the first pose's frame */
   const Pose2 origin = map.empty ()? prev : Pose2 ();
+  /* the slow part of each landmark's range and bearing errors, in
+   * sigmas, drawn from a generator of its own (the white draws as
+   * without it) */
+  std::mt19937 slow_rng (o.seed + 7919);
+  std::vector<double> slow_r (truth.size ()), slow_b (truth.size ());
+  for (size_t i = 0; o.meas_corr_share > 0 && i < truth.size (); i++) {
+    slow_r[i] = g (slow_rng);
+    slow_b[i] = g (slow_rng);
+  }
   for (int k = 0; k < o.frames; k++) {
     const Pose2 p = truth_pose (o, k);
+    if (o.meas_corr_share > 0) {
+      const double rho = std::exp (-std::hypot (p.x - prev.x, p.y - prev.y)
+          / o.meas_corr_length), w = std::sqrt (1 - rho * rho);
+      for (size_t i = 0; i < truth.size (); i++) {
+        slow_r[i] = rho * slow_r[i] + w * g (slow_rng);
+        slow_b[i] = rho * slow_b[i] + w * g (slow_rng);
+      }
+    }
     if (k > 0) {
       if (o.odometry) {
         /* the true robot-frame increment, scaled and drifting */
@@ -124,13 +155,16 @@ run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
         const double d = std::hypot (dx, dy);
         const double dth = wrap_angle (p.heading - prev.heading);
         double sx = 0, sy = 0, sh = 0;
-        if (o.odo_slip > 0) {
+        if (o.odo_slip > 0 || o.slip_trans > 0 || o.slip_heading > 0
+            || o.slip_turn > 0) {
           const SlamOptions & so = o.slam;
-          const double st = o.odo_slip * so.odo_trans_sigma * std::sqrt (d);
+          const double trans = o.odo_slip * so.odo_trans_sigma + o.slip_trans,
+              per_m = o.odo_slip * so.odo_rot_per_m + o.slip_heading,
+              turn = o.odo_slip * so.odo_rot_sigma + o.slip_turn;
+          const double st = trans * std::sqrt (d);
           sx = st * g (rng);
           sy = st * g (rng);
-          sh = o.odo_slip * std::sqrt (so.odo_rot_per_m * so.odo_rot_per_m
-              * d + so.odo_rot_sigma * so.odo_rot_sigma * std::fabs (dth))
+          sh = std::sqrt (per_m * per_m * d + turn * turn * std::fabs (dth))
               * g (rng);
         }
         res->slam.predict_odometry ((dx + sx) * o.odo_scale,
@@ -151,9 +185,14 @@ run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
           || (o.blind_period > 0 && k % o.blind_period
               >= o.blind_period - o.blind_frames))
         continue;
-      const double sr = 0.01 + 0.01 * r, sb = 0.01;
-      const double rn = r + o.meas_noise * sr * g (rng),
-          bn = b + o.meas_noise * sb * g (rng);
+      const double sr = o.range_sigma[0] + r * (o.range_sigma[1]
+          + r * o.range_sigma[2]), sb = o.bearing_sigma[0]
+          + r * o.bearing_sigma[1];
+      const double white = std::sqrt (1 - o.meas_corr_share),
+          slow = std::sqrt (o.meas_corr_share);
+      const double rn = r + o.meas_noise * sr * (white * g (rng)
+          + slow * slow_r[i]),
+          bn = b + o.meas_noise * sb * (white * g (rng) + slow * slow_b[i]);
       SlamObservation ob;
       ob.class_name = truth[i].cls;
       ob.obs.gx = rn * std::cos (bn);
@@ -179,11 +218,19 @@ run (const SimOptions & o, const std::vector<TruthLandmark> & truth,
     res->est.push_back (e);
     res->true_path.push_back (pt);
     res->in_view.push_back ((int) obs.size ());
+    std::vector<std::string> classes;
+    for (const auto & ob : obs)
+      if (std::find (classes.begin (), classes.end (), ob.class_name)
+          == classes.end ())
+        classes.push_back (ob.class_name);
+    res->in_view_classes.push_back ((int) classes.size ());
     const double ex = e.x - pt.x, ey = e.y - pt.y,
         eh = wrap_angle (e.heading - pt.heading);
     res->pose_err.push_back (std::hypot (ex, ey));
+    res->head_err.push_back (eh);
     double c[9];
     res->slam.pose_cov (c);
+    res->head_sigma.push_back (std::sqrt (std::max (0.0, c[8])));
     /* NEES = e' C^-1 e over x, y, heading */
     const double a = c[0], b = c[1], cc = c[2], d = c[4], ee = c[5], f = c[8];
     const double det = a * (d * f - ee * ee) - b * (b * f - ee * cc)
@@ -235,22 +282,30 @@ align (const std::vector<double> &ax, const std::vector<double> &ay,
   return r;
 }
 
-/* Absolute trajectory error after the best rigid alignment, per frame. */
-static std::vector<double>
-aligned_path_error (const SimResult & r)
+/* The best rigid alignment of the estimated path onto the true one. */
+static Rigid
+path_alignment (const SimResult & r)
 {
-  std::vector<double> ax, ay, bx, by, err;
+  std::vector<double> ax, ay, bx, by;
   for (size_t k = 0; k < r.est.size (); k++) {
     ax.push_back (r.est[k].x);
     ay.push_back (r.est[k].y);
     bx.push_back (r.true_path[k].x);
     by.push_back (r.true_path[k].y);
   }
-  const Rigid t = align (ax, ay, bx, by);
-  for (size_t k = 0; k < ax.size (); k++) {
+  return align (ax, ay, bx, by);
+}
+
+/* Absolute trajectory error after the best rigid alignment, per frame. */
+static std::vector<double>
+aligned_path_error (const SimResult & r)
+{
+  const Rigid t = path_alignment (r);
+  std::vector<double> err;
+  for (size_t k = 0; k < r.est.size (); k++) {
     double x, y;
-    t.apply (ax[k], ay[k], &x, &y);
-    err.push_back (std::hypot (x - bx[k], y - by[k]));
+    t.apply (r.est[k].x, r.est[k].y, &x, &y);
+    err.push_back (std::hypot (x - r.true_path[k].x, y - r.true_path[k].y));
   }
   return err;
 }
@@ -271,16 +326,20 @@ percentile (std::vector<double> v, double q)
 
 /* For each truth landmark seen in 90 frames or more (three seconds, enough
  * to confirm): its one estimate (same class, within
- * `tol`). Returns the RMS error; counts missing and extra confirmed. */
+ * `tol` once moved by `to`; its index in `match`, -1). Returns the RMS
+ * error; counts missing and extra confirmed. */
 static double
 map_error (const Slam & slam, const std::vector<TruthLandmark> & truth,
     const std::vector<int> &seen, double tol, int *missing, int *extra,
-    int *merged)
+    int *merged, const Rigid & to = Rigid (), std::vector<int> *match =
+    nullptr)
 {
   *missing = *extra = *merged = 0;
   double sum = 0;
   int n = 0;
   std::vector<int> owner (slam.landmarks ().size (), -1);
+  if (match)
+    match->assign (truth.size (), -1);
   for (size_t i = 0; i < truth.size (); i++) {
     int best = -1;
     double bd = tol;
@@ -288,7 +347,9 @@ map_error (const Slam & slam, const std::vector<TruthLandmark> & truth,
       const auto & l = slam.landmarks ()[k];
       if (!l.confirmed || l.class_name != truth[i].cls)
         continue;
-      const double d = std::hypot (l.x - truth[i].x, l.y - truth[i].y);
+      double x, y;
+      to.apply (l.x, l.y, &x, &y);
+      const double d = std::hypot (x - truth[i].x, y - truth[i].y);
       if (d < bd) {
         bd = d;
         best = (int) k;
@@ -302,6 +363,8 @@ map_error (const Slam & slam, const std::vector<TruthLandmark> & truth,
     if (owner[best] >= 0)
       (*merged)++;
     owner[best] = (int) i;
+    if (match)
+      (*match)[i] = best;
     sum += bd * bd;
     n++;
   }
@@ -451,14 +514,12 @@ test_bearing_wrap ()
       percentile (r.pose_err, 1.0));
 }
 
-/* half the field as a map, the robot starting elsewhere: the anchors give
- * the frame, the others are added with new ids */
-static void
-test_partial_map ()
+/* every step-th truth landmark as a map point, id L and its index */
+static std::vector<MapPoint>
+truth_map (const std::vector<TruthLandmark> & truth, size_t step)
 {
-  const auto truth = field ();
   std::vector<MapPoint> map;
-  for (size_t i = 0; i < truth.size (); i += 2) {
+  for (size_t i = 0; i < truth.size (); i += step) {
     MapPoint m;
     m.id = "L" + std::to_string (i);
     m.class_name = truth[i].cls;
@@ -466,6 +527,16 @@ test_partial_map ()
     m.y = truth[i].y;
     map.push_back (m);
   }
+  return map;
+}
+
+/* half the field as a map, the robot starting elsewhere: the anchors give
+ * the frame, the others are added with new ids */
+static void
+test_partial_map ()
+{
+  const auto truth = field ();
+  const std::vector<MapPoint> map = truth_map (truth, 2);
   SimOptions o;
   o.start.x = 0.2;
   o.start.y = -0.1;
@@ -797,7 +868,11 @@ test_confirm_on_knowledge ()
 {
   const double s = 0.2;
   const int expect = (int) std::ceil (std::pow (s / 0.03, 2));   /* 45 */
-  Slam slam;
+  /* white errors, stated so: from one viewpoint a slow error would never
+   * average out */
+  SlamOptions white;
+  white.meas_slow_share = 0;
+  Slam slam (white);
   int first = -1;
   for (int k = 1; k <= 80 && first < 0; k++) {
     SlamObservation a;
@@ -1424,6 +1499,62 @@ test_relocalise_among_many ()
       p.x, p.y, p.heading, robot.x, robot.y, robot.heading);
 }
 
+/* A lost pose on a given map whose colours repeat (two red discs, two
+ * blue, a green): placed on three, then five seconds blind without
+ * odometry (the predicted position's sigma several metres, beyond the
+ * detections' separation). A red and a blue detection whose distance
+ * only one pair of the map has relocalise it once seen in three
+ * consecutive frames (not after two), at the truth. */
+static void
+test_lost_relocalised_on_two ()
+{
+  const std::vector<TruthLandmark> marks { { "red", 2.0, 0.3 },
+    { "blue", 1.6, -0.5 }, { "red", -1.0, 2.5 }, { "blue", -2.0, -2.0 },
+    { "green", 3.0, 3.0 } };
+  const std::vector<MapPoint> map = truth_map (marks, 1);
+  Pose2 robot;
+  robot.x = 0.2;
+  robot.y = 0.1;
+  robot.heading = 0.1;
+  auto see = [&](int k) {
+    double gx, gy;
+    world_to_robot (robot, marks[k].x, marks[k].y, &gx, &gy);
+    SlamObservation o = red_obs (std::hypot (gx, gy), std::atan2 (gy, gx),
+        0.005, 0.001);
+    o.class_name = marks[k].cls;
+    return o;
+  };
+  auto lost_filter = [&](Slam * slam) {
+    slam->set_map (map);
+    slam->update ({ see (0), see (1), see (4) });
+    for (int k = 0; k < 150; k++) {
+      slam->predict (1 / 30.0);
+      slam->update ({});
+    }
+    double c[9];
+    slam->pose_cov (c);
+    return std::sqrt (c[0] + c[4]);
+  };
+  Slam slam;
+  const double sigma = lost_filter (&slam);
+  int found_at = -1;
+  for (int k = 1; k <= 5 && found_at < 0; k++) {
+    slam.predict (1 / 30.0);
+    if (slam.update ({ see (0), see (1) }).n_matched == 2)
+      found_at = k;
+  }
+  const Pose2 p = slam.pose ();
+  std::printf ("lost on a map of repeated colours (position sigma %.1f m): "
+      "a red and a blue relocalise it at frame %d, %.4f m and %.2f deg "
+      "off\n", sigma, found_at, std::hypot (p.x - robot.x, p.y - robot.y),
+      (p.heading - robot.heading) * 180 / M_PI);
+  CHECK (sigma > 2, "position sigma %f", sigma);
+  CHECK (found_at == 3, "relocalised at frame %d", found_at);
+  CHECK (std::hypot (p.x - robot.x, p.y - robot.y) < 0.01
+      && std::fabs (p.heading - robot.heading) < 0.005, "pose %f %f %f",
+      p.x, p.y, p.heading);
+}
+
 /* A lost pose where the map repeats: four red discs in view and a copy of
  * their pattern turned about the robot, so that two poses (the true one,
  * turned 2.2 rad while blind, and the predicted heading) each explain all
@@ -1541,6 +1672,9 @@ test_odometry_slip_learnt ()
         o.slam.odo_trans_sigma = o.slam.odo_rot_per_m =
             o.slam.odo_rot_sigma = 0.02;
         o.slam.odo_slip_adapt = adapt;
+        /* the measurements' errors are white here: stated so (their
+         * scale is what is estimated beside the slip's) */
+        o.slam.meas_slow_share = 0;
         o.slam.odo_slip_scale_min = 0.25;
         o.odo_slip = c.slip;
         o.meas_noise = c.meas;
@@ -1596,6 +1730,7 @@ test_odometry_slip_learnt ()
     o.seed = 100;
     o.slam.odo_trans_sigma = o.slam.odo_rot_per_m =
         o.slam.odo_rot_sigma = 0.02;
+    o.slam.meas_slow_share = 0;
     o.odo_slip = slip;
     SimResult r;
     run (o, truth, &r);
@@ -1607,9 +1742,315 @@ test_odometry_slip_learnt ()
   }
 }
 
-int
-main ()
+
+/* Sparse fields (issue 34): 10 landmarks of four colours drawn over a
+ * 6 m x 6 m field (0.5 m apart, 0.4 m or more off the path), the robot on
+ * two loops of a 4 m rounded square (corners of 0.6 m) at 0.4 m/s, 30 fps,
+ * seeing +-27 degrees (the seed robot's 54-degree camera) from 0.3 to
+ * 2.5 m: about one landmark in view. Sigmas of the order ipmrange states
+ * for 10 cm discs from a camera 0.2 m high (docs/ranging.md,
+ * "Uncertainty"): range 2 mm + 4 mm r^2, bearing 0.2 mrad + 0.2 mrad r,
+ * half their variance an error that changes only slowly with the
+ * viewpoint (over 0.3 m driven), as ipmrange's bearings do (its item 7;
+ * white errors at these sigmas map a tenth as far off as the rendered
+ * sparse fields of issue 34 did).
+ * Odometry as synth draws it by default (python/gstlandmark/synth/
+ * odometry.py): 2 % long, 1 degree per metre of drift, slip 1.1 mm per
+ * sqrt(m), 1.1 mrad per sqrt(m), 1.8 mrad per sqrt(rad); the filter
+ * states its defaults. */
+static std::vector<Pose2>
+sparse_path (double v)
 {
+  const double half = 2.0, rc = 0.6, straight = 2 * (half - rc);
+  const double side = straight + 0.5 * M_PI * rc, loop = 4 * side;
+  std::vector<Pose2> path;
+  for (int k = 0; v * k / 30.0 <= 2 * loop; k++) {
+    const double s = std::fmod (v * k / 30.0, loop);
+    const int q = (int) (s / side);
+    const double u = s - q * side;
+    /* side q in the frame of the first (along +x at y = -half) */
+    double x, y, h;
+    if (u < straight) {
+      x = -half + rc + u;
+      y = -half;
+      h = 0;
+    } else {
+      const double a = (u - straight) / rc;
+      x = half - rc + rc * std::sin (a);
+      y = -half + rc - rc * std::cos (a);
+      h = a;
+    }
+    const double t = q * M_PI / 2, c = std::cos (t), sn = std::sin (t);
+    /* the start at the origin, heading +x: the map frame is the truth's */
+    Pose2 p;
+    p.x = c * x - sn * y + half - rc;
+    p.y = sn * x + c * y + half;
+    p.heading = wrap_angle (h + t);
+    path.push_back (p);
+  }
+  return path;
+}
+
+static std::vector<TruthLandmark>
+sparse_field (unsigned seed, const std::vector<Pose2> & path)
+{
+  std::mt19937 rng (seed);
+  /* the field centred on the square's centre, (1.4, 2) */
+  std::uniform_real_distribution<double> ux (-1.6, 4.4), uy (-1, 5);
+  const char *cls[] = { "red", "blue", "green", "yellow" };
+  std::vector<TruthLandmark> f;
+  while (f.size () < 10) {
+    const TruthLandmark t { cls[rng () % 4], ux (rng), uy (rng) };
+    bool ok = true;
+    for (const auto & o : f)
+      ok &= std::hypot (o.x - t.x, o.y - t.y) >= 0.5;
+    for (size_t k = 0; k < path.size (); k += 5)
+      ok &= std::hypot (path[k].x - t.x, path[k].y - t.y) >= 0.4;
+    if (ok)
+      f.push_back (t);
+  }
+  return f;
+}
+
+static SimOptions
+sparse_options (unsigned seed, bool odometry,
+    const std::vector<Pose2> & path)
+{
+  SimOptions o;
+  o.path = &path;
+  o.frames = (int) path.size ();
+  o.seed = seed;
+  o.fov = 27 * M_PI / 180;
+  o.max_range = 2.5;
+  o.range_sigma[0] = 0.002;
+  o.range_sigma[1] = 0;
+  o.range_sigma[2] = 0.004;
+  o.bearing_sigma[0] = 0.0002;
+  o.bearing_sigma[1] = 0.0002;
+  o.odometry = odometry;
+  o.odo_scale = 1.02;
+  o.odo_drift = M_PI / 180;
+  o.slip_trans = o.slip_heading = 0.0011;
+  o.slip_turn = 0.0018;
+  /* half the measurements' variance slow, over 0.3 m */
+  o.meas_corr_share = 0.5;
+  o.meas_corr_length = 0.3;
+  return o;
+}
+
+struct SparseFigures {
+  int landmarks = 0, missing = 0, extra = 0, merged = 0;
+  double map_rms = NAN, path_median = NAN;
+  /* pose NEES: inside chi-square's two-sided 95 % band (3 dof, as
+   * gst-landmark evaluate), above it, its mean */
+  double nees_inside = 0, nees_above = 0, nees_mean = 0;
+  double in_view = 0;   /* mean detections per frame */
+  /* the pose off (10 cm or 5 degrees from the truth) on this share of the
+   * frames; of its stretches off, those in which two landmarks of two
+   * colours came into view for 0.1 s (events), those back within 2 s of
+   * it, and the longest wait; and those in which only two of one colour
+   * were ever in view, or for less */
+  double off = 0;
+  int events = 0, recovered = 0, one_colour = 0;
+  double worst_wait = 0;  /* s; infinite: never back */
+  /* frames placed wrongly with confidence: 0.3 m off while the stated
+   * heading sigma is under 5 degrees (a wrong relocalisation) */
+  int confident_wrong = 0;
+};
+
+static SparseFigures
+sparse_figures (const SimResult & r, const std::vector<TruthLandmark> & truth)
+{
+  SparseFigures f;
+  const Rigid to = path_alignment (r);
+  std::vector<int> match;
+  map_error (r.slam, truth, r.seen, 0.15, &f.missing, &f.extra, &f.merged,
+      to, &match);
+  std::vector<double> ax, ay, bx, by;
+  for (size_t i = 0; i < truth.size (); i++)
+    if (match[i] >= 0) {
+      ax.push_back (r.slam.landmarks ()[match[i]].x);
+      ay.push_back (r.slam.landmarks ()[match[i]].y);
+      bx.push_back (truth[i].x);
+      by.push_back (truth[i].y);
+    }
+  f.landmarks = (int) ax.size ();
+  f.map_rms = aligned_rms (ax, ay, bx, by);
+  f.path_median = percentile (aligned_path_error (r), 0.5);
+  const double lo = chi2_quantile (0.025, 3), hi = chi2_quantile (0.975, 3);
+  for (double v : r.nees) {
+    f.nees_inside += v >= lo && v <= hi;
+    f.nees_above += v > hi;
+    f.nees_mean += v;
+  }
+  if (!r.nees.empty ()) {
+    f.nees_inside /= r.nees.size ();
+    f.nees_above /= r.nees.size ();
+    f.nees_mean /= r.nees.size ();
+  }
+  for (int n : r.in_view)
+    f.in_view += n;
+  f.in_view /= std::max<size_t> (r.in_view.size (), 1);
+  const size_t n = r.pose_err.size ();
+  auto good = [&](size_t k) {
+    return r.pose_err[k] < 0.1 && std::fabs (r.head_err[k]) < 5 * M_PI / 180;
+  };
+  /* two colours in view from frame k for a tenth of a second (3 frames) */
+  auto pair_held = [&](size_t k) {
+    for (size_t j = k; j < k + 3; j++)
+      if (j >= n || r.in_view_classes[j] < 2)
+        return false;
+    return true;
+  };
+  for (size_t k = 0; k < n; k++)
+    f.confident_wrong += r.pose_err[k] > 0.3
+        && r.head_sigma[k] < 5 * M_PI / 180;
+  for (size_t k = 0; k < n;) {
+    if (good (k)) {
+      k++;
+      continue;
+    }
+    size_t end = k, two = n;
+    bool pair = false;
+    for (; end < n && !good (end); end++) {
+      if (two == n && pair_held (end))
+        two = end;
+      pair |= r.in_view[end] >= 2;
+    }
+    /* the frame found again may be the pair's first */
+    if (two == n && end < n && pair_held (end))
+      two = end;
+    f.off += end - k;
+    f.one_colour += pair && two == n;
+    if (two < n) {
+      f.events++;
+      const double wait = end < n ? (end - two) / 30.0 : INFINITY;
+      f.recovered += wait <= 2;
+      f.worst_wait = std::max (f.worst_wait, wait);
+    }
+    k = end;
+  }
+  f.off /= std::max<size_t> (n, 1);
+  return f;
+}
+
+static SparseFigures
+sparse_run (unsigned seed, bool odometry, SimResult * out = nullptr,
+    double slow_share = -1, double slow_length = -1, bool mapped = false)
+{
+  const std::vector<Pose2> path = sparse_path (0.4);
+  const auto truth = sparse_field (seed, path);
+  SimOptions o = sparse_options (seed, odometry, path);
+  if (slow_share >= 0)
+    o.meas_corr_share = slow_share;
+  if (slow_length > 0)
+    o.meas_corr_length = slow_length;
+  /* mapped: the true map given (anchors) */
+  const std::vector<MapPoint> map = mapped ? truth_map (truth, 1)
+      : std::vector<MapPoint> ();
+  SimResult r;
+  run (o, truth, &r, map);
+  const SparseFigures f = sparse_figures (r, truth);
+  std::printf ("sparse field %u, %s odometry%s: %.2f in view, %d of %zu "
+      "mapped (missing %d extra %d merged %d), map rms %.2f cm, path median "
+      "%.2f cm, pose NEES inside %.1f %% (above %.1f %%, mean %.2f); off on "
+      "%.1f %% of %zu frames, two colours in view while off %d times, "
+      "back within 2 s %d, longest wait %.1f s (one colour only: %d); "
+      "confidently wrong on %d frames\n",
+      seed, odometry ? "with" : "without",
+      mapped ? ", map given" : "", f.in_view, f.landmarks, truth.size (),
+      f.missing, f.extra, f.merged, 100 * f.map_rms, 100 * f.path_median,
+      100 * f.nees_inside, 100 * f.nees_above, f.nees_mean, 100 * f.off,
+      r.pose_err.size (), f.events, f.recovered, f.worst_wait,
+      f.one_colour, f.confident_wrong);
+  if (out)
+    *out = r;
+  return f;
+}
+
+
+/* The sparse fields' pose consistency with odometry, on the seeds held
+ * out (101..116; the slow errors' states were developed on 1..8): the
+ * pose NEES above chi-square's two-sided 95 % band on at most 4 % of the
+ * frames (1.2 % measured; 10.9 % with every error taken as white, the
+ * pose over-confident on up to 42 % of a run's frames), inside it on
+ * 80 % of the frames or more in at least 13 of the 16 runs (15 measured;
+ * 12 with white errors), and every landmark seen long enough mapped
+ * once within 3 cm RMS (0.4-1.1 cm). */
+static void
+test_sparse_consistency ()
+{
+  int good = 0, runs = 0, bad_maps = 0;
+  double above = 0, worst_rms = 0;
+  for (unsigned seed = 101; seed <= 116; seed++) {
+    const SparseFigures f = sparse_run (seed, true);
+    runs++;
+    good += f.nees_inside >= 0.8;
+    above += f.nees_above;
+    bad_maps += f.missing + f.extra + f.merged > 0;
+    worst_rms = std::max (worst_rms, std::isnan (f.map_rms) ? INFINITY
+        : f.map_rms);
+  }
+  above /= runs;
+  std::printf ("sparse fields, held out: NEES inside on >= 80 %% of the "
+      "frames in %d of %d runs, above the band on %.1f %% of the frames; "
+      "maps: %d with a landmark missing, extra or merged, worst rms %.2f "
+      "cm\n", good, runs, 100 * above, bad_maps, 100 * worst_rms);
+  CHECK (above <= 0.04, "NEES above the band on %f", above);
+  CHECK (good >= 13, "NEES inside on >= 80 %% in %d of %d runs", good,
+      runs);
+  CHECK (bad_maps == 0 && worst_rms < 0.03, "%d bad maps, worst rms %f",
+      bad_maps, worst_rms);
+}
+
+/* Without odometry on the sparse fields, the true map given: the pose is
+ * lost within seconds of one landmark in view, and found again once two
+ * of two colours are in view (for 0.1 s or more): back within 10 cm and
+ * 5 degrees in 2 s on 22 of 26 such stretches over the held-out seeds
+ * 101..116, most in 0.1 s (before: 0 of 13; the rest: the map holds
+ * another pair of those colours at about that distance). At least 60 %
+ * asserted. */
+static void
+test_sparse_recovery ()
+{
+  int events = 0, recovered = 0;
+  for (unsigned seed = 101; seed <= 116; seed++) {
+    const SparseFigures f = sparse_run (seed, false, nullptr, -1, -1, true);
+    events += f.events;
+    recovered += f.recovered;
+  }
+  std::printf ("sparse fields without odometry, map given, held out: two "
+      "colours in view while off %d times, back within 2 s %d\n", events,
+      recovered);
+  CHECK (events >= 10 && recovered >= 0.6 * events, "back within 2 s in "
+      "%d of %d", recovered, events);
+}
+
+int
+main (int argc, char **argv)
+{
+  /* test-slam --sparse FIRST LAST [--no-odometry] [--map] [--slow SHARE]
+   * [--slow-length METRES]: the sparse fields' figures over seeds
+   * FIRST..LAST (SHARE of the measurements' variance slow over METRES,
+   * default 0.5 over 0.3), nothing checked */
+  if (argc >= 4 && std::string (argv[1]) == "--sparse") {
+    bool odometry = true;
+    double share = -1, length = -1;
+    bool mapped = false;
+    for (int a = 4; a < argc; a++) {
+      if (std::string (argv[a]) == "--no-odometry")
+        odometry = false;
+      else if (std::string (argv[a]) == "--slow" && a + 1 < argc)
+        share = std::atof (argv[++a]);
+      else if (std::string (argv[a]) == "--slow-length" && a + 1 < argc)
+        length = std::atof (argv[++a]);
+      else if (std::string (argv[a]) == "--map")
+        mapped = true;
+    }
+    for (int seed = std::atoi (argv[2]); seed <= std::atoi (argv[3]); seed++)
+      sparse_run ((unsigned) seed, odometry, nullptr, share, length, mapped);
+    return 0;
+  }
   test_chi2 ();
   test_loops_no_map ();
   test_bearing_wrap ();
@@ -1627,8 +2068,11 @@ main ()
   test_new_waits_for_heading ();
   test_blind_stretch_new_landmark ();
   test_blind_start ();
+  test_lost_relocalised_on_two ();
   test_relocalise_among_many ();
   test_relocalise_repeated_pattern ();
   test_odometry_slip_learnt ();
+  test_sparse_consistency ();
+  test_sparse_recovery ();
   return corecheck_summary ();
 }

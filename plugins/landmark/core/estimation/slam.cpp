@@ -122,10 +122,13 @@ Slam::reset ()
       keep.push_back (l);
   lm_ = keep;
   slip_reset ();
+  reloc_pending_ = RelocPending ();
   slot_.assign (lm_.size (), -1);
   last_view_.assign (lm_.size (), Pose2 ());
   unseen_.assign (lm_.size (), 0);
   pass_views_.assign (lm_.size (), 0);
+  bias_slot_.assign (lm_.size (), -1);
+  bias_left_.assign (lm_.size (), 1);
 }
 
 void
@@ -262,6 +265,7 @@ Slam::predict (double dt)
     for (int j = 0; j < M; j++)
       P[i * N + j] += step.Q[i * M + j];
   std::copy (step.s, step.s + M, s_.begin ());
+  decay_biases ((std::fabs (s_[3]) + std::fabs (s_[5])) * dt);
 }
 
 void
@@ -370,6 +374,7 @@ Slam::predict_odometry (double mdx, double mdy, double mdth, double dt)
   s_[0] += c * ex - s * ey;
   s_[1] += s * ex + c * ey;
   s_[2] = wrap_angle (s_[2] + dth);
+  decay_biases (d + std::fabs (dth));
   if (dt > 0) {
     /* the speed and turn rate follow the odometry, for a later
      * constant-velocity prediction */
@@ -530,6 +535,7 @@ SlamFrame
 Slam::update (const std::vector<SlamObservation> & obs)
 {
   SlamFrame f;
+  frame_no_++;
   f.match.assign (obs.size (), -1);
   f.reasons.assign (obs.size (), "");
   if (!init_ && !place_first_pose (obs, f))
@@ -551,13 +557,15 @@ Slam::update (const std::vector<SlamObservation> & obs)
     best_nis = jcbb (cand, best);
   }
 
-  const std::vector<double> prior = s_;
-  std::vector<Pairing> found;
+  std::vector<double> prior = s_;
+  std::vector<Pairing> found, with_bias;
   if (lost)
     best_nis = pair_relocalised (obs, P, prior, found, best);
 
   if (!best.empty ()) {
-    filter_update (best, prior, P, lost);
+    attach_biases (obs, best, with_bias, prior);
+    const int N2 = (int) n ();
+    filter_update (best, prior, cv::Mat (N2, N2, CV_64F, p_.data ()), lost);
     f.joint_nis = best_nis;
     for (const Pairing *pr : best) {
       f.match[pr->obs] = pr->lm;
@@ -567,6 +575,7 @@ Slam::update (const std::vector<SlamObservation> & obs)
   sync_landmarks ();
 
   count_views (f);
+  drop_biases ();
   confirm_known ();
   f.residual = matched_residual (obs, f);
   start_landmarks (obs, f);
@@ -595,19 +604,48 @@ Slam::place_first_pose (const std::vector<SlamObservation> & obs,
       dets.push_back (d);
     }
     const LocaliseResult r = localise (map, dets, LocaliseOptions ());
-    if (!r.ok) {
+    if (!r.ok && !first_pose_relocalised (obs)) {
       f.why = "no-pose";
       for (auto & s : f.reasons)
         s = "no-pose";
       return false;
     }
-    init_pose (r.solution.pose, r.solution.cov);
+    if (r.ok)
+      init_pose (r.solution.pose, r.solution.cov);
   } else {
     /* no map: the first pose defines the frame */
     const double zero[9] = { 0 };
     init_pose (Pose2 (), zero);
   }
   return true;
+}
+
+/* The paired landmarks' slow errors as states before the update (each
+ * appended uncorrelated, the pairings then made again over the grown
+ * state, into store; prior grown alike) */
+void
+Slam::attach_biases (const std::vector<SlamObservation> & obs,
+    std::vector<const Pairing *> & best, std::vector<Pairing> & store,
+    std::vector<double> & prior)
+{
+  if (!slow_errors ())
+    return;
+  bool grown = false;
+  for (const Pairing *pr : best)
+    if (bias_slot_[pr->lm] < 0) {
+      add_bias ((size_t) pr->lm);
+      grown = true;
+    }
+  if (!grown)
+    return;
+  prior.resize (n (), 0);
+  const int N = (int) n ();
+  const cv::Mat P (N, N, CV_64F, p_.data ());
+  store.assign (best.size (), Pairing ());
+  for (size_t a = 0; a < best.size (); a++) {
+    make_pairing (obs, best[a]->obs, best[a]->lm, P, &store[a]);
+    best[a] = &store[a];
+  }
 }
 
 /* The update over the jointly compatible set, linearised where the

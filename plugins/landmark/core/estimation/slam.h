@@ -107,6 +107,18 @@ struct SlamOptions {
    * middle of its axle); 0: the odometry reports the camera's own motion
    * (docs/landmarkslam.md, "The odometry's frame") */
   double odo_camera_forward = 0;  /* m */
+  /* The measurements' slow error: this share of each detection's stated
+   * variance is an error that changes only slowly with the viewpoint
+   * (a blob's outline cut the same way frame after frame,
+   * docs/ranging.md item 7), the rest white. Each landmark in view
+   * carries it as two states (range and bearing, in stated sigmas), a
+   * first-order Gauss-Markov process over the distance driven plus the
+   * angle turned (a radian as a metre: the landmark moves in the
+   * image), correlation length meas_slow_length, marginalised once the
+   * landmark is out of view for three lengths; 0: every error white
+   * (docs/landmarkslam.md, "Slow measurement errors") */
+  double meas_slow_share = 0.5;
+  double meas_slow_length = 0.3;  /* m */
   int max_jcbb_nodes = 2000;      /* bounds the search per frame */
   /* relocalisation: landmark comparisons per frame (about 1 ms), and the
    * largest probability, over all the hypotheses of a frame, that chance
@@ -114,6 +126,13 @@ struct SlamOptions {
    * (docs/landmarkslam.md, "A lost pose") */
   long reloc_max_comparisons = 40000;
   double reloc_chance = 0.01;
+  /* with a given map (anchors), two detections relocalise a lost pose
+   * whose predicted position is no help (its sigma beyond their
+   * separation), or place the first pose where the map's repeated
+   * colours leave trilaterate's solvers none, when no other pairing with
+   * the map explains them, in this many consecutive frames (a blob seen
+   * once is not taken for a landmark) */
+  int reloc_confirm_frames = 3;
 };
 
 /* A map landmark (id, class, position, and the marker: the given map's,
@@ -206,6 +225,9 @@ public:
    * opt.odo_slip_adapt changed): the scale is 1 again and the evidence
    * gathers afresh from the next odometry. */
   void restart_slip_learning () { slip_reset (); }
+  /* opt.meas_slow_share and opt.meas_slow_length; a change marginalises
+   * the slow errors' states (each starts again from its prior) */
+  void set_slow_errors (double share, double length);
 
 private:
   bool init_ = false;
@@ -217,6 +239,10 @@ private:
   std::vector<Pose2> last_view_;  /* per landmark: pose of counted view */
   std::vector<int> unseen_;       /* per landmark: updates since seen */
   std::vector<int> pass_views_;   /* per landmark: views in this pass */
+  /* per landmark: state index of its slow error (range, bearing), -1
+   * none; and how much of it is left since it was last seen */
+  std::vector<int> bias_slot_;
+  std::vector<double> bias_left_;
   int next_id_ = 1;
   /* slip adaptation: dp_[0] = dP / d(slip variance scale), dp_[1] =
    * dP / d(measurement variance scale), n x n like p_; the weighted
@@ -256,13 +282,35 @@ private:
   void frame_cov_at (double px, double py, double out[9]) const;
   void add_landmark (const SlamObservation & o, SlamLandmark lm);
   void remove_landmark (size_t k);
+  /* the slow measurement errors' states (slamlandmarks.cpp) */
+  bool slow_errors () const {
+    return opt.meas_slow_share > 0 && opt.meas_slow_share < 1;
+  }
+  void grow_states (int count, double p_var, double meas_var);
+  void remove_states (int first, int count);
+  void add_bias (size_t k);
+  void decay_biases (double distance);
+  void drop_biases ();
   void sync_landmarks ();
   void confirm_known ();
   bool relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
-      std::vector<int> *assign) const;
+      std::vector<int> *assign, bool *weak) const;
+  /* two detections accepted on the given map alone: the landmarks they
+   * were paired with, in how many consecutive frames, the last one */
+  struct RelocPending {
+    int lm[2] = { -1, -1 };
+    int frames = 0;
+    long frame = -1;
+  } reloc_pending_;
+  long frame_no_ = 0;             /* update ()s */
+  bool reloc_confirmed (const std::vector<int> & assign, bool weak);
+  bool first_pose_relocalised (const std::vector<SlamObservation> & obs);
 
   /* update ()'s steps, in its order */
   struct Pairing;                 /* slaminternal.h */
+  void attach_biases (const std::vector<SlamObservation> & obs,
+      std::vector<const Pairing *> & best, std::vector<Pairing> & store,
+      std::vector<double> & prior);
   bool place_first_pose (const std::vector<SlamObservation> & obs,
       SlamFrame & f);
   bool make_pairing (const std::vector<SlamObservation> & obs, int i, int k,

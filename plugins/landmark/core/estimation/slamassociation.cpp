@@ -113,7 +113,17 @@ Slam::make_pairing (const std::vector<SlamObservation> & obs, int i, int k,
     h1[sl] = -dy / q;
     h1[sl + 1] = dx / q;
   }
-  pr->R = cv::Matx22d (sr * sr, 0, 0, sb * sb);
+  /* the slow error: a state once the landmark carries it, else in R as
+   * the white part is (the same distribution: it is still uncorrelated) */
+  const int bs = bias_slot_[k];
+  const double white = bs >= 0 ? 1 - opt.meas_slow_share : 1;
+  if (bs >= 0) {
+    pr->cols[pr->n_cols++] = bs;
+    pr->cols[pr->n_cols++] = bs + 1;
+    h0[bs] = sr;
+    h1[bs + 1] = sb;
+  }
+  pr->R = cv::Matx22d (white * sr * sr, 0, 0, white * sb * sb);
   pr->PHt = jacobian_times (pr->H, P).t ();
   cv::Mat S = pr->H * pr->PHt + cv::Mat (pr->R);
   cv::Mat nu (pr->nu);
@@ -240,7 +250,9 @@ Slam::pair_relocalised (const std::vector<SlamObservation> & obs,
 {
   Pose2 at;
   std::vector<int> assign;
-  if (!relocalise (obs, &at, &assign))
+  bool weak;
+  if (!relocalise (obs, &at, &assign, &weak) || !reloc_confirmed (assign,
+          weak))
     return 0;
   s_[0] = at.x;
   s_[1] = at.y;
@@ -259,6 +271,72 @@ Slam::pair_relocalised (const std::vector<SlamObservation> & obs,
   return best_nis;
 }
 
+/* A relocalisation on two detections that the given map alone supports
+ * (weak) is taken once the same two landmarks have been found in
+ * opt.reloc_confirm_frames consecutive frames; any other resets the count.
+ * Counted once per frame. */
+bool
+Slam::reloc_confirmed (const std::vector<int> & assign, bool weak)
+{
+  RelocPending & p = reloc_pending_;
+  if (!weak) {
+    p = RelocPending ();
+    return true;
+  }
+  if (p.frame == frame_no_)
+    return p.frames >= opt.reloc_confirm_frames;
+  int pair[2] = { -1, -1 };
+  for (int k : assign)
+    if (k >= 0)
+      pair[pair[0] < 0 ? 0 : 1] = k;
+  if (pair[0] > pair[1])
+    std::swap (pair[0], pair[1]);
+  if (p.frame == frame_no_ - 1 && p.lm[0] == pair[0] && p.lm[1] == pair[1])
+    p.frames++;
+  else
+    p.frames = 1;
+  p.lm[0] = pair[0];
+  p.lm[1] = pair[1];
+  p.frame = frame_no_;
+  return p.frames >= opt.reloc_confirm_frames;
+}
+
+/* The first pose on a given map that trilaterate's solvers could not place
+ * (two detections of repeated colours): relocalised from a lost pose at
+ * the map's centre, its position sigma the map's extent plus the
+ * detections' reach, heading sigma pi. True leaves that lost pose, for
+ * update () to relocalise; false, no pose. */
+bool
+Slam::first_pose_relocalised (const std::vector<SlamObservation> & obs)
+{
+  if (lm_.size () < 2 || obs.size () < 2)
+    return false;
+  double cx = 0, cy = 0, reach = 0;
+  for (const auto & l : lm_) {
+    cx += l.x / lm_.size ();
+    cy += l.y / lm_.size ();
+  }
+  for (const auto & l : lm_)
+    reach = std::max (reach, std::hypot (l.x - cx, l.y - cy));
+  for (const auto & o : obs)
+    reach = std::max (reach, o.obs.range ());
+  Pose2 centre;
+  centre.x = cx;
+  centre.y = cy;
+  const double v = 4 * reach * reach;
+  const double cov[9] = { v, 0, 0, 0, v, 0, 0, 0, M_PI * M_PI };
+  init_pose (centre, cov);
+  Pose2 at;
+  std::vector<int> assign;
+  bool weak;
+  if (relocalise (obs, &at, &assign, &weak) && reloc_confirmed (assign, weak))
+    return true;
+  init_ = false;
+  s_.clear ();
+  p_.clear ();
+  return false;
+}
+
 /* Relocalisation of a lost pose. Pairings are hypothesised from what does
  * not depend on the pose: the distance between two detections against the
  * distance between two landmarks of their classes, the widest detection
@@ -275,8 +353,9 @@ Slam::pair_relocalised (const std::vector<SlamObservation> & obs,
  * a search cut short accepts only on that chance test. */
 bool
 Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
-    std::vector<int> *assign) const
+    std::vector<int> *assign, bool *weak) const
 {
+  *weak = false;
   const size_t N = n (), no = obs.size (), nl = lm_.size ();
   if (nl < 2)
     return false;
@@ -350,6 +429,7 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
     double d2 = 0;
     double lambda = 0;  /* chance inliers beyond the seeds, expected */
     int seeds[2] = { -1, -1 };
+    bool weak = false;  /* two, the prediction no help: the map's word */
   };
   /* the best hypothesis, and the others that explain as many detections
    * with other pairings (rivals: the pose they place and its seeds'
@@ -511,8 +591,11 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
         /* two detections give one distance to check, weak evidence
          * among repeated colours (a spurious or unmapped one matches
          * some pair by chance): only while the predicted position is
-         * known to within their separation */
-        if (!(h.inliers >= 3 || (h.inliers == 2 && pos_sigma <= dz)))
+         * known to within their separation, or on a given map, whose
+         * markers are all there is to see (then only with no rival
+         * anywhere, in consecutive frames: reloc_confirmed) */
+        h.weak = h.inliers == 2 && pos_sigma > dz;
+        if (!(h.inliers >= 3 || (h.inliers == 2 && (!h.weak || anchored_))))
           continue;
         /* as many: the nearer the prediction wins; another pairing
          * is a rival */
@@ -626,6 +709,7 @@ Slam::relocalise (const std::vector<SlamObservation> & obs, Pose2 * at,
     return false;
   *at = best.pose;
   *assign = best.assign;
+  *weak = best.weak;
   return true;
 }
 

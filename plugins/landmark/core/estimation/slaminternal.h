@@ -14,7 +14,8 @@ struct Slam::Pairing {
   int obs = -1, lm = -1;
   cv::Vec2d nu;
   cv::Mat H;        /* 2 x N */
-  int cols[5] = {}; /* H's non-zero columns: the pose's, the landmark's */
+  /* H's non-zero columns: the pose's, the landmark's, its slow error's */
+  int cols[7] = {};
   int n_cols = 0;
   cv::Mat PHt;      /* N x 2 */
   cv::Matx22d R;

@@ -25,6 +25,11 @@ constexpr int kPassGap = 15;
 void
 Slam::add_landmark (const SlamObservation & o, SlamLandmark lm)
 {
+  /* the detection's slow error first: the landmark starts from it */
+  const bool slow = slow_errors ();
+  const int bs = slow ? (int) n () : -1;
+  if (slow)
+    grow_states (2, opt.meas_slow_share, opt.meas_slow_share);
   const int N = (int) n ();
   const double r = o.obs.range (), b = o.obs.bearing ();
   double sr, sb;
@@ -32,21 +37,36 @@ Slam::add_landmark (const SlamObservation & o, SlamLandmark lm)
   const double a = s_[2] + b, ca = std::cos (a), sa = std::sin (a);
   lm.x = s_[0] + r * ca;
   lm.y = s_[1] + r * sa;
-  /* Jacobians of the landmark position w.r.t. the pose and (r, b) */
-  cv::Mat Gx = (cv::Mat_<double> (2, 3) << 1, 0, -r * sa, 0, 1, r * ca);
-  cv::Mat Gz = (cv::Mat_<double> (2, 2) << ca, -r * sa, sa, r * ca);
-  cv::Mat R = (cv::Mat_<double> (2, 2) << sr * sr, 0, 0, sb * sb);
+  /* Jacobians of the landmark position w.r.t. the pose and (r, b): J
+   * over the state (the pose's columns, and the slow error's, in sigmas),
+   * Gz for the white error */
+  const double Gz[4] = { ca, -r * sa, sa, r * ca };
+  cv::Mat J = cv::Mat::zeros (2, N, CV_64F);
+  J.at<double> (0, 0) = J.at<double> (1, 1) = 1;
+  J.at<double> (0, 2) = -r * sa;
+  J.at<double> (1, 2) = r * ca;
+  if (slow)
+    for (int i = 0; i < 2; i++) {
+      J.at<double> (i, bs) = Gz[2 * i] * sr;
+      J.at<double> (i, bs + 1) = Gz[2 * i + 1] * sb;
+    }
+  const double white = slow ? 1 - opt.meas_slow_share : 1;
+  const double rr = white * sr * sr, rb = white * sb * sb;
   /* M (N x N) grown by the landmark's rows and columns: its correlation
-   * with the rest through the pose, Gx M, its own block Gx M Gx^T, plus
-   * the measurement's Gz R Gz^T where M holds it: P, and the
-   * measurements' derivative of P (the slip's reaches the landmark
-   * through the pose only) */
+   * with the rest through the pose and the slow error, J M, its own
+   * block J M J^T, plus the white error's Gz R Gz^T where M holds it: P,
+   * and the measurements' derivative of P (the slip's reaches the
+   * landmark through the pose only) */
   auto grow = [&](std::vector<double> & m, bool with_measurement) {
     cv::Mat M (N, N, CV_64F, m.data ());
-    cv::Mat Mlx = Gx * M.rowRange (0, 3);       /* 2 x N */
-    cv::Mat Mll = Gx * M (cv::Rect (0, 0, 3, 3)) * Gx.t ();
-    if (with_measurement)
-      Mll += Gz * R * Gz.t ();
+    cv::Mat Mlx = jacobian_times (J, M);        /* 2 x N */
+    cv::Mat Mll = Mlx * J.t ();
+    if (with_measurement) {
+      Mll.at<double> (0, 0) += Gz[0] * Gz[0] * rr + Gz[1] * Gz[1] * rb;
+      Mll.at<double> (0, 1) += Gz[0] * Gz[2] * rr + Gz[1] * Gz[3] * rb;
+      Mll.at<double> (1, 0) += Gz[0] * Gz[2] * rr + Gz[1] * Gz[3] * rb;
+      Mll.at<double> (1, 1) += Gz[2] * Gz[2] * rr + Gz[3] * Gz[3] * rb;
+    }
     cv::Mat Mn = cv::Mat::zeros (N + 2, N + 2, CV_64F);
     M.copyTo (Mn (cv::Rect (0, 0, N, N)));
     Mlx.copyTo (Mn (cv::Rect (0, N, N, 2)));
@@ -83,36 +103,154 @@ Slam::add_landmark (const SlamObservation & o, SlamLandmark lm)
   last_view_.push_back (pose ());
   unseen_.push_back (0);
   pass_views_.push_back (1);   /* seen once, as views */
+  bias_slot_.push_back (bs);
+  bias_left_.push_back (1);
+}
+
+/* count states appended, uncorrelated with the rest: variance p_var in P,
+ * 0 in the slip's derivative, meas_var in the measurements' */
+void
+Slam::grow_states (int count, double p_var, double meas_var)
+{
+  const int N = (int) n (), N2 = N + count;
+  const bool tracked = slip_tracked ();
+  auto grow = [&](std::vector<double> & m, double var) {
+    std::vector<double> g ((size_t) N2 * N2, 0);
+    for (int i = 0; i < N; i++)
+      std::copy (m.begin () + (size_t) i * N, m.begin () + (size_t) (i + 1)
+          * N, g.begin () + (size_t) i * N2);
+    for (int i = N; i < N2; i++)
+      g[(size_t) i * N2 + i] = var;
+    m.swap (g);
+  };
+  grow (p_, p_var);
+  if (tracked) {
+    grow (dp_[0], 0);
+    grow (dp_[1], meas_var);
+  }
+  s_.resize (N2, 0);
+}
+
+/* states first..first + count - 1 removed (marginalised), the landmarks'
+ * and the slow errors' indices after them moved down */
+void
+Slam::remove_states (int first, int count)
+{
+  const int N = (int) n ();
+  const bool tracked = slip_tracked ();
+  std::vector<int> keep;
+  for (int i = 0; i < N; i++)
+    if (i < first || i >= first + count)
+      keep.push_back (i);
+  auto shrink = [&](std::vector<double> & m) {
+    std::vector<double> out;
+    out.reserve (keep.size () * keep.size ());
+    for (int i : keep)
+      for (int j : keep)
+        out.push_back (m[(size_t) i * N + j]);
+    m.swap (out);
+  };
+  shrink (p_);
+  if (tracked) {
+    shrink (dp_[0]);
+    shrink (dp_[1]);
+  }
+  std::vector<double> s2;
+  for (int i : keep)
+    s2.push_back (s_[i]);
+  s_.swap (s2);
+  for (auto *slots : { &slot_, &bias_slot_ })
+    for (auto & o : *slots)
+      if (o > first)
+        o -= count;
+}
+
+/* landmark k's slow error as states, from its prior (uncorrelated: as if
+ * folded into the measurement's variance, what the gates assumed) */
+void
+Slam::add_bias (size_t k)
+{
+  if (bias_slot_[k] >= 0)
+    return;
+  bias_slot_[k] = (int) n ();
+  bias_left_[k] = 1;
+  grow_states (2, opt.meas_slow_share, opt.meas_slow_share);
+}
+
+/* The slow errors over `distance` driven (and turned): b <- rho b plus
+ * white noise
+ * keeping their variance at the share, rho = exp(-distance / length);
+ * the slip's derivative decays only, the measurements' as P */
+void
+Slam::decay_biases (double distance)
+{
+  if (!(distance > 0))
+    return;
+  const int N = (int) n ();
+  const double rho = std::exp (-distance / std::max (opt.meas_slow_length,
+          1e-9)), q = (1 - rho * rho) * opt.meas_slow_share;
+  const bool tracked = slip_tracked ();
+  for (size_t k = 0; k < bias_slot_.size (); k++) {
+    const int bs = bias_slot_[k];
+    if (bs < 0)
+      continue;
+    bias_left_[k] *= rho;
+    for (int c = 0; c < 3; c++) {
+      if (c > 0 && !tracked)
+        break;
+      double *M = c == 0 ? p_.data () : dp_[c - 1].data ();
+      for (int b = bs; b < bs + 2; b++) {
+        for (int j = 0; j < N; j++) {
+          M[(size_t) b * N + j] *= rho;
+          M[(size_t) j * N + b] *= rho;
+        }
+        if (c != 1)
+          M[(size_t) b * N + b] += q;
+      }
+    }
+    s_[bs] *= rho;
+    s_[bs + 1] *= rho;
+  }
+}
+
+void
+Slam::set_slow_errors (double share, double length)
+{
+  if (share == opt.meas_slow_share && length == opt.meas_slow_length)
+    return;
+  for (size_t k = 0; k < bias_slot_.size (); k++)
+    if (bias_slot_[k] >= 0) {
+      remove_states (bias_slot_[k], 2);
+      bias_slot_[k] = -1;
+    }
+  opt.meas_slow_share = share;
+  opt.meas_slow_length = length;
+}
+
+/* a slow error of a landmark out of view that has decayed to e^-3 of
+ * what it was when last seen is independent of what follows:
+ * marginalised (its rows and columns dropped), so the state holds the
+ * slow errors of the landmarks in view, or lately */
+void
+Slam::drop_biases ()
+{
+  for (size_t k = 0; k < bias_slot_.size (); k++)
+    if (bias_slot_[k] >= 0 && unseen_[k] > 0 && bias_left_[k] < 0.05) {
+      remove_states (bias_slot_[k], 2);
+      bias_slot_[k] = -1;
+    }
 }
 
 void
 Slam::remove_landmark (size_t k)
 {
-  const int N = (int) n (), sl = slot_[k];
-  if (sl >= 0) {
-    std::vector<int> keep;
-    for (int i = 0; i < N; i++)
-      if (i != sl && i != sl + 1)
-        keep.push_back (i);
-    const bool tracked = slip_tracked ();
-    std::vector<double> s2, p2, d2[2];
-    for (int i : keep) {
-      s2.push_back (s_[i]);
-      for (int j : keep) {
-        p2.push_back (p_[i * N + j]);
-        for (int c = 0; c < 2 && tracked; c++)
-          d2[c].push_back (dp_[c][i * N + j]);
-      }
-    }
-    s_ = s2;
-    p_ = p2;
-    dp_[0] = d2[0];
-    dp_[1] = d2[1];
-    for (auto & o : slot_)
-      if (o > sl)
-        o -= 2;
-  }
+  if (bias_slot_[k] >= 0)
+    remove_states (bias_slot_[k], 2);
+  if (slot_[k] >= 0)
+    remove_states (slot_[k], 2);
   lm_.erase (lm_.begin () + k);
+  bias_slot_.erase (bias_slot_.begin () + k);
+  bias_left_.erase (bias_left_.begin () + k);
   slot_.erase (slot_.begin () + k);
   last_view_.erase (last_view_.begin () + k);
   unseen_.erase (unseen_.begin () + k);
@@ -243,6 +381,7 @@ Slam::count_views (const SlamFrame & f)
       pass_views_[k] = 0;
     pass_views_[k]++;
     unseen_[k] = 0;
+    bias_left_[k] = 1;
     if (std::hypot (now.x - last_view_[k].x, now.y - last_view_[k].y)
         >= opt.confirm_baseline) {
       lm_[k].views++;

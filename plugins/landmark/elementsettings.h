@@ -628,17 +628,34 @@ start_with_settings (Self *self)
   return false;
 }
 
-/* Sets the element's change_state (change_state_checking_settings) and
- * BaseTransform's start and stop (a null stop: the parent's). */
-template <typename Self, GType (*get_type) (), bool (*apply) (Self *)>
+/* BaseTransform's start of an element of this pattern: its settings
+ * applied again if a property changed in READY (start_with_settings),
+ * then the element's own start, if it has one. */
+template <typename Self, bool (*apply) (Self *),
+    gboolean (*start) (GstBaseTransform *)>
+gboolean
+start_checking_settings (GstBaseTransform *trans)
+{
+  if (!start_with_settings<Self, apply> (reinterpret_cast<Self *> (trans)))
+    return FALSE;
+  if constexpr (start != nullptr)
+    return start (trans);
+  return TRUE;
+}
+
+/* Sets the element's change_state (change_state_checking_settings), its
+ * start (start_checking_settings before the element's own, which may be
+ * null) and its stop (null: the parent's). */
+template <typename Self, GType (*get_type) (), bool (*apply) (Self *),
+    gboolean (*start) (GstBaseTransform *) = nullptr>
 void
 set_settings_lifecycle (gpointer klass,
-    gboolean (*start) (GstBaseTransform *),
     gboolean (*stop) (GstBaseTransform *) = nullptr)
 {
   GST_ELEMENT_CLASS (klass)->change_state =
       change_state_checking_settings<Self, get_type, apply>;
-  GST_BASE_TRANSFORM_CLASS (klass)->start = start;
+  GST_BASE_TRANSFORM_CLASS (klass)->start =
+      start_checking_settings<Self, apply, start>;
   if (stop)
     GST_BASE_TRANSFORM_CLASS (klass)->stop = stop;
 }
@@ -649,7 +666,7 @@ template <typename Self, auto parse>
 bool
 apply_parsed (Self *self)
 {
-  return self->priv->state.applied.start (GST_ELEMENT (self),
+  return applied_settings_of (self->priv).start (GST_ELEMENT (self),
       self->priv->settings, parse);
 }
 
@@ -669,9 +686,21 @@ set_metadata_element_class (GstElementClass *klass, const char *longname,
   gst_element_class_add_static_pad_template (klass, &src);
 }
 
-/* The class set-up of such an element: finalize, the properties of table
- * (changeable while PLAYING unless the table says otherwise), its pads and
- * description. */
+/* Every element's finalize and the properties of its table (changeable
+ * while PLAYING unless the table says otherwise). */
+template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
+    const PropertyTable<Settings> &(*table) ()>
+void
+install_element_properties (gpointer klass, void (*finalize) (GObject *))
+{
+  G_OBJECT_CLASS (klass)->finalize = finalize;
+  install_properties<Settings, shared, table> (G_OBJECT_CLASS (klass),
+      (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+          GST_PARAM_MUTABLE_PLAYING));
+}
+
+/* The class set-up of such an element: finalize, the properties, its pads
+ * and description. */
 template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
     const PropertyTable<Settings> &(*table) ()>
 void
@@ -679,10 +708,7 @@ metadata_element_class_init (gpointer klass, void (*finalize) (GObject *),
     const char *longname, const char *classification,
     const char *description)
 {
-  G_OBJECT_CLASS (klass)->finalize = finalize;
-  install_properties<Settings, shared, table> (G_OBJECT_CLASS (klass),
-      (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-          GST_PARAM_MUTABLE_PLAYING));
+  install_element_properties<Settings, shared, table> (klass, finalize);
   set_metadata_element_class (GST_ELEMENT_CLASS (klass), longname,
       classification, description);
 }
@@ -737,6 +763,19 @@ struct LabelsInput {
     video_height = video ? GST_VIDEO_INFO_HEIGHT (&info) : 0;
   }
 };
+
+/* run_frame for an element that draws on a canvas (discard (): forget
+ * what was drawn): a frame that failed half drawn leaves nothing on it. */
+template <typename Canvas, typename Work>
+GstFlowReturn
+run_drawing_frame (GstElement *element, const char *what, Canvas &canvas,
+    Work work)
+{
+  const GstFlowReturn ret = run_frame (element, what, work);
+  if (ret != GST_FLOW_OK)
+    canvas.discard ();
+  return ret;
+}
 
 /* transform_ip of an element that measures labsegment's labels: its
  * settings brought up to date (sync), then process (self, buf, labels)

@@ -336,14 +336,6 @@ gst_birds_eye_apply_settings (GstBirdsEye * self)
       birds_eye_load_map);
 }
 
-static gboolean
-gst_birds_eye_start (GstBaseTransform * trans)
-{
-  auto self = GST_BIRDS_EYE (trans);
-  return landmark::start_with_settings<GstBirdsEye,
-          gst_birds_eye_apply_settings> (self);
-}
-
 /* Output caps: the input's with the bird's-eye size (square pixels);
  * input caps: any size. */
 static GstCaps *
@@ -544,8 +536,8 @@ gst_birds_eye_transform_frame (GstVideoFilter * filter,
   State & st = self->priv->state;
   gst_birds_eye_sync_settings (self);
   const int type = CV_8UC (GST_VIDEO_FRAME_COMP_PSTRIDE (in, 0));
-  const GstFlowReturn ret = landmark::run_frame (GST_ELEMENT (self),
-      "Bird's-eye remap failed.", [&] {
+  return landmark::run_drawing_frame (GST_ELEMENT (self),
+      "Bird's-eye remap failed.", st.renderer, [&] {
         /* views of the mapped frames with their strides: no copy */
         const cv::Mat src (GST_VIDEO_FRAME_HEIGHT (in),
             GST_VIDEO_FRAME_WIDTH (in), type, GST_VIDEO_FRAME_PLANE_DATA (in, 0),
@@ -560,25 +552,17 @@ gst_birds_eye_transform_frame (GstVideoFilter * filter,
           gst_birds_eye_draw (self, in->buffer, src.cols, src.rows, out);
         return GST_FLOW_OK;
       });
-  /* a frame that failed half drawn leaves nothing on the canvas */
-  if (ret != GST_FLOW_OK)
-    st.renderer.discard ();
-  return ret;
 }
 
 static void
 gst_birds_eye_class_init (GstBirdsEyeClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
   GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
 
-  gobject_class->finalize = gst_birds_eye_finalize;
-  landmark::install_properties<Settings, gst_birds_eye_settings,
-      birds_eye_properties> (gobject_class, (GParamFlags)
-      (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-          GST_PARAM_MUTABLE_PLAYING));
+  landmark::install_element_properties<Settings, gst_birds_eye_settings,
+      birds_eye_properties> (klass, gst_birds_eye_finalize);
 
   gst_element_class_set_static_metadata (element_class,
       "Bird's-eye view of the floor", "Filter/Converter/Video",
@@ -588,9 +572,8 @@ gst_birds_eye_class_init (GstBirdsEyeClass * klass)
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);
 
-  landmark::set_settings_lifecycle<GstBirdsEye,
-      gst_birds_eye_get_type, gst_birds_eye_apply_settings> (klass,
-      gst_birds_eye_start);
+  landmark::set_settings_lifecycle<GstBirdsEye, gst_birds_eye_get_type,
+      gst_birds_eye_apply_settings> (klass);
   gst_type_mark_as_plugin_api (GST_TYPE_BIRDS_EYE_DRAW, (GstPluginAPIFlags) 0);
   trans_class->transform_caps =
       GST_DEBUG_FUNCPTR (gst_birds_eye_transform_caps);

@@ -228,9 +228,6 @@ gst_blob_roundness_start (GstBaseTransform * trans)
 {
   auto self = GST_BLOB_ROUNDNESS (trans);
   State & st = self->priv->state;
-  if (!landmark::start_with_settings<GstBlobRoundness,
-          gst_blob_roundness_apply_settings> (self))
-    return FALSE;
   st.input.start ();
     const Settings & s = st.applied.config.s;
   GST_INFO_OBJECT (self, "shape %s, min-area %u, max-area %u, max-aspect "
@@ -533,8 +530,8 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   landmark::set_settings_lifecycle<GstBlobRoundness,
-      gst_blob_roundness_get_type, gst_blob_roundness_apply_settings> (klass,
-      gst_blob_roundness_start, gst_blob_roundness_stop);
+      gst_blob_roundness_get_type, gst_blob_roundness_apply_settings,
+      gst_blob_roundness_start> (klass, gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
   trans_class->transform_ip = landmark::measure_labels_ip<GstBlobRoundness,
       gst_blob_roundness_sync_settings, gst_blob_roundness_process>;

@@ -234,9 +234,6 @@ gst_floor_boundary_start (GstBaseTransform * trans)
 {
   auto self = GST_FLOOR_BOUNDARY (trans);
   State & st = self->priv->state;
-  if (!landmark::start_with_settings<GstFloorBoundary,
-          gst_floor_boundary_apply_settings> (self))
-    return FALSE;
   st.built_w = st.built_h = 0;
   st.input.start ();
   return TRUE;
@@ -595,8 +592,8 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   landmark::set_settings_lifecycle<GstFloorBoundary,
-      gst_floor_boundary_get_type, gst_floor_boundary_apply_settings> (klass,
-      gst_floor_boundary_start, gst_floor_boundary_stop);
+      gst_floor_boundary_get_type, gst_floor_boundary_apply_settings,
+      gst_floor_boundary_start> (klass, gst_floor_boundary_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
   trans_class->transform_ip = landmark::measure_labels_ip<GstFloorBoundary,
       gst_floor_boundary_sync_settings, gst_floor_boundary_process>;

@@ -343,9 +343,6 @@ gst_ipm_range_start (GstBaseTransform * trans)
 {
   auto self = GST_IPM_RANGE (trans);
   State & st = self->priv->state;
-  if (!landmark::start_with_settings<GstIpmRange,
-          gst_ipm_range_apply_settings> (self))
-    return FALSE;
   st.geometry_w = st.geometry_h = 0;
   st.caps_w = st.caps_h = 0;
   st.map_classes_checked = false;
@@ -670,9 +667,9 @@ gst_ipm_range_class_init (GstIpmRangeClass * klass)
       "from a pinhole or the seed's camera model and the markers' size");
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  landmark::set_settings_lifecycle<GstIpmRange,
-      gst_ipm_range_get_type, gst_ipm_range_apply_settings> (klass,
-      gst_ipm_range_start, gst_ipm_range_stop);
+  landmark::set_settings_lifecycle<GstIpmRange, gst_ipm_range_get_type,
+      gst_ipm_range_apply_settings, gst_ipm_range_start> (klass,
+      gst_ipm_range_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_ipm_range_set_caps);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_ipm_range_transform_ip);
 

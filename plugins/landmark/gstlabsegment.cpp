@@ -328,9 +328,6 @@ static gboolean
 gst_lab_segment_start (GstBaseTransform * trans)
 {
   auto self = GST_LAB_SEGMENT (trans);
-  if (!landmark::start_with_settings<GstLabSegment,
-          gst_lab_segment_apply_settings> (self))
-    return FALSE;
   self->priv->state.warned_no_class = false;
   return TRUE;
 }
@@ -589,24 +586,20 @@ gst_lab_segment_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 static void
 gst_lab_segment_class_init (GstLabSegmentClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
 
-  gobject_class->finalize = gst_lab_segment_finalize;
-  landmark::install_properties<Settings, gst_lab_segment_settings,
-      lab_segment_properties> (gobject_class,
-      (GParamFlags) (G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-          GST_PARAM_MUTABLE_PLAYING));
+  landmark::install_element_properties<Settings, gst_lab_segment_settings,
+      lab_segment_properties> (klass, gst_lab_segment_finalize);
 
   landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass),
       "Lab colour segmentation", "Filter/Analyzer/Video",
       "Labels every pixel with its nearest palette colour in CIE L*a*b*, "
       "with the dominant-colour rule, as buffer metadata");
 
-  landmark::set_settings_lifecycle<GstLabSegment,
-      gst_lab_segment_get_type, gst_lab_segment_apply_settings> (klass,
-      gst_lab_segment_start, gst_lab_segment_stop);
+  landmark::set_settings_lifecycle<GstLabSegment, gst_lab_segment_get_type,
+      gst_lab_segment_apply_settings, gst_lab_segment_start> (klass,
+      gst_lab_segment_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is
    * mapped for writing only when output=labels, so analysing a shared
    * buffer (after a tee) does not copy it. */

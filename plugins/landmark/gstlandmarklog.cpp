@@ -245,21 +245,15 @@ landmark_log_properties ()
 
 
 /* the settings (landmark::change_state_checking_settings) */
-static bool
-gst_landmark_log_apply_settings (GstLandmarkLog * self)
-{
-  return self->priv->applied.start (GST_ELEMENT (self),
-      self->priv->settings);
-}
+static constexpr auto gst_landmark_log_apply_settings =
+    landmark::apply_parsed<GstLandmarkLog,
+    landmark::accept_settings<Settings, Config>>;
 
 static gboolean
 gst_landmark_log_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_LOG (trans);
   auto priv = self->priv;
-  if (!landmark::start_with_settings<GstLandmarkLog,
-          gst_landmark_log_apply_settings> (self))
-    return FALSE;
   const std::string & path = priv->applied.config.s.location;
   const gboolean append = priv->applied.config.s.append;
 
@@ -492,7 +486,8 @@ gst_landmark_log_class_init (GstLandmarkLogClass * klass)
       GST_DEBUG_FUNCPTR (gst_landmark_log_change_state);
   trans_class->passthrough_on_same_caps = TRUE;
   trans_class->transform_ip_on_passthrough = TRUE;
-  trans_class->start = GST_DEBUG_FUNCPTR (gst_landmark_log_start);
+  trans_class->start = landmark::start_checking_settings<GstLandmarkLog,
+      gst_landmark_log_apply_settings, gst_landmark_log_start>;
   trans_class->stop = GST_DEBUG_FUNCPTR (gst_landmark_log_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_landmark_log_set_caps);
   trans_class->transform_ip =

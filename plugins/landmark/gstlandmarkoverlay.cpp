@@ -227,9 +227,6 @@ static gboolean
 gst_landmark_overlay_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_OVERLAY (trans);
-  if (!landmark::start_with_settings<GstLandmarkOverlay,
-          gst_landmark_overlay_apply_settings> (self))
-    return FALSE;
   self->priv->state.colours.init_defaults ();
   return TRUE;
 }
@@ -341,8 +338,8 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
   GstVideoFilter *filter = GST_VIDEO_FILTER_CAST (self);
   State & st = self->priv->state;
 
-  const GstFlowReturn ret = landmark::run_frame (GST_ELEMENT (self),
-      "Drawing the overlay failed.", [&] {
+  return landmark::run_drawing_frame (GST_ELEMENT (self),
+      "Drawing the overlay failed.", st.renderer, [&] {
         /* the settings are copied only after a change, so the steady state
          * allocates nothing here */
         landmark::sync_settings_and_file (self, map_file,
@@ -447,24 +444,16 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
         gst_video_frame_unmap (&frame);
         return GST_FLOW_OK;
       });
-  /* a frame that failed half drawn leaves nothing on the canvas */
-  if (ret != GST_FLOW_OK)
-    st.renderer.discard ();
-  return ret;
 }
 
 static void
 gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
-  const GParamFlags flags = (GParamFlags) (G_PARAM_READWRITE |
-      G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
 
-  gobject_class->finalize = gst_landmark_overlay_finalize;
-  landmark::install_properties<Settings, gst_landmark_overlay_settings,
-      landmark_overlay_properties> (gobject_class, flags);
+  landmark::install_element_properties<Settings, gst_landmark_overlay_settings,
+      landmark_overlay_properties> (klass, gst_landmark_overlay_finalize);
 
   landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass),
       "Landmark overlay", "Filter/Effect/Video",
@@ -472,9 +461,8 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
       "indicators and a mini-map of the landmark map onto the video");
 
   landmark::set_settings_lifecycle<GstLandmarkOverlay,
-      gst_landmark_overlay_get_type,
-      gst_landmark_overlay_apply_settings> (klass,
-      gst_landmark_overlay_start, gst_landmark_overlay_stop);
+      gst_landmark_overlay_get_type, gst_landmark_overlay_apply_settings,
+      gst_landmark_overlay_start> (klass, gst_landmark_overlay_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is
    * mapped for writing only when there is something to draw. */
   trans_class->transform_ip =

@@ -338,21 +338,14 @@ gst_landmark_publish_init (GstLandmarkPublish * self)
 /* ---- start and stop ------------------------------------------------- */
 
 /* the settings (landmark::change_state_checking_settings) */
-static bool
-gst_landmark_publish_apply_settings (GstLandmarkPublish * self)
-{
-  return self->priv->applied.start (GST_ELEMENT (self),
-      self->priv->settings, publish_parse);
-}
+static constexpr auto gst_landmark_publish_apply_settings =
+    landmark::apply_parsed<GstLandmarkPublish, publish_parse>;
 
 static gboolean
 gst_landmark_publish_start (GstBaseTransform * trans)
 {
   auto self = GST_LANDMARK_PUBLISH (trans);
   auto priv = self->priv;
-  if (!landmark::start_with_settings<GstLandmarkPublish,
-          gst_landmark_publish_apply_settings> (self))
-    return FALSE;
   priv->state = State ();
   const Config & c = priv->applied.config;
   if (!priv->link.start (c.connection))
@@ -440,27 +433,23 @@ gst_landmark_publish_sink_event (GstBaseTransform * trans, GstEvent * event)
 static void
 gst_landmark_publish_class_init (GstLandmarkPublishClass * klass)
 {
-  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   landmark_json::init ();
   landmark::MqttLink::init_library ();
 
-  gobject_class->finalize = gst_landmark_publish_finalize;
-  landmark::install_properties<Settings, gst_landmark_publish_settings,
-      publish_properties> (gobject_class, (GParamFlags) (G_PARAM_READWRITE |
-          G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING));
-  landmark::set_metadata_element_class (GST_ELEMENT_CLASS (klass),
-      "Landmark results publisher", "Filter/Analyzer/Video",
+  landmark::metadata_element_class_init<Settings,
+      gst_landmark_publish_settings, publish_properties> (klass,
+      gst_landmark_publish_finalize, "Landmark results publisher",
+      "Filter/Analyzer/Video",
       "Sends the labels, detections and pose of every frame to an MQTT "
       "broker as JSON, passing the video through unchanged");
 
   trans_class->passthrough_on_same_caps = TRUE;
   trans_class->transform_ip_on_passthrough = TRUE;
   landmark::set_settings_lifecycle<GstLandmarkPublish,
-      gst_landmark_publish_get_type,
-      gst_landmark_publish_apply_settings> (klass,
-      gst_landmark_publish_start, gst_landmark_publish_stop);
+      gst_landmark_publish_get_type, gst_landmark_publish_apply_settings,
+      gst_landmark_publish_start> (klass, gst_landmark_publish_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_landmark_publish_set_caps);
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_publish_transform_ip);

@@ -360,8 +360,14 @@ gst_landmark_slam_sync_settings (GstLandmarkSlam * self)
 
 /* ---- states and events ---------------------------------------------- */
 
-static constexpr auto gst_landmark_slam_apply_settings =
-    landmark::apply_parsed<GstLandmarkSlam, slam_parse>;
+/* the settings and the files they name, under the lock the write-map
+ * action takes (landmark::change_state_checking_settings) */
+static bool
+gst_landmark_slam_apply_settings (GstLandmarkSlam * self)
+{
+  std::lock_guard<std::recursive_mutex> lk (self->priv->state.slam_lock);
+  return landmark::apply_parsed<GstLandmarkSlam, slam_parse> (self);
+}
 
 static gboolean
 gst_landmark_slam_start (GstBaseTransform * trans)
@@ -369,9 +375,6 @@ gst_landmark_slam_start (GstBaseTransform * trans)
   auto self = GST_LANDMARK_SLAM (trans);
   State & st = self->priv->state;
   std::lock_guard<std::recursive_mutex> lk (st.slam_lock);
-  if (!landmark::start_with_settings<GstLandmarkSlam,
-          gst_landmark_slam_apply_settings> (self))
-    return FALSE;
   st.frames = 0;
   {
     std::lock_guard<std::mutex> writing (st.write_lock);
@@ -694,9 +697,8 @@ gst_landmark_slam_class_init (GstLandmarkSlamClass * klass)
       "Robot pose and landmark map together from the ranges and bearings "
       "of the detections (EKF, joint compatibility association)");
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-  landmark::set_settings_lifecycle<GstLandmarkSlam,
-      gst_landmark_slam_get_type, gst_landmark_slam_apply_settings> (klass,
-      gst_landmark_slam_start);
+  landmark::set_settings_lifecycle<GstLandmarkSlam, gst_landmark_slam_get_type,
+      gst_landmark_slam_apply_settings, gst_landmark_slam_start> (klass);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_landmark_slam_sink_event);
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_slam_transform_ip);

@@ -211,9 +211,6 @@ gst_trilaterate_start (GstBaseTransform * trans)
 {
   auto self = GST_TRILATERATE (trans);
   State & st = self->priv->state;
-  if (!landmark::start_with_settings<GstTrilaterate,
-          gst_trilaterate_apply_settings> (self))
-    return FALSE;
   gst_trilaterate_reset (st);
   st.map_classes_checked = false;
   GST_INFO_OBJECT (self, "map %s: %zu landmarks",
@@ -380,9 +377,8 @@ gst_trilaterate_class_init (GstTrilaterateClass * klass)
       "detections: one, two or many landmarks, optional EKF");
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  landmark::set_settings_lifecycle<GstTrilaterate,
-      gst_trilaterate_get_type, gst_trilaterate_apply_settings> (klass,
-      gst_trilaterate_start);
+  landmark::set_settings_lifecycle<GstTrilaterate, gst_trilaterate_get_type,
+      gst_trilaterate_apply_settings, gst_trilaterate_start> (klass);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_trilaterate_sink_event);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_trilaterate_transform_ip);
 

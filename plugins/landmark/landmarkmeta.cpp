@@ -1,6 +1,7 @@
 #include "landmarkmeta.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 namespace {
@@ -370,6 +371,25 @@ landmark_detection_add (GstBuffer * buffer, const gchar * class_name,
   if (roi)
     roi->id = (gint) id;
   return roi;
+}
+
+GstVideoRegionOfInterestMeta *
+landmark_detection_add_from_plane (GstBuffer * buffer,
+    const gchar * class_name, gint x, gint y, gint w, gint h,
+    guint plane_w, guint plane_h, gint frame_w, gint frame_h)
+{
+  if (frame_w > 0 && frame_h > 0 && plane_w > 0 && plane_h > 0 &&
+      ((guint) frame_w != plane_w || (guint) frame_h != plane_h)) {
+    const double sx = (double) frame_w / plane_w;
+    const double sy = (double) frame_h / plane_h;
+    const gint x1 = (gint) std::ceil ((x + w) * sx);
+    const gint y1 = (gint) std::ceil ((y + h) * sy);
+    x = (gint) std::floor (x * sx);
+    y = (gint) std::floor (y * sy);
+    w = MAX (1, x1 - x);
+    h = MAX (1, y1 - y);
+  }
+  return landmark_detection_add (buffer, class_name, x, y, w, h);
 }
 
 void
@@ -756,4 +776,52 @@ LandmarkLabelClasses::list () const
   for (const auto & name : names)
     known += (known.empty ()? "" : ", ") + name;
   return known;
+}
+
+LandmarkLabelPlane::~LandmarkLabelPlane ()
+{
+  if (data)
+    gst_buffer_unmap (plane_, &map_);
+  if (plane_)
+    gst_buffer_unref (plane_);
+}
+
+bool
+LandmarkLabelPlane::read (GstElement * element, const GstStructure * labels,
+    bool *warned, bool *failed)
+{
+  *failed = false;
+  if (!landmark_labels_get_plane (labels, &plane_, &width, &height,
+          &stride)) {
+    plane_ = nullptr;
+    if (!*warned) {
+      GST_ELEMENT_WARNING (element, STREAM, FORMAT,
+          ("The labels metadata has no usable label plane."),
+          ("missing or inconsistent plane fields; buffers pass "
+              "unmeasured"));
+      *warned = true;
+    }
+    return false;
+  }
+  if (!gst_buffer_map (plane_, &map_, GST_MAP_READ)) {
+    GST_ELEMENT_ERROR (element, STREAM, FAILED,
+        ("Could not read the label plane."), (nullptr));
+    *failed = true;
+    return false;
+  }
+  data = map_.data;
+  return true;
+}
+
+void
+landmark_caps_frame_size (GstCaps * caps, gint * width, gint * height)
+{
+  GstVideoInfo info;
+  /* any caps are fine; the size only rescales boxes to the frame */
+  if (caps && gst_video_info_from_caps (&info, caps)) {
+    *width = GST_VIDEO_INFO_WIDTH (&info);
+    *height = GST_VIDEO_INFO_HEIGHT (&info);
+  } else {
+    *width = *height = 0;
+  }
 }

@@ -85,6 +85,13 @@ const GValue *landmark_labels_class_value (const GstStructure * labels,
 GstVideoRegionOfInterestMeta *landmark_detection_add (GstBuffer * buffer,
     const gchar * class_name, guint x, guint y, guint w, guint h);
 
+/* The same for a box measured on a label plane of plane_w x plane_h
+ * pixels: rescaled (outwards) to a frame of frame_w x frame_h when the
+ * sizes differ and the frame's is known (non-zero). */
+GstVideoRegionOfInterestMeta *landmark_detection_add_from_plane (GstBuffer *
+    buffer, const gchar * class_name, gint x, gint y, gint w, gint h,
+    guint plane_w, guint plane_h, gint frame_w, gint frame_h);
+
 /* Adds a parameter structure (landmark-blob, -range, -match; ownership
  * taken) to a detection: on its region-of-interest meta, for other tools,
  * and on the buffer's GstLandmarkDetectionsMeta, because converters and
@@ -232,6 +239,29 @@ struct LandmarkLabelClasses
   /* "red, green, ..." */
   std::string list () const;
 };
+
+/* The label plane of a labels meta, mapped for reading while this lives. */
+class LandmarkLabelPlane
+{
+public:
+  LandmarkLabelPlane () = default;
+  LandmarkLabelPlane (const LandmarkLabelPlane &) = delete;
+  LandmarkLabelPlane & operator= (const LandmarkLabelPlane &) = delete;
+  ~LandmarkLabelPlane ();
+  /* true with the fields set. false when the labels have no usable plane
+   * (one WARNING on element while *warned is false: buffers pass
+   * unmeasured) or when it cannot be mapped (an ERROR, *failed set). */
+  bool read (GstElement * element, const GstStructure * labels,
+      bool *warned, bool *failed);
+  const guint8 *data = nullptr;
+  guint width = 0, height = 0, stride = 0;
+private:
+  GstBuffer * plane_ = nullptr;
+  GstMapInfo map_ = GST_MAP_INFO_INIT;
+};
+
+/* The frame size of video caps; 0 x 0 when they are not video. */
+void landmark_caps_frame_size (GstCaps * caps, gint * width, gint * height);
 
 /* The region-of-interest metas of buffer, in its order (out is cleared
  * first; its storage is kept, so a reused vector does not allocate). */

@@ -240,7 +240,7 @@ BeaconFinder::read (BeaconDetection & d, const int *idx, int n,
 void
 BeaconFinder::chain (int top, const BeaconParams & params)
 {
-  int idx[kMaxChain];
+  int idx[kMaxChain] = { 0 };
   int n = 0;
   for (int k = top; k >= 0 && n < kMaxChain; k = below_[k])
     idx[n++] = k;

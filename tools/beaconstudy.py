@@ -19,7 +19,11 @@ is scored:
 Identity is named / (named + wrong) over eligible beacons; recall named /
 eligible; false names are kept detections whose centre lies in no rendered
 beacon of their code. The floor contact point (``axis-base-x/y``) is
-compared with the truth's ``u_front, v_front``.
+compared with the truth's ``u_front, v_front``, and ``ipmrange``'s ranges of the named
+beacons (``range-ground``, ``range-size``, the fused ``range``, with the
+variant's camera file) with the truth's range and bearing of the axis;
+and, on frames with 3 or more eligible beacons, ``trilaterate``'s pose from
+the beacons alone against the truth's.
 """
 
 from __future__ import annotations
@@ -87,19 +91,36 @@ def inside(box, u, v, margin=1.0):
             box[1] - margin <= v <= box[3] + margin)
 
 
+def empty():
+    return dict(eligible=0, named=0, wrong=0, false=0, partial=0,
+                base_err=[], height_err=[], ground=[], size=[], fused=[],
+                bearing=[], z=[], pose_frames=0, posed=0, pose_err=[])
+
+
 def score(folder, palette, min_height, extra=""):
     with open(os.path.join(folder, "truth.jsonl"), encoding="utf-8") as f:
         truth = [json.loads(line) for line in f]
+    map_file = os.path.join(folder, "map.json")
     chain = (f"labsegment palette={palette} ! beacondetect "
-             f"map={os.path.join(folder, 'map.json')} {extra}")
-    s = dict(eligible=0, named=0, wrong=0, false=0, partial=0,
-             base_err=[], height_err=[])
+             f"map={map_file} {extra} ! ipmrange calibration="
+             f"{os.path.join(folder, 'camera.yml')} map={map_file} "
+             f"range-method=fused ! trilaterate map={map_file}")
+    s = empty()
     for res, t in zip(pipeline.frames_through(
             chain, frames_of(os.path.join(folder, "clip.avi"))), truth):
         kept = [d for d in res.detections if d.blob.get("kept")]
         s["partial"] += sum(1 for d in res.detections
                             if d.blob.get("reject-reason") == "partial")
         marks = [m for m in t["landmarks"] if m.get("code")]
+        whole = [m for m in marks if not m["cut"] and
+                 m["occluded_fraction"] < 0.05 and
+                 m["box"][3] - m["box"][1] >= min_height]
+        if len(whole) >= 3:
+            s["pose_frames"] += 1
+            if res.pose is not None:
+                s["posed"] += 1
+                s["pose_err"].append(math.hypot(
+                    res.pose.x - t["robot"]["x"], res.pose.y - t["robot"]["y"]))
         for d in kept:
             x, y, w, h = d.bbox
             cu, cv = x + (w - 1) / 2, y + (h - 1) / 2
@@ -123,6 +144,16 @@ def score(folder, palette, min_height, extra=""):
                     b["axis-base-x"] - m["u_front"],
                     b["axis-base-y"] - m["v_front"]))
                 s["height_err"].append(b["height-px"] - (box[3] - box[1]))
+                r = right[0].range
+                if "range" in r:
+                    for key, field in (("ground", "range-ground"),
+                                       ("size", "range-size"),
+                                       ("fused", "range")):
+                        if field in r:
+                            s[key].append(r[field] / m["range"] - 1)
+                    s["bearing"].append(r["bearing"] - m["bearing"])
+                    s["z"].append((r["range"] - m["range"]) /
+                                  r["range-sigma"])
             elif hits:
                 s["wrong"] += 1
     return s
@@ -139,8 +170,7 @@ def main(argv=None):
     ap.add_argument("--out", default="out/beaconstudy")
     args = ap.parse_args(argv)
     first = 2 if args.half == "tune" else 1
-    total = dict(eligible=0, named=0, wrong=0, false=0, partial=0,
-                 base_err=[], height_err=[])
+    total = empty()
     for n in range(first, first + 2 * args.variants, 2):
         folder = render(n, args.frames, args.out)
         palette = learn_palette(folder, os.path.join(folder, "learned.json"))
@@ -163,6 +193,27 @@ def main(argv=None):
               f"{np.percentile(total['base_err'], 95):.2f} px; height-px - "
               f"truth box height: median "
               f"{np.median(total['height_err']):.2f} px")
+    for key in ("ground", "size", "fused"):
+        err = np.abs(total[key])
+        if len(err):
+            print(f"  range {key}: {len(err)} named views, |error| median "
+                  f"{100 * np.median(err):.2f} %, p95 "
+                  f"{100 * np.percentile(err, 95):.2f} %")
+    if total["bearing"]:
+        b = np.degrees(np.abs(total["bearing"]))
+        z = np.asarray(total["z"])
+        print(f"  bearing |error| median {np.median(b):.3f} deg, p95 "
+              f"{np.percentile(b, 95):.3f} deg; fused range error / "
+              f"range-sigma: RMS {np.sqrt(np.mean(z * z)):.2f}, within 2 "
+              f"sigma {100 * np.mean(np.abs(z) < 2):.1f} %")
+    if total["pose_frames"]:
+        err = np.asarray(total["pose_err"])
+        print(f"  pose from beacons alone (trilaterate): {total['posed']} of "
+              f"{total['pose_frames']} frames with 3+ beacons in view "
+              f"({100 * total['posed'] / total['pose_frames']:.1f} %)"
+              + (f", position error median {100 * np.median(err):.2f} cm, "
+                 f"p95 {100 * np.percentile(err, 95):.2f} cm"
+                 if len(err) else ""))
     return 0
 
 

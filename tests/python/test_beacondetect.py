@@ -7,7 +7,9 @@ import json
 import math
 
 import cv2
+import numpy as np
 import pytest
+from gi.repository import Gst
 
 from gstlandmark import pipeline
 from gstlandmark.synth import Camera, Effects, Landmark, Pose, Scene, \
@@ -270,3 +272,45 @@ def test_pose_from_beacons_alone_and_a_mixed_map(tmp_path):
     assert {k: v[0] for k, v in got.items()} == {
         "pink/yellow": "B1", "blue/red": "B2", "yellow/green": "B3",
         "pink": "L1"}, got
+
+
+def test_overlay_draws_the_box_and_the_log_writes_the_code(tmp_path):
+    """landmarkoverlay draws a named beacon as the box of its bands (its
+    corners, which an ellipse in that box would miss, are drawn on) labelled
+    with its code; landmarklog writes `code`, `kind` and the axis."""
+    cam = Camera(640, 480, **SEED_CAMERA)
+    lm = Landmark("B1", "pink/yellow", 1.0, 0.0, 0.1, kind="beacon",
+                  height=0.2)
+    scene = Scene(camera=cam, landmarks=[lm], effects=Effects(noise_sigma=0))
+    rgb, _, _ = render_frame(scene, Pose(0.0, 0.0, 0.0), frame=0)
+    bgr = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
+    pal = tmp_path / "palette.json"
+    pal.write_text(json.dumps(palette_json(scene.scene_palette())))
+    map_file = tmp_path / "map.json"
+    map_file.write_text(json.dumps(scene.map_json()))
+    log = tmp_path / "log.jsonl"
+    (res,) = pipeline.frames_through(
+        f"labsegment palette={pal} ! beacondetect map={map_file} ! "
+        f"landmarklog location={log} ! landmarkoverlay show-pose=false "
+        f"show-histogram=false show-indicators=false show-minimap=false ! "
+        f"videoconvert ! video/x-raw,format=BGR", [bgr])
+    (det,) = res.detections
+    b = det.blob
+    ok, out = res.buffer.map(Gst.MapFlags.READ)
+    try:
+        drawn = np.frombuffer(out.data, np.uint8).reshape(480, 640, 3)
+        # the box's lower corners, 1 px inside (the label goes above it)
+        for du in (-1, 1):
+            u = int(round(b["ellipse-x"] + du * (b["ellipse-minor"] / 2 - 1)))
+            v = int(round(b["ellipse-y"] + b["ellipse-major"] / 2 - 1))
+            change = np.abs(drawn[v, u].astype(int) - bgr[v, u]).max()
+            assert change > 60, (u, v, drawn[v, u], bgr[v, u])
+    finally:
+        res.buffer.unmap(out)
+    (line,) = [json.loads(x) for x in log.read_text().splitlines()
+               if '"detections"' in x]
+    (logged,) = line["detections"]
+    assert logged["class"] == "pink/yellow"
+    assert logged["blob"]["code"] == "pink/yellow"
+    assert logged["blob"]["kind"] == "beacon"
+    assert "axis-base-y" in logged["blob"]

@@ -314,3 +314,49 @@ def test_overlay_draws_the_box_and_the_log_writes_the_code(tmp_path):
     assert logged["blob"]["code"] == "pink/yellow"
     assert logged["blob"]["kind"] == "beacon"
     assert "axis-base-y" in logged["blob"]
+
+
+def test_landmarkslam_anchors_on_coded_markers(tmp_path):
+    """landmarkslam with a map of beacons alone: each is an anchor found by
+    its code, the pose follows the robot within 3 cm over 8 frames driving
+    ahead, and its map (write-map, as map-out) holds the beacons as the map
+    gave them (kind, bands, heights), which the map reader reads again."""
+    from gstlandmark.landmarkmap import read_map
+    cam = Camera(640, 480, **SEED_CAMERA)
+    beacons = [Landmark("B1", "pink/yellow", 1.4, 0.35, 0.1, kind="beacon",
+                        height=0.2),
+               Landmark("B2", "blue/red", 1.8, 0.0, 0.1, kind="beacon",
+                        height=0.2),
+               Landmark("B3", "yellow/green", 1.5, -0.4, 0.1, kind="beacon",
+                        height=0.2, band_heights=(0.08, 0.12))]
+    scene = Scene(camera=cam, landmarks=beacons,
+                  effects=Effects(noise_sigma=1.0, ball_shading=0.3))
+    poses = [Pose(0.02 * k, 0.0, 0.0) for k in range(8)]
+    frames = [cv2.cvtColor(render_frame(scene, p, frame=k)[0],
+                           cv2.COLOR_RGB2BGR) for k, p in enumerate(poses)]
+    pal = tmp_path / "palette.json"
+    pal.write_text(json.dumps(palette_json(scene.scene_palette())))
+    map_file = tmp_path / "map.json"
+    map_file.write_text(json.dumps(scene.map_json()))
+    out = tmp_path / "out.json"
+    pipes = []
+    results = []
+    for res in pipeline.frames_through(
+            f"labsegment palette={pal} ! beacondetect map={map_file} ! "
+            f"ipmrange {camera_props(cam)} map={map_file} ! landmarkslam "
+            f"name=slam map={map_file}", frames, configure=pipes.append):
+        results.append(res)
+        if len(results) == len(frames):
+            slam = pipes[0].get_by_name("slam")
+            assert slam.emit("write-map", str(out)) is True
+    for res, p in zip(results[2:], poses[2:]):
+        assert res.pose is not None
+        assert math.hypot(res.pose.x - p.x, res.pose.y - p.y) < 0.03, (
+            res.pose.fields, p)
+        ids = {d.match.get("landmark-id") for d in res.detections
+               if d.match.get("matched")}
+        assert ids == {"B1", "B2", "B3"}, ids
+    again = {m["id"]: m for m in read_map(str(out))}
+    assert again["B3"]["code"] == "yellow/green"
+    assert again["B3"]["band_heights"] == pytest.approx([0.08, 0.12])
+    assert again["B1"]["kind"] == "beacon"

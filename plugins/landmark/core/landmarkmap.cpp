@@ -296,6 +296,12 @@ coded_match_class (const std::string & code)
   return "coded:" + code;
 }
 
+bool
+is_coded_match_class (const std::string & cls)
+{
+  return cls.compare (0, 6, "coded:") == 0;
+}
+
 std::vector<MapLandmark>
 map_pose_landmarks (const LandmarkMap & map)
 {

@@ -72,6 +72,8 @@ std::vector<MapLandmark> map_discs_and_balls (const LandmarkMap & map);
  * apart from the palette's classes ("coded:" + code), so that a one-band
  * post "pink" and a pink disc are never taken for each other. */
 std::string coded_match_class (const std::string & code);
+/* Whether a class is one coded_match_class made. */
+bool is_coded_match_class (const std::string & cls);
 
 /* Every landmark of the map, in its order, the coded markers under their
  * coded_match_class: what trilaterate positions from (a code is unique in

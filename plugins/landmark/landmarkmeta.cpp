@@ -479,7 +479,9 @@ landmark_detection_rejected (GstBuffer * buffer,
     const GstStructure *params;
     const gchar *element;
   } stages[] = {
-    {blob, "blobroundness"},
+    /* beacondetect's landmark-blob reads the bands it was made of */
+    {blob, blob && gst_structure_has_field (blob, "bands") ? "beacondetect" :
+          "blobroundness"},
     {range, "ipmrange"},
   };
   for (const auto & stage : stages) {

@@ -106,7 +106,8 @@ void landmark_detection_add_param (GstBuffer * buffer,
 const GstStructure *landmark_detection_get_param (GstBuffer * buffer,
     const GstVideoRegionOfInterestMeta * roi, const gchar * name);
 /* Whether a stage of the chain rejected a detection (docs/detection.md):
- * blobroundness (landmark-blob kept=false: area or shape), ipmrange
+ * blobroundness or beacondetect (landmark-blob kept=false: area, shape, a
+ * partial coded marker), ipmrange
  * (landmark-range kept=false: size against range) or trilaterate
  * (landmark-match reason outside-gate, outlier or duplicate: the map
  * disagrees).

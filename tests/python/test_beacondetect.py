@@ -132,14 +132,22 @@ def test_a_cut_beacon_is_a_candidate(tmp_path):
                   height=0.4, band_heights=(0.1, 0.3))
     scene = Scene(camera=Camera(640, 480, **SEED_CAMERA), landmarks=[lm],
                   effects=Effects(noise_sigma=1.0))
-    dets, truth = run(scene, Pose(0.0, 0.0, 0.0), tmp_path)
+    log = tmp_path / "log.jsonl"
+    dets, truth = run(scene, Pose(0.0, 0.0, 0.0), tmp_path,
+                      after=f"landmarklog location={log}")
     assert truth["landmarks"][0]["cut"]
     assert truth["landmarks"][0]["bands"][0]["box"] is None
+    (line,) = [json.loads(x) for x in log.read_text().splitlines()
+               if '"detections"' in x]
+    (logged,) = line["detections"]
+    assert (logged["accepted"], logged["rejected-by"],
+            logged["reject-reason"]) == (False, "beacondetect", "partial")
     (det,) = dets
     assert det.class_name == "yellow"
     assert det.blob["kept"] is False
     assert det.blob["reject-reason"] == "partial"
     assert det.blob["candidate-codes"] == ["pink/yellow"]
+    assert det.rejected() == ("beacondetect", "partial")
 
     lm = Landmark("B1", "pink/yellow", 0.45, 0.0, 0.1, kind="beacon",
                   height=0.3)

@@ -44,11 +44,18 @@ from gstlandmark.synth.writer import render_scenario
 COLOURS = ("red", "green", "yellow", "pink", "blue")
 
 
-def layout(n):
-    """The 20 beacons of variant n and its poses' seed."""
+# diameter and height ranges, metres, per kind
+SIZES = {"beacon": ((0.06, 0.14), (0.14, 0.32)),
+         "cone": ((0.15, 0.30), (0.20, 0.40)),
+         "post": ((0.03, 0.05), (0.30, 0.60))}
+
+
+def layout(n, kind="beacon"):
+    """The 20 markers of variant n and its poses' seed."""
     rng = np.random.default_rng([n, 33])
-    diameter = float(rng.uniform(0.06, 0.14))
-    height = float(rng.uniform(0.14, 0.32))
+    (d0, d1), (h0, h1) = SIZES[kind]
+    diameter = float(rng.uniform(d0, d1))
+    height = float(rng.uniform(h0, h1))
     codes = [f"{a}/{b}" for a in COLOURS for b in COLOURS if a != b]
     placed = []
     for k, code in enumerate(codes):
@@ -59,14 +66,15 @@ def layout(n):
             if all(math.hypot(x - p.x, y - p.y) > 0.45 for p in placed):
                 break
         placed.append(Landmark(f"B{k + 1}", code, x, y, diameter,
-                               kind="beacon", height=height))
+                               kind=kind, height=height))
     return placed, rng
 
 
-def render(n, frames, out):
-    folder = os.path.join(out, f"v{n}-f{frames}")
+def render(n, frames, out, kind="beacon"):
+    folder = os.path.join(out, f"v{n}-f{frames}" + (
+        "" if kind == "beacon" else f"-{kind}"))
     if not os.path.exists(os.path.join(folder, "truth.jsonl")):
-        beacons, rng = layout(n)
+        beacons, rng = layout(n, kind)
         poses = [(float(rng.uniform(-0.1, 0.1)), float(rng.uniform(-0.1, 0.1)),
                   float(rng.uniform(-math.pi, math.pi)))
                  for _ in range(frames)]
@@ -167,12 +175,14 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=8)
     ap.add_argument("--min-height", type=float, default=20.0)
     ap.add_argument("--set", default="", help="beacondetect properties")
+    ap.add_argument("--kind", choices=sorted(SIZES), default="beacon",
+                    help="the 20 markers' kind (default beacon)")
     ap.add_argument("--out", default="out/beaconstudy")
     args = ap.parse_args(argv)
     first = 2 if args.half == "tune" else 1
     total = empty()
     for n in range(first, first + 2 * args.variants, 2):
-        folder = render(n, args.frames, args.out)
+        folder = render(n, args.frames, args.out, args.kind)
         palette = learn_palette(folder, os.path.join(folder, "learned.json"))
         s = score(folder, palette, args.min_height, args.set)
         for k in total:

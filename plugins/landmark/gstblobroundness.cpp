@@ -358,21 +358,9 @@ gst_blob_roundness_attach (GstBlobRoundness * self, GstBuffer * buf,
 {
   State & st = self->priv->state;
   /* the box in pixels of the current frame (the plane normally is) */
-  gint x = b.bbox_x, y = b.bbox_y, w = b.bbox_w, h = b.bbox_h;
-  if (st.input.video_width > 0 && st.input.video_height > 0 &&
-      ((guint) st.input.video_width != plane_w ||
-          (guint) st.input.video_height != plane_h)) {
-    const double sx = (double) st.input.video_width / plane_w;
-    const double sy = (double) st.input.video_height / plane_h;
-    const gint x1 = (gint) std::ceil ((b.bbox_x + b.bbox_w) * sx);
-    const gint y1 = (gint) std::ceil ((b.bbox_y + b.bbox_h) * sy);
-    x = (gint) std::floor (b.bbox_x * sx);
-    y = (gint) std::floor (b.bbox_y * sy);
-    w = MAX (1, x1 - x);
-    h = MAX (1, y1 - y);
-  }
-  GstVideoRegionOfInterestMeta *roi = landmark_detection_add (buf,
-      class_name, x, y, w, h);
+  GstVideoRegionOfInterestMeta *roi = landmark_detection_add_from_plane (buf,
+      class_name, b.bbox_x, b.bbox_y, b.bbox_w, b.bbox_h, plane_w, plane_h,
+      st.input.video_width, st.input.video_height);
   if (!roi)
     return;
   GstStructure *s = gst_structure_new (LANDMARK_BLOB_PARAMS,
@@ -411,35 +399,19 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
   State & st = self->priv->state;
   const Settings & cfg = st.applied.config.s;
 
-  GstBuffer *plane;
-  guint w, h, stride;
-  if (!landmark_labels_get_plane (labels, &plane, &w, &h, &stride)) {
-    if (!st.input.warned_bad_plane) {
-      GST_ELEMENT_WARNING (self, STREAM, FORMAT,
-          ("The labels metadata has no usable label plane."),
-          ("missing or inconsistent plane fields; buffers pass unmeasured"));
-      st.input.warned_bad_plane = true;
-    }
-    return GST_FLOW_OK;
-  }
-  if (!gst_blob_roundness_update_slots (self, labels)) {
-    gst_buffer_unref (plane);
+  LandmarkLabelPlane plane;
+  bool failed;
+  if (!plane.read (GST_ELEMENT (self), labels, &st.input.warned_bad_plane,
+          &failed))
+    return failed ? GST_FLOW_ERROR : GST_FLOW_OK;
+  if (!gst_blob_roundness_update_slots (self, labels))
     return GST_FLOW_ERROR;
-  }
-  GstMapInfo map;
-  if (!gst_buffer_map (plane, &map, GST_MAP_READ)) {
-    gst_buffer_unref (plane);
-    GST_ELEMENT_ERROR (self, STREAM, FAILED,
-        ("Could not read the label plane."), (nullptr));
-    return GST_FLOW_ERROR;
-  }
+  const guint w = plane.width, h = plane.height;
 
   landmark::BlobAnalyzer & a = st.analyzer;
   a.begin (w, h);
   st.workers.resize (landmark::frame_threads (cfg.n_threads, (gsize) w * h));
-  a.add_label_runs (map.data, stride, st.slot_of, st.workers);
-  gst_buffer_unmap (plane, &map);
-  gst_buffer_unref (plane);
+  a.add_label_runs (plane.data, plane.stride, st.slot_of, st.workers);
   if (cfg.morphology > 0)
     gst_blob_roundness_morphology (self, cfg.morphology);
   a.label ();

@@ -98,6 +98,8 @@
 #include "camerasetup.h"
 #include "landmarkmeta.h"
 #include "analyticsmeta.h"
+#include "beaconrange.h"
+#include "landmarkmap.h"
 #include "markerclasses.h"
 #include "markerevidence.h"
 
@@ -126,6 +128,7 @@ struct Config {
   Settings s;
   landmark::CameraSetup camera;       /* the camera file merged */
   landmark::MarkerClasses markers;    /* the map read */
+  std::vector<landmark::MapLandmark> coded;   /* its coded markers */
 };
 
 struct State {
@@ -201,8 +204,17 @@ ipm_range_parse (const Settings & s, Config * cfg,
   marker.diameter = s.marker_diameter;
   marker.ball = s.marker_kind == GST_IPM_RANGE_MARKER_BALL;
   err->property = "map";
-  return landmark::marker_classes_load (s.map, marker, camera_height,
-      &cfg->markers, &err->why);
+  if (!landmark::marker_classes_load (s.map, marker, camera_height,
+          &cfg->markers, &err->why))
+    return false;
+  /* beacondetect's detections carry a code of these (docs/beacons.md) */
+  landmark::LandmarkMap map;
+  if (!s.map.empty () && !landmark::map_load_file (s.map, &map, &err->why))
+    return false;
+  for (landmark::MapLandmark & m : map.landmarks)
+    if (m.coded ())
+      cfg->coded.push_back (std::move (m));
+  return true;
 }
 
 static const landmark::PropertyTable<Settings> &
@@ -443,6 +455,104 @@ gst_ipm_range_check_size (GstIpmRange * self,
   return agreement < threshold ? "size" : nullptr;
 }
 
+/* The landmark-range structure of an estimate, `range` by range-method;
+ * a ray that misses the marker's plane: no-floor, not kept. */
+static GstStructure *
+gst_ipm_range_structure (const Settings & cfg, const landmark::RangeEstimate
+    & e)
+{
+  if (e.no_floor)
+    return gst_structure_new (LANDMARK_RANGE_PARAMS,
+        "no-floor", G_TYPE_BOOLEAN, TRUE, "kept", G_TYPE_BOOLEAN, FALSE,
+        "reject-reason", G_TYPE_STRING, "no-floor", nullptr);
+  const char *method = "ground";
+  double range = e.range_ground, sigma = e.range_ground_sigma;
+  if (e.has_size && cfg.method == GST_IPM_RANGE_METHOD_SIZE) {
+    method = "size";
+    range = e.range_size;
+    sigma = e.range_size_sigma;
+  } else if (e.has_size && cfg.method == GST_IPM_RANGE_METHOD_FUSED &&
+      e.range_ground_sigma > 0 && e.range_size_sigma > 0) {
+    method = "fused";
+    const double wg = 1.0 / (e.range_ground_sigma * e.range_ground_sigma);
+    const double ws = 1.0 / (e.range_size_sigma * e.range_size_sigma);
+    range = (wg * e.range_ground + ws * e.range_size) / (wg + ws);
+    sigma = 1.0 / std::sqrt (wg + ws);
+  }
+  const double k = e.range_ground > 0 ? range / e.range_ground : 1.0;
+  GstStructure *s = gst_structure_new (LANDMARK_RANGE_PARAMS,
+      "range", G_TYPE_DOUBLE, range,
+      "bearing", G_TYPE_DOUBLE, e.bearing,
+      "ground-x", G_TYPE_DOUBLE, e.ground_x * k,
+      "ground-y", G_TYPE_DOUBLE, e.ground_y * k,
+      "range-ground", G_TYPE_DOUBLE, e.range_ground,
+      "method", G_TYPE_STRING, method,
+      "range-sigma", G_TYPE_DOUBLE, e.range_sigma_total (sigma),
+      "bearing-sigma", G_TYPE_DOUBLE, e.bearing_sigma_total (),
+      "size-excess", G_TYPE_DOUBLE, e.size_excess,
+      "rim-range-sigma", G_TYPE_DOUBLE, e.rim_range,
+      "rim-bearing-sigma", G_TYPE_DOUBLE, e.rim_bearing,
+      "no-floor", G_TYPE_BOOLEAN, FALSE, nullptr);
+  if (e.has_size)
+    gst_structure_set (s, "range-size", G_TYPE_DOUBLE, e.range_size,
+        nullptr);
+  return s;
+}
+
+/* A band's blob reaches about half a pixel beyond the marker's image at
+ * either end: +0.93 px median over the height on tools/beaconstudy.py's
+ * tune half (docs/beacons.md) */
+static constexpr double kCodedOutlineGrowthPx = 1.0;
+
+/* A coded marker (beacondetect's `code`): from its floor contact point and
+ * its height seen, with the map's size for that code (none: the ground
+ * range of its base's nearest point). The observation is in the
+ * geometry's pixels. */
+static void
+gst_ipm_range_measure_coded (GstIpmRange * self, GstBuffer * buf,
+    GstVideoRegionOfInterestMeta * roi, const GstStructure * blob,
+    const char *code, const landmark::BlobObservation & scale, bool cut)
+{
+  const Config & cfg = self->priv->state.applied.config;
+  landmark::CodedObservation obs;
+  if (!gst_structure_get_double (blob, "axis-base-x", &obs.base_u) ||
+      !gst_structure_get_double (blob, "axis-base-y", &obs.base_v) ||
+      !gst_structure_get_double (blob, "height-px", &obs.height_px) ||
+      !std::isfinite (obs.base_u) || !std::isfinite (obs.base_v))
+    return;
+  obs.base_u = (obs.base_u + 0.5) * scale.sx - 0.5;
+  obs.base_v = (obs.base_v + 0.5) * scale.sy - 0.5;
+  obs.height_px *= scale.sy;
+  obs.outline_growth_px = kCodedOutlineGrowthPx * scale.sy;
+  obs.whole = !cut;
+  landmark::CodedMarkerSize size;
+  const landmark::MapLandmark *spec = nullptr;
+  for (const landmark::MapLandmark & m : cfg.coded)
+    if (m.code == code)
+      spec = &m;
+  if (spec) {
+    size.z = spec->z;
+    size.height = spec->height;
+    size.diameter = spec->diameter;
+    size.cone = spec->kind == landmark::MapKind::Cone;
+  }
+  landmark::MountingSigma mounting;
+  mounting.height_rel = cfg.s.height_sigma;
+  mounting.tilt = cfg.s.tilt_sigma * M_PI / 180;
+  const landmark::RangeEstimate e = landmark::estimate_coded_range
+      (self->priv->state.geometry, obs, size, cfg.s.pixel_sigma, mounting);
+  GstStructure *s = gst_ipm_range_structure (cfg.s, e);
+  if (!e.no_floor) {
+    gst_structure_set (s, "kept", G_TYPE_BOOLEAN, TRUE, nullptr);
+    if (spec)
+      gst_structure_set (s, "marker-kind", G_TYPE_STRING,
+          landmark::map_kind_name (spec->kind), "marker-height",
+          G_TYPE_DOUBLE, spec->z, "marker-diameter", G_TYPE_DOUBLE,
+          spec->diameter, nullptr);
+  }
+  landmark_detection_add_param (buf, roi, s);
+}
+
 static void
 gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     GstVideoRegionOfInterestMeta * roi)
@@ -504,6 +614,13 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     obs.equivalent_diameter = 0;
   obs.sx = (double) st.geometry_w / fw;
   obs.sy = (double) st.geometry_h / fh;
+  const bool cut = roi->x == 0 || roi->y == 0 || roi->x + roi->w >= fw
+      || roi->y + roi->h >= fh;
+  if (const char *code = blob ? gst_structure_get_string (blob, "code") :
+      nullptr) {
+    gst_ipm_range_measure_coded (self, buf, roi, blob, code, obs, cut);
+    return;
+  }
 
   const std::vector<landmark::MarkerSpec> *hypotheses = nullptr;
   landmark::MarkerSpec marker = cfg.markers.spec (g_quark_to_string
@@ -531,8 +648,6 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
   landmark::RangeEstimate e;
   const landmark::MarkerSpec *chosen = nullptr;
   /* a blob cut by the frame's edge has no trustworthy size to choose by */
-  const bool cut = roi->x == 0 || roi->y == 0 || roi->x + roi->w >= fw
-      || roi->y + roi->h >= fh;
   /* one class, several kinds of marker: the blob's size and aspect
    * choose among them (markerevidence.h); when nothing can choose, the
    * properties' marker applies, as for a class the map lacks */
@@ -549,47 +664,13 @@ gst_ipm_range_measure (GstIpmRange * self, GstBuffer * buf,
     landmark::add_marker_kind_spread (st.geometry, obs, *hypotheses,
         cfg.s.pixel_sigma, mounting, &e);
 
-  GstStructure *s;
+  GstStructure *s = gst_ipm_range_structure (cfg.s, e);
   if (e.no_floor) {
     /* every marker's centre is below the camera, so its ray meets its
      * plane: a blob whose ray does not is no marker (a wall, the sky) */
-    s = gst_structure_new (LANDMARK_RANGE_PARAMS,
-        "no-floor", G_TYPE_BOOLEAN, TRUE, "kept", G_TYPE_BOOLEAN, FALSE,
-        "reject-reason", G_TYPE_STRING, "no-floor", nullptr);
     landmark_detection_add_param (buf, roi, s);
     return;
   }
-  const char *method = "ground";
-  double range = e.range_ground, sigma = e.range_ground_sigma;
-  if (e.has_size && cfg.s.method == GST_IPM_RANGE_METHOD_SIZE) {
-    method = "size";
-    range = e.range_size;
-    sigma = e.range_size_sigma;
-  } else if (e.has_size && cfg.s.method == GST_IPM_RANGE_METHOD_FUSED &&
-      e.range_ground_sigma > 0 && e.range_size_sigma > 0) {
-    method = "fused";
-    const double wg = 1.0 / (e.range_ground_sigma * e.range_ground_sigma);
-    const double ws = 1.0 / (e.range_size_sigma * e.range_size_sigma);
-    range = (wg * e.range_ground + ws * e.range_size) / (wg + ws);
-    sigma = 1.0 / std::sqrt (wg + ws);
-  }
-  const double k = e.range_ground > 0 ? range / e.range_ground : 1.0;
-  s = gst_structure_new (LANDMARK_RANGE_PARAMS,
-      "range", G_TYPE_DOUBLE, range,
-      "bearing", G_TYPE_DOUBLE, e.bearing,
-      "ground-x", G_TYPE_DOUBLE, e.ground_x * k,
-      "ground-y", G_TYPE_DOUBLE, e.ground_y * k,
-      "range-ground", G_TYPE_DOUBLE, e.range_ground,
-      "method", G_TYPE_STRING, method,
-      "range-sigma", G_TYPE_DOUBLE, e.range_sigma_total (sigma),
-      "bearing-sigma", G_TYPE_DOUBLE, e.bearing_sigma_total (),
-      "size-excess", G_TYPE_DOUBLE, e.size_excess,
-      "rim-range-sigma", G_TYPE_DOUBLE, e.rim_range,
-      "rim-bearing-sigma", G_TYPE_DOUBLE, e.rim_bearing,
-      "no-floor", G_TYPE_BOOLEAN, FALSE, nullptr);
-  if (e.has_size)
-    gst_structure_set (s, "range-size", G_TYPE_DOUBLE, e.range_size,
-        nullptr);
   /* the marker the range assumed, unless the class has several and none
    * could be chosen (then its kind is not known) */
   const landmark::MarkerSpec *assumed = chosen ? chosen :

@@ -11,7 +11,8 @@
  *
  * Without `map`, the first pose is the map's origin, heading +x. With
  * `map`, its landmarks are fixed anchors and the first pose is solved on
- * them; landmarks it lacks are added with ids `S1`, `S2`, ...
+ * them; landmarks it lacks are added with ids `S1`, `S2`, ... The map's
+ * coded markers are anchors found by their code (beacondetect).
  *
  * Output, per frame:
  * - a `GstLandmarkPoseMeta` with the fields trilaterate writes (`solver`
@@ -20,7 +21,8 @@
  *   or tentative (docs/metadata.md);
  * - on each detection a `landmark-match` structure: `matched`,
  *   `landmark-id`, or `reason` (`no-range`, `not-kept`, `cut-by-border`,
- *   `ambiguous`, `uncertain-heading`, `map-full`, `no-pose`).
+ *   `ambiguous`, `uncertain-heading`, `map-full`, `no-pose`,
+ *   `coded-marker`: a coded marker the map does not anchor).
  *
  * Placed after `trilaterate` it uses the detections trilaterate accepted,
  * leaves trilaterate's `landmark-match` in place and replaces its pose.
@@ -176,9 +178,8 @@ slam_parse (const Settings & s, Config * cfg, landmark::SettingsError * err)
     landmark::LandmarkMap map;
     if (!landmark::map_load_file (s.map, &map, &why))
       return err->fail ("map", why);
-    /* anchors are seen as discs and balls; no detection reads a code
-     * yet (docs/beacons.md) */
-    cfg->map = landmark::map_discs_and_balls (map);
+    /* coded anchors by their code (beacondetect), as trilaterate's */
+    cfg->map = landmark::map_pose_landmarks (map);
   }
   /* no odometry file: the constant-velocity model */
   return s.odometry.empty ()
@@ -529,6 +530,20 @@ set_map_fields (GstStructure * s,
   gst_structure_take_value (s, "views", &views);
 }
 
+/* Whether a detection of this class can be used: every disc or ball; a
+ * coded marker only when the map anchors its code. */
+static bool
+gst_landmark_slam_usable (const std::vector<landmark::MapPoint> & map,
+    const std::string & class_name)
+{
+  if (!landmark::is_coded_match_class (class_name))
+    return true;
+  for (const landmark::MapPoint & m : map)
+    if (m.coded () && m.class_name == class_name)
+      return true;
+  return false;
+}
+
 static GstFlowReturn
 gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
 {
@@ -597,7 +612,21 @@ gst_landmark_slam_process (GstLandmarkSlam * self, GstBuffer * buf)
    * a biased centre, so a biased range and bearing with the sigmas of a
    * whole one: an anchor can absorb that, a landmark being mapped cannot. */
   landmark::RangedDetections & ranged = st.ranged;
-  landmark::ranged_detections_collect (buf, true, false, &ranged);
+  landmark::ranged_detections_collect (buf, true, false, true, &ranged);
+  /* a coded marker counts only where the map anchors its code: a new one
+   * cannot be mapped yet (docs/beacons.md) */
+  size_t used = 0;
+  for (size_t k = 0; k < ranged.dets.size (); k++) {
+    if (!gst_landmark_slam_usable (st.applied.config.map,
+            ranged.dets[k].class_name)) {
+      ranged.skipped.push_back ({ ranged.rois[k], "coded-marker" });
+      continue;
+    }
+    ranged.dets[used] = ranged.dets[k];
+    ranged.rois[used++] = ranged.rois[k];
+  }
+  ranged.dets.resize (used);
+  ranged.rois.resize (used);
   std::vector<landmark::SlamObservation> & obs = st.obs;
   obs.clear ();
   for (size_t k = 0; k < ranged.dets.size (); k++) {

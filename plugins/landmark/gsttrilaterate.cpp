@@ -151,11 +151,10 @@ trilaterate_parse (const Settings & s, Config * cfg,
   if (!landmark::map_load_file (s.map, &map, &why))
     return err->fail ("map", why);
   cfg->s = s;
-  /* no detection reads a code yet: position from discs and balls */
-  cfg->map = landmark::map_discs_and_balls (map);
+  /* discs and balls by class, coded markers by code (beacondetect) */
+  cfg->map = landmark::map_pose_landmarks (map);
   return !cfg->map.empty () || err->fail ("map", s.map + ": the map has no "
-      "disc or ball landmarks (coded markers are not positioned from yet: "
-      "docs/beacons.md)");
+      "landmarks");
 }
 
 static const landmark::PropertyTable<Settings> &
@@ -281,7 +280,7 @@ gst_trilaterate_process (GstTrilaterate * self, GstBuffer * buf)
 
   /* detections with a range */
   landmark::RangedDetections & ranged = st.ranged;
-  landmark::ranged_detections_collect (buf, false, true, &ranged);
+  landmark::ranged_detections_collect (buf, false, true, true, &ranged);
   const std::vector<landmark::Detection> & dets = ranged.dets;
 
   landmark::PoseTrackerOptions opt;
@@ -359,7 +358,8 @@ gst_trilaterate_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
     st.map_classes_checked = true;
     std::vector<std::pair<std::string, std::string>> classes;
     for (const auto & p : cfg.map)
-      classes.push_back ({ p.class_name, p.id });
+      if (!p.coded ())    /* a code is no class; beacondetect checks bands */
+        classes.push_back ({ p.class_name, p.id });
     landmark_warn_map_classes_missing (GST_ELEMENT_CAST (self), labels,
         cfg.s.map, classes, "they can never be matched.");
   }

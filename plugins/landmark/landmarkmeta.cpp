@@ -1,6 +1,7 @@
 #include "landmarkmeta.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 namespace {
@@ -372,6 +373,25 @@ landmark_detection_add (GstBuffer * buffer, const gchar * class_name,
   return roi;
 }
 
+GstVideoRegionOfInterestMeta *
+landmark_detection_add_from_plane (GstBuffer * buffer,
+    const gchar * class_name, gint x, gint y, gint w, gint h,
+    guint plane_w, guint plane_h, gint frame_w, gint frame_h)
+{
+  if (frame_w > 0 && frame_h > 0 && plane_w > 0 && plane_h > 0 &&
+      ((guint) frame_w != plane_w || (guint) frame_h != plane_h)) {
+    const double sx = (double) frame_w / plane_w;
+    const double sy = (double) frame_h / plane_h;
+    const gint x1 = (gint) std::ceil ((x + w) * sx);
+    const gint y1 = (gint) std::ceil ((y + h) * sy);
+    x = (gint) std::floor (x * sx);
+    y = (gint) std::floor (y * sy);
+    w = MAX (1, x1 - x);
+    h = MAX (1, y1 - y);
+  }
+  return landmark_detection_add (buffer, class_name, x, y, w, h);
+}
+
 void
 landmark_detection_add_param (GstBuffer * buffer,
     GstVideoRegionOfInterestMeta * roi, GstStructure * param)
@@ -463,7 +483,9 @@ landmark_detection_rejected (GstBuffer * buffer,
     const GstStructure *params;
     const gchar *element;
   } stages[] = {
-    {blob, "blobroundness"},
+    /* beacondetect's landmark-blob reads the bands it was made of */
+    {blob, blob && gst_structure_has_field (blob, "bands") ? "beacondetect" :
+          "blobroundness"},
     {range, "ipmrange"},
   };
   for (const auto & stage : stages) {
@@ -552,62 +574,6 @@ landmark_floor_map_array (const GstStructure * floor, const gchar * field,
   return TRUE;
 }
 
-static std::string
-landmark_labels_class_list (const GstStructure * labels)
-{
-  std::string out;
-  const guint n = landmark_labels_n_classes (labels);
-  for (guint i = 0; i < n; i++) {
-    const gchar *name = landmark_labels_class_name (labels, i);
-    out += (i ? ", " : "") + std::string (name ? name : "?");
-  }
-  return out;
-}
-
-static std::string
-landmark_labels_missing_classes (const GstStructure * labels,
-    const std::vector<std::pair<std::string, std::string>> & map_classes)
-{
-  std::vector<std::string> have;
-  const guint n = landmark_labels_n_classes (labels);
-  for (guint i = 0; i < n; i++) {
-    const gchar *name = landmark_labels_class_name (labels, i);
-    if (name)
-      have.push_back (name);
-  }
-  /* in map order, each missing class once with all its landmark ids */
-  std::vector<std::pair<std::string, std::string>> missing;
-  for (const auto & c : map_classes) {
-    if (std::find (have.begin (), have.end (), c.first) != have.end ())
-      continue;
-    auto it = std::find_if (missing.begin (), missing.end (),
-        [&](const auto & m) { return m.first == c.first; });
-    if (it == missing.end ())
-      missing.push_back ({ c.first, c.second });
-    else
-      it->second += ", " + c.second;
-  }
-  std::string out;
-  for (const auto & m : missing)
-    out += (out.empty ()? "" : ", ") + m.first + " (" + m.second + ")";
-  return out;
-}
-
-void
-landmark_warn_map_classes_missing (GstElement * element,
-    const GstStructure * labels, const std::string & map_path,
-    const std::vector<std::pair<std::string, std::string>> & map_classes,
-    const char *consequence)
-{
-  const std::string missing = landmark_labels_missing_classes (labels,
-      map_classes);
-  if (!missing.empty ())
-    GST_ELEMENT_WARNING (element, RESOURCE, SETTINGS,
-        ("The map has landmarks of classes the labels do not have; %s",
-            consequence), ("%s: %s; the labels have: %s", map_path.c_str (),
-            missing.c_str (), landmark_labels_class_list (labels).c_str ()));
-}
-
 GstEvent *
 landmark_odometry_event_new (gdouble dx, gdouble dy, gdouble dheading,
     gboolean out_of_band)
@@ -680,84 +646,4 @@ landmark_detections_collect (GstBuffer * buffer,
   while ((meta = gst_buffer_iterate_meta_filtered (buffer, &iter,
               GST_VIDEO_REGION_OF_INTEREST_META_API_TYPE)))
     out->push_back ((GstVideoRegionOfInterestMeta *) meta);
-}
-
-const GstStructure *
-landmark_labels_or_warn (GstElement * element, GstBuffer * buf, bool *warned)
-{
-  const GstStructure *labels = landmark_labels_meta_get (buf);
-  if (!labels && !*warned) {
-    GST_ELEMENT_WARNING (element, STREAM, FORMAT,
-        ("No class labels on the video: %s needs labsegment upstream.",
-            GST_OBJECT_NAME (gst_element_get_factory (element))),
-        ("no %s on buffer %" GST_PTR_FORMAT "; buffers pass unmeasured",
-            GST_LANDMARK_LABELS_META_NAME, buf));
-    *warned = true;
-  }
-  return labels;
-}
-
-bool
-LandmarkLabelClasses::changed (const GstStructure * labels)
-{
-  const guint n = MIN (landmark_labels_n_classes (labels), 255u);
-  bool same = valid && names.size () == n;
-  for (guint k = 0; same && k < n; k++) {
-    const gchar *name = landmark_labels_class_name (labels, k);
-    const gchar *role = landmark_labels_class_role (labels, k);
-    same = name && names[k] == name &&
-        markers[k] == (bool) landmark_labels_class_is_marker (labels, k) &&
-        roles[k] == (role ? role : "");
-  }
-  if (same)
-    return false;
-  names.clear ();
-  markers.clear ();
-  roles.clear ();
-  for (guint k = 0; k < n; k++) {
-    const gchar *name = landmark_labels_class_name (labels, k);
-    const gchar *role = landmark_labels_class_role (labels, k);
-    names.emplace_back (name ? name : "");
-    markers.push_back (landmark_labels_class_is_marker (labels, k));
-    roles.emplace_back (role ? role : "");
-  }
-  valid = false;
-  return true;
-}
-
-void
-LandmarkLabelClasses::reset ()
-{
-  names.clear ();
-  markers.clear ();
-  roles.clear ();
-  valid = false;
-}
-
-bool
-LandmarkLabelClasses::labels_of (GstElement * element, const char *property,
-    const std::vector < std::string > &wanted,
-    std::vector < guint > *labels) const
-{
-  labels->clear ();
-  for (const std::string & want : wanted) {
-    const auto it = std::find (names.begin (), names.end (), want);
-    if (it == names.end ()) {
-      GST_ELEMENT_ERROR (element, RESOURCE, SETTINGS,
-          ("Invalid '%s' value: no class \"%s\" in the labels.", property,
-              want.c_str ()), ("the palette has: %s", list ().c_str ()));
-      return false;
-    }
-    labels->push_back ((guint) (it - names.begin ()) + 1);
-  }
-  return true;
-}
-
-std::string
-LandmarkLabelClasses::list () const
-{
-  std::string known;
-  for (const auto & name : names)
-    known += (known.empty ()? "" : ", ") + name;
-  return known;
 }

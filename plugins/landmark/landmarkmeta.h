@@ -85,6 +85,13 @@ const GValue *landmark_labels_class_value (const GstStructure * labels,
 GstVideoRegionOfInterestMeta *landmark_detection_add (GstBuffer * buffer,
     const gchar * class_name, guint x, guint y, guint w, guint h);
 
+/* The same for a box measured on a label plane of plane_w x plane_h
+ * pixels: rescaled (outwards) to a frame of frame_w x frame_h when the
+ * sizes differ and the frame's is known (non-zero). */
+GstVideoRegionOfInterestMeta *landmark_detection_add_from_plane (GstBuffer *
+    buffer, const gchar * class_name, gint x, gint y, gint w, gint h,
+    guint plane_w, guint plane_h, gint frame_w, gint frame_h);
+
 /* Adds a parameter structure (landmark-blob, -range, -match; ownership
  * taken) to a detection: on its region-of-interest meta, for other tools,
  * and on the buffer's GstLandmarkDetectionsMeta, because converters and
@@ -108,7 +115,8 @@ LandmarkDetectionParams landmark_detection_params (GstBuffer * buffer,
     const GstVideoRegionOfInterestMeta * roi);
 
 /* Whether a stage of the chain rejected a detection (docs/detection.md):
- * blobroundness (landmark-blob kept=false: area or shape), ipmrange
+ * blobroundness or beacondetect (landmark-blob kept=false: area, shape, a
+ * partial coded marker), ipmrange
  * (landmark-range kept=false: size against range) or trilaterate
  * (landmark-match reason outside-gate, outlier or duplicate: the map
  * disagrees).
@@ -204,43 +212,7 @@ G_END_DECLS
 #include <utility>
 #include <vector>
 
-/* The map classes, given as (class name, landmark id) pairs, that the labels
- * do not list can never be detected. Posts one WARNING on the element that
- * names the map file, those classes with their ids ("purple (L1, L4)") and
- * the classes the labels have; the message ends with `consequence`.
- * Nothing when the labels have them all. */
-void landmark_warn_map_classes_missing (GstElement * element,
-    const GstStructure * labels, const std::string & map_path,
-    const std::vector<std::pair<std::string, std::string>> & map_classes,
-    const char *consequence);
-
-/* The labels meta of buf; without one, posts one WARNING (while *warned
- * is false) saying that element needs labsegment upstream. */
-const GstStructure *landmark_labels_or_warn (GstElement * element,
-    GstBuffer * buf, bool *warned);
-
-/* The classes of the labels meta (names and marker flags, at most 255),
- * kept from frame to frame so that an element rebuilds what it derives
- * from them (label roles, slots) only when they change. */
-struct LandmarkLabelClasses
-{
-  std::vector < std::string > names;
-  std::vector < bool > markers;
-  std::vector < std::string > roles;   /* empty strings: no role given */
-  bool valid = false;           /* what the element derived is current */
-
-  /* Reads the labels' classes: true when they differ from the kept ones
-   * or valid is false (then valid is cleared until the element sets it). */
-  bool changed (const GstStructure * labels);
-  void reset ();
-  /* The label (index + 1) of every wanted class; an unknown one posts an
-   * ERROR naming property and the classes the labels have. */
-  bool labels_of (GstElement * element, const char *property,
-      const std::vector < std::string > &wanted,
-      std::vector < guint > *labels) const;
-  /* "red, green, ..." */
-  std::string list () const;
-};
+#include "labelsreading.h"
 
 /* The region-of-interest metas of buffer, in its order (out is cleared
  * first; its storage is kept, so a reused vector does not allocate). */

@@ -142,6 +142,7 @@ read_detections (GstBuffer * buf, const ClassColours & colours, int width,
     if (blob) {
       if (const char *cls = gst_structure_get_string (blob, "class"))
         d.class_name = cls;
+      d.coded = gst_structure_has_field (blob, "code");
       double fw = 0, fh = 0;
       if (meta_number (blob, "frame-width", &fw) && fw > 0)
         d.sx = width / fw;

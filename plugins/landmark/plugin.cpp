@@ -4,6 +4,7 @@
 
 #include <gst/gst.h>
 
+#include "gstbeacondetect.h"
 #include "gstbirdseye.h"
 #include "gstblobroundness.h"
 #include "gstfloorboundary.h"
@@ -24,6 +25,7 @@ plugin_init (GstPlugin * plugin)
   landmark_meta_register ();
   ok |= GST_ELEMENT_REGISTER (labsegment, plugin);
   ok |= GST_ELEMENT_REGISTER (blobroundness, plugin);
+  ok |= GST_ELEMENT_REGISTER (beacondetect, plugin);
   ok |= GST_ELEMENT_REGISTER (ipmrange, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarklog, plugin);
   ok |= GST_ELEMENT_REGISTER (landmarkoverlay, plugin);

@@ -4,6 +4,8 @@
 
 #include "posemeta.h"
 
+#include "landmarkmap.h"
+
 #include "landmarkmeta.h"
 
 namespace landmark {
@@ -23,7 +25,7 @@ cut_by_border (GstBuffer * buf, const GstVideoRegionOfInterestMeta * roi)
 
 void
 ranged_detections_collect (GstBuffer * buf, bool skip_cut,
-    bool with_marginal, RangedDetections * out)
+    bool with_marginal, bool with_coded, RangedDetections * out)
 {
   out->dets.clear ();
   out->rois.clear ();
@@ -57,6 +59,17 @@ ranged_detections_collect (GstBuffer * buf, bool skip_cut,
     gst_structure_get_double (r, "bearing-sigma", &d.obs.bearing_sigma);
     const gchar *cls = g_quark_to_string (roi->roi_type);
     d.class_name = cls ? cls : "";
+    /* beacondetect's coded markers match by their code alone */
+    const GstStructure *blob = landmark_detection_get_param (buf, roi,
+        LANDMARK_BLOB_PARAMS);
+    if (const gchar *code = blob ? gst_structure_get_string (blob, "code") :
+        nullptr) {
+      if (!with_coded) {
+        out->skipped.push_back ({ roi, "coded-marker" });
+        continue;
+      }
+      d.class_name = coded_match_class (code);
+    }
     const gchar *kind = gst_structure_get_string (r, "marker-kind");
     d.has_marker = kind
         && gst_structure_get_double (r, "marker-height", &d.marker_z)

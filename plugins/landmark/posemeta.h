@@ -31,9 +31,11 @@ struct RangedDetections {
  * centre, range and bearing are biased), `no-range` (no ground position
  * from ipmrange); the others in dets with ipmrange's range, bearing,
  * sigmas and marker. with_marginal: a marginal shape awaiting the map
- * (landmark_detection_awaits_map) is a candidate too. */
+ * (landmark_detection_awaits_map) is a candidate too. A coded marker
+ * (beacondetect's `code`) has the class coded_match_class (code); without
+ * with_coded it is skipped as `coded-marker`. */
 void ranged_detections_collect (GstBuffer * buf, bool skip_cut,
-    bool with_marginal, RangedDetections * out);
+    bool with_marginal, bool with_coded, RangedDetections * out);
 
 /* Adds `landmark-match` {matched: false, reason} to every skipped
  * detection, through add (which may decline, e.g. when one is there). */

@@ -145,7 +145,9 @@ class Detection:
         it stands."""
         confirmed = (self.range.get("shape-confirmed") is True
                      and self.match.get("matched") is True)
-        for params, element in ((self.blob, "blobroundness"),
+        blob_stage = "beacondetect" if "bands" in self.blob else \
+            "blobroundness"
+        for params, element in ((self.blob, blob_stage),
                                 (self.range, "ipmrange")):
             if confirmed and params.get("shape-marginal") is True:
                 continue

@@ -1,4 +1,4 @@
-/* Landmark SLAM (plugins/landmark/core/slam.h) against simulated truth
+/* Landmark SLAM (plugins/landmark/core/estimation/slam.h) against simulated truth
  * with fixed seeds: a robot drives loops through a field of landmarks with
  * repeated colours; observations are made here from docs/conventions.md
  * with known Gaussian noise. Checked: map and path error bounds, no merged

@@ -32,6 +32,7 @@ CHAINS = {
                 f"fakesink",
     "trilaterate": f"{SRC} ! labsegment ! blobroundness ! ipmrange ! "
                    f"trilaterate name=e ! fakesink",
+    "beacondetect": f"{SRC} ! labsegment ! beacondetect name=e ! fakesink",
     "landmarkoverlay": f"{SRC} ! labsegment ! landmarkoverlay name=e ! "
                        f"fakesink",
     "landmarklog": f"{SRC} ! labsegment ! landmarklog name=e ! fakesink",
@@ -51,6 +52,13 @@ def palette(*classes, **top):
 def lm(**over):
     entry = {"id": "L1", "class": "red", "x": 1.0, "y": 2.0, "z": 0.0,
              "diameter": 0.3, "kind": "disc"}
+    entry.update(over)
+    return entry
+
+
+def beacon(**over):
+    entry = {"id": "B1", "kind": "beacon", "x": 2.0, "y": 1.0,
+             "diameter": 0.1, "height": 0.3, "bands": ["pink", "yellow"]}
     entry.update(over)
     return entry
 
@@ -258,6 +266,17 @@ CASES = [
       ("'map'", "L1", '"kind"')),
     M("ipm-map-z-above-camera", "ipmrange", landmark_map(lm(z=0.5)),
       ("'map'", '"L1" (class red)', "below the camera")),
+    # -- beacondetect map= (docs/beacons.md, "The errors") ------------------
+    M("beacon-map-missing", "beacondetect", MISSING, ("'map'",)),
+    M("beacon-map-one-band-beacon", "beacondetect",
+      landmark_map(beacon(bands=["pink"])),
+      ("'map'", '"B1"', "2 to 3 class names for a beacon, got 1")),
+    M("beacon-map-band-not-a-name", "beacondetect",
+      landmark_map(beacon(bands=["pink", "a/b"])),
+      ("'map'", '"B1"', '"bands"[1] must be a class name')),
+    M("beacon-map-two-with-one-code", "beacondetect",
+      landmark_map(beacon(), beacon(id="B2", x=3.0)),
+      ("'map'", '"B2"', 'code pink/yellow of landmark "B1"')),
     # -- trilaterate map= ----------------------------------------------------
     Case("tri-map-unset", "trilaterate", needles=("'map'", "map=PATH")),
     M("tri-map-missing", "trilaterate", MISSING, ("'map'",)),
@@ -510,6 +529,31 @@ def test_map_class_not_in_labels_warns_once(gst, tmp_path):
         assert "purple (L2, L3)" in text, text
         assert "red (" not in text, text       # red is in the palette
         assert "the labels have: red, green" in text, text
+
+
+# A band class the labels lack: that code can never be read, so beacondetect
+# refuses the map at the first labels (the palette is known only then),
+# naming the map file, the landmark, its code and the band.
+def test_beacon_band_not_in_labels_is_an_error(gst, tmp_path):
+    path = tmp_path / "map.json"
+    path.write_text(landmark_map(beacon(bands=["red", "purple"])))
+    pipe = gst.parse_launch(
+        f"videotestsrc num-buffers=5 ! video/x-raw,width=320,height=240 ! "
+        f"labsegment ! beacondetect name=e map={path} ! fakesink")
+    bus = pipe.get_bus()
+    try:
+        pipe.set_state(gst.State.PLAYING)
+        msg = bus.timed_pop_filtered(TIMEOUT_S * gst.SECOND,
+                                     gst.MessageType.ERROR |
+                                     gst.MessageType.EOS)
+        assert msg is not None and msg.type == gst.MessageType.ERROR, msg
+        err, debug = msg.parse_error()
+        text = f"{err.message}\n{debug}"
+    finally:
+        pipe.set_state(gst.State.NULL)
+    assert "'map'" in text and str(path) in text, text
+    assert '"B1" (code red/purple): band purple is not a class' in text, text
+    assert "red, green" in text, text
 
 
 def _numeric_pspecs(gst):

@@ -25,7 +25,8 @@ BUILD_ROOT = os.environ.get("LANDMARK_BUILD_ROOT",
 DOCS = os.path.join(SOURCE_ROOT, "docs")
 CLIP = os.path.join(SOURCE_ROOT, "tests", "files", "clips", "path-small")
 
-ELEMENTS = ["labsegment", "blobroundness", "ipmrange", "trilaterate",
+ELEMENTS = ["labsegment", "blobroundness", "beacondetect", "ipmrange",
+            "trilaterate",
             "landmarkoverlay", "landmarklog", "landmarkpublish",
             "floorboundary", "birdseye", "landmarkslam"]
 SKIP = {"name", "parent", "qos"}
@@ -36,6 +37,8 @@ METADATA = {
     "labsegment": [{"GstLandmarkLabelsMeta"}],
     "blobroundness": [{"GstLandmarkLabelsMeta"},
                       {"GstVideoRegionOfInterestMeta"}, {"landmark-blob"}],
+    "beacondetect": [{"GstLandmarkLabelsMeta"},
+                     {"GstVideoRegionOfInterestMeta"}, {"landmark-blob"}],
     "ipmrange": [{"landmark-blob", "blobroundness"}, {"landmark-range"}],
     "trilaterate": [{"landmark-range"}, {"GstLandmarkPoseMeta"},
                     {"landmark-match"}],

@@ -4,8 +4,9 @@ Frame 0 rarely shows every landmark colour, and a scene that changes
 floors shows one floor at a time, so a palette learned from frame 0 alone
 misses classes.  ``render_chart`` lays one disc of every marker colour on
 the floor in front of the camera, one ball of every class the scene has
-balls of (the scene's ball diameter, lit by the scene's light: a flat disc
-cannot teach a ball's lit and shaded sides), a square swatch of every
+balls or coded-marker bands of (the scene's ball diameter, lit by the
+scene's light: a flat disc cannot teach a ball's lit and shaded sides, nor
+a beacon's), a square swatch of every
 other floor texture among them and, when the scene has walls, a wall
 behind them; it renders that with the scene's camera, frame 0's floor,
 exposure, white balance, vignetting and noise, and returns a class mask
@@ -146,12 +147,16 @@ def layout(camera, count, walls):
 
 def ball_classes(scene):
     """(class, diameter) of one chart ball per marker class the scene has
-    balls of, in palette order; the diameter is one the class's balls
-    have (the median one)."""
+    balls or coded-marker bands of, in palette order; the diameter is one
+    the class's balls (else its coded markers) have (the median one). A
+    band on an upright cylinder or cone is shaded as a ball's side is,
+    which a flat disc cannot teach (docs/beacons.md)."""
     out = []
     for name in scene.palette.names:
         sizes = sorted(lm.diameter for lm in scene.landmarks
-                       if lm.kind == "ball" and lm.cls == name)
+                       if lm.kind == "ball" and lm.cls == name) or sorted(
+            lm.diameter for lm in scene.landmarks
+            if lm.coded and name in lm.bands)
         if sizes:
             out.append((name, statistics.median_low(sizes)))
     return out

@@ -1275,6 +1275,7 @@ static const StringValues string_values[] = {
               GST_TEST_FILES_PATH "/calibration/cam640.yaml",
           GST_TEST_FILES_PATH "/calibration/cam640-distorted.xml", NULL}},
   {"ipmrange", "map", {NULL, MAP_FILE, NULL}},
+  {"beacondetect", "map", {NULL, MAP_FILE, NULL}},
   {"trilaterate", "map", {MAP_FILE, NULL}},
   {"landmarkoverlay", "map", {NULL, MAP_FILE, NULL}},
 };

@@ -61,6 +61,9 @@ struct Detection {
   double centroid_x = 0, centroid_y = 0;
   bool has_roundness = false;
   double roundness = 0;
+  /* a coded marker (landmark-blob `code`): its ellipse fields are the box
+   * of its bands along the axis, drawn as that box */
+  bool coded = false;
   bool kept = true;
   const char *reject_reason = nullptr;
   /* landmark-range */

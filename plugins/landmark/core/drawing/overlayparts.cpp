@@ -99,20 +99,24 @@ Renderer::draw_detection (const Detection & d)
   const int alpha = kept ? 255 : 190;
   const int thick = kept ? st_.line : std::max (1, st_.line - 1);
 
-  /* outline: the fitted ellipse, mapped from the analysed frame to this
-   * one (pixel centres: u' = (u + 0.5) sx - 0.5), else the bounding box */
+  /* outline: the fitted ellipse (a coded marker's box), mapped from the
+   * analysed frame to this one (pixel centres: u' = (u + 0.5) sx - 0.5),
+   * else the bounding box */
   pts_.clear ();
   double cx, cy;
   if (d.has_ellipse && (d.ellipse_major > 0 || d.ellipse_minor > 0)) {
     const double a = d.ellipse_major / 2, b = d.ellipse_minor / 2;
     const double ca = std::cos (d.ellipse_angle),
         sa = std::sin (d.ellipse_angle);
-    for (int i = 0; i < kEllipsePoints; i++) {
-      const double t = 2 * M_PI * i / kEllipsePoints;
-      const double u = d.ellipse_x + a * std::cos (t) * ca -
-          b * std::sin (t) * sa;
-      const double v = d.ellipse_y + a * std::cos (t) * sa +
-          b * std::sin (t) * ca;
+    /* a coded marker's box: its corners at (+-1, +-1) of the axes */
+    const int n = d.coded ? 4 : kEllipsePoints;
+    for (int i = 0; i < n; i++) {
+      const double t = 2 * M_PI * i / n + (d.coded ? M_PI / 4 : 0);
+      const double k = d.coded ? M_SQRT2 : 1.0;
+      const double u = d.ellipse_x + k * (a * std::cos (t) * ca -
+          b * std::sin (t) * sa);
+      const double v = d.ellipse_y + k * (a * std::cos (t) * sa +
+          b * std::sin (t) * ca);
       pts_.emplace_back ((u + 0.5) * d.sx - 0.5, (v + 0.5) * d.sy - 0.5);
     }
     cx = (d.ellipse_x + 0.5) * d.sx - 0.5;

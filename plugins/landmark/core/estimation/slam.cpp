@@ -248,7 +248,7 @@ Slam::predict (double dt)
 {
   if (!init_ || !(dt > 0))
     return;
-  /* a ground robot driving along its heading (core/groundmotion.h); the
+  /* a ground robot driving along its heading (core/estimation/groundmotion.h); the
    * motion states come first, the rest of F is the identity, so
    * F P F^T + Q changes the motion rows and columns only */
   constexpr int M = kMotionStates;

@@ -52,7 +52,7 @@ namespace landmark {
 
 struct SlamOptions {
   /* without odometry, a ground robot's constant-velocity motion
-   * (core/groundmotion.h, docs/landmarkslam.md "Motion"), the camera a
+   * (core/estimation/groundmotion.h, docs/landmarkslam.md "Motion"), the camera a
    * distance d ahead of the turning centre (a state, prior sigma
    * offset_sigma) */
   GroundMotionNoise motion;

@@ -110,15 +110,35 @@ slam_map_json (const std::vector<SlamLandmark> & landmarks)
     json_builder_begin_object (b);
     json_builder_set_member_name (b, "id");
     json_builder_add_string_value (b, l.id.c_str ());
-    json_builder_set_member_name (b, "class");
-    json_builder_add_string_value (b, l.class_name.c_str ());
+    if (!l.coded ()) {
+      json_builder_set_member_name (b, "class");
+      json_builder_add_string_value (b, l.class_name.c_str ());
+    }
     json_builder_set_member_name (b, "x");
     json_builder_add_double_value (b, l.x);
     json_builder_set_member_name (b, "y");
     json_builder_add_double_value (b, l.y);
     json_builder_set_member_name (b, "z");
     json_builder_add_double_value (b, l.z);
-    if (l.diameter > 0) {
+    if (l.coded ()) {
+      /* an anchored coded marker, as the map gave it (docs/beacons.md) */
+      json_builder_set_member_name (b, "kind");
+      json_builder_add_string_value (b, map_kind_name (l.kind));
+      json_builder_set_member_name (b, "diameter");
+      json_builder_add_double_value (b, l.diameter);
+      json_builder_set_member_name (b, "height");
+      json_builder_add_double_value (b, l.height);
+      json_builder_set_member_name (b, "bands");
+      json_builder_begin_array (b);
+      for (const std::string & band : l.bands)
+        json_builder_add_string_value (b, band.c_str ());
+      json_builder_end_array (b);
+      json_builder_set_member_name (b, "band-heights");
+      json_builder_begin_array (b);
+      for (double h : l.band_heights)
+        json_builder_add_double_value (b, h);
+      json_builder_end_array (b);
+    } else if (l.diameter > 0) {
       json_builder_set_member_name (b, "diameter");
       json_builder_add_double_value (b, l.diameter);
       json_builder_set_member_name (b, "kind");

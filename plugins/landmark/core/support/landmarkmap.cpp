@@ -270,4 +270,26 @@ map_discs_and_balls (const LandmarkMap & map)
   return out;
 }
 
+std::string
+coded_match_class (const std::string & code)
+{
+  return "coded:" + code;
+}
+
+bool
+is_coded_match_class (const std::string & cls)
+{
+  return cls.compare (0, 6, "coded:") == 0;
+}
+
+std::vector<MapLandmark>
+map_pose_landmarks (const LandmarkMap & map)
+{
+  std::vector<MapLandmark> out = map.landmarks;
+  for (MapLandmark & lm : out)
+    if (lm.coded ())
+      lm.class_name = coded_match_class (lm.code);
+  return out;
+}
+
 }  // namespace landmark

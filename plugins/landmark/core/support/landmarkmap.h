@@ -65,8 +65,19 @@ bool map_load_file (const std::string & path, LandmarkMap * out,
     std::string * error);
 
 /* The discs and balls of the map, in its order: what the elements that
- * range and position from round blobs use (no detection reads a code
- * yet). */
+ * range and position from round blobs use. */
 std::vector<MapLandmark> map_discs_and_balls (const LandmarkMap & map);
+
+/* The class a pose element matches a coded marker by: its code, kept
+ * apart from the palette's classes ("coded:" + code), so that a one-band
+ * post "pink" and a pink disc are never taken for each other. */
+std::string coded_match_class (const std::string & code);
+/* Whether a class is one coded_match_class made. */
+bool is_coded_match_class (const std::string & cls);
+
+/* Every landmark of the map, in its order, the coded markers under their
+ * coded_match_class: what trilaterate positions from (a code is unique in
+ * the map, so one view names its marker). */
+std::vector<MapLandmark> map_pose_landmarks (const LandmarkMap & map);
 
 }  // namespace landmark

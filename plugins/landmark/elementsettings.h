@@ -629,15 +629,32 @@ start_with_settings (Self *self)
 }
 
 /* BaseTransform's start of an element of this pattern: its settings
- * applied again if a property changed in READY (start_with_settings),
- * then the element's own start, if it has one. */
+ * applied again if a property changed in READY (start_with_settings), its
+ * LabelsInput (if its State has one) started, then the element's own
+ * start, if it has one. */
+template <typename Private>
+auto
+start_labels_input (Private *priv, int) -> decltype (priv->state.input.start ())
+{
+  priv->state.input.start ();
+}
+
+template <typename Private>
+void
+start_labels_input (Private *, long)
+{
+}
+
 template <typename Self, bool (*apply) (Self *),
     gboolean (*start) (GstBaseTransform *)>
 gboolean
 start_checking_settings (GstBaseTransform *trans)
 {
-  if (!start_with_settings<Self, apply> (reinterpret_cast<Self *> (trans)))
+  Self *self = reinterpret_cast<Self *> (trans);
+  if (!start_with_settings<Self, apply> (self))
     return FALSE;
+  /* an element that reads labels starts from classes and caps unknown */
+  start_labels_input (self->priv, 0);
   if constexpr (start != nullptr)
     return start (trans);
   return TRUE;

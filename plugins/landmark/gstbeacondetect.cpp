@@ -167,18 +167,13 @@ beacon_detect_properties ()
 
 /* ---- states and caps ------------------------------------------------ */
 
-static constexpr auto gst_beacon_detect_apply_settings =
-    landmark::apply_parsed<GstBeaconDetect, beacon_detect_parse>;
-
 static gboolean
 gst_beacon_detect_start (GstBaseTransform * trans)
 {
   auto self = GST_BEACON_DETECT (trans);
-  State & st = self->priv->state;
-  st.input.start ();
-  GST_INFO_OBJECT (self, "map %s: %zu coded markers",
-      st.applied.config.s.map.c_str (),
-      st.applied.config.coded.landmarks.size ());
+  const Config & cfg = self->priv->state.applied.config;
+  GST_INFO_OBJECT (self, "map %s: %zu coded markers", cfg.s.map.c_str (),
+      cfg.coded.landmarks.size ());
   return TRUE;
 }
 
@@ -348,8 +343,8 @@ gst_beacon_detect_class_init (GstBeaconDetectClass * klass)
       "code, read top to bottom; attaches them as region-of-interest "
       "metadata");
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-  landmark::set_settings_lifecycle<GstBeaconDetect,
-      gst_beacon_detect_get_type, gst_beacon_detect_apply_settings,
+  landmark::set_settings_lifecycle<GstBeaconDetect, gst_beacon_detect_get_type,
+      landmark::apply_parsed<GstBeaconDetect, beacon_detect_parse>,
       gst_beacon_detect_start> (klass, gst_beacon_detect_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_beacon_detect_set_caps);
   trans_class->transform_ip = landmark::measure_labels_ip<GstBeaconDetect,

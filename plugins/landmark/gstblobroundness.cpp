@@ -220,16 +220,11 @@ blob_roundness_properties ()
 
 /* ---- states and caps ------------------------------------------------ */
 
-static constexpr auto gst_blob_roundness_apply_settings =
-    landmark::apply_parsed<GstBlobRoundness, blob_roundness_parse>;
-
 static gboolean
 gst_blob_roundness_start (GstBaseTransform * trans)
 {
   auto self = GST_BLOB_ROUNDNESS (trans);
-  State & st = self->priv->state;
-  st.input.start ();
-    const Settings & s = st.applied.config.s;
+  const Settings & s = self->priv->state.applied.config.s;
   GST_INFO_OBJECT (self, "shape %s, min-area %u, max-area %u, max-aspect "
       "%.2f, min-roundness %.3f, min-ellipse-fit %.3f, morphology %u, "
       "classes %s", s.shape == GST_BLOB_ROUNDNESS_SHAPE_CIRCLE ?
@@ -502,7 +497,8 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   landmark::set_settings_lifecycle<GstBlobRoundness,
-      gst_blob_roundness_get_type, gst_blob_roundness_apply_settings,
+      gst_blob_roundness_get_type,
+      landmark::apply_parsed<GstBlobRoundness, blob_roundness_parse>,
       gst_blob_roundness_start> (klass, gst_blob_roundness_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
   trans_class->transform_ip = landmark::measure_labels_ip<GstBlobRoundness,

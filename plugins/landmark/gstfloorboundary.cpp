@@ -226,16 +226,11 @@ floor_boundary_properties ()
 
 /* ---- states --------------------------------------------------------- */
 
-static constexpr auto gst_floor_boundary_apply_settings =
-    landmark::apply_parsed<GstFloorBoundary, floor_boundary_parse>;
-
 static gboolean
 gst_floor_boundary_start (GstBaseTransform * trans)
 {
-  auto self = GST_FLOOR_BOUNDARY (trans);
-  State & st = self->priv->state;
+  State & st = GST_FLOOR_BOUNDARY (trans)->priv->state;
   st.built_w = st.built_h = 0;
-  st.input.start ();
   return TRUE;
 }
 
@@ -592,7 +587,8 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   landmark::set_settings_lifecycle<GstFloorBoundary,
-      gst_floor_boundary_get_type, gst_floor_boundary_apply_settings,
+      gst_floor_boundary_get_type,
+      landmark::apply_parsed<GstFloorBoundary, floor_boundary_parse>,
       gst_floor_boundary_start> (klass, gst_floor_boundary_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
   trans_class->transform_ip = landmark::measure_labels_ip<GstFloorBoundary,

@@ -337,10 +337,6 @@ gst_landmark_publish_init (GstLandmarkPublish * self)
 
 /* ---- start and stop ------------------------------------------------- */
 
-/* the settings (landmark::change_state_checking_settings) */
-static constexpr auto gst_landmark_publish_apply_settings =
-    landmark::apply_parsed<GstLandmarkPublish, publish_parse>;
-
 static gboolean
 gst_landmark_publish_start (GstBaseTransform * trans)
 {
@@ -448,7 +444,8 @@ gst_landmark_publish_class_init (GstLandmarkPublishClass * klass)
   trans_class->passthrough_on_same_caps = TRUE;
   trans_class->transform_ip_on_passthrough = TRUE;
   landmark::set_settings_lifecycle<GstLandmarkPublish,
-      gst_landmark_publish_get_type, gst_landmark_publish_apply_settings,
+      gst_landmark_publish_get_type,
+      landmark::apply_parsed<GstLandmarkPublish, publish_parse>,
       gst_landmark_publish_start> (klass, gst_landmark_publish_stop);
   trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_landmark_publish_set_caps);
   trans_class->transform_ip =

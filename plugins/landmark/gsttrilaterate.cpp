@@ -202,9 +202,6 @@ gst_trilaterate_reset (State & st)
   st.frames = 0;
 }
 
-static constexpr auto gst_trilaterate_apply_settings =
-    landmark::apply_parsed<GstTrilaterate, trilaterate_parse>;
-
 static gboolean
 gst_trilaterate_start (GstBaseTransform * trans)
 {
@@ -378,7 +375,8 @@ gst_trilaterate_class_init (GstTrilaterateClass * klass)
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
   landmark::set_settings_lifecycle<GstTrilaterate, gst_trilaterate_get_type,
-      gst_trilaterate_apply_settings, gst_trilaterate_start> (klass);
+      landmark::apply_parsed<GstTrilaterate, trilaterate_parse>,
+      gst_trilaterate_start> (klass);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_trilaterate_sink_event);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_trilaterate_transform_ip);
 

@@ -361,15 +361,6 @@ gst_landmark_slam_sync_settings (GstLandmarkSlam * self)
 
 /* ---- states and events ---------------------------------------------- */
 
-/* the settings and the files they name, under the lock the write-map
- * action takes (landmark::change_state_checking_settings) */
-static bool
-gst_landmark_slam_apply_settings (GstLandmarkSlam * self)
-{
-  std::lock_guard<std::recursive_mutex> lk (self->priv->state.slam_lock);
-  return landmark::apply_parsed<GstLandmarkSlam, slam_parse> (self);
-}
-
 static gboolean
 gst_landmark_slam_start (GstBaseTransform * trans)
 {
@@ -727,7 +718,8 @@ gst_landmark_slam_class_init (GstLandmarkSlamClass * klass)
       "of the detections (EKF, joint compatibility association)");
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
   landmark::set_settings_lifecycle<GstLandmarkSlam, gst_landmark_slam_get_type,
-      gst_landmark_slam_apply_settings, gst_landmark_slam_start> (klass);
+      landmark::apply_parsed<GstLandmarkSlam, slam_parse>,
+      gst_landmark_slam_start> (klass);
   trans_class->sink_event = GST_DEBUG_FUNCPTR (gst_landmark_slam_sink_event);
   trans_class->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_slam_transform_ip);

@@ -43,7 +43,11 @@ def test_closing_early_stops_the_pipeline(gst, clip, monkeypatch):
     first = next(gen)
     assert first.frame == 0
     pipe = made[0]
-    assert pipe.get_state(0)[1] == pipeline.Gst.State.PLAYING
+    # the first frame can arrive while PAUSED->PLAYING is still going on
+    # (the sink prerolls on it), so wait for that change to finish
+    change, state, _ = pipe.get_state(5 * pipeline.Gst.SECOND)
+    assert (change, state) == (pipeline.Gst.StateChangeReturn.SUCCESS,
+                               pipeline.Gst.State.PLAYING)
     gen.close()
     # stopped (streaming threads joined), and nothing but this test holds it
     assert pipe.get_state(0)[1] == pipeline.Gst.State.NULL

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "elementframes.h"
+#include "frameformat.h"
 #include "landmarkmeta.h"
 
 namespace landmark {
@@ -734,6 +735,44 @@ metadata_element_class_init (gpointer klass, void (*finalize) (GObject *),
   install_element_properties<Settings, shared, table> (klass, finalize);
   set_metadata_element_class (GST_ELEMENT_CLASS (klass), longname,
       classification, description);
+}
+
+/* The vfuncs of an element that measures labsegment's labels
+ * (blobroundness, floorboundary, beacondetect): the settings lifecycle with
+ * settings parsed by `parse`, its set_caps, and measure_labels_ip over sync
+ * and process. */
+template <typename Self, GType (*get_type) (), auto parse,
+    gboolean (*start) (GstBaseTransform *), void (*sync) (Self *),
+    GstFlowReturn (*process) (Self *, GstBuffer *, const GstStructure *)>
+void
+set_labels_measuring (gpointer klass, gboolean (*stop) (GstBaseTransform *),
+    gboolean (*set_caps) (GstBaseTransform *, GstCaps *, GstCaps *))
+{
+  set_settings_lifecycle<Self, get_type, apply_parsed<Self, parse>,
+      start> (klass, stop);
+  GST_BASE_TRANSFORM_CLASS (klass)->set_caps = set_caps;
+  GST_BASE_TRANSFORM_CLASS (klass)->transform_ip =
+      measure_labels_ip<Self, sync, process>;
+}
+
+/* The class set-up of an element that reads or draws pixels (labsegment,
+ * landmarkoverlay): finalize, the properties, pads of
+ * LANDMARK_VIDEO_FORMATS, its description and a set_info that hands the
+ * negotiated format to configure. */
+template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
+    const PropertyTable<Settings> &(*table) (),
+    gboolean (*configure) (GstVideoFilter *, const LandmarkFrameFormat &,
+        const GstVideoInfo *)>
+void
+pixel_element_class_init (gpointer klass, void (*finalize) (GObject *),
+    const char *longname, const char *classification,
+    const char *description)
+{
+  install_element_properties<Settings, shared, table> (klass, finalize);
+  landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass), longname,
+      classification, description);
+  GST_VIDEO_FILTER_CLASS (klass)->set_info =
+      landmark_pixel_set_info<configure>;
 }
 
 /* Such an element works in place and never drops a late frame (frames

@@ -342,11 +342,8 @@ gst_beacon_detect_class_init (GstBeaconDetectClass * klass)
       "posts, cones) in the labels of labsegment and names each by its "
       "code, read top to bottom; attaches them as region-of-interest "
       "metadata");
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-  landmark::set_settings_lifecycle<GstBeaconDetect, gst_beacon_detect_get_type,
-      landmark::apply_parsed<GstBeaconDetect, beacon_detect_parse>,
-      gst_beacon_detect_start> (klass, gst_beacon_detect_stop);
-  trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_beacon_detect_set_caps);
-  trans_class->transform_ip = landmark::measure_labels_ip<GstBeaconDetect,
-      gst_beacon_detect_sync_settings, gst_beacon_detect_process>;
+  landmark::set_labels_measuring<GstBeaconDetect, gst_beacon_detect_get_type,
+      beacon_detect_parse, gst_beacon_detect_start,
+      gst_beacon_detect_sync_settings, gst_beacon_detect_process> (klass,
+      gst_beacon_detect_stop, GST_DEBUG_FUNCPTR (gst_beacon_detect_set_caps));
 }

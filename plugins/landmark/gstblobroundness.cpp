@@ -494,15 +494,10 @@ gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
       "Finds the blobs of marker classes in the labels of labsegment, "
       "measures area, perimeter, roundness and a fitted ellipse, keeps the "
       "round ones and attaches them as region-of-interest metadata");
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  landmark::set_settings_lifecycle<GstBlobRoundness,
-      gst_blob_roundness_get_type,
-      landmark::apply_parsed<GstBlobRoundness, blob_roundness_parse>,
-      gst_blob_roundness_start> (klass, gst_blob_roundness_stop);
-  trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps);
-  trans_class->transform_ip = landmark::measure_labels_ip<GstBlobRoundness,
-      gst_blob_roundness_sync_settings, gst_blob_roundness_process>;
+  landmark::set_labels_measuring<GstBlobRoundness, gst_blob_roundness_get_type,
+      blob_roundness_parse, gst_blob_roundness_start,
+      gst_blob_roundness_sync_settings, gst_blob_roundness_process> (klass,
+      gst_blob_roundness_stop, GST_DEBUG_FUNCPTR (gst_blob_roundness_set_caps));
 
   gst_type_mark_as_plugin_api (GST_TYPE_BLOB_ROUNDNESS_SHAPE,
       (GstPluginAPIFlags) 0);

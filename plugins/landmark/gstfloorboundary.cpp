@@ -584,15 +584,10 @@ gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
       "Finds where the floor ends in every image column of labsegment's "
       "labels, maps it to the floor and attaches the radial obstacle "
       "profile (free range per bearing) as metadata");
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-
-  landmark::set_settings_lifecycle<GstFloorBoundary,
-      gst_floor_boundary_get_type,
-      landmark::apply_parsed<GstFloorBoundary, floor_boundary_parse>,
-      gst_floor_boundary_start> (klass, gst_floor_boundary_stop);
-  trans_class->set_caps = GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps);
-  trans_class->transform_ip = landmark::measure_labels_ip<GstFloorBoundary,
-      gst_floor_boundary_sync_settings, gst_floor_boundary_process>;
+  landmark::set_labels_measuring<GstFloorBoundary, gst_floor_boundary_get_type,
+      floor_boundary_parse, gst_floor_boundary_start,
+      gst_floor_boundary_sync_settings, gst_floor_boundary_process> (klass,
+      gst_floor_boundary_stop, GST_DEBUG_FUNCPTR (gst_floor_boundary_set_caps));
 
   gst_type_mark_as_plugin_api (GST_TYPE_FLOOR_BOUNDARY_MARKERS,
       (GstPluginAPIFlags) 0);

@@ -587,13 +587,11 @@ static void
 gst_lab_segment_class_init (GstLabSegmentClass * klass)
 {
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-  GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
 
-  landmark::install_element_properties<Settings, gst_lab_segment_settings,
-      lab_segment_properties> (klass, gst_lab_segment_finalize);
-
-  landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass),
-      "Lab colour segmentation", "Filter/Analyzer/Video",
+  landmark::pixel_element_class_init<Settings, gst_lab_segment_settings,
+      lab_segment_properties, gst_lab_segment_configure> (klass,
+      gst_lab_segment_finalize, "Lab colour segmentation",
+      "Filter/Analyzer/Video",
       "Labels every pixel with its nearest palette colour in CIE L*a*b*, "
       "with the dominant-colour rule, as buffer metadata");
 
@@ -604,8 +602,6 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
    * mapped for writing only when output=labels, so analysing a shared
    * buffer (after a tee) does not copy it. */
   trans_class->transform_ip = GST_DEBUG_FUNCPTR (gst_lab_segment_transform_ip);
-  filter_class->set_info =
-      landmark_pixel_set_info<gst_lab_segment_configure>;
 
   gst_type_mark_as_plugin_api (GST_TYPE_LAB_SEGMENT_OUTPUT,
       (GstPluginAPIFlags) 0);

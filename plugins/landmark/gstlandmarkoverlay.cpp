@@ -449,14 +449,9 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 static void
 gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
 {
-  GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
-  GstVideoFilterClass *filter_class = GST_VIDEO_FILTER_CLASS (klass);
-
-  landmark::install_element_properties<Settings, gst_landmark_overlay_settings,
-      landmark_overlay_properties> (klass, gst_landmark_overlay_finalize);
-
-  landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass),
-      "Landmark overlay", "Filter/Effect/Video",
+  landmark::pixel_element_class_init<Settings, gst_landmark_overlay_settings,
+      landmark_overlay_properties, gst_landmark_overlay_configure> (klass,
+      gst_landmark_overlay_finalize, "Landmark overlay", "Filter/Effect/Video",
       "Draws landmark detections, robot pose, class histogram, class "
       "indicators and a mini-map of the landmark map onto the video");
 
@@ -465,8 +460,6 @@ gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
       gst_landmark_overlay_start> (klass, gst_landmark_overlay_stop);
   /* Our own transform_ip rather than transform_frame_ip: the frame is
    * mapped for writing only when there is something to draw. */
-  trans_class->transform_ip =
+  GST_BASE_TRANSFORM_CLASS (klass)->transform_ip =
       GST_DEBUG_FUNCPTR (gst_landmark_overlay_transform_ip);
-  filter_class->set_info =
-      landmark_pixel_set_info<gst_landmark_overlay_configure>;
 }

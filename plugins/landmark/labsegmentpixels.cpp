@@ -539,27 +539,25 @@ label_rows_gather (const ClassTable & table, PixelReader & reader,
     guint width, guint y0, guint y1, guint8 * labels, guint n,
     guint32 counts[256])
 {
+  const auto label_with = [&] (auto keys) {
+    label_rows_avx2 (table, reader, keys, width, y0, y1, labels, n, counts);
+  };
   switch (reader.layout.layout) {
     case PixelLayout::PACKED4:
       if (reader.layout.key_shift == 0)
-        label_rows_avx2 (table, reader, Packed4LowKeys (), width, y0, y1,
-            labels, n, counts);
+        label_with (Packed4LowKeys ());
       else
-        label_rows_avx2 (table, reader, Packed4Keys { _mm_cvtsi32_si128
-                (reader.layout.key_shift) }, width, y0, y1, labels, n,
-            counts);
+        label_with (Packed4Keys {
+                _mm_cvtsi32_si128 (reader.layout.key_shift)});
       break;
     case PixelLayout::YUV420:
-      label_rows_avx2 (table, reader, Yuv420Keys (), width, y0, y1, labels,
-          n, counts);
+      label_with (Yuv420Keys ());
       break;
     case PixelLayout::YUY2:
-      label_rows_avx2 (table, reader, Yuy2Keys (), width, y0, y1, labels, n,
-          counts);
+      label_with (Yuy2Keys ());
       break;
     case PixelLayout::PACKED3:
-      label_rows_avx2 (table, reader, Packed3Keys (), width, y0, y1, labels,
-          n, counts);
+      label_with (Packed3Keys ());
       break;
   }
 }

@@ -149,6 +149,20 @@ Renderer::cover_row (int y, int x0, int x1)
   cover_y1_ = std::max (cover_y1_, y + 1);
 }
 
+/* Raises the coverage of row y over [x0, x1) to coverage (x) (in pixels,
+ * as raise_coverage) and marks the span when any pixel is covered. */
+template <typename Coverage>
+void
+Renderer::cover_span (int y, int x0, int x1, Coverage coverage)
+{
+  uint8_t *m = cover_.ptr<uint8_t> (y);
+  bool any = false;
+  for (int x = x0; x < x1; x++)
+    any |= raise_coverage (m[x], coverage (x));
+  if (any)
+    cover_row (y, x0, x1);
+}
+
 /* Coverage of a segment of half-width hw with round ends: per pixel,
  * clamp (hw + 0.5 - distance to the segment, 0, 1), kept at its maximum
  * over the shapes of one paint(). */
@@ -188,9 +202,7 @@ Renderer::cover_segment (cv::Point2d a, cv::Point2d b, double hw)
     const int x1 = std::min (clip_.x + clip_.width, (int) std::ceil (hi) + 1);
     if (x1 <= x0)
       continue;
-    uint8_t *m = cover_.ptr<uint8_t> (y);
-    bool any = false;
-    for (int x = x0; x < x1; x++) {
+    cover_span (y, x0, x1, [&] (int x) {
       double px = x - a.x, py = y - a.y;
       if (len2 > 0) {
         const double t = std::max (0.0, std::min (1.0,
@@ -201,12 +213,9 @@ Renderer::cover_segment (cv::Point2d a, cv::Point2d b, double hw)
       /* the square root only at the anti-aliased rim */
       const double d2 = px * px + py * py;
       if (d2 >= reach2)
-        continue;
-      const double cov = d2 <= inner2 ? 1 : reach - std::sqrt (d2);
-      any |= raise_coverage (m[x], cov);
-    }
-    if (any)
-      cover_row (y, x0, x1);
+        return 0.0;
+      return d2 <= inner2 ? 1.0 : reach - std::sqrt (d2);
+    });
   }
 }
 
@@ -234,7 +243,6 @@ Renderer::cover_disc (cv::Point2d c, double r, double inner)
       if (ri * ri - dy * dy > 0)
         wi = std::sqrt (ri * ri - dy * dy) - 1;
     }
-    uint8_t *m = cover_.ptr<uint8_t> (y);
     for (int side = 0; side < (wi > 0 ? 2 : 1); side++) {
       int x0, x1;
       if (wi <= 0) {
@@ -251,16 +259,11 @@ Renderer::cover_disc (cv::Point2d c, double r, double inner)
       x1 = std::min (x1, clip_.x + clip_.width);
       if (x1 <= x0)
         continue;
-      bool any = false;
-      for (int x = x0; x < x1; x++) {
+      cover_span (y, x0, x1, [&] (int x) {
         const double d = std::sqrt ((x - c.x) * (x - c.x) + dy * dy);
-        double cov = r + 0.5 - d;
-        if (inner >= 0)
-          cov = std::min (cov, d - inner + 0.5);
-        any |= raise_coverage (m[x], cov);
-      }
-      if (any)
-        cover_row (y, x0, x1);
+        const double cov = r + 0.5 - d;
+        return inner >= 0 ? std::min (cov, d - inner + 0.5) : cov;
+      });
     }
   }
 }
@@ -286,9 +289,7 @@ Renderer::cover_convex (const cv::Point2d * p, int n)
   const int ix0 = std::max (clip_.x, (int) std::floor (x0) - 1);
   const int ix1 = std::min (clip_.x + clip_.width, (int) std::ceil (x1) + 2);
   for (int y = iy0; y < iy1; y++) {
-    uint8_t *m = cover_.ptr<uint8_t> (y);
-    bool any = false;
-    for (int x = ix0; x < ix1; x++) {
+    cover_span (y, ix0, ix1, [&] (int x) {
       double d = kFar;
       for (int i = 0; i < n; i++) {
         const cv::Point2d q = p[i], r = p[(i + 1) % n];
@@ -298,11 +299,8 @@ Renderer::cover_convex (const cv::Point2d * p, int n)
           continue;
         d = std::min (d, orient * ((x - q.x) * ey - (y - q.y) * ex) / -el);
       }
-      const double cov = d + 0.5;
-      any |= raise_coverage (m[x], cov);
-    }
-    if (any)
-      cover_row (y, ix0, ix1);
+      return d + 0.5;
+    });
   }
 }
 

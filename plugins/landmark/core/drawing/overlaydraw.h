@@ -292,6 +292,8 @@ private:
   void mark (int x0, int y0, int x1, int y1);
   /* anti-aliased coverage into cover_, then paint() blends it */
   void cover_row (int y, int x0, int x1);
+  template <typename Coverage>
+  void cover_span (int y, int x0, int x1, Coverage coverage);
   void cover_segment (cv::Point2d a, cv::Point2d b, double half_width);
   void cover_disc (cv::Point2d c, double r, double inner);
   void cover_convex (const cv::Point2d * p, int n);

@@ -292,6 +292,17 @@ test_arc_circle ()
   cv::rectangle (m, cv::Rect (90, 40, 30, 40), 0, cv::FILLED);
   CHECK (arc_of_mask (m, &arc) && std::hypot (arc.cx - 80, arc.cy - 60) <
       1.5, "bitten ball: (%.2f, %.2f)", arc.cx, arc.cy);
+  /* a large ball whose lit cap went to another class (a pale ball under
+   * a ceiling light): the bite's edge lies inside the circle, and a circle
+   * many times the ball's size, whose tolerance band holds most of the
+   * outline, must not win over the ball's own */
+  m = cv::Mat::zeros (300, 400, CV_8UC1);
+  cv::circle (m, cv::Point (200, 150), 50, 255, cv::FILLED);
+  cv::circle (m, cv::Point (212, 108), 28, 0, cv::FILLED);
+  CHECK (arc_of_mask (m, &arc) && std::hypot (arc.cx - 200, arc.cy - 150) <
+      2 && std::fabs (arc.r + 0.5 - 50) < 2, "ball without its lit cap: "
+      "(%.2f, %.2f) r %.2f, coverage %.2f", arc.cx, arc.cy, arc.r,
+      arc.coverage);
   /* a square, an upright and a turned rectangle, a triangle: no arc */
   const std::vector<std::vector<cv::Point>> shapes = {
     {{60, 30}, {100, 30}, {100, 70}, {60, 70}},

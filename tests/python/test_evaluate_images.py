@@ -325,3 +325,32 @@ def test_real_ball_accepted_yellow_shirts_rejected(gst, tmp_path):
         for x0, y0, x1, y1 in people)]
     assert len(shirts) >= 2, img["rejected"]
     assert all(d["reason"] == "ellipse-fit" for d in shirts)
+
+
+@pytest.mark.skipif(not os.path.isdir(MSL), reason="no ../shared/data/msl")
+def test_real_ball_without_its_lit_cap_found_by_its_rim(gst, tmp_path):
+    """20190606/r4, frame 212558, the palette taught as bench real teaches
+    it: the lit cap of the 104 px pale ball goes to the background, so the
+    ball's blob is a disc with a bite out of its top (ellipse fit about
+    0.73); its rim still lies on the ball's circle and the rim test
+    accepts it, with that circle as its ellipse."""
+    src = os.path.join(MSL, "20190606", "r4")
+    names = E.read_names(os.path.join(MSL, "obj.names"))
+    items = E.image_items(E.list_images(src)["."], src, names)
+    item, image, clear, balls = realbench.teaching_image(items)
+    realbench.teach(image, clear, balls, str(tmp_path / "p.json"),
+                    item.path)
+    work = tmp_path / "frame"
+    work.mkdir()
+    frame = os.path.join(src, "cam0_20190606_212558.jpg")
+    shutil.copy(frame, work)
+    shutil.copy(E.annotation_path(frame), work)
+    shutil.copy(os.path.join(MSL, "obj.names"), tmp_path)
+    status, rep = run([work, "--palette", tmp_path / "p.json"], tmp_path)
+    assert status == 0
+    (img,) = rep["folders"][0]["images"]
+    (ball,) = [t for t in img["truth"] if t["class"] == "ball"]
+    assert ball["band"] == ">30" and ball["found"], ball
+    det = img["detections"][ball["detection"]]
+    assert det["shape_evidence"] == "arc" and det["ellipse_fit"] < 0.8, det
+    assert img["false"] == 0

@@ -139,6 +139,17 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
     state = state * 1664525u + 1013904223u;
     return state >> 8;
   };
+  /* Only a circle the blob could be part of is a candidate: one it fills
+   * a kArcMinFill share of (the tolerance band grows with the radius, so a
+   * circle many times the blob's size holds most of any outline in its
+   * band and would win the count with an arc too short to pass), and one
+   * it fits inside, to the band (a circle through a bulge of the outline
+   * holds that bulge's points, not the ball's rim). */
+  auto could_be_part_of = [&] (double cx, double cy, double r) {
+    return area >= kArcMinFill * circle_area_in_frame (cx, cy, r + 0.5,
+        width, height) && area <= circle_area_in_frame (cx, cy,
+        r + 0.5 + tolerance (r), width, height);
+  };
   double best_x = 0, best_y = 0, best_r = 0;
   int best = 0;
   for (int s = 0; s < kSamples; s++) {
@@ -147,7 +158,8 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
     const int k = (j + n / 6 + next () % (n / 3 + 1)) % n;
     double cx, cy, r;
     if (!circle_through (points_[i], points_[j], points_[k], &cx, &cy, &r)
-        || r < kArcMinRadius / 2 || r > max_r)
+        || r < kArcMinRadius / 2 || r > max_r
+        || !could_be_part_of (cx, cy, r))
       continue;
     const int rim = count_rim (cx, cy, r);
     if (rim > best) {
@@ -161,7 +173,8 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
     return false;
   for (int round = 0; round < 2; round++) {
     double cx = best_x, cy = best_y, r = best_r;
-    if (!refine (&cx, &cy, &r) || r < kArcMinRadius || r > max_r)
+    if (!refine (&cx, &cy, &r) || r < kArcMinRadius || r > max_r ||
+        !could_be_part_of (cx, cy, r))
       break;
     const int rim = count_rim (cx, cy, r);
     if (rim < best)

@@ -429,10 +429,12 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
         b.ellipse_major > cfg.max_aspect * b.ellipse_minor)
       reject = "aspect";
     /* auto: the tolerance follows the blob's size, except for a blob cut
-     * by the frame's edge: ipmrange cannot check its size, so its shape
-     * alone must convince */
+     * by the frame's edge (ipmrange cannot check its size, so its shape
+     * alone must convince) and a small one (kSmallBlobPx) */
+    const bool small = b.area < landmark::kSmallBlobPx;
     const double fit_threshold = cfg.min_ellipse_fit >= 0 ?
-        cfg.min_ellipse_fit : b.touches_border ? landmark::kShapeFitLarge :
+        cfg.min_ellipse_fit : b.touches_border || small ?
+        landmark::kShapeFitLarge :
         landmark::shape_fit_threshold (b.ellipse_major, b.ellipse_minor);
     bool marginal = false;
     const landmark::ArcCircle *arc = nullptr;
@@ -455,6 +457,12 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
            * inside the disc's edge */
           b.ellipse_major = b.ellipse_minor = 2 * st.arc.r + 1;
           b.ellipse_angle = 0;
+        } else if (cfg.min_ellipse_fit < 0) {
+          GST_LOG_OBJECT (self, "blob at %.0f,%.0f (%.0f px, fit %.3f): no "
+              "rim, circle r %.1f coverage %.2f fill %.2f outside %.3f "
+              "holes %.3f", b.centroid_x, b.centroid_y, b.area,
+              b.ellipse_fit, st.arc.r, st.arc.coverage, st.arc.fill,
+              st.arc.outside, st.arc.holes);
         }
         /* a near miss travels on as a candidate that only ipmrange's size
          * test and trilaterate's match together can accept; a cut blob has

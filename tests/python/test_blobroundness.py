@@ -278,12 +278,13 @@ def test_distractor_clip(distractor_clip, tmp_path):
 
 
 def test_thin_blobs_are_marginal(gst):
-    """Bands 1 to 5 px thick and 70 px long, of a marker's colour: up to 3
-    px (moment-ellipse minor axis 4 sqrt(t^2 / 12) < 4 px) they may be the
-    blend along an edge between two other colours, rejected `thin` and
+    """Bands 1 to 5 px thick and 110 px long (100 pixels and more: a
+    smaller blob must fit as a large marker does), of a marker's colour: up
+    to 3 px (moment-ellipse minor axis 4 sqrt(t^2 / 12) < 4 px) they may be
+    the blend along an edge between two other colours, rejected `thin` and
     passed on as marginal for ipmrange and the map; the 5 px band and a
     14 px disc are judged by the shape test."""
-    shapes = [(COLOURS["yellow"], rotated_rect(60, 20 + 30 * k, 70, t, 0))
+    shapes = [(COLOURS["yellow"], rotated_rect(60, 20 + 30 * k, 110, t, 0))
               for k, t in enumerate((1, 2, 3, 5))]
     shapes.append((COLOURS["yellow"], ellipse(200, 60, 14, 14, 0)))
     frame = antialiased(321, 241, shapes)
@@ -301,3 +302,34 @@ def test_thin_blobs_are_marginal(gst):
         else:
             assert blob.get("reject-reason") != "thin", (t, blob)
     assert nearest(dets, (200, 60)).blob["kept"] is True
+
+
+def test_small_blobs_need_a_large_markers_fit(gst):
+    """Blobs under 100 pixels are mostly outline: with min-area=40 (the
+    default 100 keeps none) a 10 px disc (about 85 pixels) is kept by its
+    shape; a 2:1 rectangle of that area (fit about 0.85), which the
+    size-dependent threshold (about 0.83 for its ellipse) would keep, must
+    fit as a large marker does (0.92): it is rejected and passed on only
+    as a marginal shape, for ipmrange's size and the map to decide; a
+    square (about 0.79) is rejected outright; a 6 px disc (about 28
+    pixels) is under min-area."""
+    shapes = [(COLOURS["yellow"], ellipse(40, 40, 10, 10, 0)),
+              (COLOURS["yellow"], rotated_rect(100, 40, 9, 9, 17)),
+              (COLOURS["yellow"], rotated_rect(160, 40, 12.5, 6.3, 30)),
+              (COLOURS["yellow"], ellipse(220, 40, 6, 6, 0))]
+    frame = antialiased(321, 241, shapes)
+    (buf,) = pipeline.process_frames(
+        "labsegment min-class-pixels=0 ! blobroundness keep-rejected=true "
+        "min-area=40", [frame], CAPS)
+    dets = meta.detections(buf)
+    disc, square, rect, speck = (nearest(dets, (x, 40)).blob
+                                 for x in (40, 100, 160, 220))
+    assert disc["kept"] is True and 60 < disc["area"] < 100, disc
+    for blob in (square, rect):
+        assert 60 < blob["area"] < 100, blob
+        assert blob["kept"] is False, blob
+        assert blob["reject-reason"] == "ellipse-fit", blob
+        assert blob["ellipse-fit-threshold"] == pytest.approx(0.92), blob
+    assert rect["shape-marginal"] is True, rect
+    assert not square.get("shape-marginal"), square
+    assert speck["kept"] is False and speck["reject-reason"] == "area"

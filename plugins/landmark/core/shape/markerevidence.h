@@ -34,6 +34,11 @@ constexpr double kShapeFitLarge = 0.92;
 constexpr double kShapeOutlinePx = 0.1;
 constexpr double kShapeFitFloor = 0.5;
 double shape_fit_threshold (double major, double minor);
+/* A blob of fewer pixels than this is mostly outline, and chance blobs of
+ * a marker's colour (an edge's blend, a patch of wall) fit their ellipse
+ * well that often: shape alone accepts it only when it fits as well as a
+ * large marker, kShapeFitLarge; below that it is a marginal shape. */
+constexpr double kSmallBlobPx = 100;
 
 /* A blob that misses the shape test by less than kShapeMarginalOutlinePx
  * of outline uncertainty (a colour edge after 4:2:0 chroma, JPEG and

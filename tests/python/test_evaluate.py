@@ -147,6 +147,21 @@ def test_evaluate_counts_only_accepted_detections():
         assert (s["tp"], s["fp"], s["fn"]) == (tp, 0, fn), dets
 
 
+def test_a_ball_found_by_its_rim_is_where_its_circle_is():
+    """A blob accepted as part of a ball (shape-evidence arc) is placed at
+    the ball's circle, as ranging places it, not at the centroid of the
+    part that got the class: the lit top of a 40 px ball lies 12 px above
+    the ball's centre."""
+    truth = [{"frame": 0, "landmarks": [mark("red", 100, 100, 1.0)]}]
+    lit_top = det("red", 100, 88)
+    rim = dict(lit_top, blob=dict(lit_top["blob"], **{
+        "shape-evidence": "arc", "ellipse-x": 100.5, "ellipse-y": 99.5}))
+    for d, tp in ((lit_top, 0), (rim, 1)):
+        s = E.summary(E.evaluate([{"frame": 0, "detections": [d]}],
+                                 truth))["detection"]["all"]
+        assert (s["tp"], s["fp"], s["fn"]) == (tp, 1 - tp, 1 - tp), d
+
+
 # -- SLAM: map error, trajectory error, consistency ---------------------------
 
 from gstlandmark import trajectory as T  # noqa: E402

@@ -137,7 +137,12 @@ def detection_accepted(det: Dict[str, Any]) -> bool:
 
 
 def detection_centre(det: Dict[str, Any]) -> Tuple[float, float]:
+    """Where the chain places the landmark in the image: the blob's
+    centroid, or for a blob accepted as part of a ball by its rim
+    (shape-evidence arc) that ball's circle, which ranging uses too."""
     blob = det.get("blob", {})
+    if blob.get("shape-evidence") == "arc" and "ellipse-x" in blob:
+        return blob["ellipse-x"], blob["ellipse-y"]
     if "centroid-x" in blob and "centroid-y" in blob:
         return blob["centroid-x"], blob["centroid-y"]
     x, y, w, h = det["bbox"]

@@ -52,9 +52,33 @@ band (cv::Mat & img, int label, double u, double v, double w, double h,
   cv::fillConvexPoly (img, p, 4, cv::Scalar (label));
 }
 
-static const BeaconDetection *
-only (const BeaconFinder & f)
+/* Two bands of w x h pixels stacked, the upper one's top middle at (u, v):
+ * a two-band marker, the whole turned by roll degrees about the joint. */
+static void
+two_bands (cv::Mat & img, int upper, int lower, double u, double v, double w,
+    double h, double roll = 0)
 {
+  band (img, upper, u, v, w, h, roll, u, v + h);
+  band (img, lower, u, v + h, w, h, roll, u, v + h);
+}
+
+/* A cone 60 px tall, 40 px wide at its base: a triangle of label tip over
+ * a trapezoid of label base. */
+static void
+cone (cv::Mat & img, int tip, int base)
+{
+  const cv::Point triangle[3] = { {160, 100}, {170, 130}, {150, 130} };
+  const cv::Point trapezoid[4] = { {150, 131}, {170, 131}, {180, 160},
+    {140, 160} };
+  cv::fillConvexPoly (img, triangle, 3, cv::Scalar (tip));
+  cv::fillConvexPoly (img, trapezoid, 4, cv::Scalar (base));
+}
+
+/* Finds markers in img: the one detection, or null (a failed check). */
+static const BeaconDetection *
+only (BeaconFinder & f, const cv::Mat & img, const BeaconParams & p)
+{
+  f.find (img, p);
   CHECK (f.count () == 1, "%zu detections, expected 1", f.count ());
   return f.count () == 1 ? &f.detection (0) : nullptr;
 }
@@ -64,10 +88,9 @@ test_upright_and_reversed (BeaconFinder & f, const BeaconParams & p)
 {
   for (int reversed = 0; reversed < 2; reversed++) {
     cv::Mat img (240, 320, CV_8UC1, cv::Scalar (0));
-    band (img, reversed ? YELLOW : PINK, 160, 100, 20, 16);
-    band (img, reversed ? PINK : YELLOW, 160, 116, 20, 16);
-    f.find (img, p);
-    const BeaconDetection *d = only (f);
+    two_bands (img, reversed ? YELLOW : PINK, reversed ? PINK : YELLOW, 160,
+        100, 20, 16);
+    const BeaconDetection *d = only (f, img, p);
     if (!d)
       continue;
     CHECK (d->marker == reversed, "named %d, expected %d", d->marker,
@@ -89,10 +112,8 @@ static void
 test_roll (BeaconFinder & f, BeaconParams p)
 {
   cv::Mat img (240, 320, CV_8UC1, cv::Scalar (0));
-  band (img, PINK, 160, 80, 20, 30, 12, 160, 110);
-  band (img, YELLOW, 160, 110, 20, 30, 12, 160, 110);
-  f.find (img, p);
-  const BeaconDetection *d = only (f);
+  two_bands (img, PINK, YELLOW, 160, 80, 20, 30, 12);
+  const BeaconDetection *d = only (f, img, p);
   if (d) {
     CHECK (d->marker == 0 && !d->reject, "rolled: marker %d, %s",
         d->marker, d->reject ? d->reject : "kept");
@@ -110,10 +131,8 @@ static void
 test_unknown_code_and_partial (BeaconFinder & f, const BeaconParams & p)
 {
   cv::Mat img (240, 320, CV_8UC1, cv::Scalar (0));
-  band (img, PINK, 100, 100, 20, 16);
-  band (img, BLUE, 100, 116, 20, 16);
-  f.find (img, p);
-  const BeaconDetection *d = only (f);
+  two_bands (img, PINK, BLUE, 100, 100, 20, 16);
+  const BeaconDetection *d = only (f, img, p);
   if (d)
     CHECK (d->marker < 0 && d->reject && std::string (d->reject) == "code"
         && d->candidates.empty (), "pink/blue read as %d", d->marker);
@@ -121,8 +140,7 @@ test_unknown_code_and_partial (BeaconFinder & f, const BeaconParams & p)
   /* a lone pink band cut by the bottom edge: the top of pink/yellow */
   img.setTo (0);
   band (img, PINK, 100, 225, 20, 30);
-  f.find (img, p);
-  d = only (f);
+  d = only (f, img, p);
   if (d)
     CHECK (d->marker < 0 && d->candidates.size () == 1 &&
         d->candidates[0] == 0 && std::string (d->reject) == "partial",
@@ -143,10 +161,8 @@ test_band_of_another_marker_on_top (BeaconFinder & f, const BeaconParams & p)
 {
   cv::Mat img (240, 320, CV_8UC1, cv::Scalar (0));
   band (img, BLUE, 160, 88, 14, 12);
-  band (img, PINK, 160, 100, 20, 16);
-  band (img, YELLOW, 160, 116, 20, 16);
-  f.find (img, p);
-  const BeaconDetection *d = only (f);
+  two_bands (img, PINK, YELLOW, 160, 100, 20, 16);
+  const BeaconDetection *d = only (f, img, p);
   if (d)
     CHECK (d->marker == 0 && !d->reject && d->n_bands == 2 &&
         std::fabs (d->top_v - 99.5) < 0.6, "marker %d, %d bands, top %.1f",
@@ -162,21 +178,15 @@ test_discs_are_no_beacon (BeaconFinder & f, const BeaconParams & p)
       cv::Scalar (PINK), -1);
   cv::ellipse (img, cv::Point (160, 112), cv::Size (20, 6), 0, 0, 360,
       cv::Scalar (YELLOW), -1);
-  f.find (img, p);
-  const BeaconDetection *d = only (f);
+  const BeaconDetection *d = only (f, img, p);
   if (d)
     CHECK (d->marker == 0 && d->reject && std::string (d->reject) ==
         "shape", "ellipses: %s", d->reject ? d->reject : "kept");
   /* a cone's triangle over its trapezoid in a beacon's colours: the
    * triangle fills half its box */
   img.setTo (0);
-  const cv::Point top[3] = { {160, 100}, {170, 130}, {150, 130} };
-  const cv::Point bottom[4] = { {150, 131}, {170, 131}, {180, 160},
-    {140, 160} };
-  cv::fillConvexPoly (img, top, 3, cv::Scalar (PINK));
-  cv::fillConvexPoly (img, bottom, 4, cv::Scalar (YELLOW));
-  f.find (img, p);
-  d = only (f);
+  cone (img, PINK, YELLOW);
+  d = only (f, img, p);
   if (d)
     CHECK (d->marker == 0 && d->reject && std::string (d->reject) ==
         "shape", "triangle as a beacon: %s, fill %.3f",
@@ -187,14 +197,8 @@ static void
 test_cone (BeaconFinder & f, const BeaconParams & p)
 {
   cv::Mat img (240, 320, CV_8UC1, cv::Scalar (0));
-  /* a cone 60 px tall, 40 px wide at its base: triangle over trapezoid */
-  const cv::Point top[3] = { {160, 100}, {170, 130}, {150, 130} };
-  const cv::Point bottom[4] = { {150, 131}, {170, 131}, {180, 160},
-    {140, 160} };
-  cv::fillConvexPoly (img, top, 3, cv::Scalar (BLUE));
-  cv::fillConvexPoly (img, bottom, 4, cv::Scalar (YELLOW));
-  f.find (img, p);
-  const BeaconDetection *d = only (f);
+  cone (img, BLUE, YELLOW);
+  const BeaconDetection *d = only (f, img, p);
   if (d) {
     CHECK (d->marker == 2 && !d->reject, "cone: marker %d, %s", d->marker,
         d->reject ? d->reject : "kept");

@@ -28,6 +28,7 @@ from .. import pipeline
 from ..landmarklog import read_jsonl
 from ..gicompat import caps_structure
 from ..landmarkmap import read_map
+from ..synth.writer import clip_files
 
 Gst = pipeline.Gst
 
@@ -60,8 +61,7 @@ def synthetic_clip(folder: str, width: int, height: int,
                    robot: str = "seed") -> str:
     """The ``path`` scenario rendered into ``folder`` once, reused after."""
     from .. import synth
-    done = os.path.join(folder, "scene.json")
-    if not os.path.exists(done):
+    if not os.path.exists(clip_files(folder)["scene"]):
         synth.render_scenario("path", folder, seed=seed, frames=frames,
                               size=(width, height), robot=robot)
     return folder
@@ -71,11 +71,11 @@ def learn_chart_palette(folder: str, out: str) -> str:
     """Learns a palette from the clip's colour chart frame, as a user
     learns one from their own camera."""
     from .. import palette as pal
-    with open(os.path.join(folder, "scene.json")) as f:
+    files = clip_files(folder)
+    with open(files["scene"]) as f:
         classes = json.load(f)["palette"]["classes"]
-    image = cv2.imread(os.path.join(folder, "chart.png"))
-    mask = cv2.imread(os.path.join(folder, "chart-mask.png"),
-                      cv2.IMREAD_UNCHANGED)
+    image = cv2.imread(files["chart"])
+    mask = cv2.imread(files["chart_mask"], cv2.IMREAD_UNCHANGED)
     learned = pal.learn_from_mask(
         image, mask, names=[c["name"] for c in classes],
         markers=[c["name"] for c in classes if c.get("marker", True)])
@@ -88,14 +88,13 @@ def chain_description(folder: str, palette: str, log: str,
     """The whole chain on the clip in ``folder``, with the scene's camera
     file and map (as a user would with their calibrated camera) and every
     other property at its default but trilaterate's EKF."""
-    clip = os.path.join(folder, "clip.avi")
-    camera = os.path.join(folder, "camera.yml")
-    map_file = os.path.join(folder, "map.json")
+    files = clip_files(folder)
+    map_file = files["map"]
     return (
-        f"filesrc location={clip} ! decodebin ! videoconvert ! "
+        f"filesrc location={files['clip']} ! decodebin ! videoconvert ! "
         "video/x-raw,format=RGB ! "
         f"labsegment palette={palette} ! blobroundness ! "
-        f"ipmrange calibration={camera} map={map_file} ! "
+        f"ipmrange calibration={files['camera']} map={map_file} ! "
         f"trilaterate map={map_file} filter=ekf ! "
         f"landmarklog location={log} ! "
         f"landmarkoverlay name=overlay map={map_file} ! videoconvert ! "
@@ -141,7 +140,8 @@ def run_demo(out_dir: str, width: int = 640, height: int = 480,
     if palette is None:
         palette = learn_chart_palette(folder,
                                       os.path.join(out_dir, "palette.json"))
-    with open(os.path.join(folder, "scene.json")) as f:
+    files = clip_files(folder)
+    with open(files["scene"]) as f:
         n_frames = json.load(f)["frames"]
     video = os.path.join(out_dir, "overlay.avi")
     log = os.path.join(out_dir, "log.jsonl")
@@ -151,19 +151,19 @@ def run_demo(out_dir: str, width: int = 640, height: int = 480,
     cv2.imwrite(os.path.join(out_dir, "preview.png"),
                 cv2.cvtColor(stats["preview"], cv2.COLOR_RGB2BGR))
 
-    truth = os.path.join(folder, "truth.jsonl")
+    truth = files["truth"]
     results = read_jsonl(log)
     ev = evaluate.evaluate(results, read_jsonl(truth), min_pixels=113)
     accuracy = evaluate.summary(ev)
     with open(os.path.join(out_dir, "accuracy.json"), "w") as f:
         json.dump(accuracy, f, indent=2)
-    landmarks = read_map(os.path.join(folder, "map.json"))
+    landmarks = read_map(files["map"])
     evaluate.plot_trajectory(ev, os.path.join(out_dir, "trajectory.png"),
                              landmarks)
     pose = accuracy["pose"].get("all", {}).get("position_m", {})
     heading = accuracy["pose"].get("all", {}).get("heading_deg", {})
     summary = {
-        "clip": os.path.join(folder, "clip.avi"),
+        "clip": files["clip"],
         "truth": truth,
         "palette": palette,
         "overlay_video": video,

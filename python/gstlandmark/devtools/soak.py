@@ -33,6 +33,7 @@ from typing import Any, Dict, List, Optional
 
 from .. import pipeline
 from ..commands.common import add_json_option, size_type
+from ..synth.writer import clip_files
 from .benchkit import write_json
 from .sourcetree import ROOT, missing
 
@@ -67,7 +68,7 @@ def clip_frames(width: int, height: int,
                 clip_dir: str = CLIP_DIR) -> List[bytes]:
     """Every frame of ``clip_dir``/clip.avi as packed RGB bytes (default
     GStreamer stride) at ``width`` x ``height``."""
-    clip = os.path.join(clip_dir, "clip.avi")
+    clip = clip_files(clip_dir)["clip"]
     if not os.path.isfile(clip):
         raise pipeline.PipelineError(missing(clip))
     pipeline.init()
@@ -100,12 +101,12 @@ def chain(log: str, clip_dir: str = CLIP_DIR, flush_every: int = 0) -> str:
     ``log``). Bus messages are off: an application that does not read
     them would see its bus queue grow, which is not what is measured
     here."""
-    with open(os.path.join(clip_dir, "scene.json")) as f:
+    files = clip_files(clip_dir)
+    with open(files["scene"]) as f:
         cam = json.load(f)["camera"]
-    palette = os.path.join(clip_dir, "palette.json")
-    map_file = os.path.join(clip_dir, "map.json")
+    map_file = files["map"]
     return (
-        f"labsegment palette={palette} min-class-pixels=50 ! "
+        f"labsegment palette={files['palette']} min-class-pixels=50 ! "
         "blobroundness min-area=30 ! "
         f"ipmrange camera-height={cam['height_m']} tilt={cam['tilt_deg']} "
         f"hfov={cam['hfov_deg']} map={map_file} ! "

@@ -307,12 +307,12 @@ def learn_palette(folder: str, out: str) -> str:
 def chain(folder: str, palette: str, log: str) -> str:
     """The default chain on the variant's clip, camera file and map."""
     from ..commands.runner import quote
-    clip = os.path.join(folder, "clip.avi")
-    camera = os.path.join(folder, "camera.yml")
-    map_file = os.path.join(folder, "map.json")
-    return (f"filesrc location={quote(clip)} ! avidemux ! jpegdec ! "
+    from ..synth.writer import clip_files
+    files = clip_files(folder)
+    map_file = files["map"]
+    return (f"filesrc location={quote(files['clip'])} ! avidemux ! jpegdec ! "
             f"videoconvert ! labsegment palette={quote(palette)} ! "
-            f"blobroundness ! ipmrange calibration={quote(camera)} "
+            f"blobroundness ! ipmrange calibration={quote(files['camera'])} "
             f"map={quote(map_file)} ! trilaterate map={quote(map_file)} ! "
             f"landmarklog location={quote(log)} ! fakesink")
 

@@ -201,6 +201,23 @@ def scene_json(scene, frames):
     return out
 
 
+# The files write_outputs writes in a clip folder, by what they hold (the
+# clip and odometry.jsonl unless left out); scene.json names them so too.
+CLIP_FILES = {"truth": "truth.jsonl", "scene": "scene.json",
+              "map": "map.json", "palette": "palette.json",
+              "camera": "camera.yml", "mask0": "mask0.png",
+              "frame0": "frame0.png", "chart": "chart.png",
+              "chart_mask": "chart-mask.png", "clip": "clip.avi",
+              "odometry": "odometry.jsonl"}
+
+
+def clip_files(folder):
+    """{what: path} of the files of a clip rendered into ``folder``
+    (``CLIP_FILES``): what a chain run on the clip reads."""
+    return {what: os.path.join(folder, name)
+            for what, name in CLIP_FILES.items()}
+
+
 def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
                   raw=None, masks="first", clip=True, odometry=True):
     """Render ``frames`` frames of ``scene`` into ``out_dir``; return a
@@ -221,19 +238,11 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
     if progress is None:
         progress = sys.stderr.isatty()
     bar = Progress(frames, progress, f"synth {scene.scenario}")
-    files = {"truth": os.path.join(out_dir, "truth.jsonl"),
-             "scene": os.path.join(out_dir, "scene.json"),
-             "map": os.path.join(out_dir, "map.json"),
-             "palette": os.path.join(out_dir, "palette.json"),
-             "camera": os.path.join(out_dir, "camera.yml"),
-             "mask0": os.path.join(out_dir, "mask0.png"),
-             "frame0": os.path.join(out_dir, "frame0.png"),
-             "chart": os.path.join(out_dir, "chart.png"),
-             "chart_mask": os.path.join(out_dir, "chart-mask.png")}
-    if clip:
-        files["clip"] = os.path.join(out_dir, "clip.avi")
-    if odometry:
-        files["odometry"] = os.path.join(out_dir, "odometry.jsonl")
+    files = clip_files(out_dir)
+    if not clip:
+        del files["clip"]
+    if not odometry:
+        del files["odometry"]
     if frames_png:
         os.makedirs(frames_png, exist_ok=True)
         files["frames_png"] = frames_png
@@ -303,9 +312,11 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
     vis = visibility(per_frame)
     description["visibility"] = vis
     description["chart"] = (
-        {"file": "chart.png", "mask": "chart-mask.png", **chart_info}
+        {"file": CLIP_FILES["chart"], "mask": CLIP_FILES["chart_mask"],
+         **chart_info}
         if chart_info is not None else None)
-    description["clip"] = ({"file": "clip.avi", "format": "MJPEG in AVI",
+    description["clip"] = ({"file": CLIP_FILES["clip"],
+                            "format": "MJPEG in AVI",
                             "jpeg_quality": scene.effects.jpeg_quality}
                            if clip else None)
     if raw:
@@ -317,7 +328,7 @@ def write_outputs(scene, frames, out_dir, progress=None, frames_png=None,
     description["masks"] = "masks/%06d.png" if masks == "all" else None
     description["render_seconds"] = round(seconds, 3)
     description["odometry"] = (
-        {"file": "odometry.jsonl", **odometry.to_json()} if odometry
+        {"file": CLIP_FILES["odometry"], **odometry.to_json()} if odometry
         else None)
     with open(files["scene"], "w", encoding="utf-8") as f:
         json.dump(description, f, indent=2)

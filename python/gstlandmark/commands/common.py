@@ -42,9 +42,11 @@ def add_token_option(parser, what="access token"):
                              f"start otherwise)")
 
 
-def add_json_option(parser, what="the numbers"):
-    """``--json OUT``: a command's results also written as JSON."""
-    parser.add_argument("--json", metavar="OUT",
+def add_json_option(parser, what="the numbers", dash_o=False):
+    """``--json OUT`` (and ``-o OUT`` with dash_o, for a command with no
+    other output file): a command's results also written as JSON."""
+    flags = ("-o", "--json") if dash_o else ("--json",)
+    parser.add_argument(*flags, metavar="OUT",
                         help=f"also write {what} to this JSON file")
 
 

@@ -55,6 +55,7 @@ from ..landmarkmap import read_map
 from ..trajectory import (CHI2_95, Rigid2D, align_rigid, associate_map,
                           nearest_first, nees, nees_summary, pose_transform,
                           wrap_angle)
+from .common import add_json_option
 from .evalimages import add_image_options
 from .evalimages import handle as evaluate_images
 
@@ -765,8 +766,7 @@ def add_evaluate_parser(subparsers):
     p.add_argument("--visible-px", type=float, default=150.0,
                    help="pixels a truth landmark needs to count as visible "
                         "in the pose tables (default 150, as synth counts)")
-    p.add_argument("-o", "--json", metavar="OUT",
-                   help="also write the numbers to this JSON file")
+    add_json_option(p, dash_o=True)
     p.add_argument("--plot", metavar="OUT.png",
                    help="write a top-down trajectory plot (truth vs "
                         "estimate, with the map's landmarks)")

@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 
 from ..commands import evalimages as E
-from ..commands.common import CliError
+from ..commands.common import CliError, add_json_option
 from ..palette import learn_from_mask, load_palette, save_palette
 from . import sourcetree
 
@@ -237,7 +237,6 @@ def add_real_bench_parser(actions, data: Optional[str] = None) -> None:
     p.add_argument("--set", dest="sets", action="append", default=[],
                    metavar="ELEMENT.PROPERTY=VALUE",
                    help="passed to evaluate's chain (repeatable)")
-    p.add_argument("-o", "--json", metavar="OUT",
-                   help="also write the report, every image's boxes and "
-                        "detections, to this JSON file")
+    add_json_option(p, "the report, every image's boxes and detections,",
+                    dash_o=True)
     p.set_defaults(handler=_handle)

@@ -287,6 +287,28 @@ def test_real_msl_frames(gst, tmp_path):
                                          for d in img["rejected"]), t
 
 
+def real_frame(folder, name, tmp_path):
+    """One frame of an MSL folder scored by the default chain, the palette
+    taught on the folder's teaching image as bench real teaches it: the
+    frame's image record and its path."""
+    src = os.path.join(MSL, *folder.split("/"))
+    names = E.read_names(os.path.join(MSL, "obj.names"))
+    items = E.image_items(E.list_images(src)["."], src, names)
+    item, image, clear, balls = realbench.teaching_image(items)
+    realbench.teach(image, clear, balls, str(tmp_path / "p.json"),
+                    item.path)
+    work = tmp_path / "frame"
+    work.mkdir()
+    frame = os.path.join(src, name)
+    shutil.copy(frame, work)
+    shutil.copy(E.annotation_path(frame), work)
+    shutil.copy(os.path.join(MSL, "obj.names"), tmp_path)
+    status, rep = run([work, "--palette", tmp_path / "p.json"], tmp_path)
+    assert status == 0
+    (img,) = rep["folders"][0]["images"]
+    return img, frame
+
+
 @pytest.mark.skipif(not os.path.isdir(MSL), reason="no ../shared/data/msl")
 def test_real_ball_accepted_yellow_shirts_rejected(gst, tmp_path):
     """20220715/r7 (Bangkok, yellow T-shirts), the palette taught on the
@@ -295,21 +317,9 @@ def test_real_ball_accepted_yellow_shirts_rejected(gst, tmp_path):
     the ball's yellow (ball-coloured blobs of 1,000 px and more inside
     their boxes) are rejected by the shape test; nothing else is
     accepted."""
-    src = os.path.join(MSL, "20220715", "r7")
+    img, frame = real_frame("20220715/r7", "cam0_20220715_171127.jpg",
+                            tmp_path)
     names = E.read_names(os.path.join(MSL, "obj.names"))
-    items = E.image_items(E.list_images(src)["."], src, names)
-    item, image, clear, balls = realbench.teaching_image(items)
-    realbench.teach(image, clear, balls, str(tmp_path / "p.json"),
-                    item.path)
-    work = tmp_path / "frame"
-    work.mkdir()
-    frame = os.path.join(src, "cam0_20220715_171127.jpg")
-    shutil.copy(frame, work)
-    shutil.copy(E.annotation_path(frame), work)
-    shutil.copy(os.path.join(MSL, "obj.names"), tmp_path)
-    status, rep = run([work, "--palette", tmp_path / "p.json"], tmp_path)
-    assert status == 0
-    (img,) = rep["folders"][0]["images"]
     (ball,) = [t for t in img["truth"] if t["class"] == "ball"]
     assert ball["band"] == ">30" and ball["found"], ball
     assert img["false"] == 0
@@ -334,21 +344,7 @@ def test_real_ball_without_its_lit_cap_found_by_its_rim(gst, tmp_path):
     ball's blob is a disc with a bite out of its top (ellipse fit about
     0.73); its rim still lies on the ball's circle and the rim test
     accepts it, with that circle as its ellipse."""
-    src = os.path.join(MSL, "20190606", "r4")
-    names = E.read_names(os.path.join(MSL, "obj.names"))
-    items = E.image_items(E.list_images(src)["."], src, names)
-    item, image, clear, balls = realbench.teaching_image(items)
-    realbench.teach(image, clear, balls, str(tmp_path / "p.json"),
-                    item.path)
-    work = tmp_path / "frame"
-    work.mkdir()
-    frame = os.path.join(src, "cam0_20190606_212558.jpg")
-    shutil.copy(frame, work)
-    shutil.copy(E.annotation_path(frame), work)
-    shutil.copy(os.path.join(MSL, "obj.names"), tmp_path)
-    status, rep = run([work, "--palette", tmp_path / "p.json"], tmp_path)
-    assert status == 0
-    (img,) = rep["folders"][0]["images"]
+    img, _ = real_frame("20190606/r4", "cam0_20190606_212558.jpg", tmp_path)
     (ball,) = [t for t in img["truth"] if t["class"] == "ball"]
     assert ball["band"] == ">30" and ball["found"], ball
     det = img["detections"][ball["detection"]]

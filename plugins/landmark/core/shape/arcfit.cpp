@@ -143,8 +143,9 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
    * a kArcMinFill share of (the tolerance band grows with the radius, so a
    * circle many times the blob's size holds most of any outline in its
    * band and would win the count with an arc too short to pass), and one
-   * it fits inside, to the band (a circle through a bulge of the outline
-   * holds that bulge's points, not the ball's rim). */
+   * that holds, with its band, at least the blob's pixels (a small circle
+   * through a bulge of the outline holds that bulge's points, not the
+   * ball's rim). Both within the frame. */
   auto could_be_part_of = [&] (double cx, double cy, double r) {
     return area >= kArcMinFill * circle_area_in_frame (cx, cy, r + 0.5,
         width, height) && area <= circle_area_in_frame (cx, cy,

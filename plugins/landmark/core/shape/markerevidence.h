@@ -37,7 +37,7 @@ double shape_fit_threshold (double major, double minor);
 /* A blob of fewer pixels than this is mostly outline, and chance blobs of
  * a marker's colour (an edge's blend, a patch of wall) fit their ellipse
  * well that often: shape alone accepts it only when it fits as well as a
- * large marker, kShapeFitLarge; below that it is a marginal shape. */
+ * large marker, kShapeFitLarge; a near miss is a marginal shape. */
 constexpr double kSmallBlobPx = 100;
 
 /* A blob that misses the shape test by less than kShapeMarginalOutlinePx

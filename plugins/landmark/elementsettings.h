@@ -723,20 +723,6 @@ install_element_properties (gpointer klass, void (*finalize) (GObject *))
           GST_PARAM_MUTABLE_PLAYING));
 }
 
-/* The class set-up of such an element: finalize, the properties, its pads
- * and description. */
-template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
-    const PropertyTable<Settings> &(*table) ()>
-void
-metadata_element_class_init (gpointer klass, void (*finalize) (GObject *),
-    const char *longname, const char *classification,
-    const char *description)
-{
-  install_element_properties<Settings, shared, table> (klass, finalize);
-  set_metadata_element_class (GST_ELEMENT_CLASS (klass), longname,
-      classification, description);
-}
-
 /* The vfuncs of an element that measures labsegment's labels
  * (blobroundness, floorboundary, beacondetect): the settings lifecycle with
  * settings parsed by `parse`, its set_caps, and measure_labels_ip over sync
@@ -755,24 +741,31 @@ set_labels_measuring (gpointer klass, gboolean (*stop) (GstBaseTransform *),
       measure_labels_ip<Self, sync, process>;
 }
 
-/* The class set-up of an element that reads or draws pixels (labsegment,
- * landmarkoverlay): finalize, the properties, pads of
- * LANDMARK_VIDEO_FORMATS, its description and a set_info that hands the
- * negotiated format to configure. */
+/* The class set-up of an element: finalize, the properties, its pads and
+ * description. Without `configure` it passes video through unchanged (any
+ * caps, in place); with it, it reads or draws pixels (labsegment,
+ * landmarkoverlay: pads of LANDMARK_VIDEO_FORMATS and a set_info that hands
+ * the negotiated format to configure). */
 template <typename Settings, SharedSettings<Settings> &(*shared) (GObject *),
     const PropertyTable<Settings> &(*table) (),
     gboolean (*configure) (GstVideoFilter *, const LandmarkFrameFormat &,
-        const GstVideoInfo *)>
+        const GstVideoInfo *) = nullptr>
 void
-pixel_element_class_init (gpointer klass, void (*finalize) (GObject *),
+element_class_init (gpointer klass, void (*finalize) (GObject *),
     const char *longname, const char *classification,
     const char *description)
 {
   install_element_properties<Settings, shared, table> (klass, finalize);
-  landmark_set_pixel_element_class (GST_ELEMENT_CLASS (klass), longname,
-      classification, description);
-  GST_VIDEO_FILTER_CLASS (klass)->set_info =
-      landmark_pixel_set_info<configure>;
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  if constexpr (configure == nullptr) {
+    set_metadata_element_class (element_class, longname, classification,
+        description);
+  } else {
+    landmark_set_pixel_element_class (element_class, longname,
+        classification, description);
+    GST_VIDEO_FILTER_CLASS (klass)->set_info =
+        landmark_pixel_set_info<configure>;
+  }
 }
 
 /* Such an element works in place and never drops a late frame (frames

@@ -335,7 +335,7 @@ gst_beacon_detect_process (GstBeaconDetect * self, GstBuffer * buf,
 static void
 gst_beacon_detect_class_init (GstBeaconDetectClass * klass)
 {
-  landmark::metadata_element_class_init<Settings, gst_beacon_detect_settings,
+  landmark::element_class_init<Settings, gst_beacon_detect_settings,
       beacon_detect_properties> (klass, gst_beacon_detect_finalize,
       "Coded landmark detection", "Filter/Analyzer/Video",
       "Finds the coded markers of a map (stacks of colour bands: beacons, "

@@ -496,7 +496,7 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
 static void
 gst_blob_roundness_class_init (GstBlobRoundnessClass * klass)
 {
-  landmark::metadata_element_class_init<Settings, gst_blob_roundness_settings,
+  landmark::element_class_init<Settings, gst_blob_roundness_settings,
       blob_roundness_properties> (klass, gst_blob_roundness_finalize,
       "Landmark blob roundness", "Filter/Analyzer/Video",
       "Finds the blobs of marker classes in the labels of labsegment, "

@@ -578,7 +578,7 @@ gst_floor_boundary_process (GstFloorBoundary * self, GstBuffer * buf,
 static void
 gst_floor_boundary_class_init (GstFloorBoundaryClass * klass)
 {
-  landmark::metadata_element_class_init<Settings, gst_floor_boundary_settings,
+  landmark::element_class_init<Settings, gst_floor_boundary_settings,
       floor_boundary_properties> (klass, gst_floor_boundary_finalize,
       "Floor boundary", "Filter/Analyzer/Video",
       "Finds where the floor ends in every image column of labsegment's "

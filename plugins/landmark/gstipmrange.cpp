@@ -740,7 +740,7 @@ gst_ipm_range_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 static void
 gst_ipm_range_class_init (GstIpmRangeClass * klass)
 {
-  landmark::metadata_element_class_init<Settings, gst_ipm_range_settings,
+  landmark::element_class_init<Settings, gst_ipm_range_settings,
       ipm_range_properties> (klass, gst_ipm_range_finalize,
       "Landmark range by inverse perspective mapping",
       "Filter/Analyzer/Video",

@@ -588,7 +588,7 @@ gst_lab_segment_class_init (GstLabSegmentClass * klass)
 {
   GstBaseTransformClass *trans_class = GST_BASE_TRANSFORM_CLASS (klass);
 
-  landmark::pixel_element_class_init<Settings, gst_lab_segment_settings,
+  landmark::element_class_init<Settings, gst_lab_segment_settings,
       lab_segment_properties, gst_lab_segment_configure> (klass,
       gst_lab_segment_finalize, "Lab colour segmentation",
       "Filter/Analyzer/Video",

@@ -476,7 +476,7 @@ gst_landmark_log_class_init (GstLandmarkLogClass * klass)
 
   landmark_json::init ();
 
-  landmark::metadata_element_class_init<Settings, gst_landmark_log_settings,
+  landmark::element_class_init<Settings, gst_landmark_log_settings,
       landmark_log_properties> (klass, gst_landmark_log_finalize,
       "Landmark metadata logger", "Filter/Analyzer/Video",
       "Writes the labels, detections and pose metadata of every buffer as "

@@ -449,7 +449,7 @@ gst_landmark_overlay_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 static void
 gst_landmark_overlay_class_init (GstLandmarkOverlayClass * klass)
 {
-  landmark::pixel_element_class_init<Settings, gst_landmark_overlay_settings,
+  landmark::element_class_init<Settings, gst_landmark_overlay_settings,
       landmark_overlay_properties, gst_landmark_overlay_configure> (klass,
       gst_landmark_overlay_finalize, "Landmark overlay", "Filter/Effect/Video",
       "Draws landmark detections, robot pose, class histogram, class "

@@ -434,7 +434,7 @@ gst_landmark_publish_class_init (GstLandmarkPublishClass * klass)
   landmark_json::init ();
   landmark::MqttLink::init_library ();
 
-  landmark::metadata_element_class_init<Settings,
+  landmark::element_class_init<Settings,
       gst_landmark_publish_settings, publish_properties> (klass,
       gst_landmark_publish_finalize, "Landmark results publisher",
       "Filter/Analyzer/Video",

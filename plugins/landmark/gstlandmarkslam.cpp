@@ -711,7 +711,7 @@ gst_landmark_slam_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 static void
 gst_landmark_slam_class_init (GstLandmarkSlamClass * klass)
 {
-  landmark::metadata_element_class_init<Settings, gst_landmark_slam_settings,
+  landmark::element_class_init<Settings, gst_landmark_slam_settings,
       slam_properties> (klass, gst_landmark_slam_finalize,
       "Landmark SLAM", "Filter/Analyzer/Video",
       "Robot pose and landmark map together from the ranges and bearings "

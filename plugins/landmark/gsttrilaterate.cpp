@@ -367,7 +367,7 @@ gst_trilaterate_transform_ip (GstBaseTransform * trans, GstBuffer * buf)
 static void
 gst_trilaterate_class_init (GstTrilaterateClass * klass)
 {
-  landmark::metadata_element_class_init<Settings, gst_trilaterate_settings,
+  landmark::element_class_init<Settings, gst_trilaterate_settings,
       trilaterate_properties> (klass, gst_trilaterate_finalize,
       "Landmark trilateration", "Filter/Analyzer/Video",
       "Robot pose on a landmark map from the ranges and bearings of the "

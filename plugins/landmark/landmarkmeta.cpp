@@ -91,45 +91,6 @@ labels_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
   return FALSE;  /* unknown transform: drop rather than carry stale labels */
 }
 
-gboolean
-pose_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
-    GstBuffer * src, GQuark type, gpointer data, gpointer)
-{
-  (void) src;
-  (void) data;
-  if (gst_buffer_get_custom_meta (dst, GST_LANDMARK_POSE_META_NAME))
-    return TRUE;
-  /* The pose is a property of the frame, not of its pixels: it survives
-   * copies and scaling alike. */
-  if (GST_META_TRANSFORM_IS_COPY (type) ||
-      GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
-    copy_fields (gst_custom_meta_get_structure (meta),
-        landmark_pose_meta_add (dst));
-    return TRUE;
-  }
-  return FALSE;
-}
-
-gboolean
-floor_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
-    GstBuffer * src, GQuark type, gpointer data, gpointer)
-{
-  (void) src;
-  (void) data;
-  if (gst_buffer_get_custom_meta (dst, GST_LANDMARK_FLOOR_META_NAME))
-    return TRUE;
-  /* Ranges belong to the frame; the boundary rows refer to the analysed
-   * frame, whose size the meta records (as landmark-blob does): copies and
-   * scaling keep it as it is. */
-  if (GST_META_TRANSFORM_IS_COPY (type) ||
-      GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
-    copy_fields (gst_custom_meta_get_structure (meta),
-        landmark_floor_meta_add (dst));
-    return TRUE;
-  }
-  return FALSE;
-}
-
 /* One meta of each kind per buffer: a later result replaces an earlier one,
  * which readers would otherwise find first. */
 GstStructure *
@@ -140,6 +101,37 @@ replace_custom_meta (GstBuffer * buffer, const char *name)
     gst_buffer_remove_meta (buffer, (GstMeta *) old);
   GstCustomMeta *meta = gst_buffer_add_custom_meta (buffer, name);
   return meta ? gst_custom_meta_get_structure (meta) : nullptr;
+}
+
+/* Pose, map and floor are properties of the frame, not of its pixels (world
+ * coordinates; ranges; boundary rows of the analysed frame, whose size the
+ * meta records as landmark-blob does): copies and scaling keep them as they
+ * are. The meta's name comes as the registration's user data. */
+gboolean
+frame_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
+    GstBuffer * src, GQuark type, gpointer data, gpointer meta_name)
+{
+  (void) src;
+  (void) data;
+  const char *name = static_cast<const char *> (meta_name);
+  if (gst_buffer_get_custom_meta (dst, name))
+    return TRUE;
+  if (GST_META_TRANSFORM_IS_COPY (type) ||
+      GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
+    copy_fields (gst_custom_meta_get_structure (meta),
+        replace_custom_meta (dst, name));
+    return TRUE;
+  }
+  return FALSE;
+}
+
+/* No tags: no pixel coordinates, so every transform may keep it. */
+const GstMetaInfo *
+register_frame_meta (const char *name)
+{
+  static const gchar *tags[] = { nullptr };
+  return gst_meta_register_custom (name, tags, frame_meta_transform,
+      (gpointer) name, nullptr);
 }
 
 /* Key of a detection's entry in the detections meta. */
@@ -207,16 +199,6 @@ gst_landmark_labels_meta_get_info (void)
 }
 
 const GstMetaInfo *
-gst_landmark_pose_meta_get_info (void)
-{
-  static const gchar *tags[] = { nullptr };
-  static const GstMetaInfo *info = gst_meta_register_custom (
-      GST_LANDMARK_POSE_META_NAME, tags, pose_meta_transform, nullptr,
-      nullptr);
-  return info;
-}
-
-const GstMetaInfo *
 gst_landmark_detections_meta_get_info (void)
 {
   /* "video" only: no pixel coordinates that a scaler would have to change
@@ -229,43 +211,28 @@ gst_landmark_detections_meta_get_info (void)
   return info;
 }
 
-static gboolean
-map_meta_transform (GstBuffer * dst, GstCustomMeta * meta,
-    GstBuffer * src, GQuark type, gpointer data, gpointer)
-{
-  (void) src;
-  (void) data;
-  if (gst_buffer_get_custom_meta (dst, GST_LANDMARK_MAP_META_NAME))
-    return TRUE;
-  /* like the pose: world coordinates, unchanged by copies and scaling */
-  if (GST_META_TRANSFORM_IS_COPY (type) ||
-      GST_VIDEO_META_TRANSFORM_IS_SCALE (type)) {
-    copy_fields (gst_custom_meta_get_structure (meta),
-        landmark_map_meta_add (dst));
-    return TRUE;
+/* gst_landmark_NAME_meta_get_info, landmark_NAME_meta_add (replacing the
+ * buffer's meta of that name, so an element run twice leaves one) and
+ * landmark_NAME_meta_get, for the metas of the whole frame. */
+#define DEFINE_FRAME_META(name, meta_name)                                   \
+  const GstMetaInfo *gst_landmark_##name##_meta_get_info (void)               \
+  {                                                                           \
+    static const GstMetaInfo *info = register_frame_meta (meta_name);         \
+    return info;                                                              \
+  }                                                                           \
+  GstStructure *landmark_##name##_meta_add (GstBuffer * buffer)               \
+  {                                                                           \
+    gst_landmark_##name##_meta_get_info ();                                   \
+    return replace_custom_meta (buffer, meta_name);                           \
+  }                                                                           \
+  const GstStructure *landmark_##name##_meta_get (GstBuffer * buffer)         \
+  {                                                                           \
+    return custom_structure (buffer, meta_name);                              \
   }
-  return FALSE;
-}
 
-const GstMetaInfo *
-gst_landmark_map_meta_get_info (void)
-{
-  static const gchar *tags[] = { nullptr };
-  static const GstMetaInfo *info = gst_meta_register_custom (
-      GST_LANDMARK_MAP_META_NAME, tags, map_meta_transform, nullptr,
-      nullptr);
-  return info;
-}
-
-const GstMetaInfo *
-gst_landmark_floor_meta_get_info (void)
-{
-  static const gchar *tags[] = { nullptr };
-  static const GstMetaInfo *info = gst_meta_register_custom (
-      GST_LANDMARK_FLOOR_META_NAME, tags, floor_meta_transform, nullptr,
-      nullptr);
-  return info;
-}
+DEFINE_FRAME_META (pose, GST_LANDMARK_POSE_META_NAME);
+DEFINE_FRAME_META (map, GST_LANDMARK_MAP_META_NAME);
+DEFINE_FRAME_META (floor, GST_LANDMARK_FLOOR_META_NAME);
 
 void
 landmark_meta_register (void)
@@ -541,22 +508,6 @@ landmark_detection_count (GstBuffer * buffer)
   return n;
 }
 
-/* landmark_NAME_meta_add (replacing the buffer's meta of that name, so an
- * element run twice leaves one) and landmark_NAME_meta_get. */
-#define DEFINE_CUSTOM_META_ACCESSORS(name, meta_name)                        \
-  GstStructure *landmark_##name##_meta_add (GstBuffer * buffer)               \
-  {                                                                           \
-    gst_landmark_##name##_meta_get_info ();                                   \
-    return replace_custom_meta (buffer, meta_name);                           \
-  }                                                                           \
-  const GstStructure *landmark_##name##_meta_get (GstBuffer * buffer)         \
-  {                                                                           \
-    return custom_structure (buffer, meta_name);                              \
-  }
-
-DEFINE_CUSTOM_META_ACCESSORS (pose, GST_LANDMARK_POSE_META_NAME);
-DEFINE_CUSTOM_META_ACCESSORS (map, GST_LANDMARK_MAP_META_NAME);
-DEFINE_CUSTOM_META_ACCESSORS (floor, GST_LANDMARK_FLOOR_META_NAME);
 
 gboolean
 landmark_floor_map_array (const GstStructure * floor, const gchar * field,

@@ -606,6 +606,15 @@ run (GstHarness * h, GstBuffer * in)
   return out;
 }
 
+/* The end of a case: its output, its input and the harness freed. */
+static void
+done (GstHarness * h, GstBuffer * in, GstBuffer * out)
+{
+  gst_buffer_unref (out);
+  gst_buffer_unref (in);
+  gst_harness_teardown (h);
+}
+
 /* A copy of `in` comes out unchanged (`what`, when given, names the
  * case); then `in` and the harness are freed. */
 static void
@@ -613,9 +622,7 @@ unchanged_then_done (GstHarness * h, GstBuffer * in, const gchar * what)
 {
   GstBuffer *out = run (h, in);
   fail_unless (buffers_equal (in, out), "%s changed", what ? what : "frame");
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h);
+  done (h, in, out);
 }
 
 /* The test ellipse: in a 320x240 frame, centred at (200, 140), 80 x 40,
@@ -739,9 +746,7 @@ LANDMARK_TEST ("detections", test_ellipse_drawn_where_the_detection_is)
   /* the bottom of the frame, far below the detection, is untouched */
   fail_unless_equals_int (count_in (mask, 320, 0, 180, 320, 240), 0);
   g_free (mask);
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h);
+  done (h, in, out);
 }
 
 GST_END_TEST;
@@ -766,9 +771,7 @@ LANDMARK_TEST ("detections", test_ellipse_scaled_from_analysed_frame)
   check_detection_drawing (&ellipse_half, 320, 240, mask, "scaled");
   fail_unless_equals_int (outline_changed (&unscaled, 320, 240, mask, 72), 0);
   g_free (mask);
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h);
+  done (h, in, out);
 }
 
 GST_END_TEST;
@@ -872,9 +875,7 @@ LANDMARK_TEST ("detections", test_bbox_without_ellipse)
   fail_unless_equals_int (count_in (mask, 320, 0, by + bh + 4, 320, 240), 0);
   fail_unless_equals_int (count_in (mask, 320, 0, by, bx - 4, by + bh), 0);
   g_free (mask);
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h);
+  done (h, in, out);
 }
 
 GST_END_TEST;
@@ -1059,9 +1060,7 @@ LANDMARK_TEST_LOOP ("unchanged", test_all_parts_off_unchanged,
   gst_buffer_unref (out);
   out = run (h, in);
   fail_if (buffers_equal (in, out));
-  gst_buffer_unref (out);
-  gst_buffer_unref (in);
-  gst_harness_teardown (h);
+  done (h, in, out);
   g_free (props);
   g_free (map);
 }
@@ -1695,9 +1694,7 @@ LANDMARK_TEST_LOOP ("streaming", test_odd_sizes, G_N_ELEMENTS (formats))
     g_object_set (h->element, "text-scale", 0.25, NULL);
     out = run (h, in);
     check_non_pixel_bytes (&l, out);
-    gst_buffer_unref (out);
-    gst_buffer_unref (in);
-    gst_harness_teardown (h);
+    done (h, in, out);
   }
   g_free (props);
   g_free (map);

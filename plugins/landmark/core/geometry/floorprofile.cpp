@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #ifdef __SSE2__
@@ -16,17 +17,12 @@ namespace landmark {
 const char *
 free_state_name (FreeState s)
 {
-  switch (s) {
-    case FreeState::Free:
-      return "free";
-    case FreeState::Obstacle:
-      return "obstacle";
-    case FreeState::ViewEdge:
-      return "view-edge";
-    case FreeState::NotSeen:
-    default:
-      return "not-seen";
-  }
+  /* by the state's value, which the floor meta carries as a byte */
+  static const char *const names[] = { "not-seen", "free", "obstacle",
+    "view-edge"
+  };
+  const size_t i = static_cast<size_t> (s);
+  return i < std::size (names) ? names[i] : "not-seen";
 }
 
 bool

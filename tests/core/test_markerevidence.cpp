@@ -303,6 +303,37 @@ test_arc_circle ()
       2 && std::fabs (arc.r + 0.5 - 50) < 2, "ball without its lit cap: "
       "(%.2f, %.2f) r %.2f, coverage %.2f", arc.cx, arc.cy, arc.r,
       arc.coverage);
+  /* a ball at the frame's foot, cut by the edge, whose lit top went to
+   * another class: its rim lies on both sides of the missing top and
+   * goes on behind the edge (each arc alone holds a third of the turn
+   * the frame shows, both 0.6 of it); the circle within two tolerance
+   * bands (3.5 px), as two low side arcs fix its height less well */
+  m = cv::Mat::zeros (300, 400, CV_8UC1);
+  cv::circle (m, cv::Point (200, 299), 66, 255, cv::FILLED);
+  cv::ellipse (m, cv::Point (200, 240), cv::Size (40, 25), 0, 0, 360, 0,
+      cv::FILLED);
+  m.rowRange (0, 240).setTo (0);
+  {
+    const bool ok = arc_of_mask (m, &arc);
+    CHECK (ok && std::hypot (arc.cx - 200, arc.cy - 299) < 7 &&
+        std::fabs (arc.r + 0.5 - 66) < 3.5, "foot ball without its top (%s): "
+        "(%.2f, %.2f) r %.2f, coverage %.2f fill %.2f outside %.3f holes "
+        "%.3f", ok ? "kept" : "refused", arc.cx, arc.cy, arc.r,
+        arc.coverage, arc.fill, arc.outside, arc.holes);
+  }
+  /* a large ball of which the frame shows a cap a third of its radius
+   * deep: an arc of a quarter of the turn (a third was the rule before),
+   * 7 tolerance bands deep, fixes the radius */
+  m = cv::Mat::zeros (300, 400, CV_8UC1);
+  cv::circle (m, cv::Point (200, 360), 90, 255, cv::FILLED);
+  CHECK (arc_of_mask (m, &arc) && std::fabs (arc.r + 0.5 - 90) < 4,
+      "shallow cap of a large ball: r %.2f, coverage %.2f", arc.r,
+      arc.coverage);
+  /* a cap 7 px deep of a circle of radius 90 (under 3.2 bands of 4.2
+   * px): no radius is fixed, refused */
+  m = cv::Mat::zeros (300, 400, CV_8UC1);
+  cv::circle (m, cv::Point (200, 383), 90, 255, cv::FILLED);
+  CHECK (!arc_of_mask (m, &arc), "a 7 px cap accepted (r %.2f)", arc.r);
   /* a square, an upright and a turned rectangle, a triangle: no arc */
   const std::vector<std::vector<cv::Point>> shapes = {
     {{60, 30}, {100, 30}, {100, 70}, {60, 70}},

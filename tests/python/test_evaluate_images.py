@@ -338,6 +338,25 @@ def test_real_ball_accepted_yellow_shirts_rejected(gst, tmp_path):
 
 
 @pytest.mark.skipif(not os.path.isdir(MSL), reason="no ../shared/data/msl")
+@pytest.mark.parametrize("name", ["cam0_20220715_172344.jpg",
+                                  "cam3_20220715_172417.jpg"])
+def test_real_ball_cut_by_the_frame_foot_found_by_its_rim(gst, tmp_path,
+                                                          name):
+    """20220715/r7, the palette taught as bench real teaches it: a ball
+    over 30 px at the foot of the frame, which the frame's edge cuts, is
+    found by the rim of what the frame shows of it (an arc of less than a
+    third of the turn, deep enough to fix its radius), and nothing else
+    in the frame is accepted. Both were missed while the rim had to sweep
+    a third of a whole turn."""
+    img, _ = real_frame("20220715/r7", name, tmp_path)
+    (ball,) = [t for t in img["truth"] if t["band"] == ">30"]
+    assert ball["cut"] and ball["found"], ball
+    det = img["detections"][ball["detection"]]
+    assert det["shape_evidence"] == "arc", det
+    assert img["false"] == 0
+
+
+@pytest.mark.skipif(not os.path.isdir(MSL), reason="no ../shared/data/msl")
 def test_real_ball_without_its_lit_cap_found_by_its_rim(gst, tmp_path):
     """20190606/r4, frame 212558, the palette taught as bench real teaches
     it: the lit cap of the 104 px pale ball goes to the background, so the

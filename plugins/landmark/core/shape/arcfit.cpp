@@ -18,12 +18,6 @@ constexpr int kBins = 64;
 constexpr int kGapPoints = 3;
 constexpr uint32_t kSeed = 0x2545F491u;
 
-double
-tolerance (double r)
-{
-  return kArcOutlinePx + kArcOutlineShare * r;
-}
-
 /* the circle through three points; false when they are (nearly) on a
  * line */
 bool
@@ -61,14 +55,27 @@ circle_area_in_frame (double cx, double cy, double r, int width, int height)
   return n;
 }
 
+double
+ArcCircleFit::tolerance (double r) const
+{
+  return kArcOutlinePx + kArcOutlineShare * std::min (r, extent_);
+}
+
+/* How well the circle holds the outline: its points on the circle less
+ * those outside it. A blob lies inside its ball, so a point outside is
+ * evidence against the circle as one on it is for it: a circle through
+ * part of a ragged outline and across the rest often holds more points
+ * than the ball's own does. */
 int
-ArcCircleFit::count_rim (double cx, double cy, double r) const
+ArcCircleFit::rim_score (double cx, double cy, double r) const
 {
   const double tol = tolerance (r);
-  int n = 0;
-  for (const cv::Point2d & p : points_)
-    n += std::fabs (std::hypot (p.x - cx, p.y - cy) - r) <= tol;
-  return n;
+  int score = 0;
+  for (const cv::Point2d & p : points_) {
+    const double d = std::hypot (p.x - cx, p.y - cy) - r;
+    score += std::fabs (d) <= tol ? 1 : d > tol ? -1 : 0;
+  }
+  return score;
 }
 
 /* Least squares (the algebraic circle fit) over the rim's points. */
@@ -130,6 +137,14 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
   const int n = (int) points_.size ();
   if (n < 12)
     return false;
+  int x0 = contour[0].x, x1 = x0, y0 = contour[0].y, y1 = y0;
+  for (const cv::Point & p : contour) {
+    x0 = std::min (x0, p.x);
+    x1 = std::max (x1, p.x);
+    y0 = std::min (y0, p.y);
+    y1 = std::max (y1, p.y);
+  }
+  extent_ = 0.5 * (std::max (x1 - x0, y1 - y0) + 1);
 
   /* three points a sixth to a half of the outline apart: on a rim they
    * span an arc wide enough to fix the radius */
@@ -162,7 +177,7 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
         || r < kArcMinRadius / 2 || r > max_r
         || !could_be_part_of (cx, cy, r))
       continue;
-    const int rim = count_rim (cx, cy, r);
+    const int rim = rim_score (cx, cy, r);
     if (rim > best) {
       best = rim;
       best_x = cx;
@@ -177,7 +192,7 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
     if (!refine (&cx, &cy, &r) || r < kArcMinRadius || r > max_r ||
         !could_be_part_of (cx, cy, r))
       break;
-    const int rim = count_rim (cx, cy, r);
+    const int rim = rim_score (cx, cy, r);
     if (rim < best)
       break;
     best = rim;
@@ -196,36 +211,48 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
    * outline points on the circle, bridging gaps of up to kGapPoints
    * points (a blemish of JPEG or chroma); its turn is the angle it sweeps
    * about the centre. An outline that only crosses the circle here and
-   * there (a shirt's) has no long run. */
+   * there (a shirt's) has no long run. The rim goes on behind the
+   * frame's edge: a run that reaches the edge goes on where the outline
+   * leaves it on the circle (a ball the edge cuts whose top is missing
+   * holds its rim on both sides of the cut), without the edge's sweep.
+   * A run holds each outline point once. */
   const int m = (int) contour.size ();
   int outside = 0;
   double best_turn = 0, turn = 0, pending = 0;
-  int gap = kGapPoints + 1;
+  int gap = kGapPoints + 1, run_start = 0;
   double last_t = 0;
   bool have_last = false;
-  for (int pass = 0; pass < 2; pass++) {
-    for (int i = 0; i < m; i++) {
-      const cv::Point & p = contour[i];
-      const bool on_edge = !(p.x > 0 && p.y > 0 && p.x < width - 1 &&
-          p.y < height - 1);
-      const double d = std::hypot (p.x - best_x, p.y - best_y);
-      if (pass == 0 && !on_edge && d > best_r + tol)
-        outside++;
-      const double t = std::atan2 (p.y - best_y, p.x - best_x);
-      double step = have_last ? std::remainder (t - last_t, 2 * M_PI) : 0.0;
-      last_t = t;
-      have_last = true;
-      if (!on_edge && std::fabs (d - best_r) <= tol) {
-        /* a bridged gap's sweep counts once the run goes on */
-        turn = gap <= kGapPoints ? turn + pending + step : 0.0;
-        pending = 0;
-        gap = 0;
-        best_turn = std::max (best_turn, std::fabs (turn));
-      } else if (++gap <= kGapPoints) {
-        pending += step;
+  for (int k = 0; k < 2 * m; k++) {
+    const cv::Point & p = contour[k % m];
+    const bool on_edge = !(p.x > 0 && p.y > 0 && p.x < width - 1 &&
+        p.y < height - 1);
+    const double d = std::hypot (p.x - best_x, p.y - best_y);
+    if (k < m && !on_edge && d > best_r + tol)
+      outside++;
+    const double t = std::atan2 (p.y - best_y, p.x - best_x);
+    const double step = have_last ? std::remainder (t - last_t, 2 * M_PI) :
+        0.0;
+    last_t = t;
+    have_last = true;
+    if (on_edge) {
+      pending = 0;
+      continue;
+    }
+    if (std::fabs (d - best_r) <= tol) {
+      /* a bridged gap's sweep counts once the run goes on */
+      if (gap <= kGapPoints && k - run_start < m) {
+        turn += pending + step;
       } else {
-        turn = pending = 0;
+        turn = 0;
+        run_start = k;
       }
+      pending = 0;
+      gap = 0;
+      best_turn = std::max (best_turn, std::fabs (turn));
+    } else if (++gap <= kGapPoints) {
+      pending += step;
+    } else {
+      turn = pending = 0;
     }
   }
   best_turn = std::min (best_turn, 2 * M_PI);
@@ -257,7 +284,8 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
   const double enclosed = std::fabs (twice) / 2 + chain / 2 + 1;
   out->holes = std::max (0.0, 1.0 - area / enclosed);
   return out->coverage >= kArcMinCoverage &&
-      best_turn >= kArcMinTurn * 2 * M_PI &&
+      best_r * (1 - std::cos (std::min (best_turn, M_PI) / 2)) >=
+      kArcMinDepth * tol &&
       out->fill >= kArcMinFill && out->outside <= kArcMaxOutside &&
       out->holes <= kArcMaxHoles;
 }

@@ -18,16 +18,23 @@ namespace landmark {
  * edge after 4:2:0 chroma (one sample is two pixels) lies anywhere within
  * a pixel of where it is, and the outline runs through boundary-pixel
  * centres, half a pixel inside the edge; kArcOutlineShare of the radius
- * more for a ball that blur and its seams make not quite a circle. */
+ * more for a ball that blur and its seams make not quite a circle, of the
+ * radius up to half the blob's extent: what is in view of the ball sets
+ * how far blur and seams move its outline, and a circle far larger than
+ * the blob must not hold a ragged outline in a band it widens itself. */
 constexpr double kArcOutlinePx = 1.5;
 constexpr double kArcOutlineShare = 0.03;
 /* The rim must cover at least half of what the frame shows of its turn
  * ("a ball is a circle even when half of it is shaded"): any smaller arc
  * fits circles of many radii. */
 constexpr double kArcMinCoverage = 0.5;
-/* and at least a third of the whole turn, for a ball the frame's edge
- * cuts: a shorter arc fixes no radius */
-constexpr double kArcMinTurn = 1.0 / 3.0;
+/* and deep enough to fix the radius, for a ball the frame's edge cuts:
+ * the arc's depth (its sagitta) at least kArcMinDepth times the tolerance
+ * band, the depth a third of the turn has on the smallest circle (r 12:
+ * 6 px against a band of 1.86 px). What fixes a radius is the arc's depth
+ * against the band, so a larger ball needs a smaller share of its turn
+ * (r 30: 0.23 of it; r 100: 0.17). */
+constexpr double kArcMinDepth = 3.2;
 /* The blob fills at least a third of the circle (within the frame): a
  * thin crescent along a rim is as much a ring of another colour. */
 constexpr double kArcMinFill = 1.0 / 3.0;
@@ -68,10 +75,12 @@ public:
       int height, ArcCircle * out);
 
 private:
-  int count_rim (double cx, double cy, double r) const;
+  double tolerance (double r) const;
+  int rim_score (double cx, double cy, double r) const;
   bool refine (double *cx, double *cy, double *r) const;
 
   std::vector<cv::Point2d> points_;
+  double extent_ = 0;    /* half the larger side of the outline's box */
 };
 
 /* Pixel centres inside a circle and a width x height frame. */

@@ -306,8 +306,9 @@ test_arc_circle ()
   /* a ball at the frame's foot, cut by the edge, whose lit top went to
    * another class: its rim lies on both sides of the missing top and
    * goes on behind the edge (each arc alone holds a third of the turn
-   * the frame shows, both 0.6 of it); the circle within two tolerance
-   * bands (3.5 px), as two low side arcs fix its height less well */
+   * the frame shows, both 0.6 of it); its centre within two tolerance
+   * bands (3.5 px each) and its radius within one, as two low side arcs
+   * fix its height less well */
   m = cv::Mat::zeros (300, 400, CV_8UC1);
   cv::circle (m, cv::Point (200, 299), 66, 255, cv::FILLED);
   cv::ellipse (m, cv::Point (200, 240), cv::Size (40, 25), 0, 0, 360, 0,
@@ -323,14 +324,15 @@ test_arc_circle ()
   }
   /* a large ball of which the frame shows a cap a third of its radius
    * deep: an arc of a quarter of the turn (a third was the rule before),
-   * 7 tolerance bands deep, fixes the radius */
+   * about 8 tolerance bands deep (the band 3.5 px, of half the blob's
+   * extent), fixes the radius */
   m = cv::Mat::zeros (300, 400, CV_8UC1);
   cv::circle (m, cv::Point (200, 360), 90, 255, cv::FILLED);
   CHECK (arc_of_mask (m, &arc) && std::fabs (arc.r + 0.5 - 90) < 4,
       "shallow cap of a large ball: r %.2f, coverage %.2f", arc.r,
       arc.coverage);
-  /* a cap 7 px deep of a circle of radius 90 (under 3.2 bands of 4.2
-   * px): no radius is fixed, refused */
+  /* a cap 7 px deep of a circle of radius 90 (under 3.2 bands of 2.6
+   * px, the band of half the blob's extent): no radius is fixed, refused */
   m = cv::Mat::zeros (300, 400, CV_8UC1);
   cv::circle (m, cv::Point (200, 383), 90, 255, cv::FILLED);
   CHECK (!arc_of_mask (m, &arc), "a 7 px cap accepted (r %.2f)", arc.r);

@@ -155,9 +155,9 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
     return state >> 8;
   };
   /* Only a circle the blob could be part of is a candidate: one it fills
-   * a kArcMinFill share of (the tolerance band grows with the radius, so a
-   * circle many times the blob's size holds most of any outline in its
-   * band and would win the count with an arc too short to pass), and one
+   * a kArcMinFill share of (a circle many times the blob's size, nearly
+   * straight along it, holds much of a ragged outline in its band and
+   * would win the count with an arc too short to pass), and one
    * that holds, with its band, at least the blob's pixels (a small circle
    * through a bulge of the outline holds that bulge's points, not the
    * ball's rim). Both within the frame. */

@@ -64,7 +64,8 @@ struct ArcCircle {
 /* Fits the circle that most of a blob's outline lies on and tests it with
  * the thresholds above. contour: the blob's outer outline through
  * boundary-pixel centres (BlobAnalyzer::contour); points on the frame's
- * edge (width x height) are not the blob's outline and take no part.
+ * edge (width x height) are not the blob's outline: they fit no circle,
+ * and a rim that reaches the edge goes on behind it.
  * area: the blob's pixels. Deterministic (a fixed sample sequence);
  * scratch is reused between calls. True when the blob is part of a disc:
  * out holds the circle and its measures (also when false, for the log,

@@ -447,7 +447,7 @@ gst_blob_roundness_process (GstBlobRoundness * self, GstBuffer * buf,
         /* part of a ball (its lit side, what a leg leaves, what the frame
          * holds): its moments describe the part, but its rim is an arc of
          * the ball's circle, whose image then is the blob's ellipse */
-        if (cfg.min_ellipse_fit < 0 && st.arc_fit.fit (a.contour (), b.area,
+        if (cfg.min_ellipse_fit < 0 && st.arc_fit.fit (a.contour (), b,
                 (int) w, (int) h, &st.arc)) {
           reject = nullptr;
           arc = &st.arc;

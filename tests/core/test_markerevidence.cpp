@@ -263,7 +263,7 @@ arc_of_mask (const cv::Mat & mask, ArcCircle * arc)
   BlobShape b;
   a.measure (0, &b);
   ArcCircleFit fit;
-  return fit.fit (a.contour (), b.area, mask.cols, mask.rows, arc);
+  return fit.fit (a.contour (), b, mask.cols, mask.rows, arc);
 }
 
 static void

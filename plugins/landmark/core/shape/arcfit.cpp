@@ -73,7 +73,10 @@ ArcCircleFit::rim_score (double cx, double cy, double r) const
   int score = 0;
   for (const cv::Point2d & p : points_) {
     const double d = std::hypot (p.x - cx, p.y - cy) - r;
-    score += std::fabs (d) <= tol ? 1 : d > tol ? -1 : 0;
+    if (std::fabs (d) <= tol)
+      score++;
+    else if (d > tol)
+      score--;
   }
   return score;
 }
@@ -125,8 +128,8 @@ ArcCircleFit::refine (double *cx, double *cy, double *r) const
 }
 
 bool
-ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
-    int width, int height, ArcCircle * out)
+ArcCircleFit::fit (const std::vector<cv::Point> & contour,
+    const BlobShape & blob, int width, int height, ArcCircle * out)
 {
   *out = ArcCircle ();
   /* outline points on the frame's edge are not the blob's outline */
@@ -137,14 +140,8 @@ ArcCircleFit::fit (const std::vector<cv::Point> & contour, double area,
   const int n = (int) points_.size ();
   if (n < 12)
     return false;
-  int x0 = contour[0].x, x1 = x0, y0 = contour[0].y, y1 = y0;
-  for (const cv::Point & p : contour) {
-    x0 = std::min (x0, p.x);
-    x1 = std::max (x1, p.x);
-    y0 = std::min (y0, p.y);
-    y1 = std::max (y1, p.y);
-  }
-  extent_ = 0.5 * (std::max (x1 - x0, y1 - y0) + 1);
+  const double area = blob.area;
+  extent_ = 0.5 * std::max (blob.bbox_w, blob.bbox_h);
 
   /* three points a sixth to a half of the outline apart: on a rim they
    * span an arc wide enough to fix the radius */

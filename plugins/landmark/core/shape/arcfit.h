@@ -12,6 +12,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "blobshape.h"
+
 namespace landmark {
 
 /* Outline points within kArcOutlinePx of the circle are on it: a colour
@@ -66,14 +68,14 @@ struct ArcCircle {
  * boundary-pixel centres (BlobAnalyzer::contour); points on the frame's
  * edge (width x height) are not the blob's outline: they fit no circle,
  * and a rim that reaches the edge goes on behind it.
- * area: the blob's pixels. Deterministic (a fixed sample sequence);
+ * blob: its measures (area and box). Deterministic (a fixed sample sequence);
  * scratch is reused between calls. True when the blob is part of a disc:
  * out holds the circle and its measures (also when false, for the log,
  * with r = 0 when no circle was found). */
 class ArcCircleFit {
 public:
-  bool fit (const std::vector<cv::Point> & contour, double area, int width,
-      int height, ArcCircle * out);
+  bool fit (const std::vector<cv::Point> & contour, const BlobShape & blob,
+      int width, int height, ArcCircle * out);
 
 private:
   double tolerance (double r) const;
@@ -81,7 +83,7 @@ private:
   bool refine (double *cx, double *cy, double *r) const;
 
   std::vector<cv::Point2d> points_;
-  double extent_ = 0;    /* half the larger side of the outline's box */
+  double extent_ = 0;    /* half the larger side of the blob's box */
 };
 
 /* Pixel centres inside a circle and a width x height frame. */
